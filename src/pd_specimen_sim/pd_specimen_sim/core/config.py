@@ -1,0 +1,251 @@
+"""Build a :class:`Specimen` from the ``specimen:`` section of a test YAML file.
+
+Schema (SI units)::
+
+    specimen:
+      topology: independent          # or shear_building; default independent
+      elements:                      # one per DOF (independent) or per story (shear_building)
+        - model: pushover
+          backbone:                  # exactly one of bilinear, csv, opensees
+            bilinear: {stiffness: 312559.0, yield_force: 12000.0, hardening_ratio: 0.01,
+                       max_displacement: 1.0}   # hardening_ratio, max_displacement optional
+            # csv: path/to/curve.csv
+            # opensees: {displacement_file: DFree.txt, reaction_file: RBase.txt,
+            #            skip_rows: 10, column: 1, force_sign: -1.0, force_scale: 0.02}
+          unloading_stiffness: null        # optional, default: backbone initial stiffness
+          beyond_last_point: extrapolate   # optional: extrapolate | plateau | error
+        - {model: elastic, stiffness: 1.0e5}
+        - {model: epp, stiffness: 1.0e5, yield_force: 2.0e3}
+        - {model: bilinear, stiffness: 1.0e5, yield_force: 2.0e3, hardening_ratio: 0.02}
+
+Relative file paths resolve against ``base_dir``. Every error is a one-line
+:class:`SpecimenConfigError` naming the YAML file and the parameter path.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_csv,
+                       load_opensees_pushover)
+from .errors import SpecimenConfigError, SpecimenError
+from .hysteresis import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic, HysteresisModel,
+                         PushoverHysteresis)
+from .specimen import TOPOLOGIES, Specimen
+
+_MODEL_KEYS: dict[str, tuple[set[str], set[str]]] = {
+    'elastic': ({'stiffness'}, set()),
+    'epp': ({'stiffness', 'yield_force'}, set()),
+    'bilinear': ({'stiffness', 'yield_force', 'hardening_ratio'}, set()),
+    'pushover': ({'backbone'}, {'unloading_stiffness', 'beyond_last_point'}),
+}
+_BACKBONE_KINDS = ('bilinear', 'csv', 'opensees')
+
+
+class _Context:
+    """Formats errors as ``<source>: <path>: <message>``."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def error(self, path: str, message: str) -> SpecimenConfigError:
+        return SpecimenConfigError(f'{self.source}: {path}: {message}')
+
+    def mapping(self, value: Any, path: str, required: set[str], optional: set[str]
+                ) -> Mapping[str, Any]:
+        """Check that ``value`` is a mapping with the required keys and no unknown key."""
+        if not isinstance(value, Mapping):
+            raise self.error(path, f'must be a mapping, got {_show(value)}')
+        unknown = sorted(str(key) for key in value if key not in required | optional)
+        if unknown:
+            allowed = ', '.join(sorted(required | optional))
+            raise self.error(path, f"unknown key '{unknown[0]}' (allowed: {allowed})")
+        missing = sorted(required - set(value))
+        if missing:
+            raise self.error(path, f"missing key '{missing[0]}'")
+        return value
+
+    def number(self, value: Any, path: str, *, positive: bool = True) -> float:
+        """Return a finite number (positive unless ``positive`` is False)."""
+        what = 'a positive finite number' if positive else 'a finite number'
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            hint = ''
+            if isinstance(value, str) and _parses_as_float(value):
+                hint = ' (a string: write e.g. 1.0e5, with a dot, so YAML reads a number)'
+            raise self.error(path, f'must be {what}, got {_show(value)}{hint}')
+        number = float(value)
+        if not math.isfinite(number) or (positive and number <= 0.0):
+            raise self.error(path, f'must be {what}, got {_show(value)}')
+        return number
+
+    def ratio(self, value: Any, path: str) -> float:
+        """Return a hardening ratio in [0, 1)."""
+        number = self.number(value, path, positive=False)
+        if not 0.0 <= number < 1.0:
+            raise self.error(path, f'must be in [0, 1), got {_show(value)}')
+        return number
+
+    def integer(self, value: Any, path: str) -> int:
+        """Return an integer >= 0."""
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise self.error(path, f'must be an integer >= 0, got {_show(value)}')
+        return value
+
+    def text(self, value: Any, path: str) -> str:
+        """Return a non-empty string."""
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(path, f'must be a non-empty string, got {_show(value)}')
+        return value
+
+
+def _show(value: Any) -> str:
+    """Short representation of a config value for messages."""
+    if isinstance(value, str):
+        return repr(value)
+    if value is None:
+        return 'null'
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, (int, float)):
+        return f'{value:g}'
+    return type(value).__name__
+
+
+def _parses_as_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _resolve(base_dir: Path, name: str) -> Path:
+    path = Path(name)
+    return path if path.is_absolute() else base_dir / path
+
+
+def _backbone(ctx: _Context, value: Any, path: str, base_dir: Path) -> Backbone:
+    """Build the backbone of a pushover element."""
+    if not isinstance(value, Mapping):
+        raise ctx.error(path, f'must be a mapping, got {_show(value)}')
+    kinds = [key for key in value if key in _BACKBONE_KINDS]
+    unknown = [str(key) for key in value if key not in _BACKBONE_KINDS]
+    if unknown:
+        allowed = ', '.join(_BACKBONE_KINDS)
+        raise ctx.error(path, f"unknown key '{unknown[0]}' (allowed: {allowed})")
+    if len(kinds) != 1:
+        raise ctx.error(path, f"needs exactly one of {', '.join(_BACKBONE_KINDS)}, got "
+                              f'{len(kinds)}')
+    kind = kinds[0]
+    path = f'{path}.{kind}'
+    spec = value[kind]
+    try:
+        if kind == 'csv':
+            return load_backbone_csv(_resolve(base_dir, ctx.text(spec, path)))
+        if kind == 'bilinear':
+            spec = ctx.mapping(spec, path, {'stiffness', 'yield_force'},
+                               {'hardening_ratio', 'max_displacement'})
+            max_d = spec.get('max_displacement')
+            return bilinear_backbone(
+                ctx.number(spec['stiffness'], f'{path}.stiffness'),
+                ctx.number(spec['yield_force'], f'{path}.yield_force'),
+                ctx.ratio(spec.get('hardening_ratio', 0.0), f'{path}.hardening_ratio'),
+                None if max_d is None else ctx.number(max_d, f'{path}.max_displacement'))
+        spec = ctx.mapping(spec, path, {'displacement_file', 'reaction_file'},
+                           {'skip_rows', 'column', 'force_sign', 'force_scale'})
+        sign = ctx.number(spec.get('force_sign', -1.0), f'{path}.force_sign', positive=False)
+        if sign == 0.0:
+            raise ctx.error(f'{path}.force_sign', 'must be non-zero, got 0')
+        return load_opensees_pushover(
+            _resolve(base_dir, ctx.text(spec['displacement_file'], f'{path}.displacement_file')),
+            _resolve(base_dir, ctx.text(spec['reaction_file'], f'{path}.reaction_file')),
+            skip_rows=ctx.integer(spec.get('skip_rows', 10), f'{path}.skip_rows'),
+            column=ctx.integer(spec.get('column', 1), f'{path}.column'),
+            force_sign=sign,
+            force_scale=ctx.number(spec.get('force_scale', 1.0), f'{path}.force_scale'))
+    except SpecimenConfigError:
+        raise
+    except SpecimenError as exc:
+        raise ctx.error(path, str(exc)) from None
+
+
+def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> HysteresisModel:
+    """Build one element."""
+    if not isinstance(value, Mapping):
+        raise ctx.error(path, f'must be a mapping, got {_show(value)}')
+    if 'model' not in value:
+        raise ctx.error(path, "missing key 'model'")
+    model = value['model']
+    if not isinstance(model, str) or model not in _MODEL_KEYS:
+        raise ctx.error(f'{path}.model', f"must be one of {', '.join(_MODEL_KEYS)}, got "
+                                         f'{_show(model)}')
+    required, optional = _MODEL_KEYS[model]
+    spec = ctx.mapping(value, path, required | {'model'}, optional)
+
+    def number(key: str) -> float:
+        return ctx.number(spec[key], f'{path}.{key}')
+
+    if model == 'elastic':
+        return Elastic(number('stiffness'))
+    if model == 'epp':
+        return ElasticPerfectlyPlastic(number('stiffness'), number('yield_force'))
+    if model == 'bilinear':
+        return BilinearKinematic(number('stiffness'), number('yield_force'),
+                                 ctx.ratio(spec['hardening_ratio'], f'{path}.hardening_ratio'))
+    backbone = _backbone(ctx, spec['backbone'], f'{path}.backbone', base_dir)
+    ku = spec.get('unloading_stiffness')
+    beyond = spec.get('beyond_last_point', 'extrapolate')
+    if beyond not in BEYOND_MODES:
+        raise ctx.error(f'{path}.beyond_last_point',
+                        f"must be one of {', '.join(BEYOND_MODES)}, got {_show(beyond)}")
+    try:
+        return PushoverHysteresis(
+            backbone, None if ku is None else number('unloading_stiffness'), beyond)
+    except SpecimenError as exc:
+        raise ctx.error(path, str(exc)) from None
+
+
+def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,
+                         dof_names: Sequence[str]) -> Specimen:
+    """Build the specimen described by the ``specimen:`` section of a test YAML file.
+
+    Args:
+        section: The parsed ``specimen:`` mapping.
+        base_dir: Directory against which relative file paths resolve.
+        source: Name of the YAML file, used in error messages.
+        dof_names: Names of the test's DOFs; one element per DOF (story).
+
+    Returns:
+        The specimen, in its virgin state.
+
+    Raises:
+        SpecimenConfigError: One line naming ``source`` and the parameter path, for unknown or
+            missing keys, wrong types, out-of-range values, unreadable or invalid backbone
+            files and an element count different from the DOF count.
+    """
+    ctx = _Context(source)
+    section = ctx.mapping(section, 'specimen', {'elements'}, {'topology'})
+    topology = section.get('topology', 'independent')
+    if topology not in TOPOLOGIES:
+        raise ctx.error('specimen.topology',
+                        f"must be one of {', '.join(TOPOLOGIES)}, got {_show(topology)}")
+    items = section['elements']
+    if isinstance(items, (str, bytes, Mapping)) or not isinstance(items, Sequence):
+        raise ctx.error('specimen.elements', f'must be a list, got {_show(items)}')
+    names = list(dof_names)
+    if len(items) != len(names):
+        per = 'story' if topology == 'shear_building' else 'DOF'
+        raise ctx.error('specimen.elements',
+                        f'{len(items)} elements but {len(names)} DOFs {names} (one per {per})')
+    base_dir = Path(base_dir)
+    elements = [_element(ctx, item, f'specimen.elements[{i}]', base_dir)
+                for i, item in enumerate(items)]
+    try:
+        return Specimen(elements, topology=topology, dof_names=names)
+    except SpecimenConfigError:
+        raise
+    except SpecimenError as exc:
+        raise ctx.error('specimen', str(exc)) from None
