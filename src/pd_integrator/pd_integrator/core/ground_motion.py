@@ -1,0 +1,768 @@
+"""Ground-motion records: reading, validating and resampling acceleration histories.
+
+A :class:`GroundMotion` is a uniformly sampled base acceleration history in m/s². The readers
+accept the layouts the thesis's MATLAB code reads (Appendix A, lines 28–60) and the PEER NGA
+``.AT2`` format:
+
+- two columns, time and acceleration (comma or whitespace separated);
+- a single column of accelerations (the time step is given separately);
+- several accelerations per row, read across each row and then down (row-major), the layout
+  the MATLAB code flattens with its nested ``rr``/``cc`` loops;
+- PEER NGA ``.AT2``: four header lines, ``NPTS`` and ``DT`` on line 4, values in g.
+
+Records in g are converted with ``g = 9.81`` m/s² by default, the value hard-coded in the
+thesis's MATLAB code, so that results can be compared with it; pass ``g=G_STANDARD`` for the
+standard gravity.
+
+Every reader raises :class:`~pd_integrator.core.errors.GroundMotionError` with a one-line
+message naming the file (and the line, when one is to blame).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+
+from .errors import GroundMotionError
+
+G_STANDARD = 9.80665
+"""Standard gravity in m/s² (the thesis's MATLAB code uses 9.81, the readers' default)."""
+
+G_THESIS = 9.81
+"""Gravity in m/s² used by the thesis's MATLAB code; the default of every reader."""
+
+FORMATS = ('auto', 'two_column', 'single_column', 'multi_column', 'at2')
+"""Values accepted by ``read_ground_motion(format=...)``."""
+
+UNITS = ('g', 'm/s2', 'm/s^2')
+"""Values accepted by the ``units`` argument of the readers."""
+
+PathLike = Union[str, 'os.PathLike[str]']
+
+# Relative tolerance for deciding that two time steps are equal or integer multiples.
+_DT_RTOL = 1e-9
+# Absolute slack when counting samples: n = floor(duration / dt + _COUNT_EPS) + 1.
+_COUNT_EPS = 1e-9
+
+_NUMBER_RE = re.compile(r'[+-]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][+-]?\d+)?')
+_NON_FINITE_RE = re.compile(r'[+-]?(?:nan|inf|infinity)', re.IGNORECASE)
+_FIELD_SPLIT_RE = re.compile(r'\s*,\s*|\s+')
+_AT2_NPTS_RE = re.compile(r'\bNPTS\s*=\s*([^\s,]+)', re.IGNORECASE)
+_AT2_DT_RE = re.compile(r'\bDT\s*=\s*([^\s,]+)', re.IGNORECASE)
+_AT2_OLD_RE = re.compile(r'^\s*([^\s,]+)\s*,?\s+([^\s,]+)\s+NPTS\s*,?\s*DT\b', re.IGNORECASE)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class GroundMotion:
+    """A uniformly sampled ground acceleration history.
+
+    Attributes:
+        dt: Time step in s (positive, finite).
+        acceleration: Ground acceleration in m/s², sample ``i`` at ``t = i * dt``; stored as a
+            read-only 1-D float64 copy of what was passed.
+        source: Where the record came from: the file name, or ``'inline'``.
+
+    Raises:
+        GroundMotionError: If ``dt`` is not positive and finite, the acceleration is not 1-D,
+            has fewer than 2 samples or holds a non-finite value.
+    """
+
+    dt: float
+    acceleration: np.ndarray
+    source: str = field(default='inline')
+
+    def __post_init__(self) -> None:
+        """Validate the fields and freeze a float64 copy of the acceleration."""
+        source = str(self.source)
+        object.__setattr__(self, 'source', source)
+        try:
+            dt = float(self.dt)
+        except (TypeError, ValueError):
+            raise GroundMotionError(
+                f"ground motion '{source}': time step dt must be a number, got {self.dt!r}"
+            ) from None
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise GroundMotionError(
+                f"ground motion '{source}': time step dt must be positive and finite, got {dt!r}"
+            )
+        object.__setattr__(self, 'dt', dt)
+
+        if np.iscomplexobj(self.acceleration):
+            raise GroundMotionError(f"ground motion '{source}': acceleration must be real")
+        try:
+            acc = np.array(self.acceleration, dtype=np.float64, copy=True)
+        except (TypeError, ValueError) as exc:
+            raise GroundMotionError(
+                f"ground motion '{source}': acceleration is not numeric ({exc})"
+            ) from None
+        if acc.ndim != 1:
+            raise GroundMotionError(
+                f"ground motion '{source}': acceleration must be 1-D, got shape {acc.shape}"
+            )
+        if acc.size < 2:
+            raise GroundMotionError(
+                f"ground motion '{source}': need at least 2 samples, got {acc.size}"
+            )
+        bad = np.flatnonzero(~np.isfinite(acc))
+        if bad.size:
+            index = int(bad[0])
+            raise GroundMotionError(
+                f"ground motion '{source}': non-finite acceleration {acc[index]!r} "
+                f'at index {index}'
+            )
+        acc.setflags(write=False)
+        object.__setattr__(self, 'acceleration', acc)
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.acceleration.size)
+
+    @property
+    def duration(self) -> float:
+        """Duration in s, ``(n_samples - 1) * dt``."""
+        return (self.n_samples - 1) * self.dt
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times in s, ``[0, dt, 2 dt, ...]`` (a new array on each call)."""
+        return np.arange(self.n_samples, dtype=np.float64) * self.dt
+
+    @property
+    def pga(self) -> float:
+        """Peak ground acceleration, ``max |a|``, in m/s²."""
+        return float(np.max(np.abs(self.acceleration)))
+
+    # ------------------------------------------------------------------ dunder
+
+    def __eq__(self, other: object) -> bool:
+        """Records are equal when dt, source and every sample are exactly equal."""
+        if not isinstance(other, GroundMotion):
+            return NotImplemented
+        return (
+            self.dt == other.dt
+            and self.source == other.source
+            and np.array_equal(self.acceleration, other.acceleration)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        """Short summary without the samples."""
+        return (
+            f'GroundMotion(source={self.source!r}, dt={self.dt!r}, n_samples={self.n_samples}, '
+            f'duration={self.duration:.6g} s, pga={self.pga:.6g} m/s2)'
+        )
+
+    # ------------------------------------------------------------------ transforms
+
+    def scaled(self, factor: float) -> GroundMotion:
+        """Return the record with every sample multiplied by ``factor``.
+
+        Args:
+            factor: Finite scale factor (may be negative to flip the direction).
+
+        Returns:
+            A new record with the same dt and source.
+
+        Raises:
+            GroundMotionError: If ``factor`` is not finite.
+        """
+        factor = float(factor)
+        if not math.isfinite(factor):
+            raise GroundMotionError(
+                f"ground motion '{self.source}': scale factor must be finite, got {factor!r}"
+            )
+        return GroundMotion(self.dt, self.acceleration * factor, self.source)
+
+    def resampled(self, dt: float) -> GroundMotion:
+        """Return the record linearly interpolated onto ``t = 0, dt, 2 dt, ...``.
+
+        The new record has ``floor(duration / dt + 1e-9) + 1`` samples, so it never extends
+        past the original duration. Special cases, exact rather than merely close:
+
+        - ``dt`` equal to the record's dt (within 1e-9 relative): an identical copy.
+        - The record's dt an integer multiple ``k`` of ``dt`` (e.g. 0.02 s -> 0.01 s): the
+          original samples are kept at every ``k``-th index and the points in between are
+          interpolated; a midpoint is ``(a_i + a_{i+1}) * 0.5``, exactly what the thesis's
+          MATLAB code (Appendix A, lines 48–56) computes when halving the time step.
+        - ``dt`` an integer multiple of the record's dt: every ``k``-th sample (no anti-alias
+          filtering is applied when coarsening).
+
+        Args:
+            dt: New time step in s.
+
+        Returns:
+            The resampled record (same source).
+
+        Raises:
+            GroundMotionError: If ``dt`` is not positive and finite, or so long that fewer than
+                2 samples would remain.
+        """
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise GroundMotionError(
+                f"ground motion '{self.source}': resampling dt must be positive and finite, "
+                f'got {dt!r}'
+            )
+        acc = self.acceleration
+        if _close(dt, self.dt):
+            return GroundMotion(self.dt, acc.copy(), self.source)
+
+        n_new = math.floor(self.duration / dt + _COUNT_EPS) + 1
+        if n_new < 2:
+            raise GroundMotionError(
+                f"ground motion '{self.source}': resampling dt={dt!r} s is longer than the "
+                f'record duration {self.duration!r} s'
+            )
+
+        finer = self.dt / dt
+        k = round(finer)
+        if k >= 2 and _close(finer, k):
+            out = np.empty((self.n_samples - 1) * k + 1, dtype=np.float64)
+            out[::k] = acc
+            left, right = acc[:-1], acc[1:]
+            for j in range(1, k):
+                if 2 * j == k:
+                    out[j::k] = (left + right) * 0.5
+                else:
+                    out[j::k] = left * ((k - j) / k) + right * (j / k)
+            return GroundMotion(dt, out[:n_new], self.source)
+
+        coarser = dt / self.dt
+        m = round(coarser)
+        if m >= 2 and _close(coarser, m):
+            return GroundMotion(dt, acc[::m][:n_new].copy(), self.source)
+
+        t_old = self.time
+        t_new = np.arange(n_new, dtype=np.float64) * dt
+        return GroundMotion(dt, np.interp(t_new, t_old, acc), self.source)
+
+    def padded(self, duration: float) -> GroundMotion:
+        """Return the record followed by zeros up to a total ``duration`` (free vibration).
+
+        The result has ``floor(duration / dt + 1e-9) + 1`` samples; the original samples are
+        unchanged.
+
+        Args:
+            duration: Total duration in s; at least the record's duration.
+
+        Returns:
+            The padded record (same dt and source); a copy if no sample needs adding.
+
+        Raises:
+            GroundMotionError: If ``duration`` is not finite or shorter than the record.
+        """
+        duration = float(duration)
+        if not math.isfinite(duration):
+            raise GroundMotionError(
+                f"ground motion '{self.source}': padded duration must be finite, "
+                f'got {duration!r}'
+            )
+        n_total = math.floor(duration / self.dt + _COUNT_EPS) + 1
+        if n_total < self.n_samples:
+            raise GroundMotionError(
+                f"ground motion '{self.source}': cannot pad to {duration!r} s, the record is "
+                f'already {self.duration!r} s long'
+            )
+        out = np.zeros(n_total, dtype=np.float64)
+        out[: self.n_samples] = self.acceleration
+        return GroundMotion(self.dt, out, self.source)
+
+
+# ---------------------------------------------------------------------- public readers
+
+
+def read_two_column(path: PathLike, *, units: str = 'g', g: float = G_THESIS) -> GroundMotion:
+    """Read a two-column file of time and acceleration.
+
+    Columns are separated by commas and/or whitespace. Blank lines and lines starting with
+    ``#`` are skipped, and one non-numeric header line (e.g. ``time,accel``) is allowed before
+    the data. The time may start at any value (it is shifted to 0) but must be uniform:
+    ``dt = t[1] - t[0]`` (rounded to 12 significant digits to drop decimal-to-binary noise) and
+    every step must satisfy ``|t[i+1] - t[i] - dt| <= 1e-6 dt + 1e-9``.
+
+    Args:
+        path: The file.
+        units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``).
+        g: Gravity in m/s² used to convert g; 9.81 by default, as in the thesis's MATLAB.
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: If the file cannot be read or is not a valid two-column record.
+    """
+    scale = _unit_scale(path, units, g)
+    label, lines = _load_lines(path)
+    rows = _parse_table(label, lines)
+    return _build_two_column(path, label, rows, scale)
+
+
+def read_single_column(
+    path: PathLike, *, dt: float, units: str = 'g', g: float = G_THESIS
+) -> GroundMotion:
+    """Read a file with one acceleration value per line.
+
+    Blank lines, ``#`` comment lines and one non-numeric header line are allowed.
+
+    Args:
+        path: The file.
+        dt: Time step in s (not stored in the file).
+        units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``).
+        g: Gravity in m/s² used to convert g; 9.81 by default, as in the thesis's MATLAB.
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: If the file cannot be read, a line holds more than one value, or
+            ``dt`` is invalid.
+    """
+    scale = _unit_scale(path, units, g)
+    dt = _check_dt(path, dt)
+    label, lines = _load_lines(path)
+    rows = _parse_table(label, lines)
+    return _build_single_column(path, label, rows, dt, scale)
+
+
+def read_multi_column(
+    path: PathLike, *, dt: float, units: str = 'g', g: float = G_THESIS
+) -> GroundMotion:
+    """Read a file with several acceleration values per row, read across then down.
+
+    This is the row-major layout the thesis's MATLAB code flattens (Appendix A, lines 35–41).
+    Every row must hold as many values as the first one, except the last, which may be
+    shorter. Blank lines, ``#`` comment lines and one non-numeric header line are allowed.
+
+    Args:
+        path: The file.
+        dt: Time step in s (not stored in the file).
+        units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``).
+        g: Gravity in m/s² used to convert g; 9.81 by default, as in the thesis's MATLAB.
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: If the file cannot be read, a row other than the last is ragged, or
+            ``dt`` is invalid.
+    """
+    scale = _unit_scale(path, units, g)
+    dt = _check_dt(path, dt)
+    label, lines = _load_lines(path)
+    rows = _parse_table(label, lines)
+    return _build_multi_column(path, label, rows, dt, scale)
+
+
+def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
+    """Read a PEER NGA ``.AT2`` acceleration file (values in g).
+
+    Lines 1–3 are free text. Line 4 holds the number of points and the time step, in any of
+    the forms ``NPTS=  4000, DT=   .0050 SEC``, ``npts= 4000 dt= 0.005 sec`` or the older
+    ``4000    0.00500    NPTS, DT``. The values follow, several per line, read across each
+    line and then down; their count must equal NPTS.
+
+    Args:
+        path: The file.
+        g: Gravity in m/s² used to convert g; 9.81 by default, as in the thesis's MATLAB.
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: If the header is missing or unparseable, a value is not numeric or
+            not finite, or the number of values differs from NPTS.
+    """
+    scale = _unit_scale(path, 'g', g)
+    label, lines = _load_lines(path)
+    npts, dt, values = _parse_at2(label, lines)
+    return _make(path, dt, values * scale)
+
+
+def read_ground_motion(
+    path: PathLike,
+    *,
+    format: str = 'auto',  # noqa: A002 - the public parameter name
+    units: str = 'g',
+    dt: float | None = None,
+    g: float = G_THESIS,
+) -> GroundMotion:
+    """Read a ground-motion record in any supported layout.
+
+    With ``format='auto'`` a ``.at2`` suffix (any case) selects the PEER reader; otherwise the
+    number of values on the first numeric row decides: 2 -> two columns (time, acceleration),
+    1 -> single column, more -> multi-column (row-major). Single- and multi-column files need
+    ``dt``. For two-column and AT2 files the time step comes from the file; a ``dt`` given as
+    well must agree with it within 1e-9 relative.
+
+    Args:
+        path: The file.
+        format: One of ``'auto'``, ``'two_column'``, ``'single_column'``, ``'multi_column'``,
+            ``'at2'``.
+        units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``). AT2 files
+            are always in g.
+        dt: Time step in s, required for single- and multi-column files.
+        g: Gravity in m/s² used to convert g; 9.81 by default, as in the thesis's MATLAB.
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: On an unknown format or unit, a missing or contradicting ``dt``, or
+            any problem reading the file.
+    """
+    label = _label(path)
+    if not isinstance(format, str) or format not in FORMATS:
+        raise GroundMotionError(
+            f'ground motion {label}: unknown format {format!r} '
+            f'(expected one of {", ".join(FORMATS)})'
+        )
+    scale = _unit_scale(path, units, g)
+    if dt is not None:
+        dt = _check_dt(path, dt)
+
+    fmt = format
+    if fmt == 'auto' and Path(path).suffix.lower() == '.at2':
+        fmt = 'at2'
+    if fmt == 'at2':
+        if _normalise_units(units) != 'g':
+            raise GroundMotionError(
+                f'ground motion {label}: AT2 files are in g, units={units!r} does not apply'
+            )
+        motion = read_at2(path, g=g)
+        _check_file_dt(label, motion.dt, dt)
+        return motion
+
+    label, lines = _load_lines(path)
+    rows = _parse_table(label, lines)
+    if fmt == 'auto':
+        n_columns = len(rows[0][1])
+        if n_columns == 2:
+            fmt = 'two_column'
+        elif n_columns == 1:
+            fmt = 'single_column'
+        else:
+            fmt = 'multi_column'
+
+    if fmt == 'two_column':
+        motion = _build_two_column(path, label, rows, scale)
+        _check_file_dt(label, motion.dt, dt)
+        return motion
+    if dt is None:
+        layout = 'single-column' if fmt == 'single_column' else 'multi-column'
+        raise GroundMotionError(
+            f'ground motion {label}: a {layout} file needs dt (the time step is not in the '
+            f'file); pass dt=...'
+        )
+    if fmt == 'single_column':
+        return _build_single_column(path, label, rows, dt, scale)
+    return _build_multi_column(path, label, rows, dt, scale)
+
+
+# ---------------------------------------------------------------------- helpers
+
+_Row = tuple[int, list[float]]
+
+
+def _label(path: PathLike) -> str:
+    """Quoted file name for error messages."""
+    return f"'{os.fspath(path)}'"
+
+
+def _source(path: PathLike) -> str:
+    """The ``source`` of a record read from ``path``: its file name."""
+    return Path(path).name
+
+
+def _close(a: float, b: float) -> bool:
+    """Whether two positive numbers agree within the relative dt tolerance."""
+    return abs(a - b) <= _DT_RTOL * max(abs(a), abs(b))
+
+
+def _normalise_units(units: object) -> str | None:
+    """Canonical unit ('g' or 'm/s2'), or None if unknown."""
+    if not isinstance(units, str):
+        return None
+    key = units.strip().lower()
+    if key == 'g':
+        return 'g'
+    if key in ('m/s2', 'm/s^2'):
+        return 'm/s2'
+    return None
+
+
+def _unit_scale(path: PathLike, units: object, g: object) -> float:
+    """Factor converting the file's units to m/s²."""
+    label = _label(path)
+    unit = _normalise_units(units)
+    if unit is None:
+        raise GroundMotionError(
+            f"ground motion {label}: unknown units {units!r} (expected 'g' or 'm/s2')"
+        )
+    try:
+        g_value = float(g)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        g_value = math.nan
+    if not (math.isfinite(g_value) and g_value > 0.0):
+        raise GroundMotionError(f'ground motion {label}: g must be positive and finite, got {g!r}')
+    return g_value if unit == 'g' else 1.0
+
+
+def _check_dt(path: PathLike, dt: object) -> float:
+    """Validate a user-given time step."""
+    try:
+        value = float(dt)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value > 0.0):
+        raise GroundMotionError(
+            f'ground motion {_label(path)}: dt must be positive and finite, got {dt!r}'
+        )
+    return value
+
+
+def _check_file_dt(label: str, file_dt: float, dt: float | None) -> None:
+    """Reject a user-given dt that contradicts the one stored in the file."""
+    if dt is not None and not _close(file_dt, dt):
+        raise GroundMotionError(
+            f'ground motion {label}: dt={dt!r} was given but the file has dt={file_dt!r}'
+        )
+
+
+def _make(path: PathLike, dt: float, acceleration: np.ndarray) -> GroundMotion:
+    """Build the record, reporting validation errors against the file path."""
+    return GroundMotion(dt, acceleration, _source(path))
+
+
+def _load_lines(path: PathLike) -> tuple[str, list[str]]:
+    """Read the file as text lines (BOM and line endings handled)."""
+    label = _label(path)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        reason = exc.strerror or exc.__class__.__name__
+        raise GroundMotionError(f'ground motion {label}: cannot read file: {reason}') from exc
+    try:
+        text = data.decode('utf-8-sig')
+    except UnicodeDecodeError:
+        raise GroundMotionError(f'ground motion {label}: not a text file') from None
+    if not text.strip():
+        raise GroundMotionError(f'ground motion {label}: file is empty')
+    return label, text.splitlines()
+
+
+def _tokens(line: str) -> list[str]:
+    """Split a line on commas and/or whitespace (empty fields are kept, as '')."""
+    return _FIELD_SPLIT_RE.split(line.strip())
+
+
+def _parse_number(token: str) -> float | None:
+    """Parse a plain decimal number (Fortran D exponents allowed); None if not numeric."""
+    if not _NUMBER_RE.fullmatch(token):
+        return None
+    return float(token.replace('d', 'e').replace('D', 'E'))
+
+
+def _is_numberish(token: str) -> bool:
+    """Whether a token is a number or a nan/inf spelling."""
+    return bool(_NUMBER_RE.fullmatch(token) or _NON_FINITE_RE.fullmatch(token))
+
+
+def _parse_values(label: str, lineno: int, line: str, last: bool) -> list[float]:
+    """Parse every field of a data line, naming the line on failure."""
+    values = []
+    for token in _tokens(line):
+        value = _parse_number(token)
+        if value is None or not math.isfinite(value):
+            if value is not None or _NON_FINITE_RE.fullmatch(token):
+                what = f'non-finite value {token!r}'
+            elif token == '':
+                what = 'empty field'
+            else:
+                what = f'non-numeric value {token!r}'
+            hint = ' (file truncated?)' if last else ''
+            raise GroundMotionError(f'ground motion {label}: line {lineno}: {what}{hint}')
+        values.append(value)
+    return values
+
+
+def _parse_table(label: str, lines: Sequence[str]) -> list[_Row]:
+    """Parse a numeric table with optional ``#`` comments and one leading header line.
+
+    Returns:
+        ``(line number, values)`` for each data row; at least one row.
+    """
+    content = [
+        (number, line)
+        for number, line in enumerate(lines, start=1)
+        if line.strip() and not line.lstrip().startswith('#')
+    ]
+    if not content:
+        raise GroundMotionError(f'ground motion {label}: no data, only comments or blank lines')
+    first_line = content[0][1]
+    if not any(_is_numberish(token) for token in _tokens(first_line)):
+        content = content[1:]  # a single header line such as 'time,accel'
+        if not content:
+            raise GroundMotionError(
+                f'ground motion {label}: no data after the header line {first_line.strip()!r}'
+            )
+    last_number = content[-1][0]
+    return [
+        (number, _parse_values(label, number, line, number == last_number))
+        for number, line in content
+    ]
+
+
+def _flatten(rows: Sequence[_Row]) -> np.ndarray:
+    """All values of the rows, row-major."""
+    return np.array([value for _, values in rows for value in values], dtype=np.float64)
+
+
+def _build_two_column(
+    path: PathLike, label: str, rows: Sequence[_Row], scale: float
+) -> GroundMotion:
+    """Two-column (time, acceleration) rows to a record."""
+    for number, values in rows:
+        if len(values) != 2:
+            raise GroundMotionError(
+                f'ground motion {label}: line {number}: expected 2 columns (time, '
+                f'acceleration), found {len(values)}'
+            )
+    if len(rows) < 2:
+        raise GroundMotionError(
+            f'ground motion {label}: need at least 2 samples, found {len(rows)}'
+        )
+    time = np.array([values[0] for _, values in rows], dtype=np.float64)
+    acc = np.array([values[1] for _, values in rows], dtype=np.float64)
+    raw_dt = time[1] - time[0]
+    if not raw_dt > 0.0:
+        raise GroundMotionError(
+            f'ground motion {label}: line {rows[1][0]}: time must increase, '
+            f'got {time[0]!r} then {time[1]!r}'
+        )
+    dt = float(f'{raw_dt:.12g}')
+    steps = np.diff(time)
+    bad = np.flatnonzero(np.abs(steps - raw_dt) > 1e-6 * raw_dt + 1e-9)
+    if bad.size:
+        index = int(bad[0]) + 1
+        raise GroundMotionError(
+            f'ground motion {label}: non-uniform time step at line {rows[index][0]} '
+            f'(step {steps[index - 1]!r} s, expected {dt!r} s)'
+        )
+    return _make(path, dt, acc * scale)
+
+
+def _build_single_column(
+    path: PathLike, label: str, rows: Sequence[_Row], dt: float, scale: float
+) -> GroundMotion:
+    """Single-column rows to a record."""
+    for number, values in rows:
+        if len(values) != 1:
+            raise GroundMotionError(
+                f'ground motion {label}: line {number}: expected 1 value per line in a '
+                f'single-column file, found {len(values)}'
+            )
+    acc = _flatten(rows)
+    if acc.size < 2:
+        raise GroundMotionError(
+            f'ground motion {label}: need at least 2 samples, found {acc.size}'
+        )
+    return _make(path, dt, acc * scale)
+
+
+def _build_multi_column(
+    path: PathLike, label: str, rows: Sequence[_Row], dt: float, scale: float
+) -> GroundMotion:
+    """Row-major multi-column rows to a record; only the last row may be shorter."""
+    width = len(rows[0][1])
+    for index, (number, values) in enumerate(rows):
+        is_last = index == len(rows) - 1
+        if len(values) == width or (is_last and len(values) < width):
+            continue
+        raise GroundMotionError(
+            f'ground motion {label}: line {number}: expected {width} values, found '
+            f'{len(values)} (only the last row may be shorter)'
+        )
+    acc = _flatten(rows)
+    if acc.size < 2:
+        raise GroundMotionError(
+            f'ground motion {label}: need at least 2 samples, found {acc.size}'
+        )
+    return _make(path, dt, acc * scale)
+
+
+def _parse_at2_header(label: str, line: str) -> tuple[int, float]:
+    """NPTS and DT from line 4 of an AT2 file."""
+    npts_match = _AT2_NPTS_RE.search(line)
+    dt_match = _AT2_DT_RE.search(line)
+    if npts_match and dt_match:
+        npts_text, dt_text = npts_match.group(1), dt_match.group(1)
+    else:
+        old = _AT2_OLD_RE.match(line)
+        if not old:
+            raise GroundMotionError(
+                f'ground motion {label}: line 4: cannot find NPTS and DT in {line.strip()!r}'
+            )
+        npts_text, dt_text = old.group(1), old.group(2)
+    try:
+        npts = int(npts_text)
+    except ValueError:
+        npts = -1
+    if npts < 0:
+        raise GroundMotionError(
+            f'ground motion {label}: line 4: NPTS must be a non-negative integer, '
+            f'got {npts_text!r}'
+        )
+    dt = _parse_number(dt_text)
+    if dt is None or not (math.isfinite(dt) and dt > 0.0):
+        raise GroundMotionError(
+            f'ground motion {label}: line 4: DT must be a positive number, got {dt_text!r}'
+        )
+    return npts, dt
+
+
+def _parse_at2(label: str, lines: Sequence[str]) -> tuple[int, float, np.ndarray]:
+    """NPTS, DT and the values (in g) of an AT2 file."""
+    if len(lines) < 4:
+        raise GroundMotionError(
+            f'ground motion {label}: AT2 header incomplete: expected 4 header lines, '
+            f'found {len(lines)}'
+        )
+    npts, dt = _parse_at2_header(label, lines[3])
+    data = [(number, line) for number, line in enumerate(lines, start=1) if number > 4]
+    data = [(number, line) for number, line in data if line.strip()]
+    last_number = data[-1][0] if data else 0
+    values = [
+        value
+        for number, line in data
+        for value in _parse_values(label, number, line, number == last_number)
+    ]
+    if len(values) != npts:
+        raise GroundMotionError(
+            f'ground motion {label}: line 4: NPTS={npts} but {len(values)} values were read'
+        )
+    return npts, dt, np.array(values, dtype=np.float64)
+
+
+__all__ = [
+    'FORMATS',
+    'G_STANDARD',
+    'G_THESIS',
+    'GroundMotion',
+    'UNITS',
+    'read_at2',
+    'read_ground_motion',
+    'read_multi_column',
+    'read_single_column',
+    'read_two_column',
+]
