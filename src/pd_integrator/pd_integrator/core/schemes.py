@@ -1,0 +1,541 @@
+"""Step-by-step time-integration schemes for the pseudo-dynamic loop.
+
+An :class:`Integrator` splits every time step into the two halves of a pseudo-dynamic test
+(thesis §3.1, Figure 3.3):
+
+1. :meth:`Integrator.predict` computes the *target displacement* ``x_{i+1}`` that is imposed
+   on the specimen (an explicit scheme needs only the committed state for this);
+2. :meth:`Integrator.correct` takes the *measured restoring force* ``r_{i+1}`` at that
+   displacement and the external load ``p_{i+1}`` and computes the trial acceleration and
+   velocity;
+3. :meth:`Integrator.commit` promotes the trial to the committed state, or
+   :meth:`Integrator.revert_to_last_step` discards it.
+
+The trial/commit bookkeeping follows OpenSees's integrators. A step is therefore in one of
+three phases: ``'committed'`` (ready to predict), ``'predicted'`` (waiting for the measured
+force) and ``'corrected'`` (ready to commit).
+
+For a single degree of freedom the state is kept in plain Python floats, which makes the
+stepping fast and keeps the arithmetic float-for-float identical to the thesis's MATLAB code
+(Appendix A).
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+import warnings
+from typing import Any, ClassVar
+
+import numpy as np
+import scipy.linalg
+
+from .errors import ConfigError, IntegratorError
+
+__all__ = ['SCHEMES', 'Integrator', 'NewmarkExplicit', 'make_integrator']
+
+_COMMITTED = 'committed'
+_PREDICTED = 'predicted'
+_CORRECTED = 'corrected'
+
+
+def _square_matrix(value: Any, name: str) -> np.ndarray:
+    """Coerce a scalar or a square array-like to a finite 2-D float array (ConfigError)."""
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f'{name}: expected a number or a square matrix ({exc})') from None
+    if array.ndim == 0:
+        array = array.reshape(1, 1)
+    if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
+        raise ConfigError(f'{name}: expected a square matrix, got shape {array.shape}')
+    if not np.all(np.isfinite(array)):
+        raise ConfigError(f'{name}: all values must be finite')
+    return array
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
+
+
+class Integrator(abc.ABC):
+    """Abstract predictor/corrector time integrator for ``M a + C v + r = p`` (thesis eq. 3.1).
+
+    Subclasses implement :meth:`_setup`, :meth:`_initial_acceleration`, :meth:`_predict`
+    and :meth:`_correct`; this base class does the validation and the step bookkeeping.
+
+    Attributes:
+        name: Registry name of the scheme.
+        stability_limit: Upper bound on ``Ω = ω_max·Δt`` for a stable linear response
+            (``math.inf`` for unconditionally stable schemes).
+        needs_initial_stiffness: Whether the scheme requires the initial stiffness matrix.
+    """
+
+    name: ClassVar[str] = ''
+    stability_limit: ClassVar[float] = math.inf
+    needs_initial_stiffness: ClassVar[bool] = False
+
+    def __init__(
+        self, mass: Any, damping: Any, dt: float, initial_stiffness: Any = None
+    ) -> None:
+        """Validate the model and precompute what every step needs.
+
+        Args:
+            mass: Mass matrix ``M`` (kg), ``n``×``n`` symmetric positive definite, or a scalar
+                for an SDOF.
+            damping: Damping matrix ``C`` (N·s/m), ``n``×``n`` or a scalar.
+            dt: Time step ``Δt`` in s, positive and finite.
+            initial_stiffness: Initial stiffness ``K`` (N/m), required only by schemes with
+                ``needs_initial_stiffness``; validated if given.
+
+        Raises:
+            ConfigError: On a non-positive or non-finite ``dt``, malformed or mismatched
+                matrices, a mass matrix that is not positive definite, or a missing
+                initial stiffness for a scheme that needs it.
+        """
+        try:
+            dt_value = float(dt)
+        except (TypeError, ValueError):
+            raise ConfigError(f'dt: expected a number, got {dt!r}') from None
+        if not (math.isfinite(dt_value) and dt_value > 0.0):
+            raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
+        m = _square_matrix(mass, 'mass')
+        n = m.shape[0]
+        c = _square_matrix(damping, 'damping')
+        if c.shape != (n, n):
+            raise ConfigError(f'damping: expected shape ({n}, {n}), got {c.shape}')
+        if not np.allclose(m, m.T, rtol=0.0, atol=1e-10 * float(np.max(np.abs(m)))):
+            raise ConfigError('mass: matrix must be symmetric')
+        try:
+            np.linalg.cholesky(m)
+        except np.linalg.LinAlgError:
+            raise ConfigError('mass: matrix must be positive definite') from None
+        k: np.ndarray | None = None
+        if initial_stiffness is not None:
+            k = _square_matrix(initial_stiffness, 'initial_stiffness')
+            if k.shape != (n, n):
+                raise ConfigError(f'initial_stiffness: expected shape ({n}, {n}), got {k.shape}')
+        elif self.needs_initial_stiffness:
+            raise ConfigError(f'initial_stiffness: required by scheme {self.name!r}')
+        self._n = n
+        self._scalar = n == 1
+        self._dt = dt_value
+        self._mass = _readonly(m)
+        self._damping = _readonly(c)
+        self._initial_stiffness = None if k is None else _readonly(k)
+        self._status = 'idle'
+        self._phase = _COMMITTED
+        self._step = 0
+        if self._scalar:
+            self._x = self._v = self._a = 0.0
+            self._xt = self._vt = self._at = 0.0
+        else:
+            zeros = np.zeros(n)
+            self._x = zeros.copy()
+            self._v = zeros.copy()
+            self._a = zeros.copy()
+            self._xt = zeros.copy()
+            self._vt = zeros.copy()
+            self._at = zeros.copy()
+        self._setup()
+
+    # ----------------------------------------------------------------- scheme hooks
+
+    @abc.abstractmethod
+    def _setup(self) -> None:
+        """Precompute constants and factorisations (called once from ``__init__``)."""
+
+    @abc.abstractmethod
+    def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
+        """Return the initial acceleration from the equation of motion at ``t = 0``."""
+
+    @abc.abstractmethod
+    def _predict(self) -> Any:
+        """Return the trial displacement ``x_{i+1}`` from the committed state."""
+
+    @abc.abstractmethod
+    def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
+        """Return the trial ``(a_{i+1}, v_{i+1})`` for the stored trial displacement."""
+
+    # ----------------------------------------------------------------- input helpers
+
+    def _vector(self, value: Any, name: str) -> Any:
+        """Validate one state/force input: a float for an SDOF, else an ``(n,)`` array."""
+        if self._scalar:
+            if type(value) is float:
+                result = value
+            else:
+                try:
+                    array = np.asarray(value, dtype=float)
+                except (TypeError, ValueError):
+                    raise IntegratorError(f'{name}: expected a number, got {value!r}') from None
+                if array.size != 1:
+                    raise IntegratorError(
+                        f'{name}: expected 1 value for 1 DOF, got shape {array.shape}'
+                    )
+                result = float(array.reshape(-1)[0])
+            if not math.isfinite(result):
+                raise IntegratorError(f'{name}: must be finite, got {result!r}')
+            return result
+        try:
+            array = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise IntegratorError(f'{name}: expected {self._n} numbers, got {value!r}') from None
+        if array.shape != (self._n,):
+            raise IntegratorError(
+                f'{name}: expected shape ({self._n},) for {self._n} DOF, got {array.shape}'
+            )
+        if not np.all(np.isfinite(array)):
+            raise IntegratorError(f'{name}: all values must be finite, got {array.tolist()}')
+        return array
+
+    def _export(self, value: Any) -> np.ndarray:
+        if self._scalar:
+            array = np.array((value,))
+        else:
+            array = value.copy()
+        array.setflags(write=False)
+        return array
+
+    @staticmethod
+    def _finite(value: Any) -> bool:
+        if type(value) is float:
+            return math.isfinite(value)
+        return bool(np.all(np.isfinite(value)))
+
+    # ----------------------------------------------------------------- public API
+
+    def initialize(self, x0: Any, v0: Any, p0: Any, r0: Any) -> None:
+        """Set the initial state and compute the initial acceleration.
+
+        ``a_0 = M⁻¹ (p_0 − C v_0 − r_0)`` (Appendix A, line 64, where ``r_0 = k_ini x_0``;
+        in a test ``r_0`` is the force measured at the initial displacement). Resets the step
+        counter and the time to zero and the status to ``'running'``. May be called again to
+        restart.
+
+        Args:
+            x0: Initial displacement (m), ``(n,)`` or a scalar for an SDOF.
+            v0: Initial velocity (m/s).
+            p0: External load at ``t = 0`` (N).
+            r0: Restoring force at ``x0`` (N).
+
+        Raises:
+            IntegratorError: On malformed or non-finite input (the integrator is unchanged).
+        """
+        x0v = self._vector(x0, 'x0')
+        v0v = self._vector(v0, 'v0')
+        p0v = self._vector(p0, 'p0')
+        r0v = self._vector(r0, 'r0')
+        a0 = self._initial_acceleration(x0v, v0v, p0v, r0v)
+        if not self._finite(a0):
+            raise IntegratorError('initialize: the initial acceleration is not finite')
+        if self._scalar:
+            self._x, self._v, self._a = x0v, v0v, a0
+        else:
+            self._x, self._v, self._a = x0v.copy(), v0v.copy(), np.array(a0, dtype=float)
+        self._xt, self._vt, self._at = self._x, self._v, self._a
+        self._step = 0
+        self._phase = _COMMITTED
+        self._status = 'running'
+
+    def predict(self) -> np.ndarray:
+        """Compute the trial (target) displacement ``x_{i+1}`` of the next step.
+
+        Returns:
+            A new ``(n,)`` array (owned by the caller) with the displacement to impose on the
+            specimen.
+
+        Raises:
+            IntegratorError: Before :meth:`initialize`, after a failure, or if the previous
+                trial has not been committed or reverted.
+        """
+        if self._status != 'running':
+            raise IntegratorError(
+                f'predict: integrator is {self._status!r}; call initialize() first'
+            )
+        if self._phase != _COMMITTED:
+            raise IntegratorError(
+                f'predict: step {self._step + 1} is already {self._phase}; '
+                'commit() or revert_to_last_step() first'
+            )
+        xt = self._predict()
+        if not self._finite(xt):
+            self._status = 'failed'
+            raise IntegratorError(
+                f'predict: step {self._step + 1}: the target displacement is not finite '
+                '(the response diverged)'
+            )
+        self._xt = xt
+        self._phase = _PREDICTED
+        return np.array((xt,)) if self._scalar else xt.copy()
+
+    def correct(self, restoring_force: Any, load: Any) -> None:
+        """Compute the trial acceleration and velocity from the measured restoring force.
+
+        Args:
+            restoring_force: Restoring force ``r_{i+1}`` (N) measured at the predicted
+                displacement, ``(n,)`` or a scalar for an SDOF.
+            load: External load ``p_{i+1}`` (N) at ``t_{i+1}``.
+
+        Raises:
+            IntegratorError: If :meth:`predict` was not called for this step, or on malformed
+                or non-finite input; in both cases nothing changes and the step may be
+                corrected again. If finite input gives a non-finite result, the status
+                becomes ``'failed'``.
+        """
+        if self._status != 'running' or self._phase != _PREDICTED:
+            state = self._status if self._status != 'running' else self._phase
+            raise IntegratorError(
+                f'correct: step {self._step + 1} has not been predicted (state {state!r}); '
+                'call predict() first'
+            )
+        r = self._vector(restoring_force, 'restoring_force')
+        p = self._vector(load, 'load')
+        at, vt = self._correct(r, p)
+        if not (self._finite(at) and self._finite(vt)):
+            self._status = 'failed'
+            raise IntegratorError(
+                f'correct: step {self._step + 1}: the trial acceleration or velocity is not '
+                'finite (the response diverged)'
+            )
+        self._at = at
+        self._vt = vt
+        self._phase = _CORRECTED
+
+    def commit(self) -> None:
+        """Promote the corrected trial state: ``step += 1``, ``t = step·Δt``.
+
+        Raises:
+            IntegratorError: If the current step has not been predicted and corrected.
+        """
+        if self._phase != _CORRECTED or self._status != 'running':
+            raise IntegratorError(
+                f'commit: step {self._step + 1} is {self._phase} (status {self._status!r}); '
+                'predict() and correct() it first'
+            )
+        self._x = self._xt
+        self._v = self._vt
+        self._a = self._at
+        self._step += 1
+        self._phase = _COMMITTED
+
+    def revert_to_last_step(self) -> None:
+        """Discard the trial state (a no-op if there is none)."""
+        self._xt, self._vt, self._at = self._x, self._v, self._a
+        self._phase = _COMMITTED
+
+    # ----------------------------------------------------------------- properties
+
+    @property
+    def n_dof(self) -> int:
+        """Number of degrees of freedom."""
+        return self._n
+
+    @property
+    def x(self) -> np.ndarray:
+        """Committed displacement ``x_i`` (m), a read-only copy."""
+        return self._export(self._x)
+
+    @property
+    def v(self) -> np.ndarray:
+        """Committed velocity ``v_i`` (m/s), a read-only copy."""
+        return self._export(self._v)
+
+    @property
+    def a(self) -> np.ndarray:
+        """Committed acceleration ``a_i`` (m/s²), a read-only copy."""
+        return self._export(self._a)
+
+    @property
+    def step(self) -> int:
+        """Number of committed steps ``i``."""
+        return self._step
+
+    @property
+    def t(self) -> float:
+        """Committed time ``t_i = i·Δt`` in s (computed, so it does not drift)."""
+        return self._step * self._dt
+
+    @property
+    def dt(self) -> float:
+        """Time step ``Δt`` in s."""
+        return self._dt
+
+    @property
+    def status(self) -> str:
+        """``'idle'`` before :meth:`initialize`, ``'running'``, or ``'failed'`` after a
+        non-finite trial state (call :meth:`initialize` to restart)."""
+        return self._status
+
+    @property
+    def phase(self) -> str:
+        """Phase of the current step: ``'committed'``, ``'predicted'`` or ``'corrected'``."""
+        return self._phase
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Mass matrix ``M`` (read-only)."""
+        return self._mass
+
+    @property
+    def damping(self) -> np.ndarray:
+        """Damping matrix ``C`` (read-only)."""
+        return self._damping
+
+    @property
+    def initial_stiffness(self) -> np.ndarray | None:
+        """Initial stiffness matrix ``K`` if given (read-only)."""
+        return self._initial_stiffness
+
+    def __repr__(self) -> str:
+        return (
+            f'{type(self).__name__}(n_dof={self._n}, dt={self._dt!r}, step={self._step}, '
+            f'status={self._status!r}, phase={self._phase!r})'
+        )
+
+
+class NewmarkExplicit(Integrator):
+    """Newmark explicit scheme (``β = 0``, ``γ = 1/2``), thesis eqs. 3.20–3.22.
+
+    Per step, in the operation order of Appendix A (lines 72, 76, 77)::
+
+        x_{i+1} = x_i + Δt v_i + a_i Δt Δt 0.5                               (3.21)
+        a_{i+1} = (p_{i+1} − r_{i+1} − C v_i − Δt 0.5 C a_i) / (M + Δt 0.5 C)  (3.22)
+        v_{i+1} = v_i + Δt 0.5 (a_i + a_{i+1})                               (3.20)
+
+    For an MDOF the division is a solve with ``M + Δt/2·C``, factorised once. The scheme has
+    no numerical damping and is stable for ``ω_max·Δt ≤ 2`` (eq. 3.14).
+    """
+
+    name: ClassVar[str] = 'newmark_explicit'
+    stability_limit: ClassVar[float] = 2.0
+    needs_initial_stiffness: ClassVar[bool] = False
+
+    def _setup(self) -> None:
+        dt = self._dt
+        self._half_dt = dt * 0.5
+        if self._scalar:
+            m = float(self._mass[0, 0])
+            c = float(self._damping[0, 0])
+            self._m = m
+            self._c = c
+            self._half_dt_c = dt * 0.5 * c
+            self._lhs = m + dt * 0.5 * c
+            if not (self._lhs > 0.0):
+                raise ConfigError(f'damping: m + dt/2*c = {self._lhs!r} must be positive')
+            return
+        c = self._damping
+        self._half_dt_c_matrix = dt * 0.5 * c
+        lhs = self._mass + dt * 0.5 * c
+        self._factor: tuple[str, Any] | None = None
+        if np.array_equal(c, c.T):
+            try:
+                self._factor = ('cholesky', scipy.linalg.cho_factor(lhs, check_finite=False))
+            except np.linalg.LinAlgError:
+                self._factor = None  # not positive definite: fall back to LU
+        if self._factor is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
+                lu = scipy.linalg.lu_factor(lhs, check_finite=False)
+            if np.any(np.diag(lu[0]) == 0.0):
+                raise ConfigError('damping: M + dt/2*C is singular')
+            self._factor = ('lu', lu)
+        self._mass_factor = scipy.linalg.cho_factor(self._mass)
+
+    def _solve(self, rhs: np.ndarray) -> np.ndarray:
+        kind, factor = self._factor  # type: ignore[misc]
+        if kind == 'cholesky':
+            return scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+        return scipy.linalg.lu_solve(factor, rhs, check_finite=False)
+
+    def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
+        if self._scalar:
+            return (p0 - self._c * v0 - r0) / self._m
+        return scipy.linalg.cho_solve(self._mass_factor, p0 - self._damping @ v0 - r0)
+
+    def _predict(self) -> Any:
+        dt = self._dt
+        return self._x + dt * self._v + self._a * dt * dt * 0.5
+
+    def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
+        v = self._v
+        a = self._a
+        if self._scalar:
+            a_new = (load - restoring_force - self._c * v - self._half_dt_c * a) / self._lhs
+        else:
+            a_new = self._solve(
+                load - restoring_force - self._damping @ v - self._half_dt_c_matrix @ a
+            )
+        v_new = v + self._half_dt * (a + a_new)
+        return a_new, v_new
+
+    def predict(self) -> np.ndarray:  # noqa: D102 - documented on the base class
+        # SDOF fast path: same checks and arithmetic as the generic path, fewer calls.
+        if self._scalar and self._status == 'running' and self._phase == _COMMITTED:
+            dt = self._dt
+            xt = self._x + dt * self._v + self._a * dt * dt * 0.5
+            if xt - xt == 0.0:  # finite
+                self._xt = xt
+                self._phase = _PREDICTED
+                return np.array((xt,))
+        return super().predict()
+
+    def correct(self, restoring_force: Any, load: Any) -> None:  # noqa: D102
+        # SDOF fast path for float inputs (numpy float64 and one-element arrays included);
+        # anything else goes through the validating path of the base class.
+        if self._scalar:
+            if type(restoring_force) is np.ndarray and restoring_force.size == 1:
+                restoring_force = restoring_force.item()
+            elif type(restoring_force) is not float and isinstance(restoring_force, float):
+                restoring_force = float(restoring_force)
+            if type(load) is np.ndarray and load.size == 1:
+                load = load.item()
+            elif type(load) is not float and isinstance(load, float):
+                load = float(load)
+        if (
+            self._scalar
+            and type(restoring_force) is float
+            and type(load) is float
+            and self._phase == _PREDICTED
+            and self._status == 'running'
+            and restoring_force - restoring_force == 0.0
+            and load - load == 0.0
+        ):
+            v = self._v
+            a = self._a
+            a_new = (load - restoring_force - self._c * v - self._half_dt_c * a) / self._lhs
+            v_new = v + self._half_dt * (a + a_new)
+            if a_new - a_new == 0.0 and v_new - v_new == 0.0:
+                self._at = a_new
+                self._vt = v_new
+                self._phase = _CORRECTED
+                return
+        super().correct(restoring_force, load)
+
+
+#: Registry of the available schemes by name.
+SCHEMES: dict[str, type[Integrator]] = {NewmarkExplicit.name: NewmarkExplicit}
+
+
+def make_integrator(name: str, **kwargs: Any) -> Integrator:
+    """Create an integrator by registry name.
+
+    Args:
+        name: Scheme name, a key of :data:`SCHEMES` (e.g. ``'newmark_explicit'``).
+        **kwargs: Passed to the scheme's constructor (``mass``, ``damping``, ``dt``,
+            ``initial_stiffness``).
+
+    Returns:
+        The new integrator.
+
+    Raises:
+        ConfigError: If the name is unknown (the message lists the valid names) or the
+            constructor arguments are invalid.
+    """
+    try:
+        cls = SCHEMES[name]
+    except (KeyError, TypeError):
+        valid = ', '.join(sorted(SCHEMES))
+        raise ConfigError(f'scheme: unknown integration scheme {name!r}; valid: {valid}') from None
+    return cls(**kwargs)

@@ -1,0 +1,265 @@
+"""Accuracy and stability of the integration schemes (thesis §3.3.1).
+
+For a linear elastic SDOF the Newmark explicit scheme is the recursion
+``x̂_{i+1} = A x̂_i`` (eq. 3.4–3.5) with the amplification matrix ``A`` of eq. 3.7. Its
+principal eigenvalues ``λ = A ± iB = e^{(−ζ̄ ± i) Ω̄}`` (eqs. 3.10–3.12) have modulus one for
+``Ω = ωΔt ≤ 2`` (eq. 3.14): no numerical damping (``ζ̄ = 0``, eq. 3.15) and a numerical
+frequency ``Ω̄ = ω̄Δt`` (eqs. 3.16, 3.19) larger than ``Ω``, i.e. a period shrinkage
+(Figure 3.2). Above ``Ω = 2`` one eigenvalue is real with modulus greater than one and the
+response grows without bound.
+
+Conventions used here (``T = 2π/ω``, ``T̄ = 2π/ω̄``, so ``T̄/T = Ω/Ω̄``):
+
+* :func:`period_distortion` is ``(T̄ − T)/T``, negative for a period shrinkage;
+* :func:`period_shrinkage` is the thesis's ``(T − T̄)/T`` (Figure 3.2), positive for a shrinkage.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import ConfigError, StabilityError
+from .schemes import SCHEMES, Integrator
+from .structure import omega_max as structure_omega_max
+
+__all__ = [
+    'NUMERICAL_FREQUENCY',
+    'StabilityReport',
+    'amplification_matrix_newmark_explicit',
+    'check_stability',
+    'newmark_explicit_numerical_frequency',
+    'period_distortion',
+    'period_error',
+    'period_shrinkage',
+    'require_stable',
+    'spectral_radius',
+]
+
+
+def amplification_matrix_newmark_explicit(omega_dt: float, dt: float = 1.0) -> np.ndarray:
+    """Amplification matrix ``A`` of the undamped Newmark explicit scheme (thesis eq. 3.7).
+
+    With ``ω = omega_dt/dt`` the matrix acts on ``x̂ = (x, v, a)``. The default ``dt = 1``
+    gives the Δt-normalised form, which acts on ``(x, Δt·v, Δt²·a)``; all choices of ``dt``
+    give similar matrices (``D A D⁻¹`` with ``D = diag(1, Δt, Δt²)``), so the eigenvalues and
+    the spectral radius depend on ``Ω = ωΔt`` only.
+
+    Args:
+        omega_dt: ``Ω = ωΔt`` (≥ 0).
+        dt: Time step in s used to dimension the matrix (positive).
+
+    Returns:
+        The 3×3 amplification matrix.
+    """
+    if not (dt > 0.0 and math.isfinite(dt)):
+        raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
+    w = float(omega_dt) / dt
+    w2 = w * w
+    return np.array(
+        [
+            [1.0, dt, dt**2 / 2.0],
+            [-w2 * dt / 2.0, 1.0 - w2 * dt**2 / 2.0, dt / 2.0 - w2 * dt**3 / 4.0],
+            [-w2, -w2 * dt, -w2 * dt**2 / 2.0],
+        ]
+    )
+
+
+def spectral_radius(matrix: Any) -> float:
+    """Largest eigenvalue modulus ``ρ(A) = max |λ_k|`` of a square matrix."""
+    return float(np.max(np.abs(np.linalg.eigvals(np.asarray(matrix, dtype=float)))))
+
+
+def newmark_explicit_numerical_frequency(omega_dt: float) -> float:
+    """Numerical frequency ``Ω̄ = ω̄Δt`` of the Newmark explicit scheme (thesis eq. 3.19).
+
+    ``Ω̄ = atan2(B, A)`` with ``A = 1 − Ω²/2`` (eq. 3.11) and
+    ``B = √(4 − (Ω² − 2)²)/2 = Ω √(4 − Ω²)/2`` (eq. 3.12, factored to avoid cancellation).
+    The two-argument arctangent keeps the right branch for ``√2 < Ω ≤ 2``, where ``A < 0``
+    and ``Ω̄`` lies in ``(π/2, π]``.
+
+    Args:
+        omega_dt: ``Ω = ωΔt`` (≥ 0).
+
+    Returns:
+        ``Ω̄`` in rad per step, or NaN above the stability limit ``Ω > 2`` (no oscillatory
+        solution exists there).
+    """
+    omega = float(omega_dt)
+    if not (omega >= 0.0) or omega > 2.0:
+        return math.nan
+    a = 1.0 - omega * omega / 2.0
+    b = omega * math.sqrt(4.0 - omega * omega) / 2.0
+    return math.atan2(b, a)
+
+
+#: Numerical frequency ``Ω̄(Ω)`` per scheme name, for the period distortion.
+NUMERICAL_FREQUENCY: dict[str, Callable[[float], float]] = {
+    'newmark_explicit': newmark_explicit_numerical_frequency,
+}
+
+
+def period_distortion(omega_dt: float, scheme: str = 'newmark_explicit') -> float:
+    """Relative period error ``(T̄ − T)/T = Ω/Ω̄ − 1`` (negative: the period shrinks).
+
+    Args:
+        omega_dt: ``Ω = ωΔt``.
+        scheme: Scheme name (a key of :data:`NUMERICAL_FREQUENCY`).
+
+    Returns:
+        The distortion, ``0`` at ``Ω = 0``, NaN above the stability limit or for a scheme
+        without a known numerical frequency.
+    """
+    frequency = NUMERICAL_FREQUENCY.get(scheme)
+    if frequency is None:
+        return math.nan
+    omega = float(omega_dt)
+    if omega == 0.0:
+        return 0.0
+    omega_bar = frequency(omega)
+    if math.isnan(omega_bar):
+        return math.nan
+    return omega / omega_bar - 1.0
+
+
+def period_shrinkage(omega_dt: float, scheme: str = 'newmark_explicit') -> float:
+    """Thesis Figure 3.2 quantity ``(T − T̄)/T = 1 − Ω/Ω̄`` (positive: the period shrinks).
+
+    Args:
+        omega_dt: ``Ω = ωΔt``.
+        scheme: Scheme name.
+
+    Returns:
+        ``−period_distortion(omega_dt)``; NaN above the stability limit.
+    """
+    return -period_distortion(omega_dt, scheme)
+
+
+#: Alias of :func:`period_shrinkage`, the thesis's ``(T − T̄)/T``.
+period_error = period_shrinkage
+
+
+@dataclass(frozen=True)
+class StabilityReport:
+    """Outcome of :func:`check_stability`.
+
+    Attributes:
+        scheme: Scheme name.
+        omega_max: Highest circular frequency of the model in rad/s.
+        dt: Time step in s.
+        omega_dt: ``Ω = ω_max·Δt``.
+        limit: The scheme's stability limit on ``Ω`` (``math.inf`` if unconditional).
+        stable: ``Ω ≤ limit`` (thesis eq. 3.14 counts ``Ω = 2`` as stable).
+        period_distortion: ``(T̄ − T)/T`` of the highest mode (NaN if unstable or unknown).
+        message: One human-readable line summarising the above.
+    """
+
+    scheme: str
+    omega_max: float
+    dt: float
+    omega_dt: float
+    limit: float
+    stable: bool
+    period_distortion: float
+    message: str
+
+    @property
+    def max_stable_dt(self) -> float:
+        """Largest stable time step ``limit/ω_max`` in s (``inf`` if unconditional or ω = 0)."""
+        if math.isinf(self.limit) or self.omega_max == 0.0:
+            return math.inf
+        return self.limit / self.omega_max
+
+
+def _resolve_scheme(scheme: str | type[Integrator] | Integrator) -> type[Integrator]:
+    if isinstance(scheme, Integrator):
+        return type(scheme)
+    if isinstance(scheme, type) and issubclass(scheme, Integrator):
+        return scheme
+    try:
+        return SCHEMES[scheme]  # type: ignore[index]
+    except (KeyError, TypeError):
+        valid = ', '.join(sorted(SCHEMES))
+        raise ConfigError(
+            f'scheme: unknown integration scheme {scheme!r}; valid: {valid}'
+        ) from None
+
+
+def _format_limit(limit: float) -> str:
+    return '∞' if math.isinf(limit) else f'{limit:g}'
+
+
+def check_stability(
+    scheme: str | type[Integrator] | Integrator, mass: Any, stiffness: Any, dt: float
+) -> StabilityReport:
+    """Check ``Ω = ω_max·Δt`` against the scheme's stability limit (thesis eq. 3.14).
+
+    Args:
+        scheme: Scheme name, integrator class or instance.
+        mass: Mass matrix (or scalar for an SDOF), kg.
+        stiffness: Initial stiffness matrix (or scalar), N/m.
+        dt: Time step in s.
+
+    Returns:
+        A :class:`StabilityReport` (use :func:`require_stable` to raise on instability).
+
+    Raises:
+        ConfigError: On an unknown scheme, a non-positive ``dt`` or malformed matrices.
+    """
+    cls = _resolve_scheme(scheme)
+    try:
+        dt_value = float(dt)
+    except (TypeError, ValueError):
+        raise ConfigError(f'dt: expected a number, got {dt!r}') from None
+    if not (dt_value > 0.0 and math.isfinite(dt_value)):
+        raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
+    w_max = structure_omega_max(mass, stiffness)
+    omega_dt = w_max * dt_value
+    limit = float(cls.stability_limit)
+    stable = omega_dt <= limit
+    distortion = period_distortion(omega_dt, cls.name) if stable else math.nan
+    head = f'ω_max·Δt = {omega_dt:.4g} (limit {_format_limit(limit)} for {cls.name})'
+    if stable:
+        message = f'{head}: stable'
+        if not math.isnan(distortion):
+            message += f'; period distortion {100.0 * distortion:.2g} %'.replace('-', '−')
+    else:
+        message = (
+            f'{head}: UNSTABLE; dt = {dt_value:g} s must be ≤ {limit / w_max:.6g} s '
+            f'(ω_max = {w_max:.6g} rad/s)'
+        )
+    return StabilityReport(
+        scheme=cls.name,
+        omega_max=w_max,
+        dt=dt_value,
+        omega_dt=omega_dt,
+        limit=limit,
+        stable=stable,
+        period_distortion=distortion,
+        message=message,
+    )
+
+
+def require_stable(report: StabilityReport) -> StabilityReport:
+    """Raise if the report is unstable, else return it unchanged.
+
+    Args:
+        report: Result of :func:`check_stability`.
+
+    Returns:
+        ``report``.
+
+    Raises:
+        StabilityError: If ``ω_max·Δt`` exceeds the limit; the one-line message names ``dt``
+            and the largest stable time step ``limit/ω_max``.
+    """
+    if report.stable:
+        return report
+    raise StabilityError(
+        f'dt: {report.dt:g} s is unstable for {report.scheme}: ω_max·Δt = '
+        f'{report.omega_dt:.4g} > {_format_limit(report.limit)} (ω_max = '
+        f'{report.omega_max:.6g} rad/s); use dt ≤ {report.max_stable_dt:.6g} s'
+    )

@@ -1,0 +1,366 @@
+"""Discrete-parameter (lumped-mass) model of the structure under test.
+
+The equation of motion solved by the pseudo-dynamic loop is thesis eq. 3.1,
+
+    M a_{i+1} + C v_{i+1} + r_{i+1} = p_{i+1},     p = -M ι a_g,
+
+where the restoring force ``r`` is measured on the specimen. This module holds the numerical
+side of that model: the mass ``M``, the viscous damping ``C``, the initial (elastic) stiffness
+``K`` used for damping and stability estimates, and the influence vector ``ι`` that maps the
+ground acceleration onto the degrees of freedom. All quantities are SI (kg, N·s/m, N/m, m/s²).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from .errors import ConfigError
+
+__all__ = [
+    'Structure',
+    'as_matrix',
+    'as_vector',
+    'damping_from_ratio',
+    'effective_load',
+    'modal_analysis',
+    'omega_max',
+]
+
+#: Relative tolerance used for the symmetry checks of the mass and stiffness matrices.
+SYMMETRY_RTOL = 1e-10
+
+
+def _as_float_array(value: Any, name: str) -> np.ndarray:
+    """Convert ``value`` to a float array, raising ConfigError naming ``name`` on failure."""
+    if value is None:
+        raise ConfigError(f'{name}: a value is required')
+    if isinstance(value, (str, bytes)):
+        raise ConfigError(f'{name}: expected a number or an array of numbers, got {value!r}')
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f'{name}: expected a number or an array of numbers ({exc})') from None
+    if array.dtype == object:
+        raise ConfigError(f'{name}: expected a number or an array of numbers')
+    bad = ~np.isfinite(array)
+    if np.any(bad):
+        index = tuple(int(i) for i in np.argwhere(bad)[0]) if array.ndim else ()
+        where = f' at index {index[0] if len(index) == 1 else index}' if index else ''
+        raise ConfigError(
+            f'{name}: all values must be finite, got {float(array[bad].flat[0])}{where}'
+        )
+    return array
+
+
+def as_matrix(value: Any, n: int, name: str) -> np.ndarray:
+    """Build an ``n``×``n`` matrix from a scalar, a diagonal or a full matrix.
+
+    Args:
+        value: A scalar (gives ``value·I``), a 1-D sequence of length ``n`` (gives
+            ``diag(value)``) or an ``n``×``n`` nested sequence / array (used as is).
+        n: Number of degrees of freedom.
+        name: Parameter name used in error messages.
+
+    Returns:
+        A new float array of shape ``(n, n)``.
+
+    Raises:
+        ConfigError: If the value is not numeric, not finite or has an incompatible shape.
+    """
+    array = _as_float_array(value, name)
+    if array.ndim == 0:
+        return float(array) * np.eye(n)
+    if array.ndim == 1 and array.shape == (n,):
+        return np.diag(array)
+    if array.ndim == 2 and array.shape == (n, n):
+        return array
+    raise ConfigError(
+        f'{name}: expected a scalar, a list of {n} diagonal values or a {n}x{n} matrix, '
+        f'got shape {array.shape}'
+    )
+
+
+def as_vector(value: Any, n: int, name: str) -> np.ndarray:
+    """Build a length-``n`` vector from a scalar (broadcast) or a sequence of length ``n``.
+
+    Args:
+        value: A scalar or a 1-D sequence of length ``n``.
+        n: Number of degrees of freedom.
+        name: Parameter name used in error messages.
+
+    Returns:
+        A new float array of shape ``(n,)``.
+
+    Raises:
+        ConfigError: If the value is not numeric, not finite or has an incompatible shape.
+    """
+    array = _as_float_array(value, name)
+    if array.ndim == 0:
+        return np.full(n, float(array))
+    if array.shape == (n,):
+        return array
+    raise ConfigError(
+        f'{name}: expected a scalar or a list of {n} values, got shape {array.shape}'
+    )
+
+
+def _square(value: Any, name: str) -> np.ndarray:
+    """Coerce a scalar or a square matrix to a 2-D float array."""
+    array = _as_float_array(value, name)
+    if array.ndim == 0:
+        return array.reshape(1, 1)
+    if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
+        raise ConfigError(f'{name}: expected a square matrix, got shape {array.shape}')
+    return array
+
+
+def _is_symmetric(matrix: np.ndarray) -> bool:
+    scale = float(np.max(np.abs(matrix))) if matrix.size else 0.0
+    return bool(np.all(np.abs(matrix - matrix.T) <= SYMMETRY_RTOL * scale))
+
+
+def _check_positive_definite(matrix: np.ndarray, name: str) -> None:
+    try:
+        np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        raise ConfigError(f'{name}: matrix must be positive definite') from None
+
+
+def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Undamped modes of ``K φ = ω² M φ``.
+
+    Args:
+        mass: Mass matrix ``M`` (symmetric positive definite), or a scalar for an SDOF.
+        stiffness: Stiffness matrix ``K`` (symmetric positive semi-definite), or a scalar.
+
+    Returns:
+        ``(omegas, shapes)``: circular frequencies in rad/s in ascending order and the mode
+        shapes as the columns of an ``n``×``n`` array, mass-normalised (``Φᵀ M Φ = I``) and
+        signed so that the largest-magnitude component of each shape is positive.
+
+    Raises:
+        ConfigError: If the matrices are malformed, ``M`` is not positive definite or ``K``
+            has a clearly negative eigenvalue.
+    """
+    m = _square(mass, 'mass')
+    k = _square(stiffness, 'stiffness')
+    if m.shape != k.shape:
+        raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
+    _check_positive_definite(m, 'mass')
+    eigenvalues, shapes = scipy.linalg.eigh(k, m)
+    scale = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 0.0
+    if eigenvalues[0] < -1e-10 * scale:
+        raise ConfigError(
+            f'stiffness: matrix has a negative eigenvalue ({eigenvalues[0]:.6g}); '
+            'it must be positive semi-definite'
+        )
+    omegas = np.sqrt(np.clip(eigenvalues, 0.0, None))
+    for j in range(shapes.shape[1]):
+        column = shapes[:, j]
+        if column[int(np.argmax(np.abs(column)))] < 0.0:
+            shapes[:, j] = -column
+    return omegas, shapes
+
+
+def omega_max(mass: Any, stiffness: Any) -> float:
+    """Highest undamped circular frequency ``ω_max`` in rad/s (sets the stability limit).
+
+    Args:
+        mass: Mass matrix (or scalar for an SDOF).
+        stiffness: Stiffness matrix (or scalar for an SDOF).
+
+    Returns:
+        ``ω_max`` (``√(k/m)`` for an SDOF).
+    """
+    m = _square(mass, 'mass')
+    k = _square(stiffness, 'stiffness')
+    if m.shape == (1, 1) and k.shape == (1, 1):
+        if m[0, 0] <= 0.0:
+            raise ConfigError('mass: must be positive')
+        if k[0, 0] < 0.0:
+            raise ConfigError('stiffness: must not be negative')
+        return math.sqrt(float(k[0, 0]) / float(m[0, 0]))
+    omegas, _ = modal_analysis(m, k)
+    return float(omegas[-1])
+
+
+def damping_from_ratio(
+    mass: Any, stiffness: Any, ratio: float | Sequence[float], modes: Sequence[int] = (1, 2)
+) -> np.ndarray:
+    """Viscous damping matrix giving a target damping ratio.
+
+    For an SDOF this is the thesis's ``c = 2 m ω ζ`` with ``ω = √(k_ini/m)`` (Appendix A,
+    lines 21–22), i.e. ``c = 2 ζ √(k m)``. For an MDOF it is Rayleigh damping
+    ``C = a0 M + a1 K`` with ``a0, a1`` chosen so that the modal damping ratio
+    ``ζ_j = a0/(2 ω_j) + a1 ω_j/2`` equals the target at the two given modes.
+
+    Args:
+        mass: Mass matrix (or scalar).
+        stiffness: Initial stiffness matrix (or scalar).
+        ratio: Damping ratio ``ζ`` (≥ 0), or a pair ``(ζ_i, ζ_j)`` for the two modes.
+        modes: The two 1-based mode numbers at which the ratio is matched (MDOF only).
+
+    Returns:
+        The damping matrix ``C`` (``1``×``1`` for an SDOF).
+
+    Raises:
+        ConfigError: On a negative or non-finite ratio, invalid mode numbers or modes with
+            equal or zero frequencies.
+    """
+    m = _square(mass, 'mass')
+    k = _square(stiffness, 'stiffness')
+    if m.shape != k.shape:
+        raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
+    ratios = _as_float_array(ratio, 'damping_ratio').reshape(-1)
+    if ratios.size not in (1, 2) or np.any(ratios < 0.0):
+        raise ConfigError(
+            f'damping_ratio: expected one non-negative ratio or a pair, got {ratio!r}'
+        )
+    n = m.shape[0]
+    if n == 1:
+        if ratios.size != 1:
+            raise ConfigError('damping_ratio: an SDOF takes a single ratio')
+        mm = float(m[0, 0])
+        kk = float(k[0, 0])
+        if mm <= 0.0:
+            raise ConfigError('mass: must be positive')
+        if kk < 0.0:
+            raise ConfigError('stiffness: must not be negative')
+        w = math.sqrt(kk / mm)
+        return np.array([[2 * mm * w * float(ratios[0])]])
+    zeta_i, zeta_j = (float(ratios[0]), float(ratios[-1]))
+    if len(modes) != 2:
+        raise ConfigError(f'damping_modes: expected two mode numbers, got {modes!r}')
+    mode_i, mode_j = (int(modes[0]), int(modes[1]))
+    if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
+        raise ConfigError(
+            f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
+        )
+    omegas, _ = modal_analysis(m, k)
+    w_i = float(omegas[mode_i - 1])
+    w_j = float(omegas[mode_j - 1])
+    if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
+        raise ConfigError(
+            f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
+            f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
+        )
+    # ζ = a0/(2ω) + a1 ω/2 at both modes.
+    system = np.array([[1.0 / (2.0 * w_i), w_i / 2.0], [1.0 / (2.0 * w_j), w_j / 2.0]])
+    a0, a1 = np.linalg.solve(system, np.array([zeta_i, zeta_j]))
+    return a0 * m + a1 * k
+
+
+def effective_load(mass: Any, influence: Any, ground_acceleration: Any) -> np.ndarray:
+    """Effective earthquake load ``p = -M ι a_g`` (thesis §3.2, ``p_{i+1} = -m a_g``).
+
+    Args:
+        mass: Mass matrix (or scalar).
+        influence: Influence vector ``ι`` (or scalar, broadcast to every DOF).
+        ground_acceleration: Ground acceleration in m/s², a scalar or a 1-D history.
+
+    Returns:
+        Shape ``(n,)`` for a scalar acceleration, ``(n_steps, n)`` for a history.
+    """
+    m = _square(mass, 'mass')
+    n = m.shape[0]
+    iota = as_vector(influence, n, 'influence')
+    a_g = _as_float_array(ground_acceleration, 'ground_acceleration')
+    if a_g.ndim > 1:
+        raise ConfigError(f'ground_acceleration: expected a 1-D history, got shape {a_g.shape}')
+    m_iota = m @ iota
+    if a_g.ndim == 0:
+        return -(m_iota * float(a_g))
+    return -(a_g[:, None] * m_iota[None, :])
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Lumped-mass numerical model of the structure (thesis §3.2).
+
+    The arrays are copied on construction and stored read-only, so an instance is immutable
+    and hashable.
+
+    Attributes:
+        dof_names: Unique, non-empty names of the ``n`` degrees of freedom.
+        mass: Mass matrix ``M`` in kg, ``n``×``n``, symmetric positive definite.
+        damping: Viscous damping matrix ``C`` in N·s/m, ``n``×``n``.
+        initial_stiffness: Initial (elastic) stiffness ``K`` in N/m, ``n``×``n``, symmetric.
+        influence: Influence vector ``ι`` (length ``n``) mapping ``a_g`` onto the DOFs.
+    """
+
+    dof_names: tuple[str, ...]
+    mass: np.ndarray
+    damping: np.ndarray
+    initial_stiffness: np.ndarray
+    influence: np.ndarray
+
+    def __post_init__(self) -> None:
+        names = self.dof_names
+        if isinstance(names, str) or not isinstance(names, Sequence):
+            raise ConfigError(f'dof_names: expected a sequence of names, got {names!r}')
+        names = tuple(names)
+        if not names:
+            raise ConfigError('dof_names: at least one degree of freedom is required')
+        for name in names:
+            if not isinstance(name, str) or not name:
+                raise ConfigError(
+                    f'dof_names: every name must be a non-empty string, got {name!r}'
+                )
+        if len(set(names)) != len(names):
+            raise ConfigError(f'dof_names: names must be unique, got {list(names)}')
+        n = len(names)
+        fields: dict[str, np.ndarray] = {}
+        for field in ('mass', 'damping', 'initial_stiffness'):
+            array = _as_float_array(getattr(self, field), field)
+            if array.shape != (n, n):
+                raise ConfigError(
+                    f'{field}: expected shape ({n}, {n}) for {n} DOF, got {array.shape}'
+                )
+            fields[field] = array
+        influence = _as_float_array(self.influence, 'influence')
+        if influence.shape != (n,):
+            raise ConfigError(
+                f'influence: expected shape ({n},) for {n} DOF, got {influence.shape}'
+            )
+        for field in ('mass', 'initial_stiffness'):
+            if not _is_symmetric(fields[field]):
+                raise ConfigError(f'{field}: matrix must be symmetric')
+        _check_positive_definite(fields['mass'], 'mass')
+        object.__setattr__(self, 'dof_names', names)
+        for field, array in fields.items():
+            object.__setattr__(self, field, _readonly(array))
+        object.__setattr__(self, 'influence', _readonly(influence))
+
+    @property
+    def n_dof(self) -> int:
+        """Number of degrees of freedom ``n``."""
+        return len(self.dof_names)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Structure):
+            return NotImplemented
+        return self.dof_names == other.dof_names and all(
+            np.array_equal(getattr(self, f), getattr(other, f))
+            for f in ('mass', 'damping', 'initial_stiffness', 'influence')
+        )
+
+    def __hash__(self) -> int:
+        return hash(
+            (self.dof_names,)
+            + tuple(
+                getattr(self, f).tobytes()
+                for f in ('mass', 'damping', 'initial_stiffness', 'influence')
+            )
+        )
