@@ -1,0 +1,543 @@
+"""The test definition: one schema for the YAML test file, node parameters and the bag.
+
+A test file has the sections ``test``, ``structure``, ``ground_motion``, ``protocol``, ``probe``
+and ``specimen`` (the last one is read by the specimen simulator and by the ROS-free runner, and
+ignored by the integrator, so a physical specimen needs no change here). See
+``config/default_test.yaml`` for a documented example.
+
+Every error is a :class:`ConfigError` whose one-line message names the file and the parameter,
+e.g. ``default_test.yaml: test.dt: must be a positive finite number, got -0.01``.
+
+A definition can be *resolved* (:meth:`TestDefinition.to_resolved_dict`): the ground motion is
+inlined at its record step (exact floats), the matrices are written out and the measured initial
+stiffness is filled in. The resolved form is stored in the run's bag, so that the bag alone is
+enough to reproduce and analyse the run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import yaml
+
+from .errors import ConfigError, GroundMotionError
+from .ground_motion import GroundMotion, read_ground_motion
+from .structure import Structure, as_matrix, damping_from_ratio
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen')
+SCHEMA_VERSION = 1
+
+#: Node parameter name -> path in the test definition (the integrator node's overrides).
+PARAMETER_PATHS: dict[str, tuple[str, str]] = {
+    'test_id': ('test', 'id'),
+    'scheme': ('test', 'scheme'),
+    'dt': ('test', 'dt'),
+    'duration': ('test', 'duration'),
+    'mass': ('structure', 'mass'),
+    'damping_ratio': ('structure', 'damping'),
+    'damping_coefficient': ('structure', 'damping'),
+    'initial_stiffness': ('structure', 'initial_stiffness'),
+    'ground_motion_file': ('ground_motion', 'file'),
+    'ground_motion_format': ('ground_motion', 'format'),
+    'ground_motion_units': ('ground_motion', 'units'),
+    'ground_motion_dt': ('ground_motion', 'dt'),
+    'scale_factor': ('ground_motion', 'scale'),
+    'direction': ('ground_motion', 'direction'),
+    'feedback_timeout': ('protocol', 'feedback_timeout'),
+    'max_retries': ('protocol', 'max_retries'),
+}
+
+_TEST_ID = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
+
+
+class _Reader:
+    """Typed access to one section of a raw mapping, with errors that name the parameter."""
+
+    def __init__(self, raw: Mapping[str, Any], path: str, source: str) -> None:
+        if not isinstance(raw, dict):
+            msg = f'{source}: {path}: must be a mapping, got {type(raw).__name__}'
+            raise ConfigError(msg)
+        self.raw = raw
+        self.path = path
+        self.source = source
+        self.used: set[str] = set()
+
+    def error(self, key: str, what: str) -> ConfigError:
+        """Build the one-line error for ``key``."""
+        return ConfigError(f'{self.source}: {self.path}.{key}: {what}')
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """Raw value of ``key`` (or ``default``)."""
+        self.used.add(key)
+        return self.raw.get(key, default)
+
+    def number(self, key: str, default: float | None = None, *, positive: bool = False,
+               required: bool = False) -> float | None:
+        """A finite float (``positive``: > 0)."""
+        value = self.get(key, default)
+        if value is None:
+            if required:
+                raise self.error(key, 'is required')
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(key, f'must be a number, got {value!r}')
+        value = float(value)
+        if not math.isfinite(value) or (positive and value <= 0.0):
+            kind = 'a positive finite number' if positive else 'a finite number'
+            raise self.error(key, f'must be {kind}, got {value!r}')
+        return value
+
+    def integer(self, key: str, default: int, *, minimum: int = 0) -> int:
+        """An integer ≥ ``minimum``."""
+        value = self.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.error(key, f'must be an integer >= {minimum}, got {value!r}')
+        return value
+
+    def string(self, key: str, default: str | None = None, *,
+               choices: tuple[str, ...] | None = None) -> str | None:
+        """A string (optionally one of ``choices``)."""
+        value = self.get(key, default)
+        if value is None:
+            return None
+        if not isinstance(value, str):
+            raise self.error(key, f'must be a string, got {value!r}')
+        if choices is not None and value not in choices:
+            raise self.error(key, f'must be one of {", ".join(choices)}, got {value!r}')
+        return value
+
+    def finish(self) -> None:
+        """Reject keys that were never read (typos must not pass silently)."""
+        unknown = sorted(set(self.raw) - self.used)
+        if unknown:
+            raise self.error(unknown[0], 'unknown parameter')
+
+
+@dataclass(frozen=True)
+class ProtocolSettings:
+    """Step protocol settings.
+
+    Attributes:
+        feedback_timeout: seconds without feedback before the command is re-sent.
+        max_retries: re-sends before the integrator holds.
+        start_timeout: seconds to wait for the specimen side to appear before giving up.
+    """
+
+    feedback_timeout: float = 2.0
+    max_retries: int = 3
+    start_timeout: float = 30.0
+
+
+@dataclass(frozen=True)
+class ProbeSettings:
+    """Initial-stiffness probe: each DOF is pushed by ``amplitude`` and brought back."""
+
+    amplitude: float = 1.0e-3
+
+
+@dataclass(frozen=True)
+class TestDefinition:
+    """A complete, validated pseudo-dynamic test.
+
+    Attributes:
+        test_id: identifier carried by every command and feedback of the test.
+        scheme: integration scheme name (see ``schemes.SCHEMES``).
+        dt: integration time step [s].
+        n_steps: number of integration steps (the record, plus free vibration if asked).
+        dof_names: specimen DOF names, one per actuator.
+        mass: mass matrix [kg].
+        damping: viscous damping matrix [N·s/m] (``None`` until the stiffness is known when a
+            ratio is given and the stiffness is probed).
+        damping_ratio: the ratio the damping was derived from, if any.
+        initial_stiffness: initial stiffness matrix [N/m], or ``None`` to probe it.
+        influence: influence vector ι.
+        ground_motion: the record at its own step, in m/s², scale and direction applied.
+        ground_acceleration: the record resampled to ``dt`` and padded to ``n_steps + 1``.
+        specimen: the raw ``specimen`` section (for the simulator and the ROS-free runner).
+        protocol: step protocol settings.
+        probe: probe settings.
+        source: where the definition came from (file name), for messages.
+        base_dir: directory that relative paths are resolved against.
+        record_info: description of the record (file, format, units, scale, direction).
+    """
+
+    test_id: str
+    scheme: str
+    dt: float
+    n_steps: int
+    dof_names: tuple[str, ...]
+    mass: np.ndarray
+    damping: np.ndarray | None
+    damping_ratio: float | None
+    initial_stiffness: np.ndarray | None
+    influence: np.ndarray
+    ground_motion: GroundMotion
+    ground_acceleration: np.ndarray
+    specimen: dict[str, Any] | None
+    protocol: ProtocolSettings = field(default_factory=ProtocolSettings)
+    probe: ProbeSettings = field(default_factory=ProbeSettings)
+    source: str = '<memory>'
+    base_dir: Path = field(default_factory=Path.cwd)
+    record_info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOFs."""
+        return len(self.dof_names)
+
+    @property
+    def needs_probe(self) -> bool:
+        """Whether the initial stiffness must be measured before the test."""
+        return self.initial_stiffness is None
+
+    @property
+    def duration(self) -> float:
+        """Simulated duration of the test [s]."""
+        return self.n_steps * self.dt
+
+    def time(self, step: int) -> float:
+        """Simulated time of ``step`` [s]."""
+        return step * self.dt
+
+    def load(self, step: int) -> np.ndarray:
+        """External load p = −M ι a_g at ``step`` [N]."""
+        return -(self.mass @ self.influence) * self.ground_acceleration[step]
+
+    def structure(self, initial_stiffness: np.ndarray | None = None) -> Structure:
+        """The structure, with ``initial_stiffness`` (measured) if the definition has none.
+
+        Raises:
+            ConfigError: no stiffness is known yet.
+        """
+        stiffness = self.initial_stiffness if initial_stiffness is None else initial_stiffness
+        if stiffness is None:
+            msg = f'{self.source}: structure.initial_stiffness: not known yet (probe first)'
+            raise ConfigError(msg)
+        damping = self.damping
+        if damping is None:
+            ratio = self.damping_ratio if self.damping_ratio is not None else 0.0
+            damping = damping_from_ratio(self.mass, stiffness, ratio)
+        return Structure(dof_names=self.dof_names, mass=self.mass, damping=damping,
+                         initial_stiffness=stiffness, influence=self.influence)
+
+    def with_initial_stiffness(self, stiffness: np.ndarray) -> TestDefinition:
+        """A copy with a measured initial stiffness (and the damping that follows from it)."""
+        structure = self.structure(stiffness)
+        return TestDefinition(**{**self.__dict__, 'initial_stiffness': structure.initial_stiffness,
+                                 'damping': structure.damping})
+
+    def to_resolved_dict(self) -> dict[str, Any]:
+        """A self-contained plain-data form (exact floats) that :func:`from_dict` reads back."""
+        structure: dict[str, Any] = {
+            'dof_names': list(self.dof_names),
+            'mass': self.mass.tolist(),
+            'influence': self.influence.tolist(),
+            'initial_stiffness': (None if self.initial_stiffness is None
+                                  else self.initial_stiffness.tolist()),
+        }
+        if self.damping is not None:
+            structure['damping'] = {'coefficient': self.damping.tolist()}
+        else:
+            structure['damping'] = {'ratio': self.damping_ratio}
+        if self.initial_stiffness is None:
+            structure['initial_stiffness'] = 'probe'
+        return {
+            'schema_version': SCHEMA_VERSION,
+            'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
+                     'duration': self.duration},
+            'structure': structure,
+            'ground_motion': {
+                'inline': {'dt': self.ground_motion.dt,
+                           'acceleration': self.ground_motion.acceleration.tolist()},
+                'units': 'm/s2',
+                'record': dict(self.record_info),
+            },
+            'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
+                         'max_retries': self.protocol.max_retries,
+                         'start_timeout': self.protocol.start_timeout},
+            'probe': {'amplitude': self.probe.amplitude},
+            'specimen': self.specimen,
+        }
+
+    def to_json(self) -> str:
+        """The resolved definition as JSON (floats round-trip exactly)."""
+        return json.dumps(self.to_resolved_dict(), allow_nan=False)
+
+
+def load_test_file(path: str | Path, overrides: Mapping[str, Any] | None = None
+                   ) -> TestDefinition:
+    """Read and validate a YAML test file.
+
+    Args:
+        path: the YAML test file.
+        overrides: node parameters (names of :data:`PARAMETER_PATHS`) that replace file values.
+
+    Raises:
+        ConfigError: the file is missing, not YAML, or a parameter is invalid.
+    """
+    path = Path(path)
+    source = path.name
+    try:
+        text = path.read_text(encoding='utf-8')
+    except OSError as err:
+        msg = f'{path}: cannot read the test file ({err.strerror})'
+        raise ConfigError(msg) from err
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, 'problem_mark', None)
+        where = f'line {mark.line + 1}: ' if mark is not None else ''
+        problem = getattr(err, 'problem', None) or 'invalid YAML'
+        msg = f'{source}: {where}{problem}'
+        raise ConfigError(msg) from err
+    if raw is None:
+        raw = {}
+    return from_dict(raw, source=source, base_dir=path.resolve().parent, overrides=overrides)
+
+
+def from_json(text: str, *, source: str = 'bag') -> TestDefinition:
+    """Read a resolved definition stored as JSON (e.g. in a bag)."""
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as err:
+        msg = f'{source}: test definition is not valid JSON ({err.msg} at char {err.pos})'
+        raise ConfigError(msg) from err
+    return from_dict(raw, source=source, base_dir=Path.cwd())
+
+
+def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], source: str
+                    ) -> dict[str, Any]:
+    """Return a copy of ``raw`` with node parameter overrides applied."""
+    result = {key: dict(value) if isinstance(value, dict) else value
+              for key, value in raw.items()}
+    for name, value in overrides.items():
+        if value is None:
+            continue
+        if name not in PARAMETER_PATHS:
+            msg = f'{source}: parameter {name!r} is not a test parameter'
+            raise ConfigError(msg)
+        section, key = PARAMETER_PATHS[name]
+        target = result.setdefault(section, {})
+        if not isinstance(target, dict):
+            msg = f'{source}: {section}: must be a mapping'
+            raise ConfigError(msg)
+        if name == 'damping_ratio':
+            value = {'ratio': value}
+        elif name == 'damping_coefficient':
+            value = {'coefficient': value}
+        target[key] = value
+    return result
+
+
+def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
+              base_dir: Path | None = None, overrides: Mapping[str, Any] | None = None
+              ) -> TestDefinition:
+    """Validate a raw test definition (parsed YAML or JSON).
+
+    Raises:
+        ConfigError: with a one-line message naming ``source`` and the parameter.
+    """
+    base_dir = Path.cwd() if base_dir is None else base_dir
+    if not isinstance(raw, dict):
+        msg = f'{source}: a test file must be a mapping of sections, got {type(raw).__name__}'
+        raise ConfigError(msg)
+    raw = dict(raw)
+    raw.pop('schema_version', None)
+    if overrides:
+        raw = apply_overrides(raw, overrides, source)
+    unknown = sorted(set(raw) - set(SECTIONS))
+    if unknown:
+        msg = f'{source}: {unknown[0]}: unknown section (expected {", ".join(SECTIONS)})'
+        raise ConfigError(msg)
+
+    test = _Reader(raw.get('test', {}), 'test', source)
+    test_id = test.string('id', 'pd-test')
+    assert test_id is not None
+    if not _TEST_ID.match(test_id):
+        raise test.error('id', f'must be 1-64 letters, digits, "_", "-" or ".", got {test_id!r}')
+    from .schemes import SCHEMES  # noqa: PLC0415 - avoids an import cycle at module load
+
+    scheme = test.string('scheme', 'newmark_explicit', choices=tuple(sorted(SCHEMES)))
+    assert scheme is not None
+    dt = test.number('dt', positive=True, required=True)
+    assert dt is not None
+    duration = test.number('duration', positive=True)
+    test.finish()
+
+    structure = _Reader(raw.get('structure', {}), 'structure', source)
+    dof_names = _dof_names(structure)
+    n = len(dof_names)
+    mass = _matrix(structure, 'mass', n, required=True)
+    assert mass is not None
+    stiffness_raw = structure.get('initial_stiffness')
+    stiffness: np.ndarray | None
+    if stiffness_raw == 'probe':
+        stiffness = None
+    elif stiffness_raw is None:
+        raise structure.error('initial_stiffness', "is required (a value or 'probe')")
+    else:
+        stiffness = _matrix(structure, 'initial_stiffness', n, required=True)
+    damping, damping_ratio = _damping(structure, n)
+    influence_raw = structure.get('influence', [1.0] * n)
+    influence = _vector(structure, 'influence', influence_raw, n)
+    structure.finish()
+
+    ground_motion, record_info = _ground_motion(raw.get('ground_motion'), source, base_dir)
+    record_steps = math.floor(ground_motion.duration / dt + 1e-9)
+    n_steps = record_steps if duration is None else math.floor(duration / dt + 1e-9)
+    if n_steps < 1:
+        raise test.error('dt', f'is longer than the test ({ground_motion.duration} s)')
+    resampled = ground_motion.resampled(dt).acceleration
+    ground_acceleration = np.zeros(n_steps + 1)
+    count = min(n_steps + 1, resampled.size)
+    ground_acceleration[:count] = resampled[:count]
+    ground_acceleration.setflags(write=False)
+
+    proto = _Reader(raw.get('protocol', {}), 'protocol', source)
+    protocol = ProtocolSettings(
+        feedback_timeout=proto.number('feedback_timeout', 2.0, positive=True) or 2.0,
+        max_retries=proto.integer('max_retries', 3),
+        start_timeout=proto.number('start_timeout', 30.0, positive=True) or 30.0,
+    )
+    proto.finish()
+    probe_reader = _Reader(raw.get('probe', {}), 'probe', source)
+    probe = ProbeSettings(amplitude=probe_reader.number('amplitude', 1.0e-3, positive=True)
+                          or 1.0e-3)
+    probe_reader.finish()
+
+    specimen = raw.get('specimen')
+    if specimen is not None and not isinstance(specimen, dict):
+        msg = f'{source}: specimen: must be a mapping'
+        raise ConfigError(msg)
+
+    definition = TestDefinition(
+        test_id=test_id, scheme=scheme, dt=dt, n_steps=n_steps, dof_names=dof_names, mass=mass,
+        damping=damping, damping_ratio=damping_ratio, initial_stiffness=stiffness,
+        influence=influence, ground_motion=ground_motion,
+        ground_acceleration=ground_acceleration, specimen=specimen, protocol=protocol,
+        probe=probe, source=source, base_dir=base_dir, record_info=record_info)
+    if stiffness is not None:
+        # Validates matrices together (symmetry, definiteness) and derives the damping.
+        definition = definition.with_initial_stiffness(stiffness)
+    return definition
+
+
+def _dof_names(reader: _Reader) -> tuple[str, ...]:
+    names = reader.get('dof_names')
+    if names is None:
+        mass = reader.raw.get('mass')
+        n = len(mass) if isinstance(mass, list) else 1
+        return tuple(f'u{i + 1}' for i in range(n))
+    if (not isinstance(names, list) or not names
+            or not all(isinstance(name, str) and name for name in names)):
+        raise reader.error('dof_names', f'must be a non-empty list of names, got {names!r}')
+    if len(set(names)) != len(names):
+        raise reader.error('dof_names', f'names must be unique, got {names!r}')
+    return tuple(names)
+
+
+def _matrix(reader: _Reader, key: str, n: int, *, required: bool = False,
+            value: Any = None) -> np.ndarray | None:
+    raw_value = reader.get(key) if value is None else value
+    if raw_value is None:
+        if required:
+            raise reader.error(key, 'is required')
+        return None
+    try:
+        matrix = as_matrix(raw_value, n, key)
+    except (ConfigError, ValueError, TypeError) as err:
+        raise reader.error(key, str(err).split(': ')[-1]) from err
+    if not np.all(np.isfinite(matrix)):
+        raise reader.error(key, 'must contain finite numbers only')
+    return matrix
+
+
+def _vector(reader: _Reader, key: str, value: Any, n: int) -> np.ndarray:
+    try:
+        vector = np.array(value, dtype=float).reshape(-1)
+    except (ValueError, TypeError) as err:
+        raise reader.error(key, f'must be a list of {n} numbers, got {value!r}') from err
+    if vector.size != n or not np.all(np.isfinite(vector)):
+        raise reader.error(key, f'must be a list of {n} finite numbers, got {value!r}')
+    vector.setflags(write=False)
+    return vector
+
+
+def _damping(reader: _Reader, n: int) -> tuple[np.ndarray | None, float | None]:
+    raw = reader.get('damping', {'ratio': 0.0})
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        raw = {'ratio': raw}
+    damping = _Reader(raw, f'{reader.path}.damping', reader.source)
+    ratio = damping.number('ratio')
+    coefficient = damping.get('coefficient')
+    damping.finish()
+    if (ratio is None) == (coefficient is None):
+        raise reader.error('damping', 'give exactly one of ratio or coefficient')
+    if ratio is not None:
+        if not 0.0 <= ratio < 1.0:
+            raise damping.error('ratio', f'must be in [0, 1), got {ratio!r}')
+        return None, ratio
+    matrix = _matrix(damping, 'coefficient', n, value=coefficient)
+    return matrix, None
+
+
+def _ground_motion(raw: Any, source: str, base_dir: Path) -> tuple[GroundMotion, dict[str, Any]]:
+    if raw is None:
+        msg = f'{source}: ground_motion: section is required'
+        raise ConfigError(msg)
+    reader = _Reader(raw, 'ground_motion', source)
+    scale = reader.number('scale', 1.0)
+    assert scale is not None
+    direction = reader.number('direction', 1.0)
+    if direction not in (1.0, -1.0):
+        raise reader.error('direction', f'must be 1 or -1, got {direction!r}')
+    assert direction is not None
+    units = reader.string('units', 'g')
+    g = reader.number('g', 9.81, positive=True)
+    inline = reader.get('inline')
+    record = reader.get('record')
+    file = reader.string('file')
+    fmt = reader.string('format', 'auto')
+    record_dt = reader.number('dt', positive=True)
+    reader.finish()
+    if (inline is None) == (file is None):
+        raise reader.error('file', 'give exactly one of file or inline')
+    try:
+        if inline is not None:
+            inline_reader = _Reader(inline, 'ground_motion.inline', source)
+            dt = inline_reader.number('dt', positive=True, required=True)
+            values = inline_reader.get('acceleration')
+            inline_reader.finish()
+            factor = 1.0 if units in ('m/s2', 'm/s^2') else (g or 9.81)
+            if units not in ('m/s2', 'm/s^2', 'g'):
+                raise reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
+            acceleration = np.asarray(values, dtype=float) * factor
+            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration, source='inline')
+            info = dict(record) if isinstance(record, dict) else {'file': 'inline'}
+        else:
+            assert file is not None
+            path = Path(file)
+            if not path.is_absolute():
+                path = base_dir / path
+            motion = read_ground_motion(path, format=fmt or 'auto', units=units or 'g',
+                                        dt=record_dt, g=g or 9.81)
+            info = {'file': path.name, 'format': fmt, 'units': units, 'g': g,
+                    'scale': scale, 'direction': direction, 'record_dt': motion.dt,
+                    'record_samples': motion.n_samples}
+            motion = motion.scaled(scale * direction)
+    except GroundMotionError as err:
+        msg = f'{source}: ground_motion: {err}'
+        raise ConfigError(msg) from err
+    except (TypeError, ValueError) as err:
+        msg = f'{source}: ground_motion: {err}'
+        raise ConfigError(msg) from err
+    return motion, info

@@ -1,0 +1,66 @@
+"""Plain-data mirrors of the ``pd_msgs`` interfaces, used by the cores (no ROS types).
+
+The node shells convert between these and the ``pd_msgs`` messages; the bag module serializes
+them with the same message definitions, so a run without ROS writes the same bag.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+
+class FeedbackStatus(IntEnum):
+    """``StepFeedback.status`` codes."""
+
+    OK = 0
+    LIMIT = 1
+    FAULT = 2
+
+
+class TestState(IntEnum):
+    """``TestStatus.state`` codes."""
+
+    IDLE = 0
+    RUNNING = 1
+    PAUSED = 2
+    HOLDING = 3
+    FINISHED = 4
+    ABORTED = 5
+
+
+@dataclass(frozen=True)
+class Command:
+    """A step command: drive the DOFs to ``target_displacement`` [m]."""
+
+    test_id: str
+    step: int
+    test_time: float
+    dof_names: tuple[str, ...]
+    target_displacement: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """The specimen's answer to the command of the same ``test_id`` and ``step``."""
+
+    test_id: str
+    step: int
+    measured_displacement: tuple[float, ...]
+    restoring_force: tuple[float, ...]
+    status: FeedbackStatus = FeedbackStatus.OK
+    message: str = ''
+
+
+@dataclass(frozen=True)
+class Status:
+    """The state of a test (``TestStatus``)."""
+
+    test_id: str
+    state: TestState
+    step: int
+    total_steps: int
+    omega_dt: float
+    retries: int = 0
+    ignored_messages: int = 0
+    message: str = ''

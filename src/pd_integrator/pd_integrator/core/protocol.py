@@ -1,0 +1,126 @@
+"""The step protocol: which feedback advances the test, when to re-send, when to hold.
+
+The integrator sends the command for step k and advances only on the feedback for step k of the
+same test id. Everything else is ignored and counted by reason:
+
+* ``foreign``: another test id;
+* ``stale``: an older step (e.g. a late answer to a re-sent command);
+* ``duplicate``: a second answer to a step already accepted;
+* ``unexpected``: a step that was never commanded (a future step, or no command pending).
+
+Feedback for the pending step whose status is not OK (a limit or a fault) is ``refused``: the
+step stays pending and the test holds.
+
+A timeout re-sends the same command; after ``max_retries`` re-sends the protocol holds: it
+never invents a force. Transport-free; the node shell owns the timers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import TYPE_CHECKING
+
+from .errors import ProtocolError
+
+if TYPE_CHECKING:
+    from .messages import Command, Feedback
+
+
+class Verdict(Enum):
+    """How a feedback message was classified."""
+
+    ACCEPTED = 'accepted'
+    FOREIGN = 'foreign'
+    STALE = 'stale'
+    DUPLICATE = 'duplicate'
+    UNEXPECTED = 'unexpected'
+    REFUSED = 'refused'
+
+
+class TimeoutAction(Enum):
+    """What to do when the feedback timeout expires."""
+
+    RESEND = 'resend'
+    HOLD = 'hold'
+
+
+@dataclass
+class StepProtocol:
+    """Bookkeeping of the pending command.
+
+    Attributes:
+        max_retries: re-sends allowed before :meth:`on_timeout` answers ``HOLD``.
+        pending: the command waiting for its feedback, if any.
+        retries: total re-sends over the test.
+        ignored: ignored feedback, counted per :class:`Verdict`.
+    """
+
+    max_retries: int
+    pending: Command | None = None
+    retries: int = 0
+    attempts: int = 0
+    ignored: dict[Verdict, int] = field(default_factory=dict)
+    _answered: set[tuple[str, int]] = field(default_factory=set)
+
+    @property
+    def ignored_total(self) -> int:
+        """Number of feedback messages ignored so far."""
+        return sum(self.ignored.values())
+
+    def send(self, command: Command) -> None:
+        """Record that ``command`` was sent (a new step; use :meth:`on_timeout` to re-send).
+
+        Raises:
+            ProtocolError: a command is still pending.
+        """
+        if self.pending is not None:
+            msg = (f'cannot send step {command.step}: step {self.pending.step} of '
+                   f'{self.pending.test_id!r} is still pending')
+            raise ProtocolError(msg)
+        self.pending = command
+        self.attempts = 0
+
+    def classify(self, feedback: Feedback) -> Verdict:
+        """Classify ``feedback``: ``ACCEPTED`` clears the pending command, others are counted."""
+        verdict = self.verdict(feedback)
+        if verdict is Verdict.ACCEPTED:
+            self._answered.add((feedback.test_id, feedback.step))
+            self.pending = None
+        else:
+            self.ignore(verdict)
+        return verdict
+
+    def ignore(self, verdict: Verdict) -> None:
+        """Count one ignored feedback message."""
+        self.ignored[verdict] = self.ignored.get(verdict, 0) + 1
+
+    def verdict(self, feedback: Feedback) -> Verdict:
+        """Classify ``feedback`` without changing any state."""
+        pending = self.pending
+        if (feedback.test_id, feedback.step) in self._answered:
+            return Verdict.DUPLICATE
+        if pending is None:
+            return Verdict.UNEXPECTED
+        if feedback.test_id != pending.test_id:
+            return Verdict.FOREIGN
+        if feedback.step < pending.step:
+            return Verdict.STALE
+        if feedback.step > pending.step:
+            return Verdict.UNEXPECTED
+        return Verdict.ACCEPTED
+
+    def on_timeout(self) -> TimeoutAction:
+        """The feedback timeout expired: re-send the pending command, or hold.
+
+        Raises:
+            ProtocolError: nothing is pending.
+        """
+        if self.pending is None:
+            msg = 'feedback timeout with no pending command'
+            raise ProtocolError(msg)
+        if self.attempts >= self.max_retries:
+            return TimeoutAction.HOLD
+        self.attempts += 1
+        self.retries += 1
+        return TimeoutAction.RESEND

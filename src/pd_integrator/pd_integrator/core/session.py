@@ -1,0 +1,287 @@
+"""One pseudo-dynamic test, step by step, independent of any transport.
+
+:class:`TestSession` is the single implementation of the test loop. The ROS node publishes the
+commands it hands out and feeds it the feedback it receives; the ROS-free runner calls a
+specimen directly. Because both run the same calls in the same order on the same floats, their
+histories are identical.
+
+Phases: an optional stiffness *probe* (test id ``<id>:probe``), then step 0 (command the
+initial displacement, measure the initial restoring force r₀), then integration steps 1..N.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import PdIntegratorError, ProtocolError
+from .history import ResponseHistory
+from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+from .protocol import StepProtocol, TimeoutAction, Verdict
+from .schemes import make_integrator
+from .stability import StabilityReport, check_stability, require_stable
+
+if TYPE_CHECKING:
+    from .config import TestDefinition
+    from .schemes import Integrator
+
+PROBE_SUFFIX = ':probe'
+
+
+class TestSession:
+    """Drives one test.
+
+    Use: ``command = session.next_command()`` → send it → ``session.on_feedback(feedback)`` →
+    repeat until ``session.state`` is FINISHED (or HOLDING/ABORTED). ``on_timeout()`` tells what
+    to do when feedback is late.
+
+    Attributes:
+        definition: the test (with the measured stiffness once the probe is done).
+        state: current :class:`TestState`.
+        message: human-readable reason of the current state.
+        history: committed response.
+        stability: the stability report (once the stiffness is known).
+        probe_stiffness: the stiffness matrix measured by the probe, if any.
+    """
+
+    def __init__(self, definition: TestDefinition) -> None:
+        self.definition = definition
+        self.state = TestState.IDLE
+        self.message = 'ready'
+        self.protocol = StepProtocol(max_retries=definition.protocol.max_retries)
+        self.history = ResponseHistory.allocate(definition.dof_names, definition.dt,
+                                                definition.ground_acceleration)
+        self.stability: StabilityReport | None = None
+        self.probe_stiffness: np.ndarray | None = None
+        self._integrator: Integrator | None = None
+        self._step = 0  # next integration step to command
+        self._probe_plan: list[tuple[float, ...]] = []
+        self._probe_forces: list[tuple[float, ...]] = []
+        self._last_command: Command | None = None
+        # p_k = -M ι a_g(t_k) for every step, computed once.
+        self._loads = -np.outer(definition.ground_acceleration,
+                                definition.mass @ definition.influence)
+        if definition.needs_probe:
+            self._plan_probe()
+        else:
+            self._setup_integrator()
+
+    # -- public API ---------------------------------------------------------------------------
+    @property
+    def total_steps(self) -> int:
+        """Number of integration steps of the test."""
+        return self.definition.n_steps
+
+    @property
+    def committed_step(self) -> int:
+        """Last committed integration step (−1 before step 0)."""
+        return self.history.n_committed - 1
+
+    @property
+    def omega_dt(self) -> float:
+        """ω_max·Δt of the test (NaN until the stiffness is known)."""
+        return self.stability.omega_dt if self.stability is not None else math.nan
+
+    @property
+    def probing(self) -> bool:
+        """Whether the stiffness probe is still running."""
+        return bool(self._probe_plan) and self.probe_stiffness is None
+
+    def next_command(self) -> Command | None:
+        """The next command to send, or ``None`` (finished, holding, or one pending)."""
+        if self.state in (TestState.FINISHED, TestState.ABORTED, TestState.HOLDING,
+                          TestState.PAUSED) or self.protocol.pending is not None:
+            return None
+        if self.probing:
+            index = len(self._probe_forces)
+            command = Command(test_id=self.definition.test_id + PROBE_SUFFIX, step=index,
+                              test_time=0.0, dof_names=self.definition.dof_names,
+                              target_displacement=self._probe_plan[index])
+        else:
+            command = self._integration_command()
+        self.state = TestState.RUNNING
+        self.message = ('probing the initial stiffness' if self.probing
+                        else f'step {command.step} of {self.total_steps}')
+        self.protocol.send(command)
+        self._last_command = command
+        return command
+
+    def on_feedback(self, feedback: Feedback) -> Verdict:
+        """Take one feedback message; returns how it was classified.
+
+        Feedback is ignored (and counted) while holding, paused or finished. Accepted feedback
+        with a non-OK status puts the test on hold; the step is not advanced.
+        """
+        accepting = self.state is TestState.RUNNING or (
+            self.state is TestState.PAUSED and self.protocol.pending is not None)
+        if not accepting:
+            self.protocol.ignore(Verdict.UNEXPECTED)
+            return Verdict.UNEXPECTED
+        verdict = self.protocol.verdict(feedback)
+        if verdict is not Verdict.ACCEPTED:
+            self.protocol.ignore(verdict)
+            return verdict
+        if feedback.status is not FeedbackStatus.OK:
+            # The step was refused (limit or fault): it stays pending; hold, never invent.
+            self._hold(f'step {feedback.step}: {feedback.status.name.lower()} reported by the '
+                       f'specimen side: {feedback.message or "no reason given"}')
+            return Verdict.REFUSED
+        if len(feedback.restoring_force) != self.definition.n_dof or not all(
+                math.isfinite(value) for value in feedback.restoring_force):
+            self._hold(f'step {feedback.step}: invalid restoring force '
+                       f'{list(feedback.restoring_force)!r}')
+            return Verdict.REFUSED
+        pending = self.protocol.pending
+        assert pending is not None
+        self.protocol.classify(feedback)
+        if pending.test_id.endswith(PROBE_SUFFIX):
+            self._on_probe_feedback(feedback)
+        else:
+            self._on_step_feedback(pending, feedback)
+        if self.state is TestState.PAUSED and self.protocol.pending is None:
+            self.message = f'paused after step {self.committed_step}'
+        return verdict
+
+    def on_timeout(self) -> Command | None:
+        """The feedback of the pending command is late: the command to re-send, or hold."""
+        if self.protocol.pending is None or self.state is not TestState.RUNNING:
+            return None
+        if self.protocol.on_timeout() is TimeoutAction.HOLD:
+            pending = self.protocol.pending
+            self._hold(f'no feedback for step {pending.step} of {pending.test_id!r} after '
+                       f'{self.protocol.max_retries} re-sends')
+            return None
+        return self.protocol.pending
+
+    def pause(self) -> None:
+        """Stop after the pending step (operator request)."""
+        if self.state is TestState.RUNNING:
+            self.state = TestState.PAUSED
+            self.message = 'pausing'
+
+    def resume(self) -> Command | None:
+        """Leave HOLDING/PAUSED; returns the pending command to re-send, if any."""
+        if self.state not in (TestState.HOLDING, TestState.PAUSED):
+            return None
+        self.state = TestState.RUNNING
+        self.message = 'resumed'
+        self.protocol.attempts = 0
+        return self.protocol.pending
+
+    def abort(self, reason: str) -> None:
+        """End the test now (operator request or fatal error); nothing more is commanded."""
+        if self.state is not TestState.FINISHED:
+            self.state = TestState.ABORTED
+            self.message = reason
+
+    def status(self) -> Status:
+        """The current status message."""
+        return Status(test_id=self.definition.test_id, state=self.state,
+                      step=max(self.committed_step, 0), total_steps=self.total_steps,
+                      omega_dt=self.omega_dt, retries=self.protocol.retries,
+                      ignored_messages=self.protocol.ignored_total, message=self.message)
+
+    # -- internals ----------------------------------------------------------------------------
+    def _hold(self, reason: str) -> None:
+        self.state = TestState.HOLDING
+        self.message = reason
+
+    def _plan_probe(self) -> None:
+        """Step 0 at rest, then push each DOF by +amplitude and bring it back."""
+        n = self.definition.n_dof
+        amplitude = self.definition.probe.amplitude
+        zero = (0.0,) * n
+        plan = [zero]
+        for j in range(n):
+            push = tuple(amplitude if i == j else 0.0 for i in range(n))
+            plan += [push, zero]
+        self._probe_plan = plan
+
+    def _on_probe_feedback(self, feedback: Feedback) -> None:
+        self._probe_forces.append(feedback.restoring_force)
+        if len(self._probe_forces) < len(self._probe_plan):
+            return
+        n = self.definition.n_dof
+        amplitude = self.definition.probe.amplitude
+        forces = np.array(self._probe_forces)
+        stiffness = np.empty((n, n))
+        for j in range(n):
+            before = forces[2 * j]
+            pushed = forces[2 * j + 1]
+            stiffness[:, j] = (pushed - before) / amplitude
+        self.probe_stiffness = 0.5 * (stiffness + stiffness.T)
+        try:
+            self.definition = self.definition.with_initial_stiffness(self.probe_stiffness)
+            self._setup_integrator()
+        except PdIntegratorError as err:  # e.g. the measured stiffness makes the test unstable
+            self.abort(f'after the stiffness probe: {err}')
+
+    def _setup_integrator(self) -> None:
+        definition = self.definition
+        structure = definition.structure()
+        self.stability = check_stability(definition.scheme, structure.mass,
+                                         structure.initial_stiffness, definition.dt)
+        require_stable(self.stability)
+        self._integrator = make_integrator(definition.scheme, mass=structure.mass,
+                                           damping=structure.damping, dt=definition.dt,
+                                           initial_stiffness=structure.initial_stiffness)
+
+    def _integration_command(self) -> Command:
+        integrator = self._integrator
+        if integrator is None:
+            msg = 'the integrator is not set up (probe not finished)'
+            raise ProtocolError(msg)
+        step = self._step
+        if step == 0:
+            target = np.zeros(self.definition.n_dof)
+        else:
+            target = integrator.predict()
+        return Command(test_id=self.definition.test_id, step=step,
+                       test_time=self.definition.time(step), dof_names=self.definition.dof_names,
+                       target_displacement=tuple(target.tolist()))
+
+    def _on_step_feedback(self, command: Command, feedback: Feedback) -> None:
+        integrator = self._integrator
+        assert integrator is not None
+        definition = self.definition
+        step = command.step
+        force = np.array(feedback.restoring_force, dtype=float)
+        if step == 0:
+            x0 = np.array(command.target_displacement)
+            integrator.initialize(x0, np.zeros(definition.n_dof), self._loads[0], force)
+        else:
+            integrator.correct(force, self._loads[step])
+            integrator.commit()
+        self.history.record(step, integrator.x, integrator.v, integrator.a,
+                            feedback.restoring_force, feedback.measured_displacement)
+        self._step = step + 1
+        if step >= definition.n_steps:
+            self.state = TestState.FINISHED
+            self.message = f'all {definition.n_steps} steps committed'
+
+    def summary_info(self) -> dict[str, object]:
+        """Run information for ``summary.json``: scheme, stability, protocol counters, state."""
+        definition = self.definition
+        stability = self.stability
+        info: dict[str, object] = {
+            'test_id': definition.test_id,
+            'scheme': definition.scheme,
+            'state': self.state.name.lower(),
+            'message': self.message,
+            'total_steps': definition.n_steps,
+            'omega_max': stability.omega_max if stability else math.nan,
+            'omega_max_dt': self.omega_dt,
+            'stability_limit': stability.limit if stability else math.nan,
+            'period_distortion': stability.period_distortion if stability else math.nan,
+            'retries': self.protocol.retries,
+            'ignored_messages': self.protocol.ignored_total,
+            'ignored_by_reason': {verdict.value: count
+                                  for verdict, count in self.protocol.ignored.items()},
+            'ground_motion': dict(definition.record_info),
+            'initial_stiffness': (definition.initial_stiffness.tolist()
+                                  if definition.initial_stiffness is not None else None),
+            'initial_stiffness_probed': self.probe_stiffness is not None,
+        }
+        return info

@@ -1,0 +1,33 @@
+"""Build script of the pd_integrator ament_python package."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'pd_integrator'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/data/ground_motions', glob('data/ground_motions/*')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Pseudo-dynamic testing maintainers',
+    maintainer_email='maintainers@pseudodynamic.dev',
+    description='Time-stepping node of the pseudo-dynamic test: integrator, ground motions, step protocol, bag and outputs.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'main = pd_integrator.node:main',
+            'run_test = pd_integrator.launcher:main',
+            'offline = pd_integrator.offline:main',
+            'replay = pd_integrator.replay:main',
+        ],
+    },
+)
