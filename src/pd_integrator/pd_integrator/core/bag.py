@@ -1,0 +1,262 @@
+"""Recording a test to a rosbag2 (MCAP) file and reading it back, with ``rosbags`` (no ROS).
+
+Topics of a run's bag:
+
+=========================  ==========================  ======================================
+topic                      type                        content
+=========================  ==========================  ======================================
+``/pd/test_definition``    ``std_msgs/msg/String``     the resolved test definition (JSON)
+``/pd/step_command``       ``pd_msgs/msg/StepCommand`` every command sent, re-sends included
+``/pd/step_feedback``      ``pd_msgs/msg/StepFeedback`` every feedback received, ignored ones too
+``/pd/test_status``        ``pd_msgs/msg/TestStatus``  every status published by the integrator
+``/pd/bridge/status``      ``pd_msgs/msg/TestStatus``  the actuator bridge's status (if any)
+=========================  ==========================  ======================================
+
+Messages are written in the order the integrator saw them, so replaying the bag through the
+same step protocol reproduces the run exactly (see :mod:`.replay`). The ``pd_msgs`` message
+definitions are read from the installed ``pd_msgs`` package (or the source tree), so there is
+one definition for ROS and for the bag.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from .errors import BagError
+from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
+    from rosbags.typesys.store import Typestore
+
+TOPIC_DEFINITION = '/pd/test_definition'
+TOPIC_COMMAND = '/pd/step_command'
+TOPIC_FEEDBACK = '/pd/step_feedback'
+TOPIC_STATUS = '/pd/test_status'
+TOPIC_BRIDGE_STATUS = '/pd/bridge/status'
+
+MSG_COMMAND = 'pd_msgs/msg/StepCommand'
+MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
+MSG_STATUS = 'pd_msgs/msg/TestStatus'
+MSG_STRING = 'std_msgs/msg/String'
+
+_TOPICS = {
+    TOPIC_DEFINITION: MSG_STRING,
+    TOPIC_COMMAND: MSG_COMMAND,
+    TOPIC_FEEDBACK: MSG_FEEDBACK,
+    TOPIC_STATUS: MSG_STATUS,
+    TOPIC_BRIDGE_STATUS: MSG_STATUS,
+}
+
+
+def msg_directory() -> Path:
+    """The directory holding the ``pd_msgs`` ``.msg`` files.
+
+    Looks in the ament prefixes (``AMENT_PREFIX_PATH``), then in the source tree.
+
+    Raises:
+        BagError: no ``pd_msgs`` definitions were found.
+    """
+    candidates = [Path(prefix) / 'share' / 'pd_msgs' / 'msg'
+                  for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)
+                  if prefix]
+    candidates.append(Path(__file__).resolve().parents[3] / 'pd_msgs' / 'msg')
+    for candidate in candidates:
+        if (candidate / 'StepCommand.msg').is_file():
+            return candidate
+    msg = 'pd_msgs message definitions not found (build the workspace or set AMENT_PREFIX_PATH)'
+    raise BagError(msg)
+
+
+@functools.cache
+def typestore() -> Typestore:
+    """A ROS 2 Kilted typestore with the ``pd_msgs`` types registered."""
+    store = get_typestore(Stores.ROS2_KILTED)
+    directory = msg_directory()
+    types: dict[str, Any] = {}
+    for name in ('StepCommand', 'StepFeedback', 'TestStatus'):
+        text = (directory / f'{name}.msg').read_text(encoding='utf-8')
+        types.update(get_types_from_msg(text, f'pd_msgs/msg/{name}'))
+    store.register(types)
+    return store
+
+
+def _stamp(store: Typestore, t_ns: int) -> Any:
+    time_type = store.types['builtin_interfaces/msg/Time']
+    header_type = store.types['std_msgs/msg/Header']
+    return header_type(stamp=time_type(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000),
+                       frame_id='')
+
+
+class BagRecorder:
+    """Writes a run's messages to a rosbag2 MCAP bag (context manager).
+
+    Args:
+        path: the bag directory to create (must not exist).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._writer: Writer | None = None
+        self._connections: dict[str, Connection] = {}
+        self._store = typestore()
+        self.counts: dict[str, int] = dict.fromkeys(_TOPICS, 0)
+
+    def open(self) -> BagRecorder:
+        """Create the bag.
+
+        Raises:
+            BagError: the path exists or cannot be written.
+        """
+        if self._writer is not None:
+            return self
+        if self.path.exists():
+            msg = f'{self.path}: bag exists already, not overwriting'
+            raise BagError(msg)
+        writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        try:
+            writer.open()
+            for topic, msgtype in _TOPICS.items():
+                self._connections[topic] = writer.add_connection(topic, msgtype,
+                                                                 typestore=self._store)
+        except Exception as err:
+            msg = f'{self.path}: cannot create the bag ({err})'
+            raise BagError(msg) from err
+        self._writer = writer
+        return self
+
+    def close(self) -> None:
+        """Finish the bag (writes its metadata)."""
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+
+    def __enter__(self) -> BagRecorder:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _write(self, topic: str, t_ns: int, message: Any) -> None:
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        data = self._store.serialize_cdr(message, _TOPICS[topic])
+        self._writer.write(self._connections[topic], t_ns, data)
+        self.counts[topic] += 1
+
+    def write_definition(self, text: str, t_ns: int) -> None:
+        """Record the resolved test definition (JSON)."""
+        self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
+
+    def write_command(self, command: Command, t_ns: int) -> None:
+        """Record a step command."""
+        self._write(TOPIC_COMMAND, t_ns, self._store.types[MSG_COMMAND](
+            header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
+            test_time=command.test_time, dof_names=list(command.dof_names),
+            target_displacement=np.array(command.target_displacement, dtype=np.float64)))
+
+    def write_feedback(self, feedback: Feedback, t_ns: int) -> None:
+        """Record a step feedback."""
+        self._write(TOPIC_FEEDBACK, t_ns, self._store.types[MSG_FEEDBACK](
+            header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
+            measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
+            restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
+            status=int(feedback.status), message=feedback.message))
+
+    def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
+        """Record a test status (the integrator's, or the bridge's on its own topic)."""
+        self._write(topic, t_ns, self._store.types[MSG_STATUS](
+            header=_stamp(self._store, t_ns), test_id=status.test_id, state=int(status.state),
+            step=status.step, total_steps=status.total_steps, omega_dt=status.omega_dt,
+            retries=status.retries, ignored_messages=status.ignored_messages,
+            message=status.message))
+
+
+@dataclass
+class RecordedRun:
+    """What a run's bag holds, in log-time order.
+
+    Attributes:
+        definition_json: the resolved test definition.
+        events: ``(t_ns, item)`` with item a :class:`Command` or :class:`Feedback`, in the order
+            the integrator sent and received them.
+        statuses: the integrator's statuses.
+        bridge_statuses: the bridge's statuses.
+    """
+
+    definition_json: str
+    events: list[tuple[int, Command | Feedback]] = field(default_factory=list)
+    statuses: list[tuple[int, Status]] = field(default_factory=list)
+    bridge_statuses: list[tuple[int, Status]] = field(default_factory=list)
+
+    @property
+    def commands(self) -> list[Command]:
+        """The commands, in order."""
+        return [item for _, item in self.events if isinstance(item, Command)]
+
+    @property
+    def feedback(self) -> list[Feedback]:
+        """The feedback messages, in order."""
+        return [item for _, item in self.events if isinstance(item, Feedback)]
+
+
+def _status(message: Any) -> Status:
+    return Status(test_id=message.test_id, state=TestState(message.state), step=message.step,
+                  total_steps=message.total_steps, omega_dt=message.omega_dt,
+                  retries=message.retries, ignored_messages=message.ignored_messages,
+                  message=message.message)
+
+
+def read_bag(path: str | Path) -> RecordedRun:
+    """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
+
+    Raises:
+        BagError: the bag cannot be read or has no test definition.
+    """
+    path = Path(path)
+    definition: str | None = None
+    run = RecordedRun(definition_json='')
+    try:
+        with AnyReader([path], default_typestore=typestore()) as reader:
+            connections = [c for c in reader.connections if c.topic in _TOPICS]
+            for connection, t_ns, raw in reader.messages(connections=connections):
+                message = reader.deserialize(raw, connection.msgtype)
+                topic = connection.topic
+                if topic == TOPIC_DEFINITION:
+                    definition = definition or message.data
+                elif topic == TOPIC_COMMAND:
+                    run.events.append((t_ns, Command(
+                        test_id=message.test_id, step=int(message.step),
+                        test_time=float(message.test_time),
+                        dof_names=tuple(message.dof_names),
+                        target_displacement=tuple(message.target_displacement.tolist()))))
+                elif topic == TOPIC_FEEDBACK:
+                    run.events.append((t_ns, Feedback(
+                        test_id=message.test_id, step=int(message.step),
+                        measured_displacement=tuple(message.measured_displacement.tolist()),
+                        restoring_force=tuple(message.restoring_force.tolist()),
+                        status=FeedbackStatus(message.status), message=message.message)))
+                elif topic == TOPIC_STATUS:
+                    run.statuses.append((t_ns, _status(message)))
+                else:
+                    run.bridge_statuses.append((t_ns, _status(message)))
+    except BagError:
+        raise
+    except Exception as err:
+        msg = f'{path}: cannot read the bag ({err})'
+        raise BagError(msg) from err
+    if definition is None:
+        msg = f'{path}: the bag has no {TOPIC_DEFINITION} message'
+        raise BagError(msg)
+    run.definition_json = definition
+    return run

@@ -1,0 +1,172 @@
+"""A run's outputs: ``response.csv``, ``summary.json`` and the figures.
+
+The same functions serve the node-graph run, the ROS-free run and the bag replay.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .history import ResponseHistory
+
+RESPONSE_CSV = 'response.csv'
+SUMMARY_JSON = 'summary.json'
+FIGURES = ('displacement.png', 'velocity.png', 'acceleration.png', 'force_deformation.png')
+
+
+def write_response_csv(history: ResponseHistory, path: str | Path) -> Path:
+    """Write the committed history; floats are written with 17 significant digits (exact)."""
+    path = Path(path)
+    columns = history.columns()
+    names = list(columns)
+    data = np.column_stack([columns[name] for name in names])
+    formats = ['%.17g'] * len(names)
+    formats[names.index('step')] = '%d'
+    np.savetxt(path, data, fmt=formats, delimiter=',', header=','.join(names), comments='')
+    return path
+
+
+def read_response_csv(path: str | Path) -> dict[str, np.ndarray]:
+    """Read a ``response.csv`` back into named columns."""
+    path = Path(path)
+    with path.open(encoding='utf-8') as stream:
+        names = stream.readline().strip().split(',')
+    data = np.loadtxt(path, delimiter=',', skiprows=1, ndmin=2)
+    return {name: data[:, i] for i, name in enumerate(names)}
+
+
+def _peak(time: np.ndarray, values: np.ndarray) -> dict[str, float]:
+    if values.size == 0:
+        return {'value': math.nan, 'abs': math.nan, 'time': math.nan}
+    index = int(np.argmax(np.abs(values)))
+    return {'value': float(values[index]), 'abs': float(abs(values[index])),
+            'time': float(time[index])}
+
+
+def summarize(history: ResponseHistory, **info: Any) -> dict[str, Any]:
+    """Peaks (with their times), residual displacement and run information.
+
+    Args:
+        history: the committed response.
+        **info: run information merged into the summary (scheme, omega_dt, dt, wall time,
+            retries, ignored messages, state, ...).
+
+    ``residual_displacement`` is the displacement at the last committed step; ``peaks`` holds,
+    per DOF, the largest absolute displacement, velocity, relative and absolute acceleration and
+    restoring force with their signed values and times.
+    """
+    time = history.time
+    n = history.n_committed
+    ground = history.ground_acceleration[:n]
+    dofs: dict[str, Any] = {}
+    for j, name in enumerate(history.dof_names):
+        x = history.displacement[:n, j]
+        dofs[name] = {
+            'peaks': {
+                'displacement': _peak(time, x),
+                'velocity': _peak(time, history.velocity[:n, j]),
+                'acceleration': _peak(time, history.acceleration[:n, j]),
+                'absolute_acceleration': _peak(time, history.acceleration[:n, j] + ground),
+                'restoring_force': _peak(time, history.restoring_force[:n, j]),
+            },
+            'residual_displacement': float(x[-1]) if n else math.nan,
+            'max_measurement_error': (float(np.max(np.abs(
+                history.measured_displacement[:n, j] - x))) if n else math.nan),
+        }
+    summary: dict[str, Any] = {
+        'dt': history.dt,
+        'steps': max(n - 1, 0),
+        'duration': float(time[-1]) if n else 0.0,
+        'units': {'displacement': 'm', 'velocity': 'm/s', 'acceleration': 'm/s^2',
+                  'force': 'N', 'time': 's'},
+        'peak_ground_acceleration': _peak(time, ground),
+        'dofs': dofs,
+    }
+    summary.update(info)
+    return summary
+
+
+def write_summary(summary: dict[str, Any], path: str | Path) -> Path:
+    """Write ``summary.json`` (NaN becomes null)."""
+    path = Path(path)
+
+    def clean(value: Any) -> Any:
+        if isinstance(value, float) and not math.isfinite(value):
+            return None
+        if isinstance(value, dict):
+            return {key: clean(item) for key, item in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [clean(item) for item in value]
+        return value
+
+    path.write_text(json.dumps(clean(summary), indent=2) + '\n', encoding='utf-8')
+    return path
+
+
+def write_figures(history: ResponseHistory, directory: str | Path, *, title: str = ''
+                  ) -> list[Path]:
+    """Displacement, velocity and acceleration histories and the force-deformation loop.
+
+    Like the thesis's Figures 5.4–5.7, one line per DOF.
+    """
+    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
+
+    mpl.use('Agg')
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    directory = Path(directory)
+    n = history.n_committed
+    time = history.time
+    series = (
+        ('displacement.png', history.displacement, 'Displacement [m]', 'Displacement response'),
+        ('velocity.png', history.velocity, 'Velocity [m/s]', 'Velocity response'),
+        ('acceleration.png', history.acceleration, 'Acceleration [m/s²]',
+         'Acceleration response (relative)'),
+    )
+    written: list[Path] = []
+    for filename, values, ylabel, heading in series:
+        figure, axes = plt.subplots(figsize=(9, 4), layout='constrained')
+        for j, name in enumerate(history.dof_names):
+            axes.plot(time, values[:n, j], linewidth=1.0, label=name)
+        axes.set_xlim(0.0, float(time[-1]) if n else 1.0)
+        axes.set_xlabel('Time [s]')
+        axes.set_ylabel(ylabel)
+        axes.set_title(f'{heading} — {title}' if title else heading)
+        axes.grid(visible=True, which='both', alpha=0.4)
+        if len(history.dof_names) > 1:
+            axes.legend()
+        figure.savefig(directory / filename, dpi=110)
+        plt.close(figure)
+        written.append(directory / filename)
+    figure, axes = plt.subplots(figsize=(6, 5), layout='constrained')
+    for j, name in enumerate(history.dof_names):
+        axes.plot(history.displacement[:n, j], history.restoring_force[:n, j] / 1e3,
+                  linewidth=0.8, label=name)
+    axes.set_xlabel('Displacement [m]')
+    axes.set_ylabel('Restoring force [kN]')
+    axes.set_title(f'Force–deformation — {title}' if title else 'Force–deformation')
+    axes.grid(visible=True, alpha=0.4)
+    if len(history.dof_names) > 1:
+        axes.legend()
+    figure.savefig(directory / 'force_deformation.png', dpi=110)
+    plt.close(figure)
+    written.append(directory / 'force_deformation.png')
+    return written
+
+
+def write_run_outputs(history: ResponseHistory, summary: dict[str, Any], directory: str | Path,
+                      *, figures: bool = True, title: str = '') -> list[Path]:
+    """Write ``response.csv``, ``summary.json`` and (optionally) the figures."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    written = [write_response_csv(history, directory / RESPONSE_CSV),
+               write_summary(summary, directory / SUMMARY_JSON)]
+    if figures:
+        written += write_figures(history, directory, title=title)
+    return written

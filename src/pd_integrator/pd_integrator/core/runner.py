@@ -1,0 +1,186 @@
+"""Running a test without ROS, and rebuilding a run's outputs from its bag alone.
+
+:func:`run_offline` drives the same :class:`~.session.TestSession` as the integrator node, with
+the same specimen models as the ``pd_specimen_sim`` node, in one process, and writes the same
+run folder (bag, ``response.csv``, ``summary.json``, figures). :func:`replay_bag` feeds a bag's
+recorded commands and feedback through the same step protocol and integrator: it checks that
+every recomputed command equals the recorded one (bit for bit) and returns the history.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
+from .config import TestDefinition, from_json
+from .errors import BagError, ConfigError
+from .messages import Command, Feedback, FeedbackStatus, TestState
+from .outputs import summarize, write_run_outputs
+from .session import TestSession
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+BAG_DIRECTORY = 'bag'
+DEFINITION_JSON = 'test_definition.json'
+
+
+@dataclass
+class RunResult:
+    """A finished (or stopped) run.
+
+    Attributes:
+        session: the session, with its history and counters.
+        directory: the run folder.
+        summary: what ``summary.json`` holds.
+    """
+
+    session: TestSession
+    directory: Path
+    summary: dict[str, Any]
+
+    @property
+    def bag_path(self) -> Path:
+        """The run's bag directory."""
+        return self.directory / BAG_DIRECTORY
+
+
+def default_run_directory(root: str | Path, test_id: str) -> Path:
+    """``<root>/<test_id>-<UTC timestamp>`` (a new folder per run)."""
+    stamp = datetime.now(tz=timezone.utc).strftime('%Y%m%d-%H%M%S')
+    return Path(root) / f'{test_id}-{stamp}'
+
+
+def prepare_run_directory(directory: str | Path) -> Path:
+    """Create the run folder; refuse one that already holds a bag (nothing is overwritten).
+
+    Raises:
+        ConfigError: the folder already holds a run.
+    """
+    directory = Path(directory)
+    if (directory / BAG_DIRECTORY).exists():
+        msg = f'{directory}: already holds a run (bag/); choose a new output folder'
+        raise ConfigError(msg)
+    directory.mkdir(parents=True, exist_ok=True)
+    return directory
+
+
+def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
+                   figures: bool = True, **extra: Any) -> dict[str, Any]:
+    """Write ``response.csv``, ``summary.json`` and figures for a session; return the summary."""
+    summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
+                        **extra)
+    write_run_outputs(session.history, summary, directory, figures=figures,
+                      title=session.definition.test_id)
+    return summary
+
+
+def run_offline(definition: TestDefinition, directory: str | Path, *, figures: bool = True,
+                progress: Callable[[str], None] | None = None) -> RunResult:
+    """Run ``definition`` against its simulated specimen in this process (no ROS).
+
+    Raises:
+        ConfigError: the definition has no usable ``specimen`` section.
+        StabilityError: ω_max·Δt is above the scheme's limit (nothing is commanded).
+    """
+    from pd_specimen_sim.core import SpecimenServer, specimen_from_config  # noqa: PLC0415
+
+    from .progress import ProgressMeter  # noqa: PLC0415
+
+    if definition.specimen is None:
+        msg = f'{definition.source}: specimen: section is required for a simulated run'
+        raise ConfigError(msg)
+    specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
+                                    source=definition.source, dof_names=definition.dof_names)
+    server = SpecimenServer(specimen)
+    session = TestSession(definition)  # checks stability before anything moves
+    directory = prepare_run_directory(directory)
+    (directory / DEFINITION_JSON).write_text(definition.to_json(), encoding='utf-8')
+    meter = ProgressMeter(definition.n_steps)
+    start = time.perf_counter()
+    with BagRecorder(directory / BAG_DIRECTORY) as bag:
+        bag.write_definition(definition.to_json(), time.time_ns())
+        bag.write_status(session.status(), time.time_ns())
+        while (command := session.next_command()) is not None:
+            bag.write_command(command, time.time_ns())
+            answer = server.handle(command.test_id, command.step, command.target_displacement)
+            if answer is None:  # cannot happen for a fresh command; keep the protocol honest
+                session.abort(f'specimen ignored step {command.step}')
+                break
+            feedback = Feedback(test_id=answer.test_id, step=answer.step,
+                                measured_displacement=answer.displacement,
+                                restoring_force=answer.force,
+                                status=FeedbackStatus(answer.status), message=answer.message)
+            bag.write_feedback(feedback, time.time_ns())
+            session.on_feedback(feedback)
+            if progress is not None and (line := meter.update(session.committed_step)):
+                progress(line)
+        bag.write_status(session.status(), time.time_ns())
+    wall_time = time.perf_counter() - start
+    summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
+                             mode='offline')
+    return RunResult(session=session, directory=directory, summary=summary)
+
+
+def _same_command(recorded: Command, computed: Command) -> bool:
+    return (recorded.test_id == computed.test_id and recorded.step == computed.step
+            and recorded.target_displacement == computed.target_displacement)
+
+
+def replay_bag(bag_path: str | Path) -> TestSession:
+    """Re-run a recorded test from its bag: same protocol, same integrator, recorded forces.
+
+    Raises:
+        BagError: the bag is unreadable, or a recomputed command differs from the recorded one
+            (the bag does not belong to this code or was altered).
+    """
+    run = read_bag(bag_path)
+    definition = from_json(run.definition_json, source=f'{Path(bag_path).name}')
+    session = TestSession(definition)
+    for _, item in run.events:
+        if isinstance(item, Feedback):
+            session.on_feedback(item)
+            continue
+        pending = session.protocol.pending
+        if pending is not None and _same_command(item, pending):
+            if session.state in (TestState.HOLDING, TestState.PAUSED):
+                session.resume()  # the operator resumed: the pending command went out again
+            else:
+                session.protocol.on_timeout()  # a re-send after a feedback timeout
+            continue
+        if session.state in (TestState.HOLDING, TestState.PAUSED):
+            session.resume()
+        computed = session.next_command()
+        if computed is None or not _same_command(item, computed):
+            msg = (f'{bag_path}: recorded command for step {item.step} of {item.test_id!r} '
+                   f'differs from the recomputed one ({computed!r})')
+            raise BagError(msg)
+    last_status = run.statuses[-1][1] if run.statuses else None
+    if last_status is not None and last_status.state is TestState.ABORTED:
+        session.abort(last_status.message)
+    elif (last_status is not None and last_status.state is TestState.HOLDING
+          and session.state is not TestState.FINISHED):
+        session.state = TestState.HOLDING
+        session.message = last_status.message
+    return session
+
+
+def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: bool = True
+                    ) -> RunResult:
+    """Rebuild ``response.csv``, ``summary.json`` and the figures from a bag alone."""
+    bag_path = Path(bag_path)
+    run = read_bag(bag_path)
+    session = replay_bag(bag_path)
+    times = [t for t, _ in run.events]
+    wall_time = (max(times) - min(times)) / 1e9 if times else 0.0
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    bridge = [status.message for _, status in run.bridge_statuses if status.message]
+    summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
+                             mode='replay', replayed_from=str(bag_path),
+                             bridge_messages=bridge[-5:], bridge_topic=TOPIC_BRIDGE_STATUS)
+    return RunResult(session=session, directory=directory, summary=summary)

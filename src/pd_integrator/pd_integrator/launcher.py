@@ -1,0 +1,195 @@
+"""Run a complete test through the node graph: ``ros2 run pd_integrator run_test [TEST_FILE]``.
+
+Starts each node as its own process, exactly as ``ros2 run`` would (the executable
+``lib/<package>/main`` of the package's ament prefix):
+
+* ``--site bridge`` (default): integrator → ``pd_actuator_bridge`` (namespace ``/pd``, with its
+  own limits) → ``pd_specimen_sim`` (namespace ``/pd/specimen``);
+* ``--site direct``: integrator → ``pd_specimen_sim`` (namespace ``/pd``), no bridge;
+* ``--site none``: only the integrator; the specimen side (e.g. the physical specimen's bridge)
+  is started elsewhere.
+
+It waits for the integrator to finish, then stops the other nodes (SIGINT, then SIGKILL) and
+prints where the run folder is. DDS discovery stays on this host unless
+``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from .core.config import load_test_file
+from .core.errors import PdIntegratorError
+from .core.runner import default_run_directory
+
+STOP_TIMEOUT = 10.0
+
+
+class LaunchError(PdIntegratorError):
+    """A node could not be found or started."""
+
+
+def package_prefix(package: str) -> Path:
+    """The install prefix of ``package`` from the ament index (as ``ros2 run`` finds it).
+
+    Raises:
+        LaunchError: the package is not in any prefix of ``AMENT_PREFIX_PATH``.
+    """
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix and (Path(prefix) / 'share' / 'ament_index' / 'resource_index' / 'packages'
+                       / package).is_file():
+            return Path(prefix)
+    msg = (f'package {package!r} not found in AMENT_PREFIX_PATH (source scripts/env.sh or the '
+           'workspace install/setup.sh)')
+    raise LaunchError(msg)
+
+
+def find_executable(package: str, executable: str = 'main') -> Path:
+    """``<prefix>/lib/<package>/<executable>``, the file ``ros2 run`` would run.
+
+    Raises:
+        LaunchError: it does not exist.
+    """
+    path = package_prefix(package) / 'lib' / package / executable
+    if not path.is_file():
+        msg = f'{path}: executable not found (is {package} built?)'
+        raise LaunchError(msg)
+    return path
+
+
+def share_file(package: str, *parts: str) -> Path:
+    """A file installed in ``share/<package>``."""
+    return package_prefix(package) / 'share' / package / Path(*parts)
+
+
+def _stop(process: subprocess.Popen[bytes], name: str) -> None:
+    if process.poll() is not None:
+        return
+    try:
+        os.killpg(process.pid, signal.SIGINT)
+        process.wait(timeout=STOP_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        print(f'run_test: {name} did not stop on SIGINT; killing it', file=sys.stderr)
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    except ProcessLookupError:
+        pass
+
+
+def parse_overrides(items: list[str]) -> dict[str, object]:
+    """``NAME:=VALUE`` items (YAML values, as ``ros2 run --ros-args -p`` reads them).
+
+    Raises:
+        LaunchError: an item is not ``NAME:=VALUE``.
+    """
+    overrides: dict[str, object] = {}
+    for item in items:
+        name, sep, value = item.partition(':=')
+        if not sep or not name:
+            msg = f'--param {item!r}: expected NAME:=VALUE'
+            raise LaunchError(msg)
+        overrides[name] = yaml.safe_load(value)
+    return overrides
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """Command-line arguments."""
+    parser = argparse.ArgumentParser(
+        prog='run_test', description='Run a pseudo-dynamic test through the ROS 2 node graph.')
+    parser.add_argument('test_file', nargs='?', help='YAML test file (default: the thesis '
+                        'section 5.1 test, config/default_test.yaml)')
+    parser.add_argument('--site', choices=('bridge', 'direct', 'none'), default='bridge',
+                        help='specimen side to start (default: bridge -> simulated specimen)')
+    parser.add_argument('--out', help='run folder (default: runs/<test_id>-<UTC time>)')
+    parser.add_argument('--bridge-params', help='ROS parameter file of the actuator bridge '
+                        '(default: share/pd_actuator_bridge/config/bridge.yaml)')
+    parser.add_argument('--param', '-p', action='append', default=[], metavar='NAME:=VALUE',
+                        help='integrator parameter override, e.g. -p scale_factor:=0.5')
+    parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run pd_integrator run_test``."""
+    args = parse_args(argv)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    try:
+        test_file = Path(args.test_file) if args.test_file else share_file(
+            'pd_integrator', 'config', 'default_test.yaml')
+        overrides = parse_overrides(args.param)
+        definition = load_test_file(test_file, overrides)  # fail early, before any process
+        out = Path(args.out) if args.out else default_run_directory('runs',
+                                                                      definition.test_id)
+        integrator = [str(find_executable('pd_integrator')), '--ros-args',
+                      '-p', f'test_file:={test_file.resolve()}',
+                      '-p', f'output_dir:={out.resolve()}',
+                      '-p', f'figures:={"false" if args.no_figures else "true"}']
+        for item in args.param:
+            integrator += ['-p', item]
+        commands: list[tuple[str, list[str]]] = []
+        if args.site != 'none':
+            specimen_ns = '/pd/specimen' if args.site == 'bridge' else '/pd'
+            commands.append(('pd_specimen_sim', [
+                str(find_executable('pd_specimen_sim')), '--ros-args',
+                '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file.resolve()}']))
+        if args.site == 'bridge':
+            params = Path(args.bridge_params) if args.bridge_params else share_file(
+                'pd_actuator_bridge', 'config', 'bridge.yaml')
+            commands.append(('pd_actuator_bridge', [
+                str(find_executable('pd_actuator_bridge')), '--ros-args',
+                '--params-file', str(params),
+                '-p', f'dof_names:={json.dumps(list(definition.dof_names))}']))
+    except PdIntegratorError as err:
+        print(f'run_test: error: {err}', file=sys.stderr)
+        return 2
+
+    print(f'run_test: {definition.test_id} ({definition.n_steps} steps), site: {args.site}, '
+          f'run folder: {out}', flush=True)
+    processes: list[tuple[str, subprocess.Popen[bytes]]] = []
+    code = 1
+    try:
+        for name, command in commands:
+            processes.append((name, subprocess.Popen(command, start_new_session=True)))
+        process = subprocess.Popen(integrator, start_new_session=True)
+        processes.append(('pd_integrator', process))
+        while (code := process.poll()) is None:
+            failed = [(name, other) for name, other in processes[:-1]
+                      if other.poll() is not None]
+            if failed:
+                name, other = failed[0]
+                print(f'run_test: {name} exited with code {other.returncode}; stopping the '
+                      'test', file=sys.stderr)
+                break
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        print('run_test: interrupted; stopping the integrator first', file=sys.stderr)
+    finally:
+        for name, other in reversed(processes):  # integrator first: it writes the outputs
+            _stop(other, name)
+        if code is None:
+            code = processes[-1][1].returncode if processes else 1
+    summary = out / 'summary.json'
+    if summary.is_file():
+        data = json.loads(summary.read_text(encoding='utf-8'))
+        for dof, values in data.get('dofs', {}).items():
+            peak = values['peaks']['displacement']
+            force = values['peaks']['restoring_force']
+            print(f'run_test: {dof}: peak displacement {peak["value"]:.5f} m at '
+                  f'{peak["time"]:.2f} s, peak force {force["value"] / 1e3:.3f} kN, residual '
+                  f'{values["residual_displacement"]:.5f} m')
+        print(f'run_test: {data.get("state")}: {data.get("steps")} steps in '
+              f'{data.get("wall_time", 0):.2f} s; outputs in {out}')
+    return int(code)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

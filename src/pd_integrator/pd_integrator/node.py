@@ -1,0 +1,350 @@
+"""The integrator node (``ros2 run pd_integrator main``): a thin shell around ``TestSession``.
+
+Topics (relative to the node namespace, ``/pd`` by default):
+
+* publishes ``step_command`` (``pd_msgs/StepCommand``, reliable), ``test_status``
+  (``pd_msgs/TestStatus``, reliable, transient local = latched) and ``test_definition``
+  (``std_msgs/String``, latched: the resolved test as JSON);
+* subscribes ``step_feedback`` (``pd_msgs/StepFeedback``, reliable), ``bridge/status`` (the
+  actuator bridge's latched status, recorded in the bag) and ``test_control``
+  (``std_msgs/String``: ``pause``, ``resume``, ``abort``).
+
+Parameters: ``test_file`` (YAML test file), ``output_dir`` (run folder; default
+``runs/<test_id>-<UTC time>``), ``figures``, ``progress_interval``, and overrides of the test
+file (``mass``, ``damping_ratio``, ``damping_coefficient``, ``initial_stiffness`` (a value or
+``'probe'``), ``ground_motion_file``, ``scale_factor``, ``direction``, ``dt``, ``scheme``, ...;
+see ``pd_integrator.core.config.PARAMETER_PATHS``).
+
+Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing was moved).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+
+from .core.bag import TOPIC_BRIDGE_STATUS, BagRecorder
+from .core.config import PARAMETER_PATHS, load_test_file
+from .core.errors import PdIntegratorError
+from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
+from .core.progress import ProgressMeter
+from .core.runner import (
+    BAG_DIRECTORY,
+    DEFINITION_JSON,
+    default_run_directory,
+    finish_outputs,
+    prepare_run_directory,
+)
+from .core.session import TestSession
+
+#: Reliable, keep-all: every command and feedback must arrive, in order.
+STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+#: Latched: a late joiner gets the last status.
+LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+_OVERRIDE_DESCRIPTIONS = {
+    'test_id': 'identifier of the test (letters, digits, _ - .)',
+    'scheme': 'integration scheme, e.g. newmark_explicit',
+    'dt': 'integration time step [s]',
+    'duration': 'test duration [s] (longer than the record adds free vibration)',
+    'mass': 'mass [kg]: scalar, diagonal list, or flattened matrix',
+    'damping_ratio': 'viscous damping ratio of the initial-stiffness frequency',
+    'damping_coefficient': 'viscous damping coefficient [N s/m] (instead of a ratio)',
+    'initial_stiffness': "initial stiffness [N/m], or 'probe' to measure it through the loop",
+    'ground_motion_file': 'ground motion record (csv/txt two-column, single, multi, .AT2)',
+    'ground_motion_format': 'auto, two_column, single_column, multi_column or at2',
+    'ground_motion_units': "g or m/s2",
+    'ground_motion_dt': 'record time step [s] for single/multi-column files',
+    'scale_factor': 'scale factor applied to the record',
+    'direction': '+1 or -1: sign of the excitation',
+    'feedback_timeout': 'seconds without feedback before the command is re-sent',
+    'max_retries': 're-sends before the integrator holds',
+}
+
+
+def command_message(command: Command, stamp: Any) -> StepCommand:
+    """``pd_msgs/StepCommand`` from a core command."""
+    message = StepCommand()
+    message.header.stamp = stamp
+    message.test_id = command.test_id
+    message.step = command.step
+    message.test_time = command.test_time
+    message.dof_names = list(command.dof_names)
+    message.target_displacement = list(command.target_displacement)
+    return message
+
+
+def feedback_data(message: StepFeedback) -> Feedback:
+    """Core feedback from ``pd_msgs/StepFeedback`` (floats unchanged)."""
+    try:
+        status = FeedbackStatus(message.status)
+    except ValueError:
+        status = FeedbackStatus.FAULT
+    return Feedback(test_id=message.test_id, step=message.step,
+                    measured_displacement=tuple(message.measured_displacement),
+                    restoring_force=tuple(message.restoring_force), status=status,
+                    message=message.message)
+
+
+def status_data(message: TestStatus) -> Status:
+    """Core status from ``pd_msgs/TestStatus``."""
+    try:
+        state = TestState(message.state)
+    except ValueError:
+        state = TestState.IDLE
+    return Status(test_id=message.test_id, state=state, step=message.step,
+                  total_steps=message.total_steps, omega_dt=message.omega_dt,
+                  retries=message.retries, ignored_messages=message.ignored_messages,
+                  message=message.message)
+
+
+def status_message(status: Status, stamp: Any) -> TestStatus:
+    """``pd_msgs/TestStatus`` from a core status."""
+    message = TestStatus()
+    message.header.stamp = stamp
+    message.test_id = status.test_id
+    message.state = int(status.state)
+    message.step = status.step
+    message.total_steps = status.total_steps
+    message.omega_dt = float(status.omega_dt)
+    message.retries = status.retries
+    message.ignored_messages = status.ignored_messages
+    message.message = status.message
+    return message
+
+
+class IntegratorNode(Node):
+    """Runs one pseudo-dynamic test through the ROS graph.
+
+    Raises:
+        PdIntegratorError: the test definition is invalid or unstable (raised before anything
+            is published).
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('pd_integrator', namespace='pd', **kwargs)
+        self.declare_parameter('test_file', '', ParameterDescriptor(
+            description='YAML test file (see config/default_test.yaml)'))
+        self.declare_parameter('output_dir', '', ParameterDescriptor(
+            description='run folder (default: runs/<test_id>-<UTC time>)'))
+        self.declare_parameter('figures', True, ParameterDescriptor(
+            description='write PNG figures at the end of the test'))
+        self.declare_parameter('progress_interval', 2.0, ParameterDescriptor(
+            description='seconds between progress lines on the console'))
+        overrides: dict[str, Any] = {}
+        for name in PARAMETER_PATHS:
+            self.declare_parameter(name, None, ParameterDescriptor(
+                description=_OVERRIDE_DESCRIPTIONS.get(name, ''), dynamic_typing=True))
+            value = self.get_parameter(name).value
+            if value is not None:
+                overrides[name] = list(value) if isinstance(value, (list, tuple)) else value
+        test_file = self.get_parameter('test_file').value
+        if not test_file:
+            msg = 'parameter test_file: a YAML test file is required'
+            raise PdIntegratorError(msg)
+        definition = load_test_file(test_file, overrides)
+        self.session = TestSession(definition)  # refuses an unstable test before any motion
+        output = self.get_parameter('output_dir').value
+        self.directory = prepare_run_directory(
+            Path(output) if output else default_run_directory('runs', definition.test_id))
+        self.figures = bool(self.get_parameter('figures').value)
+        self.meter = ProgressMeter(definition.n_steps,
+                                   float(self.get_parameter('progress_interval').value))
+
+        self._command_pub = self.create_publisher(StepCommand, 'step_command', STEP_QOS)
+        self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
+        self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
+        self._feedback_sub = self.create_subscription(StepFeedback, 'step_feedback',
+                                                      self._on_feedback, STEP_QOS)
+        self.create_subscription(TestStatus, 'bridge/status', self._on_bridge_status,
+                                 LATCHED_QOS)
+        self.create_subscription(String, 'test_control', self._on_control, 10)
+
+        self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
+        text = definition.to_json()
+        (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
+        self.bag.write_definition(text, time.time_ns())
+        self._definition_pub.publish(String(data=text))
+        self._sent_at = 0.0
+        self._last_state: TestState | None = None
+        self._started = 0.0
+        self.publish_status()
+
+    # -- helpers ------------------------------------------------------------------------------
+    def _stamp(self) -> Any:
+        return self.get_clock().now().to_msg()
+
+    def publish_status(self) -> None:
+        """Publish (and record) the session's status."""
+        status = self.session.status()
+        self._status_pub.publish(status_message(status, self._stamp()))
+        self.bag.write_status(status, time.time_ns())
+        if status.state is not self._last_state:
+            self._last_state = status.state
+            log = self.get_logger().warning if status.state in (
+                TestState.HOLDING, TestState.ABORTED) else self.get_logger().info
+            log(f'{status.state.name.lower()}: {status.message}')
+
+    def send(self, command: Command) -> None:
+        """Publish and record a command; restart the feedback timer."""
+        self.bag.write_command(command, time.time_ns())
+        self._command_pub.publish(command_message(command, self._stamp()))
+        self._sent_at = time.monotonic()
+
+    def peers_ready(self) -> bool:
+        """Whether a specimen side listens to commands and talks back."""
+        return (self._command_pub.get_subscription_count() > 0
+                and self._feedback_sub.get_publisher_count() > 0)
+
+    def start(self) -> None:
+        """Send the first command."""
+        self._started = time.perf_counter()
+        self.meter = ProgressMeter(self.session.total_steps, self.meter.interval)
+        command = self.session.next_command()
+        if command is not None:
+            self.send(command)
+        self.publish_status()
+
+    # -- callbacks ----------------------------------------------------------------------------
+    def _on_feedback(self, message: StepFeedback) -> None:
+        feedback = feedback_data(message)
+        self.bag.write_feedback(feedback, time.time_ns())
+        self.session.on_feedback(feedback)
+        command = self.session.next_command()
+        if command is not None:
+            self.send(command)
+        if self.session.state is not TestState.RUNNING:
+            self.publish_status()
+        elif (line := self.meter.update(max(self.session.committed_step, 0))) is not None:
+            self.get_logger().info(line)
+            self.publish_status()
+
+    def _on_bridge_status(self, message: TestStatus) -> None:
+        self.bag.write_status(status_data(message), time.time_ns(), topic=TOPIC_BRIDGE_STATUS)
+
+    def _on_control(self, message: String) -> None:
+        request = message.data.strip().lower()
+        if request == 'pause':
+            self.session.pause()
+        elif request == 'resume':
+            command = self.session.resume()
+            if command is None:
+                command = self.session.next_command()
+            if command is not None:
+                self.send(command)
+        elif request == 'abort':
+            self.session.abort('aborted by operator')
+        else:
+            self.get_logger().warning(f'test_control: unknown request {message.data!r} '
+                                      '(pause, resume or abort)')
+            return
+        self.publish_status()
+
+    def check_timeout(self) -> None:
+        """Re-send or hold when the pending command's feedback is late."""
+        session = self.session
+        if (session.state is not TestState.RUNNING or session.protocol.pending is None
+                or time.monotonic() - self._sent_at
+                < session.definition.protocol.feedback_timeout):
+            return
+        command = session.on_timeout()
+        if command is not None:
+            self.get_logger().warning(f'no feedback for step {command.step}: re-sending '
+                                      f'({session.protocol.attempts}/'
+                                      f'{session.protocol.max_retries})')
+            self.send(command)
+        self.publish_status()
+
+    def finish(self) -> dict[str, Any]:
+        """Close the bag and write the run's outputs."""
+        if self.session.state not in (TestState.FINISHED, TestState.ABORTED):
+            reason = f'stopped while {self.session.state.name.lower()}: {self.session.message}'
+            self.session.abort(reason)
+        self.publish_status()
+        self.bag.close()
+        wall_time = time.perf_counter() - self._started if self._started else 0.0
+        summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
+                                 figures=self.figures, mode='graph')
+        self.get_logger().info(f'run folder: {self.directory}')
+        return summary
+
+
+def _describe(node: IntegratorNode) -> None:
+    stability = node.session.stability
+    logger = node.get_logger()
+    definition = node.session.definition
+    logger.info(f'test {definition.test_id}: {definition.n_steps} steps of {definition.dt} s, '
+                f'scheme {definition.scheme}, {definition.n_dof} DOF')
+    if stability is not None:
+        logger.info(stability.message)
+    else:
+        logger.info('initial stiffness: measured by a probe before the test')
+
+
+def run(node: IntegratorNode, executor: EventsExecutor) -> int:
+    """Wait for the specimen side, run the test, write the outputs; returns the exit code."""
+    _describe(node)
+    deadline = time.monotonic() + node.session.definition.protocol.start_timeout
+    while not node.peers_ready():
+        executor.spin_once(timeout_sec=0.05)
+        if time.monotonic() > deadline:
+            node.session.abort('no specimen side (bridge or simulator) answered on '
+                               f'{node.resolve_topic_name("step_command")} within '
+                               f'{node.session.definition.protocol.start_timeout} s')
+            node.finish()
+            return 1
+    node.start()
+    probing = node.session.probing
+    while node.session.state not in (TestState.FINISHED, TestState.ABORTED):
+        executor.spin_once(timeout_sec=0.05)
+        node.check_timeout()
+        if probing and not node.session.probing:
+            probing = False
+            _describe(node)
+    node.finish()
+    return 0 if node.session.state is TestState.FINISHED else 1
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run pd_integrator main``."""
+    rclpy.init(args=args)
+    node: IntegratorNode | None = None
+    code = 1
+    try:
+        try:
+            node = IntegratorNode()
+        except PdIntegratorError as err:
+            print(f'pd_integrator: error: {err}', file=sys.stderr)
+            return 2
+        executor = EventsExecutor()
+        executor.add_node(node)
+        code = run(node, executor)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        if node is not None:
+            node.session.abort('interrupted (SIGINT)')
+            node.finish()
+        code = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

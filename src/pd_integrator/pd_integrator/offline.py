@@ -1,0 +1,60 @@
+"""ROS-free run of a test: ``ros2 run pd_integrator offline [TEST_FILE]``.
+
+The same core, test file and specimen models as the node graph, in one process: it writes the
+same run folder (bag, ``response.csv``, ``summary.json``, figures). For a simulated specimen its
+history equals the node-graph run's, float for float.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .core.config import load_test_file
+from .core.errors import PdIntegratorError
+from .core.runner import default_run_directory, run_offline
+
+
+def default_test_file() -> Path:
+    """The shipped default test (installed share, or the source tree)."""
+    try:
+        from .launcher import share_file  # noqa: PLC0415
+
+        path = share_file('pd_integrator', 'config', 'default_test.yaml')
+        if path.is_file():
+            return path
+    except PdIntegratorError:
+        pass
+    return Path(__file__).resolve().parents[1] / 'config' / 'default_test.yaml'
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns 0 when the test finished, 1 if it stopped, 2 on invalid input."""
+    parser = argparse.ArgumentParser(prog='offline', description=__doc__.splitlines()[0])
+    parser.add_argument('test_file', nargs='?', help='YAML test file (default: the thesis '
+                        'section 5.1 test)')
+    parser.add_argument('--out', help='run folder (default: runs/<test_id>-<UTC time>)')
+    parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--quiet', action='store_true', help='no progress lines')
+    args = parser.parse_args(argv)
+    try:
+        test_file = Path(args.test_file) if args.test_file else default_test_file()
+        definition = load_test_file(test_file)
+        out = Path(args.out) if args.out else default_run_directory('runs', definition.test_id)
+        result = run_offline(definition, out, figures=not args.no_figures,
+                             progress=None if args.quiet else print)
+    except (PdIntegratorError, ValueError) as err:
+        print(f'offline: error: {err}', file=sys.stderr)
+        return 2
+    stability = result.session.stability
+    if stability is not None:
+        print(stability.message)
+    summary = result.summary
+    print(f'{summary["state"]}: {summary["steps"]} steps in {summary["wall_time"]:.3f} s; '
+          f'outputs in {result.directory}')
+    return 0 if summary['state'] == 'finished' else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
