@@ -30,6 +30,7 @@ import yaml
 from .core.config import load_test_file
 from .core.errors import PdIntegratorError
 from .core.runner import default_run_directory
+from .core.session import TestSession
 
 STOP_TIMEOUT = 10.0
 
@@ -127,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
             'pd_integrator', 'config', 'default_test.yaml')
         overrides = parse_overrides(args.param)
         definition = load_test_file(test_file, overrides)  # fail early, before any process
+        if not definition.needs_probe:
+            TestSession(definition)  # refuses an unstable test (omega*dt above the limit)
         out = Path(args.out) if args.out else default_run_directory('runs',
                                                                       definition.test_id)
         integrator = [str(find_executable('pd_integrator')), '--ros-args',

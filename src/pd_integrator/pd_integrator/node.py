@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
@@ -40,6 +41,7 @@ from .core.config import PARAMETER_PATHS, load_test_file
 from .core.errors import PdIntegratorError
 from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
 from .core.progress import ProgressMeter
+from .core.protocol import Verdict
 from .core.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
@@ -128,6 +130,15 @@ def status_message(status: Status, stamp: Any) -> TestStatus:
     return message
 
 
+def round_trip_statistics(samples: list[float]) -> dict[str, float]:
+    """Median, p99 and max of the command → feedback round trips [ms] (re-sends included)."""
+    if not samples:
+        return {'count': 0}
+    values = np.array(samples) * 1e3
+    return {'count': int(values.size), 'median_ms': float(np.median(values)),
+            'p99_ms': float(np.percentile(values, 99)), 'max_ms': float(values.max())}
+
+
 class IntegratorNode(Node):
     """Runs one pseudo-dynamic test through the ROS graph.
 
@@ -181,6 +192,7 @@ class IntegratorNode(Node):
         self.bag.write_definition(text, time.time_ns())
         self._definition_pub.publish(String(data=text))
         self._sent_at = 0.0
+        self._round_trips: list[float] = []  # s, command sent -> its feedback accepted
         self._last_state: TestState | None = None
         self._started = 0.0
         self.publish_status()
@@ -196,9 +208,11 @@ class IntegratorNode(Node):
         self.bag.write_status(status, time.time_ns())
         if status.state is not self._last_state:
             self._last_state = status.state
-            log = self.get_logger().warning if status.state in (
-                TestState.HOLDING, TestState.ABORTED) else self.get_logger().info
-            log(f'{status.state.name.lower()}: {status.message}')
+            line = f'{status.state.name.lower()}: {status.message}'
+            if status.state in (TestState.HOLDING, TestState.ABORTED):
+                self.get_logger().warning(line)
+            else:
+                self.get_logger().info(line)
 
     def send(self, command: Command) -> None:
         """Publish and record a command; restart the feedback timer."""
@@ -222,9 +236,11 @@ class IntegratorNode(Node):
 
     # -- callbacks ----------------------------------------------------------------------------
     def _on_feedback(self, message: StepFeedback) -> None:
+        received = time.monotonic()
         feedback = feedback_data(message)
         self.bag.write_feedback(feedback, time.time_ns())
-        self.session.on_feedback(feedback)
+        if self.session.on_feedback(feedback) is Verdict.ACCEPTED:
+            self._round_trips.append(received - self._sent_at)
         command = self.session.next_command()
         if command is not None:
             self.send(command)
@@ -279,7 +295,8 @@ class IntegratorNode(Node):
         self.bag.close()
         wall_time = time.perf_counter() - self._started if self._started else 0.0
         summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
-                                 figures=self.figures, mode='graph')
+                                 figures=self.figures, mode='graph',
+                                 step_round_trip=round_trip_statistics(self._round_trips))
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
 

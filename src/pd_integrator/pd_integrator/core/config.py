@@ -521,8 +521,10 @@ def _ground_motion(raw: Any, source: str, base_dir: Path) -> tuple[GroundMotion,
             if units not in ('m/s2', 'm/s^2', 'g'):
                 raise reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
             acceleration = np.asarray(values, dtype=float) * factor
-            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration, source='inline')
-            info = dict(record) if isinstance(record, dict) else {'file': 'inline'}
+            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration,
+                                  source='inline').scaled(scale * direction)
+            info = dict(record) if isinstance(record, dict) else {
+                'file': 'inline', 'scale': scale, 'direction': direction}
         else:
             assert file is not None
             path = Path(file)

@@ -1,0 +1,68 @@
+"""Fixtures for graph tests (see graph_support for the helpers)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from graph_support import (
+    DOMAINS,
+    REPO,
+    Processes,
+    remove_stale_segments,
+    shm_segments,
+    worker_index,
+)
+
+
+@pytest.fixture
+def domain_id() -> int:
+    """A ROS domain of this test alone (distinct per xdist worker and per test)."""
+    return 10 + 25 * worker_index() + next(DOMAINS) % 25
+
+
+@pytest.fixture
+def ros_env(domain_id: int) -> dict[str, str]:
+    """Environment for child nodes: the sourced workspace, this test's domain, host-only DDS."""
+    env = dict(os.environ)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.setdefault('HOME', str(REPO))
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+@pytest.fixture
+def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
+    """Process manager whose processes are always stopped after the test."""
+    before = shm_segments()
+    manager = Processes(ros_env, tmp_path)
+    try:
+        yield manager
+    finally:
+        manager.stop_all()
+        remove_stale_segments(before)
+
+
+@pytest.fixture
+def observer(domain_id: int) -> Iterator[Any]:
+    """An rclpy node in this test's domain (own context), shut down after the test."""
+    import rclpy  # noqa: PLC0415 - only graph tests need ROS
+    from rclpy.executors import SingleThreadedExecutor  # noqa: PLC0415
+    from rclpy.node import Node  # noqa: PLC0415
+
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    node = Node('pd_test_observer', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    node.executor_for_test = executor
+    try:
+        yield node
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)

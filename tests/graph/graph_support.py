@@ -1,0 +1,124 @@
+"""Helpers for graph tests: nodes as separate processes over DDS, isolated and cleaned up.
+
+Every test gets its own ``ROS_DOMAIN_ID`` (passed to the children and to the test's own rclpy
+context), discovery stays on this host, every started process is stopped (SIGINT to its
+process group, then SIGKILL), and Fast DDS shared-memory segments left by killed processes are
+removed.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import signal
+import subprocess
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+DOMAINS = itertools.count()
+
+
+def worker_index() -> int:
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    return int(worker[2:]) if worker.startswith('gw') else 0
+
+
+def install_prefix(package: str) -> Path:
+    """The install prefix of ``package`` in the ament index, or fail with set-up advice."""
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix and (Path(prefix) / 'share/ament_index/resource_index/packages'
+                       / package).is_file():
+            return Path(prefix)
+    pytest.fail(f'{package} is not built/sourced: run the tests with ./pd test '
+                '(it builds the workspace and sources scripts/env.sh)')
+    raise AssertionError  # unreachable
+
+
+def executable(package: str, name: str = 'main') -> str:
+    """Path of ``lib/<package>/<name>`` (what ``ros2 run`` runs)."""
+    return str(install_prefix(package) / 'lib' / package / name)
+
+
+class Processes:
+    """Starts processes in their own sessions and always stops them."""
+
+    def __init__(self, env: dict[str, str], logdir: Path) -> None:
+        self.env = env
+        self.logdir = logdir
+        self.started: list[tuple[str, subprocess.Popen[bytes]]] = []
+
+    def start(self, name: str, command: list[str]) -> subprocess.Popen[bytes]:
+        """Start ``command``; stdout/stderr go to ``<logdir>/<name>.log``."""
+        log = (self.logdir / f'{name}.log').open('wb')
+        process = subprocess.Popen(command, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
+        self.started.append((name, process))
+        return process
+
+    def log(self, name: str) -> str:
+        """What a process printed so far."""
+        path = self.logdir / f'{name}.log'
+        return path.read_text(encoding='utf-8', errors='replace') if path.exists() else ''
+
+    @staticmethod
+    def signal(process: subprocess.Popen[bytes], sig: int) -> None:
+        """Send ``sig`` to the process group (ignores processes already gone)."""
+        try:
+            os.killpg(process.pid, sig)
+        except ProcessLookupError:
+            pass
+
+    def stop_all(self) -> None:
+        """SIGINT every live process group, then SIGKILL what is left."""
+        for _, process in reversed(self.started):
+            if process.poll() is None:
+                self.signal(process, signal.SIGINT)
+        deadline = time.monotonic() + 10.0
+        for _, process in self.started:
+            try:
+                process.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                self.signal(process, signal.SIGKILL)
+                process.wait()
+
+
+def shm_segments() -> set[str]:
+    shm = Path('/dev/shm')
+    return {path.name for path in shm.glob('fastdds_*')} if shm.is_dir() else set()
+
+
+def _segments_in_use() -> set[str]:
+    """Names of /dev/shm files that some live process has mapped or open."""
+    used: set[str] = set()
+    for proc in Path('/proc').iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            maps = (proc / 'maps').read_text(encoding='utf-8', errors='replace')
+            used.update(line.rsplit('/', 1)[-1].split(' ')[0]
+                        for line in maps.splitlines() if '/dev/shm/' in line)
+            for fd in (proc / 'fd').iterdir():
+                target = os.readlink(fd)
+                if target.startswith('/dev/shm/'):
+                    used.add(target.rsplit('/', 1)[-1])
+        except OSError:
+            continue
+    return used
+
+
+def remove_stale_segments(before: set[str]) -> None:
+    """Remove Fast DDS segments created during the test that no live process uses."""
+    new = shm_segments() - before
+    if not new:
+        return
+    in_use = _segments_in_use()
+    for name in new - in_use:
+        try:
+            (Path('/dev/shm') / name).unlink()
+        except OSError:
+            pass

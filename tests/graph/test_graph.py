@@ -1,0 +1,270 @@
+"""The node graph as real separate processes over DDS.
+
+* a short test through integrator → bridge → simulator (and integrator → simulator) completes
+  and its history equals the ROS-free run of the same test file, float for float;
+* the bag reads back with rosbags and its replay reproduces ``response.csv``;
+* a command past a bridge limit never reaches the specimen: the bridge holds and reports, the
+  integrator holds, an operator abort ends the test with its outputs written;
+* a specimen killed mid-test leads the integrator to HOLDING after its re-sends, with every
+  committed step still right.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from rosbags.highlevel import AnyReader
+
+from pd_integrator.core.bag import read_bag
+from pd_integrator.core.config import load_test_file
+from pd_integrator.core.messages import Command, Feedback, FeedbackStatus
+from pd_integrator.core.runner import rebuild_outputs, run_offline
+
+from graph_support import REPO, Processes, executable
+
+pytestmark = pytest.mark.graph
+
+DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
+RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
+    'elcentro_1940_ns_chopra.csv')
+RUN_TIMEOUT = 120.0
+
+
+def write_test_file(path: Path, **changes: Any) -> Path:
+    """The default test with ``section.key`` changes (e.g. ``test__duration=2.0``)."""
+    raw = yaml.safe_load(DEFAULT_TEST.read_text(encoding='utf-8'))
+    raw['ground_motion']['file'] = str(RECORD)
+    for dotted, value in changes.items():
+        section, key = dotted.split('__')
+        raw[section][key] = value
+    path.write_text(yaml.safe_dump(raw), encoding='utf-8')
+    return path
+
+
+def write_bridge_params(path: Path, **limits: float) -> Path:
+    """A bridge parameter file with the default limits and ``limits`` changed."""
+    params = {'driver': 'sim_servo', 'specimen_namespace': 'specimen', 'driver_timeout': 5.0,
+              'max_displacement': 0.25, 'max_increment': 0.02, 'max_force': 1.0e5,
+              'max_velocity': 0.0, 'step_duration': 0.0}
+    params.update(limits)
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': params}}), encoding='utf-8')
+    return path
+
+
+def run_launcher(processes: Processes, name: str, arguments: list[str]
+                 ) -> subprocess.Popen[bytes]:
+    """Start ``run_test`` (which starts the nodes as its own children)."""
+    return processes.start(name, [executable('pd_integrator', 'run_test'), *arguments])
+
+
+def wait_exit(process: subprocess.Popen[bytes], timeout: float, log: Callable[[], str]) -> int:
+    """Wait for ``process``; fail with its log on a timeout."""
+    try:
+        return process.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f'process did not finish within {timeout} s; its log:\n{log()[-3000:]}')
+    raise AssertionError  # unreachable
+
+
+def spin_until(observer: Any, predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    """Spin the observer node until ``predicate()`` or fail."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            pytest.fail(f'timed out after {timeout} s waiting for {what}')
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+
+
+def latched_qos() -> Any:
+    """QoS of the latched status topics."""
+    from rclpy.qos import (  # noqa: PLC0415
+        DurabilityPolicy,
+        HistoryPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+    )
+
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                      reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+@pytest.fixture(scope='module')
+def short_test(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The default test cut to 2 s (200 steps)."""
+    directory = tmp_path_factory.mktemp('short')
+    return write_test_file(directory / 'short.yaml', test__duration=2.0, test__id='graph-short')
+
+
+@pytest.fixture(scope='module')
+def offline_run(short_test: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The ROS-free run of the short test."""
+    out = tmp_path_factory.mktemp('offline') / 'run'
+    run_offline(load_test_file(short_test), out, figures=False)
+    return out
+
+
+@pytest.mark.parametrize('site', ['bridge', 'direct'])
+def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run: Path,
+                                        processes: Processes, tmp_path: Path) -> None:
+    out = tmp_path / 'graph'
+    launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', site,
+                                                    '--out', str(out), '--no-figures'])
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    assert code == 0, processes.log('run_test')[-3000:]
+    graph_csv = (out / 'response.csv').read_bytes()
+    assert graph_csv == (offline_run / 'response.csv').read_bytes()
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'finished'
+    assert summary['steps'] == 200
+    assert summary['mode'] == 'graph'
+    assert summary['step_round_trip']['count'] >= 201
+
+    # The bag reads back with plain rosbags and holds the whole test.
+    with AnyReader([out / 'bag']) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        types = {c.topic: c.msgtype for c in reader.connections}
+    assert counts['/pd/step_command'] >= 201
+    assert counts['/pd/step_feedback'] >= 201
+    assert counts['/pd/test_definition'] == 1
+    assert types['/pd/step_feedback'] == 'pd_msgs/msg/StepFeedback'
+    run = read_bag(out / 'bag')
+    assert run.statuses[-1][1].state.name == 'FINISHED'
+    if site == 'bridge':
+        assert any('ready' in status.message for _, status in run.bridge_statuses)
+
+    # The replay rebuilds response.csv from the bag alone.
+    replay = rebuild_outputs(out / 'bag', tmp_path / 'replay', figures=False)
+    assert (replay.directory / 'response.csv').read_bytes() == graph_csv
+
+
+def test_bridge_limit_holds_and_never_reaches_the_specimen(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    from std_msgs.msg import String  # noqa: PLC0415
+
+    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
+
+    limit = 0.01  # m; the column reaches ~0.049 m under El Centro
+    test_file = write_test_file(tmp_path / 'limit.yaml', test__duration=6.0,
+                                test__id='graph-limit')
+    params = write_bridge_params(tmp_path / 'bridge.yaml', max_displacement=limit)
+    forwarded: list[float] = []
+    statuses: list[Any] = []
+    bridge_statuses: list[Any] = []
+    observer.create_subscription(StepCommand, '/pd/specimen/step_command',
+                                 lambda m: forwarded.extend(m.target_displacement), 100)
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
+    observer.create_subscription(TestStatus, '/pd/bridge/status', bridge_statuses.append,
+                                 latched_qos())
+    control = observer.create_publisher(String, '/pd/test_control', 10)
+
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
+                                                    '--out', str(out), '--no-figures',
+                                                    '--bridge-params', str(params)])
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
+               RUN_TIMEOUT, 'the integrator to hold')
+    holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
+    assert 'max_displacement' in holding.message
+    assert 'limit' in holding.message
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING
+                                     for s in bridge_statuses), 10.0, 'the bridge status')
+    time.sleep(0.5)  # nothing moves while holding
+    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
+    control.publish(String(data='abort'))
+    code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
+    assert code == 1
+
+    # What reached the specimen: everything the observer saw on its command topic (it may
+    # have joined late) and every position the specimen reported back through the bridge.
+    assert all(abs(x) <= limit for x in forwarded)
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    run = read_bag(out / 'bag')
+    refused = [item for _, item in run.events
+               if isinstance(item, Feedback) and item.status is FeedbackStatus.LIMIT]
+    assert refused
+    commands = {item.step: item for _, item in run.events
+                if isinstance(item, Command) and item.test_id == 'graph-limit'}
+    assert abs(commands[refused[0].step].target_displacement[0]) > limit
+    committed = summary['steps']
+    assert committed == refused[0].step - 1
+    assert summary['dofs']['top']['peaks']['displacement']['abs'] <= limit
+    measured = [abs(x) for _, item in run.events if isinstance(item, Feedback)
+                for x in item.measured_displacement]
+    assert len(measured) > committed
+    assert max(measured) <= limit
+
+
+def test_specimen_killed_mid_test_leads_to_holding(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    from std_msgs.msg import String  # noqa: PLC0415
+
+    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+
+    test_file = write_test_file(tmp_path / 'kill.yaml', test__id='graph-kill',
+                                protocol__feedback_timeout=0.5, protocol__max_retries=2)
+    statuses: list[Any] = []
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
+    control = observer.create_publisher(String, '/pd/test_control', 10)
+    specimen = processes.start('specimen', [
+        executable('pd_specimen_sim'), '--ros-args', '-p', f'test_file:={test_file}'])
+    out = tmp_path / 'run'
+    integrator = processes.start('integrator', [
+        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+        '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', 'progress_interval:=0.05'])
+    spin_until(observer, lambda: any(s.step >= 100 for s in statuses), RUN_TIMEOUT,
+               'the test to pass step 100')
+    Processes.signal(specimen, signal.SIGKILL)
+    specimen.wait(timeout=10)
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
+               30.0, 'the integrator to hold')
+    holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
+    assert 'no feedback for step' in holding.message
+    assert holding.retries >= 2
+    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
+    control.publish(String(data='abort'))
+    code = wait_exit(integrator, 30.0, lambda: processes.log('integrator'))
+    assert code == 1
+
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    assert summary['retries'] == holding.retries  # (a slow step before the kill may add one)
+    steps = summary['steps']
+    assert steps >= 100
+    assert steps == holding.step
+    # Every committed step is right: it equals the ROS-free run of the same test.
+    offline = tmp_path / 'offline'
+    run_offline(load_test_file(test_file), offline, figures=False)
+    graph_rows = (out / 'response.csv').read_text(encoding='utf-8').splitlines()
+    offline_rows = (offline / 'response.csv').read_text(encoding='utf-8').splitlines()
+    assert len(graph_rows) == steps + 2  # header + steps 0..k-1
+    assert graph_rows == offline_rows[:steps + 2]
+    # The pending step was re-sent and never committed.
+    run = read_bag(out / 'bag')
+    pending = [item for _, item in run.events
+               if isinstance(item, Command) and item.step == steps + 1
+               and item.test_id == 'graph-kill']
+    assert len(pending) == 3  # first send + 2 re-sends
+    assert np.isfinite(np.loadtxt(out / 'response.csv', delimiter=',', skiprows=1)).all()
+
+
+def test_invalid_test_file_is_refused_before_anything_moves(
+        processes: Processes, tmp_path: Path) -> None:
+    unstable = write_test_file(tmp_path / 'unstable.yaml', test__dt=0.2)
+    launcher = run_launcher(processes, 'run_test', [str(unstable), '--out',
+                                                    str(tmp_path / 'run')])
+    code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
+    log = processes.log('run_test')
+    assert code == 2
+    assert 'dt' in log
+    assert not (tmp_path / 'run').exists()
