@@ -762,3 +762,19 @@ def test_fault_while_idle_holds_without_reply() -> None:
     assert bridge.handle_fault('again') is None
     assert bridge.hold_reason == 'emergency stop pressed'
     assert bridge.violations == 1
+
+
+def test_bridge_accepts_step_iteration_keys() -> None:
+    from pd_actuator_bridge.core import ActuatorBridge, LoopbackDriver, SafetyLimits
+
+    driver = LoopbackDriver(lambda x: [1000.0 * v for v in x], n_dof=1)
+    driver.open()
+    bridge = ActuatorBridge(driver, SafetyLimits(max_displacement=0.1, max_increment=0.05,
+                                                 max_force=1.0e4), ['u'])
+    first = bridge.handle_command('t', (2, 0), [0.01])
+    second = bridge.handle_command('t', (2, 1), [0.02])
+    assert first is not None and first.step == (2, 0) and first.status == 'ok'
+    assert second is not None and second.force == (20.0,)
+    assert bridge.handle_command('t', (2, 1), [0.09]) is second  # repeat: no motion
+    assert bridge.handle_command('t', (2, 0), [0.03]) is None  # stale iteration: ignored
+    assert [target for _, target in driver.commands] == [(0.01,), (0.02,)]

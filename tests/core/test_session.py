@@ -513,3 +513,24 @@ def test_stable_limit_dt_is_accepted() -> None:
     d = load_test_file(DEFAULT_TEST, overrides={'dt': dt, 'duration': 2.0})
     session = Session(d)
     assert session.omega_dt == pytest.approx(0.99 * 2.0, rel=1e-12)
+
+
+def test_protocol_orders_feedback_by_step_and_iteration() -> None:
+    from pd_integrator.core.messages import Command, Feedback
+    from pd_integrator.core.protocol import StepProtocol, Verdict
+
+    protocol = StepProtocol(max_retries=1)
+    command = Command(test_id='t', step=5, test_time=0.05, dof_names=('u',),
+                      target_displacement=(0.1,), iteration=2)
+    protocol.send(command)
+
+    def answer(step: int, iteration: int) -> Feedback:
+        return Feedback(test_id='t', step=step, measured_displacement=(0.1,),
+                        restoring_force=(1.0,), iteration=iteration)
+
+    assert protocol.verdict(answer(5, 1)) is Verdict.STALE
+    assert protocol.verdict(answer(4, 7)) is Verdict.STALE
+    assert protocol.verdict(answer(5, 3)) is Verdict.UNEXPECTED
+    assert protocol.verdict(answer(5, 0)) is Verdict.STALE
+    assert protocol.classify(answer(5, 2)) is Verdict.ACCEPTED
+    assert protocol.classify(answer(5, 2)) is Verdict.DUPLICATE

@@ -226,3 +226,21 @@ def test_config_backbone_file_errors(tmp_path: Path) -> None:
 def test_config_section_must_be_mapping(tmp_path: Path) -> None:
     with pytest.raises(SpecimenConfigError, match='test.yaml: specimen: must be a mapping'):
         build(None, tmp_path)
+
+
+def test_server_keys_commands_by_step_and_iteration() -> None:
+    from pd_specimen_sim.core import Elastic, Specimen, SpecimenServer
+
+    server = SpecimenServer(Specimen([Elastic(1000.0)], dof_names=['u']))
+    first = server.handle('t', 3, (0.01,), iteration=0)
+    second = server.handle('t', 3, (0.02,), iteration=1)
+    assert first is not None and second is not None
+    assert first.force == (10.0,)
+    assert second.force == (20.0,)
+    assert second.iteration == 1
+    # The same (step, iteration) again: the same answer, no motion.
+    assert server.handle('t', 3, (0.5,), iteration=1) is second
+    assert server.repeated == 1
+    # An older iteration of the same step is stale: ignored, the specimen does not move.
+    assert server.handle('t', 3, (0.3,), iteration=0) is None
+    assert server.position == (0.02,)

@@ -205,10 +205,11 @@ class ActuatorBridgeNode(Node):
 
     def _on_command(self, message: StepCommand) -> None:
         self._test_id, self._step = message.test_id, message.step
+        key = (message.step, message.iteration)  # the bridge core orders steps by this key
         was_holding = self.bridge.state == 'holding'
-        reply = self.bridge.handle_command(message.test_id, message.step,
+        reply = self.bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
                                            tuple(message.target_displacement))
-        if reply is None and self.bridge.in_flight == (message.test_id, message.step):
+        if reply is None and self.bridge.in_flight == (message.test_id, key):
             self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
         if reply is not None:
             self._publish_reply(reply)
@@ -232,7 +233,9 @@ class ActuatorBridgeNode(Node):
         feedback = StepFeedback()
         feedback.header.stamp = self.get_clock().now().to_msg()
         feedback.test_id = reply.test_id
-        feedback.step = reply.step
+        step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
+        feedback.step = step
+        feedback.iteration = iteration
         feedback.measured_displacement = list(reply.displacement)
         feedback.restoring_force = list(reply.force)
         feedback.status = _STATUS_CODES[reply.status]

@@ -85,6 +85,7 @@ def command_message(command: Command, stamp: Any) -> StepCommand:
     message.header.stamp = stamp
     message.test_id = command.test_id
     message.step = command.step
+    message.iteration = command.iteration
     message.test_time = command.test_time
     message.dof_names = list(command.dof_names)
     message.target_displacement = list(command.target_displacement)
@@ -100,7 +101,7 @@ def feedback_data(message: StepFeedback) -> Feedback:
     return Feedback(test_id=message.test_id, step=message.step,
                     measured_displacement=tuple(message.measured_displacement),
                     restoring_force=tuple(message.restoring_force), status=status,
-                    message=message.message)
+                    message=message.message, iteration=message.iteration)
 
 
 def status_data(message: TestStatus) -> Status:

@@ -81,13 +81,15 @@ class SpecimenSimNode(Node):
 
     def _on_command(self, message: StepCommand) -> None:
         answer = self.server.handle(message.test_id, message.step,
-                                    tuple(message.target_displacement))
+                                    tuple(message.target_displacement),
+                                    iteration=message.iteration)
         if answer is None:
             return
         feedback = self._feedback
         feedback.header.stamp = self.get_clock().now().to_msg()
         feedback.test_id = answer.test_id
         feedback.step = answer.step
+        feedback.iteration = answer.iteration
         feedback.measured_displacement = list(answer.displacement)
         feedback.restoring_force = list(answer.force)
         feedback.status = answer.status

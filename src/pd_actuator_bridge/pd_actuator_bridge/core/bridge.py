@@ -10,6 +10,9 @@ States:
     A limit or a fault occurred. The driver was told to hold position and nothing is commanded
     until an operator calls :meth:`ActuatorBridge.reset` (the hold is latched).
 
+Steps are compared by equality and order only, so a step may be an ``int`` or a totally
+ordered key such as ``(step, iteration)`` (the node uses that for implicit schemes).
+
 Step bookkeeping (per test id; a new test id starts fresh but the actuator keeps its position):
 a repeated step returns the last reply without moving, a duplicate of the step in flight returns
 ``None``, and a step older than the last answered one is ignored and counted.

@@ -162,14 +162,14 @@ class BagRecorder:
         """Record a step command."""
         self._write(TOPIC_COMMAND, t_ns, self._store.types[MSG_COMMAND](
             header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
-            test_time=command.test_time, dof_names=list(command.dof_names),
+            iteration=command.iteration, test_time=command.test_time, dof_names=list(command.dof_names),
             target_displacement=np.array(command.target_displacement, dtype=np.float64)))
 
     def write_feedback(self, feedback: Feedback, t_ns: int) -> None:
         """Record a step feedback."""
         self._write(TOPIC_FEEDBACK, t_ns, self._store.types[MSG_FEEDBACK](
             header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
-            measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
+            iteration=feedback.iteration, measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
             restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
             status=int(feedback.status), message=feedback.message))
 
@@ -239,13 +239,15 @@ def read_bag(path: str | Path) -> RecordedRun:
                         test_id=message.test_id, step=int(message.step),
                         test_time=float(message.test_time),
                         dof_names=tuple(message.dof_names),
-                        target_displacement=tuple(message.target_displacement.tolist()))))
+                        target_displacement=tuple(message.target_displacement.tolist()),
+                        iteration=int(message.iteration))))
                 elif topic == TOPIC_FEEDBACK:
                     run.events.append((t_ns, Feedback(
                         test_id=message.test_id, step=int(message.step),
                         measured_displacement=tuple(message.measured_displacement.tolist()),
                         restoring_force=tuple(message.restoring_force.tolist()),
-                        status=FeedbackStatus(message.status), message=message.message)))
+                        status=FeedbackStatus(message.status), message=message.message,
+                        iteration=int(message.iteration))))
                 elif topic == TOPIC_STATUS:
                     run.statuses.append((t_ns, _status(message)))
                 else:

@@ -31,13 +31,23 @@ class TestState(IntEnum):
 
 @dataclass(frozen=True)
 class Command:
-    """A step command: drive the DOFs to ``target_displacement`` [m]."""
+    """A step command: drive the DOFs to ``target_displacement`` [m].
+
+    ``iteration`` is 0 for explicit schemes; an implicit scheme with a fixed number of
+    iterations commands ``(step, 0)``, ``(step, 1)``, ... within one step.
+    """
 
     test_id: str
     step: int
     test_time: float
     dof_names: tuple[str, ...]
     target_displacement: tuple[float, ...]
+    iteration: int = 0
+
+    @property
+    def key(self) -> tuple[int, int]:
+        """``(step, iteration)``: what a feedback must match."""
+        return (self.step, self.iteration)
 
 
 @dataclass(frozen=True)
@@ -50,6 +60,12 @@ class Feedback:
     restoring_force: tuple[float, ...]
     status: FeedbackStatus = FeedbackStatus.OK
     message: str = ''
+    iteration: int = 0
+
+    @property
+    def key(self) -> tuple[int, int]:
+        """``(step, iteration)`` of the command answered."""
+        return (self.step, self.iteration)
 
 
 @dataclass(frozen=True)

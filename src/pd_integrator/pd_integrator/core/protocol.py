@@ -61,7 +61,7 @@ class StepProtocol:
     retries: int = 0
     attempts: int = 0
     ignored: dict[Verdict, int] = field(default_factory=dict)
-    _answered: set[tuple[str, int]] = field(default_factory=set)
+    _answered: set[tuple[str, int, int]] = field(default_factory=set)
 
     @property
     def ignored_total(self) -> int:
@@ -85,7 +85,7 @@ class StepProtocol:
         """Classify ``feedback``: ``ACCEPTED`` clears the pending command, others are counted."""
         verdict = self.verdict(feedback)
         if verdict is Verdict.ACCEPTED:
-            self._answered.add((feedback.test_id, feedback.step))
+            self._answered.add((feedback.test_id, *feedback.key))
             self.pending = None
         else:
             self.ignore(verdict)
@@ -98,15 +98,16 @@ class StepProtocol:
     def verdict(self, feedback: Feedback) -> Verdict:
         """Classify ``feedback`` without changing any state."""
         pending = self.pending
-        if (feedback.test_id, feedback.step) in self._answered:
+        key = feedback.key
+        if (feedback.test_id, *key) in self._answered:
             return Verdict.DUPLICATE
         if pending is None:
             return Verdict.UNEXPECTED
         if feedback.test_id != pending.test_id:
             return Verdict.FOREIGN
-        if feedback.step < pending.step:
+        if key < pending.key:
             return Verdict.STALE
-        if feedback.step > pending.step:
+        if key > pending.key:
             return Verdict.UNEXPECTED
         return Verdict.ACCEPTED
 

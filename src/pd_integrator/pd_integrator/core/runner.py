@@ -107,11 +107,13 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         bag.write_status(session.status(), time.time_ns())
         while (command := session.next_command()) is not None:
             bag.write_command(command, time.time_ns())
-            answer = server.handle(command.test_id, command.step, command.target_displacement)
+            answer = server.handle(command.test_id, command.step, command.target_displacement,
+                                   iteration=command.iteration)
             if answer is None:  # cannot happen for a fresh command; keep the protocol honest
                 session.abort(f'specimen ignored step {command.step}')
                 break
             feedback = Feedback(test_id=answer.test_id, step=answer.step,
+                                iteration=answer.iteration,
                                 measured_displacement=answer.displacement,
                                 restoring_force=answer.force,
                                 status=FeedbackStatus(answer.status), message=answer.message)
@@ -127,7 +129,7 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
 
 
 def _same_command(recorded: Command, computed: Command) -> bool:
-    return (recorded.test_id == computed.test_id and recorded.step == computed.step
+    return (recorded.test_id == computed.test_id and recorded.key == computed.key
             and recorded.target_displacement == computed.target_displacement)
 
 

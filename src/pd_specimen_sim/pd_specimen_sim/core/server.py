@@ -33,10 +33,13 @@ class Answer:
     force: tuple[float, ...]
     status: int = STATUS_OK
     message: str = ''
+    iteration: int = 0
 
 
 class SpecimenServer:
     """Moves a simulated specimen to commanded displacements and reports its forces.
+
+    Commands are keyed by ``(step, iteration)`` (iteration 0 for explicit schemes).
 
     * A new step: the specimen goes to the target, its force is computed and committed; the
       measured displacement equals the target (an ideal actuator).
@@ -61,38 +64,42 @@ class SpecimenServer:
         self.ignored = 0
         self.faults = 0
 
-    def handle(self, test_id: str, step: int, target: Sequence[float]) -> Answer | None:
-        """Answer the command for ``step`` of ``test_id``; ``None`` if it is ignored."""
+    def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0
+               ) -> Answer | None:
+        """Answer the command for ``(step, iteration)`` of ``test_id``; ``None`` if ignored."""
         last = self._last
         if last is not None and last.test_id == test_id:
-            if step == last.step:
+            key, last_key = (step, iteration), (last.step, last.iteration)
+            if key == last_key:
                 self.repeated += 1
                 return last
-            if step < last.step:
+            if key < last_key:
                 self.ignored += 1
                 return None
-        answer = self._move(test_id, step, target)
+        answer = self._move(test_id, step, iteration, target)
         self._last = answer
         return answer
 
-    def _move(self, test_id: str, step: int, target: Sequence[float]) -> Answer:
+    def _move(self, test_id: str, step: int, iteration: int, target: Sequence[float]
+              ) -> Answer:
         n = self.specimen.n_dof
         values = [float(value) for value in target]
         if len(values) != n or not all(math.isfinite(value) for value in values):
-            return self._fault(test_id, step, f'invalid target displacement {values!r} '
-                                              f'(expected {n} finite values)')
+            return self._fault(test_id, step, iteration, f'invalid target displacement '
+                               f'{values!r} (expected {n} finite values)')
         try:
             force = self.specimen.restoring_force(np.array(values))
         except SpecimenError as err:
             self.specimen.revert_to_last_commit()
-            return self._fault(test_id, step, str(err))
+            return self._fault(test_id, step, iteration, str(err))
         self.specimen.commit()
         self.position = tuple(values)
         self.force = tuple(float(f) for f in force)
         self.steps_served += 1
-        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force)
+        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
+                      iteration=iteration)
 
-    def _fault(self, test_id: str, step: int, message: str) -> Answer:
+    def _fault(self, test_id: str, step: int, iteration: int, message: str) -> Answer:
         self.faults += 1
         return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
-                      status=STATUS_FAULT, message=message)
+                      status=STATUS_FAULT, message=message, iteration=iteration)
