@@ -32,6 +32,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from builtin_interfaces.msg import Time
 from std_msgs.msg import String
 
 from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
@@ -79,9 +80,15 @@ _OVERRIDE_DESCRIPTIONS = {
 }
 
 
-def command_message(command: Command, stamp: Any) -> StepCommand:
-    """``pd_msgs/StepCommand`` from a core command."""
-    message = StepCommand()
+def stamp_from_ns(t_ns: int) -> Time:
+    """``builtin_interfaces/Time`` from nanoseconds since the epoch (cheaper than the clock)."""
+    return Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
+
+
+def command_message(command: Command, stamp: Any, message: StepCommand | None = None
+                    ) -> StepCommand:
+    """``pd_msgs/StepCommand`` from a core command (fills ``message`` if given)."""
+    message = StepCommand() if message is None else message
     message.header.stamp = stamp
     message.test_id = command.test_id
     message.step = command.step
@@ -192,6 +199,7 @@ class IntegratorNode(Node):
         (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
         self.bag.write_definition(text, time.time_ns())
         self._definition_pub.publish(String(data=text))
+        self._command_message = StepCommand()
         self._sent_at = 0.0
         self._round_trips: list[float] = []  # s, command sent -> its feedback accepted
         self._last_state: TestState | None = None
@@ -217,9 +225,11 @@ class IntegratorNode(Node):
 
     def send(self, command: Command) -> None:
         """Publish and record a command; restart the feedback timer."""
-        self.bag.write_command(command, time.time_ns())
-        self._command_pub.publish(command_message(command, self._stamp()))
+        t_ns = time.time_ns()
+        self._command_pub.publish(command_message(command, stamp_from_ns(t_ns),
+                                                  self._command_message))
         self._sent_at = time.monotonic()
+        self.bag.write_command(command, t_ns)
 
     def peers_ready(self) -> bool:
         """Whether a specimen side listens to commands and talks back."""
@@ -238,13 +248,22 @@ class IntegratorNode(Node):
     # -- callbacks ----------------------------------------------------------------------------
     def _on_feedback(self, message: StepFeedback) -> None:
         received = time.monotonic()
+        received_ns = time.time_ns()
         feedback = feedback_data(message)
-        self.bag.write_feedback(feedback, time.time_ns())
         if self.session.on_feedback(feedback) is Verdict.ACCEPTED:
             self._round_trips.append(received - self._sent_at)
         command = self.session.next_command()
         if command is not None:
-            self.send(command)
+            # The next command goes out first; the bag is written while the specimen moves
+            # (in reception order: this feedback, then the command).
+            sent_ns = time.time_ns()
+            self._command_pub.publish(command_message(command, stamp_from_ns(sent_ns),
+                                                      self._command_message))
+            self._sent_at = time.monotonic()
+            self.bag.write_feedback(feedback, received_ns)
+            self.bag.write_command(command, sent_ns)
+        else:
+            self.bag.write_feedback(feedback, received_ns)
         if self.session.state is not TestState.RUNNING:
             self.publish_status()
         elif (line := self.meter.update(max(self.session.committed_step, 0))) is not None:
@@ -342,6 +361,7 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_integrator main``."""
     rclpy.init(args=args)
     node: IntegratorNode | None = None
+    executor: EventsExecutor | None = None
     code = 1
     try:
         try:
@@ -358,6 +378,8 @@ def main(args: list[str] | None = None) -> int:
             node.finish()
         code = 1
     finally:
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -15,11 +15,13 @@ Parameters: ``test_file`` — the YAML test file; its ``specimen`` section and
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
 import rclpy
 import yaml
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
@@ -86,7 +88,9 @@ class SpecimenSimNode(Node):
         if answer is None:
             return
         feedback = self._feedback
-        feedback.header.stamp = self.get_clock().now().to_msg()
+        t_ns = time.time_ns()
+        feedback.header.stamp = Time(sec=t_ns // 1_000_000_000,
+                                     nanosec=t_ns % 1_000_000_000)
         feedback.test_id = answer.test_id
         feedback.step = answer.step
         feedback.iteration = answer.iteration
@@ -103,6 +107,7 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_specimen_sim main``."""
     rclpy.init(args=args)
     node: SpecimenSimNode | None = None
+    executor: EventsExecutor | None = None
     try:
         try:
             node = SpecimenSimNode()
@@ -116,6 +121,8 @@ def main(args: list[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -151,6 +151,7 @@ class TestDefinition:
     Attributes:
         test_id: identifier carried by every command and feedback of the test.
         scheme: integration scheme name (see ``schemes.SCHEMES``).
+        scheme_parameters: the scheme's parameters (e.g. ``rho_inf``), passed to it.
         dt: integration time step [s].
         n_steps: number of integration steps (the record, plus free vibration if asked).
         dof_names: specimen DOF names, one per actuator.
@@ -188,6 +189,7 @@ class TestDefinition:
     source: str = '<memory>'
     base_dir: Path = field(default_factory=Path.cwd)
     record_info: dict[str, Any] = field(default_factory=dict)
+    scheme_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
     def n_dof(self) -> int:
@@ -253,7 +255,8 @@ class TestDefinition:
         return {
             'schema_version': SCHEMA_VERSION,
             'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
-                     'duration': self.duration},
+                     'duration': self.duration,
+                     'scheme_parameters': dict(self.scheme_parameters)},
             'structure': structure,
             'ground_motion': {
                 'inline': {'dt': self.ground_motion.dt,
@@ -368,6 +371,12 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
 
     scheme = test.string('scheme', 'newmark_explicit', choices=tuple(sorted(SCHEMES)))
     assert scheme is not None
+    scheme_parameters = test.get('scheme_parameters', {}) or {}
+    if not isinstance(scheme_parameters, dict) or not all(
+            isinstance(key, str) and isinstance(value, (int, float)) and not isinstance(
+                value, bool) and math.isfinite(value) for key, value in scheme_parameters.items()):
+        raise test.error('scheme_parameters', 'must map parameter names to finite numbers, '
+                         f'got {scheme_parameters!r}')
     dt = test.number('dt', positive=True, required=True)
     assert dt is not None
     duration = test.number('duration', positive=True)
@@ -424,7 +433,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         damping=damping, damping_ratio=damping_ratio, initial_stiffness=stiffness,
         influence=influence, ground_motion=ground_motion,
         ground_acceleration=ground_acceleration, specimen=specimen, protocol=protocol,
-        probe=probe, source=source, base_dir=base_dir, record_info=record_info)
+        probe=probe, source=source, base_dir=base_dir, record_info=record_info,
+        scheme_parameters={key: float(value) for key, value in scheme_parameters.items()})
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import PdIntegratorError, ProtocolError
+from .errors import ConfigError, PdIntegratorError, ProtocolError
 from .history import ResponseHistory
 from .messages import Command, Feedback, FeedbackStatus, Status, TestState
 from .protocol import StepProtocol, TimeoutAction, Verdict
@@ -221,12 +221,17 @@ class TestSession:
     def _setup_integrator(self) -> None:
         definition = self.definition
         structure = definition.structure()
-        self.stability = check_stability(definition.scheme, structure.mass,
+        try:
+            self._integrator = make_integrator(
+                definition.scheme, mass=structure.mass, damping=structure.damping,
+                dt=definition.dt, initial_stiffness=structure.initial_stiffness,
+                **definition.scheme_parameters)
+        except TypeError as err:  # an unknown scheme parameter
+            msg = f'{definition.source}: test.scheme_parameters: {err}'
+            raise ConfigError(msg) from err
+        self.stability = check_stability(self._integrator, structure.mass,
                                          structure.initial_stiffness, definition.dt)
         require_stable(self.stability)
-        self._integrator = make_integrator(definition.scheme, mass=structure.mass,
-                                           damping=structure.damping, dt=definition.dt,
-                                           initial_stiffness=structure.initial_stiffness)
 
     def _integration_command(self) -> Command:
         integrator = self._integrator
@@ -234,13 +239,15 @@ class TestSession:
             msg = 'the integrator is not set up (probe not finished)'
             raise ProtocolError(msg)
         step = self._step
+        iteration = 0
         if step == 0:
             target = np.zeros(self.definition.n_dof)
         else:
             target = integrator.predict()
+            iteration = getattr(integrator, "iteration", 0)  # TODO: base-class attribute
         return Command(test_id=self.definition.test_id, step=step,
                        test_time=self.definition.time(step), dof_names=self.definition.dof_names,
-                       target_displacement=tuple(target.tolist()))
+                       target_displacement=tuple(target.tolist()), iteration=iteration)
 
     def _on_step_feedback(self, command: Command, feedback: Feedback) -> None:
         integrator = self._integrator
@@ -253,6 +260,8 @@ class TestSession:
             integrator.initialize(x0, np.zeros(definition.n_dof), self._loads[0], force)
         else:
             integrator.correct(force, self._loads[step])
+            if integrator.phase != 'corrected':
+                return  # an implicit scheme iterates: the next command is (step, iteration + 1)
             integrator.commit()
         self.history.record(step, integrator.x, integrator.v, integrator.a,
                             feedback.restoring_force, feedback.measured_displacement)
@@ -268,6 +277,9 @@ class TestSession:
         info: dict[str, object] = {
             'test_id': definition.test_id,
             'scheme': definition.scheme,
+            'scheme_parameters': (self._integrator.parameters if self._integrator is not None
+                                  and hasattr(self._integrator, 'parameters')
+                                  else dict(definition.scheme_parameters)),
             'state': self.state.name.lower(),
             'message': self.message,
             'total_steps': definition.n_steps,

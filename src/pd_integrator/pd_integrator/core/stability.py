@@ -218,7 +218,9 @@ def check_stability(
         raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
     w_max = structure_omega_max(mass, stiffness)
     omega_dt = w_max * dt_value
-    limit = float(cls.stability_limit)
+    # An instance may have a parameter-dependent limit (e.g. rho_b of generalized-alpha).
+    limit = float(scheme.stability_limit if isinstance(scheme, Integrator) else
+                  cls.stability_limit)
     stable = omega_dt <= limit
     distortion = period_distortion(omega_dt, cls.name) if stable else math.nan
     head = f'ω_max·Δt = {omega_dt:.4g} (limit {_format_limit(limit)} for {cls.name})'
