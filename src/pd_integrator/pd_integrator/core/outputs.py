@@ -13,23 +13,38 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from .energy import EnergyHistory
     from .history import ResponseHistory
 
 RESPONSE_CSV = 'response.csv'
+ENERGY_CSV = 'energy.csv'
 SUMMARY_JSON = 'summary.json'
-FIGURES = ('displacement.png', 'velocity.png', 'acceleration.png', 'force_deformation.png')
+FIGURES = ('displacement.png', 'velocity.png', 'acceleration.png', 'force_deformation.png',
+           'energy.png')
 
 
-def write_response_csv(history: ResponseHistory, path: str | Path) -> Path:
-    """Write the committed history; floats are written with 17 significant digits (exact)."""
+def write_columns_csv(columns: dict[str, np.ndarray], path: str | Path) -> Path:
+    """Write named columns; floats with 17 significant digits (exact), ``step`` as integer."""
     path = Path(path)
-    columns = history.columns()
     names = list(columns)
     data = np.column_stack([columns[name] for name in names])
     formats = ['%.17g'] * len(names)
-    formats[names.index('step')] = '%d'
+    if 'step' in names:
+        formats[names.index('step')] = '%d'
     np.savetxt(path, data, fmt=formats, delimiter=',', header=','.join(names), comments='')
     return path
+
+
+def write_response_csv(history: ResponseHistory, path: str | Path) -> Path:
+    """Write the committed history (``response.csv``)."""
+    return write_columns_csv(history.columns(), path)
+
+
+def write_energy_csv(history: ResponseHistory, energy: EnergyHistory, path: str | Path
+                     ) -> Path:
+    """Write the energy balance per step (``energy.csv``)."""
+    return write_columns_csv({'time': history.time, 'step': history.steps,
+                              **energy.columns()}, path)
 
 
 def read_response_csv(path: str | Path) -> dict[str, np.ndarray]:
@@ -146,9 +161,9 @@ def write_figures(history: ResponseHistory, directory: str | Path, *, title: str
         written.append(directory / filename)
     figure, axes = plt.subplots(figsize=(6, 5), layout='constrained')
     for j, name in enumerate(history.dof_names):
-        axes.plot(history.displacement[:n, j], history.restoring_force[:n, j] / 1e3,
+        axes.plot(history.measured_displacement[:n, j], history.restoring_force[:n, j] / 1e3,
                   linewidth=0.8, label=name)
-    axes.set_xlabel('Displacement [m]')
+    axes.set_xlabel('Measured displacement [m]')
     axes.set_ylabel('Restoring force [kN]')
     axes.set_title(f'Force–deformation — {title}' if title else 'Force–deformation')
     axes.grid(visible=True, alpha=0.4)
@@ -160,13 +175,48 @@ def write_figures(history: ResponseHistory, directory: str | Path, *, title: str
     return written
 
 
+def write_energy_figure(history: ResponseHistory, energy: EnergyHistory, directory: Path,
+                        *, title: str = '') -> Path:
+    """The energy terms and the energy error over time (``energy.png``)."""
+    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
+
+    mpl.use('Agg')
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    time = history.time
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True,
+                                         layout='constrained',
+                                         gridspec_kw={'height_ratios': (3, 1)})
+    top.plot(time, energy.input, label='input', linewidth=1.2)
+    top.plot(time, energy.kinetic, label='kinetic', linewidth=0.8)
+    top.plot(time, energy.viscous, label='viscous', linewidth=0.8)
+    top.plot(time, energy.strain, label='strain + hysteretic', linewidth=0.8)
+    top.set_ylabel('Energy [J]')
+    top.set_title(f'Energy balance — {title}' if title else 'Energy balance')
+    top.grid(visible=True, alpha=0.4)
+    top.legend()
+    bottom.plot(time, 100.0 * energy.error_ratio, color='k', linewidth=0.8)
+    bottom.set_xlabel('Time [s]')
+    bottom.set_ylabel('Error [%]')
+    bottom.grid(visible=True, alpha=0.4)
+    path = directory / 'energy.png'
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
 def write_run_outputs(history: ResponseHistory, summary: dict[str, Any], directory: str | Path,
-                      *, figures: bool = True, title: str = '') -> list[Path]:
-    """Write ``response.csv``, ``summary.json`` and (optionally) the figures."""
+                      *, figures: bool = True, title: str = '',
+                      energy: EnergyHistory | None = None) -> list[Path]:
+    """Write ``response.csv``, ``energy.csv``, ``summary.json`` and (optionally) the figures."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     written = [write_response_csv(history, directory / RESPONSE_CSV),
                write_summary(summary, directory / SUMMARY_JSON)]
+    if energy is not None:
+        written.append(write_energy_csv(history, energy, directory / ENERGY_CSV))
     if figures:
         written += write_figures(history, directory, title=title)
+        if energy is not None:
+            written.append(write_energy_figure(history, energy, directory, title=title))
     return written

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
 from .config import TestDefinition, from_json
+from .energy import energy_balance
 from .errors import BagError, ConfigError
 from .messages import Command, Feedback, FeedbackStatus, TestState
 from .outputs import summarize, write_run_outputs
@@ -72,10 +73,16 @@ def prepare_run_directory(directory: str | Path) -> Path:
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                    figures: bool = True, **extra: Any) -> dict[str, Any]:
     """Write ``response.csv``, ``summary.json`` and figures for a session; return the summary."""
+    energy = None
+    definition = session.definition
+    if definition.initial_stiffness is not None:  # (a probe that never finished: no damping)
+        structure = definition.structure()
+        energy = energy_balance(session.history, structure.mass, structure.damping,
+                                structure.influence)
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
-                        **extra)
+                        energy=energy.summary() if energy is not None else None, **extra)
     write_run_outputs(session.history, summary, directory, figures=figures,
-                      title=session.definition.test_id)
+                      title=definition.test_id, energy=energy)
     return summary
 
 
