@@ -1,0 +1,703 @@
+"""Benchmark of the pseudo-dynamic test loop: prints one plain-text table of figures.
+
+Run inside the sourced workspace (``. scripts/env.sh``)::
+
+    python bench/bench_loop.py [--quick] [--domain-id 61]
+
+or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
+
+1. ROS-free core, default test (``config/default_test.yaml``): steps/s of
+   ``pd_integrator.core.runner.run_offline`` (session + simulated specimen + MCAP bag), and of
+   the session loop alone (``TestSession`` + ``SpecimenServer``, no bag); best of 3.
+2. The node graph, one process per node, started by the launcher (``run_test``) for
+   ``--site bridge`` and ``--site direct``, best of 2 runs (concurrent load on the machine
+   makes single runs noisy): steps/s (``summary.json``: steps / wall_time) and
+   the median/p99 step round trip (``summary.json`` ``step_round_trip``, or, when the key is
+   absent, from the bag: accepted feedback log time minus the log time of the last command of
+   the same step).
+3. The floor: a raw two-process rclpy ping-pong of messages of the same size (``StepCommand``
+   with one target, ``StepFeedback`` with one displacement and one force, reliable keep-all
+   QoS like the nodes), with the EventsExecutor (``spin_once`` loop) and, for comparison, the
+   SingleThreadedExecutor.
+4. The goal (>= 2,000 steps/s through the graph) next to what was reached.
+
+Every process it starts gets its own process group and is stopped with SIGINT, then SIGKILL;
+Fast DDS shared-memory segments that a killed process left behind are removed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import fcntl
+import json
+import os
+import platform
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+GOAL_STEPS_PER_S = 2000.0
+REPEATS = 3
+STOP_TIMEOUT = 10.0
+QUICK_DURATION = 5.0  # s of simulated test in --quick mode
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
+SHM = Path('/dev/shm')
+
+
+# -- results --------------------------------------------------------------------------------
+@dataclass
+class Row:
+    """One line of the table."""
+
+    section: str
+    figure: str
+    rate: float | None = None
+    unit: str = 'steps/s'
+    median_us: float | None = None
+    p99_us: float | None = None
+    note: str = ''
+
+
+@dataclass
+class Table:
+    """The figures, printed at the end."""
+
+    rows: list[Row] = field(default_factory=list)
+
+    def add(self, row: Row) -> Row:
+        self.rows.append(row)
+        return row
+
+
+def _fmt_rate(row: Row) -> str:
+    return '-' if row.rate is None else f'{row.rate:,.0f} {row.unit}'
+
+
+def _fmt_time(value_us: float | None) -> str:
+    if value_us is None:
+        return '-'
+    if value_us >= 1000.0:
+        return f'{value_us / 1e3:.2f} ms'
+    return f'{value_us:.0f} us'
+
+
+def render(table: Table) -> str:
+    """The rows as aligned plain text."""
+    header = ('section', 'figure', 'rate', 'median', 'p99', 'notes')
+    cells = [header] + [(r.section, r.figure, _fmt_rate(r), _fmt_time(r.median_us),
+                         _fmt_time(r.p99_us), r.note) for r in table.rows]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(header) - 1)]
+    lines = []
+    for index, cell in enumerate(cells):
+        parts = [cell[0].ljust(widths[0]), cell[1].ljust(widths[1]),
+                 cell[2].rjust(widths[2]), cell[3].rjust(widths[3]), cell[4].rjust(widths[4]),
+                 cell[5]]
+        lines.append('  '.join(parts).rstrip())
+        if index == 0:
+            lines.append('-' * len(lines[0]))
+    return '\n'.join(lines)
+
+
+def percentile(values: list[float], q: float) -> float:
+    """Linear-interpolation percentile (as numpy's default) of a non-empty list."""
+    ordered = sorted(values)
+    position = (len(ordered) - 1) * q / 100.0
+    low = int(position)
+    high = min(low + 1, len(ordered) - 1)
+    return ordered[low] + (ordered[high] - ordered[low]) * (position - low)
+
+
+# -- process handling -----------------------------------------------------------------------
+def _children_of(pid: int) -> list[int]:
+    """All live descendants of ``pid`` (from /proc), deepest last."""
+    parents: dict[int, int] = {}
+    for entry in Path('/proc').iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / 'stat').read_text()
+        except OSError:
+            continue
+        # pid (comm) state ppid ...: comm may hold spaces and parentheses.
+        fields = stat[stat.rfind(')') + 2:].split()
+        parents[int(entry.name)] = int(fields[1])
+    found: list[int] = []
+    frontier = [pid]
+    while frontier:
+        current = frontier.pop()
+        kids = [child for child, parent in parents.items() if parent == current]
+        found += kids
+        frontier += kids
+    return found
+
+
+@dataclass
+class Stopped:
+    """How a child ended."""
+
+    returncode: int | None
+    killed: bool
+
+
+def stop_process(process: subprocess.Popen[Any], timeout: float = STOP_TIMEOUT) -> Stopped:
+    """SIGINT to the child's process group (and its descendants' groups), then SIGKILL.
+
+    The launcher starts each node in a session of its own, so the descendants' groups are
+    signalled too when the launcher itself does not stop them in time.
+    """
+    if process.poll() is not None:
+        return Stopped(process.returncode, killed=False)
+    descendants = _children_of(process.pid)
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGINT)
+    try:
+        process.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        pass
+    killed = False
+    # Whatever is still alive (the child or grand-children the launcher did not stop): kill.
+    survivors = [pid for pid in [process.pid, *descendants] if _alive(pid)]
+    others = [pid for pid in survivors if pid != process.pid]
+    for pid in others:  # a node in its own session: ask it to stop first
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(pid, signal.SIGINT)
+    deadline = time.monotonic() + timeout
+    while others and time.monotonic() < deadline and any(_alive(pid) for pid in others):
+        time.sleep(0.1)
+    for pid in survivors:
+        if _alive(pid):
+            killed = True
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(pid, signal.SIGKILL)
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.kill(pid, signal.SIGKILL)
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        process.wait(timeout=timeout)
+    return Stopped(process.returncode, killed=killed)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f'/proc/{pid}/stat').read_text()
+    except OSError:
+        return False
+    return state[state.rfind(')') + 2:].split()[0] != 'Z'
+
+
+def shm_snapshot() -> set[str]:
+    """Names of the Fast DDS shared-memory files now in /dev/shm."""
+    if not SHM.is_dir():
+        return set()
+    return {p.name for p in SHM.iterdir() if 'fastdds_' in p.name}
+
+
+def _domain_ports(domain_id: int) -> range:
+    """The RTPS ports of a DDS domain (7400 + 250 d + offsets), as Fast DDS names its segments."""
+    base = 7400 + 250 * domain_id
+    return range(base, base + 250)
+
+
+def _lock_is_free(lock: Path) -> bool:
+    """Whether no process holds the Fast DDS lock file (flock) of a segment."""
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)  # closing releases the lock we may have taken
+    return True
+
+
+def remove_stale_segments(before: set[str], domain_id: int) -> list[str]:
+    """Remove Fast DDS shared-memory files left by processes of ours that are gone.
+
+    Only files created since ``before`` are considered. A participant segment
+    (``fastdds_<guid>``) is removed when its ``<name>_el`` lock is held by no process; a port
+    segment (``fastdds_port<N>``) only when ``N`` is a port of our own ``domain_id`` and its
+    lock, if any, is free. Segments of other people's processes are left alone.
+    """
+    removed: list[str] = []
+    ports = _domain_ports(domain_id)
+    for name in sorted(shm_snapshot() - before):
+        if not name.startswith('fastdds_') or name.endswith('_el'):
+            continue
+        lock = SHM / f'{name}_el'
+        if name.startswith('fastdds_port'):
+            number = name.removeprefix('fastdds_port')
+            if not number.isdigit() or int(number) not in ports:
+                continue
+            if lock.exists() and not _lock_is_free(lock):
+                continue
+        elif not _lock_is_free(lock):
+            continue
+        for stale in (SHM / name, lock, SHM / f'sem.{name}_mutex'):
+            with contextlib.suppress(FileNotFoundError):
+                stale.unlink()
+                removed.append(stale.name)
+    return removed
+
+
+# -- 1. ROS-free core ----------------------------------------------------------------------
+def _best(samples: list[float]) -> float:
+    return min(samples)
+
+
+def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
+    """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS."""
+    from pd_integrator.core.config import load_test_file
+    from pd_integrator.core.messages import Feedback, FeedbackStatus
+    from pd_integrator.core.runner import run_offline
+    from pd_integrator.core.session import TestSession
+    from pd_specimen_sim.core import SpecimenServer, specimen_from_config
+
+    definition = load_test_file(DEFAULT_TEST, overrides)
+    loop_times: list[float] = []
+    total_times: list[float] = []
+    steps = definition.n_steps
+    for index in range(REPEATS):
+        start = time.perf_counter()
+        result = run_offline(definition, work / f'offline-{index}', figures=False)
+        total_times.append(time.perf_counter() - start)
+        loop_times.append(float(result.summary['wall_time']))
+        steps = int(result.summary['steps'])
+    table.add(Row('1 core', 'run_offline loop (session+specimen+bag)', steps / _best(loop_times),
+                  note=f'summary wall_time, best of {REPEATS}; '
+                       f'{_best(loop_times) / steps * 1e6:.0f} us/step'))
+    table.add(Row('1 core', 'run_offline call (+ setup, csv, summary)',
+                  steps / _best(total_times),
+                  note=f'whole call, figures off, best of {REPEATS}'))
+
+    bare: list[float] = []
+    for _ in range(REPEATS):
+        specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
+                                        source=definition.source,
+                                        dof_names=definition.dof_names)
+        server = SpecimenServer(specimen)
+        session = TestSession(definition)
+        start = time.perf_counter()
+        while (command := session.next_command()) is not None:
+            answer = server.handle(command.test_id, command.step, command.target_displacement)
+            if answer is None:
+                break
+            session.on_feedback(Feedback(
+                test_id=answer.test_id, step=answer.step,
+                measured_displacement=answer.displacement, restoring_force=answer.force,
+                status=FeedbackStatus(answer.status), message=answer.message))
+        bare.append(time.perf_counter() - start)
+    per_step = _best(bare) / steps
+    bag_cost = (_best(loop_times) - _best(bare)) / steps
+    table.add(Row('1 core', 'session loop alone (no bag)', 1.0 / per_step,
+                  note=f'TestSession+SpecimenServer, best of {REPEATS}; {per_step * 1e6:.0f} '
+                       f'us/step; the bag adds {bag_cost * 1e6:.0f} us/step'))
+
+
+# -- 2. node graph --------------------------------------------------------------------------
+def _round_trips_from_bag(bag: Path) -> list[float]:
+    """Round trips [s]: accepted feedback log time minus its step's last command log time."""
+    from pd_integrator.core.bag import read_bag
+    from pd_integrator.core.messages import Command, FeedbackStatus
+
+    samples: list[float] = []
+    pending: tuple[str, int, int] | None = None  # test_id, step, t_ns of its last send
+    for t_ns, item in read_bag(bag).events:
+        if isinstance(item, Command):
+            pending = (item.test_id, item.step, t_ns)
+        elif (pending is not None and item.test_id == pending[0] and item.step == pending[1]
+              and item.status is FeedbackStatus.OK):
+            samples.append((t_ns - pending[2]) / 1e9)
+            pending = None
+    return samples
+
+
+def graph_run(site: str, param_args: list[str], domain_id: int, out: Path,
+              timeout: float) -> Row:
+    """One run of ``run_test --site SITE`` (its own process group); its figures as a row."""
+    launcher = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / \
+        'run_test'
+    log = out.with_suffix('.log')
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
+    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    command = [str(launcher), '--site', site, '--out', str(out), '--no-figures', *param_args]
+    label = f'graph --site {site}'
+    before = shm_snapshot()
+    start = time.perf_counter()
+    with log.open('wb') as sink:
+        process = subprocess.Popen(command, stdout=sink, stderr=subprocess.STDOUT, env=env,
+                                   start_new_session=True)
+        try:
+            process.wait(timeout=timeout)
+            stopped = Stopped(process.returncode, killed=False)
+        except subprocess.TimeoutExpired:
+            stopped = stop_process(process)
+        finally:
+            if process.poll() is None:
+                stopped = stop_process(process)
+    elapsed = time.perf_counter() - start
+    removed = remove_stale_segments(before, domain_id)
+    summary_file = out / 'summary.json'
+    if not summary_file.is_file():
+        tail = log.read_text(errors='replace').strip().splitlines()[-3:]
+        return Row('2 graph', label, note=f'FAILED (exit {stopped.returncode}): '
+                                          + ' | '.join(tail))
+    summary = json.loads(summary_file.read_text(encoding='utf-8'))
+    steps = int(summary.get('steps', 0))
+    wall = float(summary.get('wall_time') or 0.0)
+    rate = steps / wall if wall > 0 else None
+    round_trip = summary.get('step_round_trip')
+    if isinstance(round_trip, dict) and 'median_ms' in round_trip:
+        median_us, p99_us = round_trip['median_ms'] * 1e3, round_trip['p99_ms'] * 1e3
+        source = 'rt from summary.json'
+    else:
+        samples = _round_trips_from_bag(out / 'bag')
+        median_us = statistics.median(samples) * 1e6 if samples else None
+        p99_us = percentile(samples, 99) * 1e6 if samples else None
+        source = 'rt from the bag (with the send path)'
+    notes = [f'{steps} steps in {wall:.2f} s', str(summary.get('state')), source,
+             f'launch to exit {elapsed:.1f} s']
+    if steps and wall > 0:
+        notes.insert(1, f'{wall / steps * 1e6:.0f} us/step')
+    if summary.get('retries'):
+        notes.append(f'{summary["retries"]} re-sends')
+    if stopped.killed:
+        notes.append('had to be killed')
+    if removed:
+        notes.append(f'removed {len(removed)} stale shm files')
+    return Row('2 graph', label, rate, median_us=median_us, p99_us=p99_us, note='; '.join(notes))
+
+
+def bench_graph(table: Table, site: str, param_args: list[str], domain_id: int, work: Path,
+                timeout: float, runs: int) -> float | None:
+    """Best (highest steps/s) of ``runs`` launcher runs; its steps/s (None: all failed)."""
+    rows = [graph_run(site, param_args, domain_id, work / f'graph-{site}-{index}', timeout)
+            for index in range(runs)]
+    done = [row for row in rows if row.rate is not None]
+    if not done:
+        table.add(rows[-1])
+        return None
+    best = max(done, key=lambda row: row.rate or 0.0)
+    if runs > 1:
+        others = ', '.join(f'{row.rate:,.0f}' if row.rate else 'failed' for row in rows)
+        best.note = f'best of {runs} ({others} steps/s); {best.note}'
+    table.add(best)
+    return best.rate
+
+
+# -- 3. raw ping-pong -----------------------------------------------------------------------
+ECHO_SCRIPT = r'''
+import sys
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from pd_msgs.msg import StepCommand, StepFeedback
+
+kind, domain_id = sys.argv[1], int(sys.argv[2])
+qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+                 durability=DurabilityPolicy.VOLATILE)
+rclpy.init(domain_id=domain_id)
+node = rclpy.create_node('bench_echo')
+publisher = node.create_publisher(StepFeedback, '/bench/pong', qos)
+reply = StepFeedback()
+
+
+def on_command(message):
+    reply.test_id = message.test_id
+    reply.step = message.step
+    reply.measured_displacement = list(message.target_displacement)
+    reply.restoring_force = [312559.0 * message.target_displacement[0]]
+    publisher.publish(reply)
+
+
+node.create_subscription(StepCommand, '/bench/ping', on_command, qos)
+executor = EventsExecutor() if kind == 'events' else SingleThreadedExecutor()
+executor.add_node(node)
+print('ready', flush=True)
+try:
+    while rclpy.ok():
+        executor.spin_once(timeout_sec=0.1)
+except (KeyboardInterrupt, ExternalShutdownException):
+    pass
+finally:
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown()
+'''
+
+
+@dataclass
+class PingResult:
+    """Round trips of one ping-pong run."""
+
+    samples_s: list[float]
+    elapsed_s: float
+    lost: int
+
+
+def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
+    """Ping ``count`` times the echo subprocess; the pinger runs in this process."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.experimental import EventsExecutor
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    from pd_msgs.msg import StepCommand, StepFeedback
+
+    qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.VOLATILE)
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
+    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    before = shm_snapshot()
+    echo = subprocess.Popen([sys.executable, '-c', ECHO_SCRIPT, kind, str(domain_id)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    node = rclpy.create_node('bench_ping', context=context)
+    executor = (EventsExecutor(context=context) if kind == 'events'
+                else SingleThreadedExecutor(context=context))
+    try:
+        received: list[int] = [0]
+        expected: list[int] = [-1]
+
+        def on_feedback(message: StepFeedback) -> None:
+            if message.step == expected[0]:
+                received[0] = time.perf_counter_ns()
+
+        publisher = node.create_publisher(StepCommand, '/bench/ping', qos)
+        node.create_subscription(StepFeedback, '/bench/pong', on_feedback, qos)
+        executor.add_node(node)
+        command = StepCommand()
+        command.test_id = test_id
+        command.dof_names = ['top']
+        command.target_displacement = [0.0]
+
+        def round_trip(step: int, timeout: float) -> int | None:
+            expected[0] = step
+            received[0] = 0
+            command.step = step
+            command.target_displacement = [1e-6 * (step % 1000)]
+            sent = time.perf_counter_ns()
+            publisher.publish(command)
+            deadline = time.monotonic() + timeout
+            while not received[0]:
+                executor.spin_once(timeout_sec=0.05)
+                if not context.ok():  # rclpy's own SIGINT handler shut the context down
+                    raise KeyboardInterrupt
+                if time.monotonic() > deadline:
+                    return None
+            return received[0] - sent
+
+        # Discovery: both directions must match before reliable volatile traffic flows.
+        deadline = time.monotonic() + 20.0
+        step = 1_000_000  # hand-shake steps, far from the measured ones
+        while round_trip(step, 0.2) is None:
+            step += 1
+            if time.monotonic() > deadline or echo.poll() is not None:
+                msg = f'ping-pong ({kind}): no echo within 20 s'
+                raise RuntimeError(msg)
+        for warm in range(min(200, count)):  # warm-up, not counted
+            round_trip(2_000_000 + warm, 2.0)
+        samples: list[float] = []
+        lost = 0
+        start = time.perf_counter()
+        for index in range(count):
+            value = round_trip(index, 2.0)
+            if value is None:
+                lost += 1
+                if lost >= 5:
+                    msg = f'ping-pong ({kind}): {lost} round trips lost, giving up'
+                    raise RuntimeError(msg)
+            else:
+                samples.append(value / 1e9)
+        elapsed = time.perf_counter() - start
+        return PingResult(samples, elapsed, lost)
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        context.destroy()  # frees the DDS participant now (and its shared-memory files)
+        stop_process(echo)
+        remove_stale_segments(before, domain_id)
+
+
+def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> float | None:
+    """EventsExecutor and SingleThreadedExecutor ping-pongs; returns the events rate."""
+    events_rate = None
+    for kind, label in (('events', 'EventsExecutor (spin_once loop)'),
+                        ('single', 'SingleThreadedExecutor')):
+        try:
+            result = _ping(kind, domain_id, count, test_id)
+        except Exception as err:  # noqa: BLE001 - a benchmark reports, it does not stop
+            table.add(Row('3 floor', f'ping-pong {label}', note=f'FAILED: {err}'))
+            continue
+        samples = result.samples_s
+        if not samples:
+            table.add(Row('3 floor', f'ping-pong {label}', note='FAILED: no answers'))
+            continue
+        rate = len(samples) / result.elapsed_s
+        if kind == 'events':
+            events_rate = rate
+        note = f'{len(samples)} round trips, 2 processes, reliable keep-all'
+        if result.lost:
+            note += f'; {result.lost} lost (2 s timeout)'
+        table.add(Row('3 floor', f'ping-pong {label}', rate, unit='rt/s',
+                      median_us=statistics.median(samples) * 1e6,
+                      p99_us=percentile(samples, 99) * 1e6, note=note))
+    return events_rate
+
+
+# -- main -----------------------------------------------------------------------------------
+def machine_header(domain_id: int) -> str:
+    """Date, machine, Python and ROS versions."""
+    try:
+        from importlib.metadata import version
+        rclpy_version = version('ros-rclpy')
+    except Exception:  # noqa: BLE001
+        rclpy_version = 'unknown'
+    now = datetime.now(tz=timezone.utc).strftime('%Y-%m-%d %H:%M:%S UTC')
+    cpu = ''
+    with contextlib.suppress(OSError):
+        for line in Path('/proc/cpuinfo').read_text().splitlines():
+            if line.startswith('model name'):
+                cpu = line.split(':', 1)[1].strip()
+                break
+    load = ', '.join(f'{value:.2f}' for value in os.getloadavg())
+    return '\n'.join([
+        f'pd bench_loop  {now}  (load average before: {load})',
+        f'machine: {os.cpu_count()} cores{f" ({cpu})" if cpu else ""}, '
+        f'{platform.system()} {platform.release()} {platform.machine()}',
+        f'python {platform.python_version()}, rclpy {rclpy_version}, '
+        f'{os.environ.get("RMW_IMPLEMENTATION", "default rmw")}, ROS_DOMAIN_ID {domain_id}, '
+        f'discovery {os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "default")}',
+    ])
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """Command-line arguments."""
+    parser = argparse.ArgumentParser(
+        prog='bench_loop', description='Benchmark of the pseudo-dynamic test loop (prints a '
+        'table; asserts nothing).')
+    parser.add_argument('--quick', action='store_true',
+                        help=f'shorter: {QUICK_DURATION:g} s tests and 1000 ping-pongs')
+    parser.add_argument('--domain-id', type=int, default=61,
+                        help='ROS_DOMAIN_ID of the node graph and the ping-pong (default 61)')
+    parser.add_argument('--pings', type=int, default=None,
+                        help='ping-pong round trips (default 3000, 1000 with --quick)')
+    parser.add_argument('--graph-runs', type=int, default=None,
+                        help='launcher runs per site, the best is kept (default 2, 1 with '
+                        '--quick)')
+    parser.add_argument('--verbose', '-v', action='store_true',
+                        help='print each figure as soon as it is measured')
+    args = parser.parse_args(argv)
+    if not 0 <= args.domain_id <= 232:
+        parser.error('--domain-id: expected 0..232')
+    for name in ('pings', 'graph_runs'):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            parser.error(f'--{name.replace("_", "-")}: expected a positive number')
+    return args
+
+
+def _timed(name: str, verbose: bool, table: Table, function: Callable[[], Any]) -> Any:
+    start = time.perf_counter()
+    count = len(table.rows)
+    value = function()
+    if verbose:
+        for row in table.rows[count:]:
+            print(f'  {row.figure}: {_fmt_rate(row)} {row.note}', file=sys.stderr, flush=True)
+        print(f'[{name}: {time.perf_counter() - start:.1f} s]', file=sys.stderr, flush=True)
+    return value
+
+
+@contextlib.contextmanager
+def _workdir() -> Iterator[Path]:
+    with tempfile.TemporaryDirectory(prefix='pd-bench-') as name:
+        yield Path(name)
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _handle_stop_signals() -> None:
+    """SIGINT and SIGTERM stop the benchmark through its clean-up paths.
+
+    A shell without job control starts background commands with SIGINT ignored, and children
+    inherit that: the launcher would then ignore the SIGINT meant to stop it.
+    """
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _raise_interrupt)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run every benchmark and print the table."""
+    args = parse_args(argv)
+    _handle_stop_signals()
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
+    pings = args.pings or (1000 if args.quick else 3000)
+    graph_runs = args.graph_runs or (1 if args.quick else 2)
+    overrides: dict[str, Any] = {'duration': QUICK_DURATION} if args.quick else {}
+    param_args = ['-p', f'duration:={QUICK_DURATION}'] if args.quick else []
+
+    from pd_integrator.core.config import load_test_file
+
+    definition = load_test_file(DEFAULT_TEST, overrides)
+    print(machine_header(args.domain_id))
+    print(f'test: {definition.test_id} ({DEFAULT_TEST.name}), {definition.n_steps} steps of '
+          f'{definition.dt} s, {definition.scheme}{" [--quick]" if args.quick else ""}')
+    print(flush=True)
+    table = Table()
+    started = time.perf_counter()
+    shm_before = shm_snapshot()
+    rates: dict[str, float | None] = {}
+    floor: float | None = None
+    interrupted = False
+    try:
+        with _workdir() as work:
+            _timed('core', args.verbose, table, lambda: bench_core(table, overrides, work))
+            timeout = 60.0 + definition.n_steps / 100.0
+            for site in ('bridge', 'direct'):
+                rates[site] = _timed(
+                    f'graph {site}', args.verbose, table,
+                    lambda site=site: bench_graph(table, site, param_args, args.domain_id,
+                                                  work, timeout, graph_runs))
+            floor = _timed('ping-pong', args.verbose, table,
+                           lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        remove_stale_segments(shm_before, args.domain_id)
+
+    reached = {site: rate for site, rate in rates.items() if rate is not None}
+    for site, rate in reached.items():
+        table.add(Row('4 goal', f'graph --site {site} vs goal', rate,
+                      note=f'goal >= {GOAL_STEPS_PER_S:,.0f} steps/s: '
+                           f'{rate / GOAL_STEPS_PER_S:.0%} of it '
+                           f'({"reached" if rate >= GOAL_STEPS_PER_S else "not reached"})'))
+    if floor is not None:
+        table.add(Row('4 goal', 'floor: 1 raw round trip per step', floor, unit='steps/s',
+                      note='direct: 1 round trip per step; bridge: 2 (about half this)'))
+    if interrupted:
+        table.add(Row('-', 'INTERRUPTED', note='the figures above are all that was measured'))
+    print(render(table))
+    print(f'\n(benchmark wall time {time.perf_counter() - started:.0f} s)')
+    return 130 if interrupted else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
