@@ -24,6 +24,7 @@ setup(
     entry_points={
         'console_scripts': [
             'main = pd_actuator_bridge.node:main',
+            'controller_server = pd_actuator_bridge.controller_server:main',
         ],
     },
 )

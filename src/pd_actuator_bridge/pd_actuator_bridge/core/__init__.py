@@ -8,7 +8,15 @@ from __future__ import annotations
 from .bridge import ActuatorBridge, BridgeReply
 from .driver import ActuatorDriver, LoopbackDriver, MeasurementCallback
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
-from .limits import LimitViolation, SafetyLimits, check_command, check_feedback
+from .limits import (
+    LimitViolation,
+    SafetyLimits,
+    Saturation,
+    check_command,
+    check_feedback,
+    check_tracking,
+    saturate_command,
+)
 
 __all__ = [
     'ActuatorBridge',
@@ -22,6 +30,69 @@ __all__ = [
     'LoopbackDriver',
     'MeasurementCallback',
     'SafetyLimits',
+    'Saturation',
     'check_command',
     'check_feedback',
+    'check_tracking',
+    'saturate_command',
+]
+
+from .daqmx import DaqmxChannelConfig, DaqmxConfig, DaqmxDriver  # noqa: E402
+
+__all__ += ['DaqmxChannelConfig', 'DaqmxConfig', 'DaqmxDriver']
+
+from .generic_tcp import (  # noqa: E402
+    DaqResponse,
+    GenericTCPClient,
+    GenericTCPDriver,
+    GenericTCPError,
+    SizeID,
+    TrialResponse,
+)
+
+__all__ += [
+    'DaqResponse',
+    'GenericTCPClient',
+    'GenericTCPDriver',
+    'GenericTCPError',
+    'SizeID',
+    'TrialResponse',
+]
+
+from .emulator import EmulatorParameters, Measurement, ServoHydraulicEmulator  # noqa: E402
+from .error_models import (  # noqa: E402
+    ErroneousStep,
+    ErrorInjector,
+    ErrorModel,
+    TrackingMonitor,
+    TrackingSample,
+    apply_error_model,
+    tracking_error,
+    tracking_indicator,
+)
+from .ramp_hold import (  # noqa: E402
+    EmulatorDriver,
+    RampHoldExecutor,
+    RampHoldParameters,
+    SettleTimeoutError,
+    StepExecution,
+)
+
+__all__ += [
+    'EmulatorDriver',
+    'EmulatorParameters',
+    'ErroneousStep',
+    'ErrorInjector',
+    'ErrorModel',
+    'Measurement',
+    'RampHoldExecutor',
+    'RampHoldParameters',
+    'ServoHydraulicEmulator',
+    'SettleTimeoutError',
+    'StepExecution',
+    'TrackingMonitor',
+    'TrackingSample',
+    'apply_error_model',
+    'tracking_error',
+    'tracking_indicator',
 ]

@@ -10,8 +10,39 @@ States:
     A limit or a fault occurred. The driver was told to hold position and nothing is commanded
     until an operator calls :meth:`ActuatorBridge.reset` (the hold is latched).
 
+Safety interlocks (all enforced here, whatever the integrator sends):
+
+* Command limits (:func:`~.limits.check_command`): non-finite or malformed targets are faults;
+  |x| <= max_displacement, |x - position| <= max_increment and the mean velocity over
+  step_duration <= max_velocity, where position is the driver's own :meth:`position`.
+* Measurement checks when a step is answered: non-finite or malformed values (fault),
+  |f| <= max_force (limit), and feedback plausibility |measured - commanded| <=
+  tracking_tolerance (fault, :func:`~.limits.check_tracking`).
+* Command watchdog (:meth:`ActuatorBridge.check_watchdog`): while armed (a command was received
+  since the start or the last reset) and not holding, more than ``watchdog_timeout`` seconds
+  without a command holds with a fault. It is evaluated on every command and every
+  :meth:`~ActuatorBridge.check_watchdog` call, so it does not depend on how often the node polls.
+* Emergency stop (:meth:`ActuatorBridge.emergency_stop`): holds at once from any state and is
+  latched: a plain :meth:`~ActuatorBridge.reset` refuses to clear it; only
+  ``reset(clear_emergency=True)`` does. It is a software stop and no substitute for the
+  hardware emergency-stop circuit of the hydraulics.
+
+Behaviour on a command beyond a limit (``on_limit``):
+
+``'hold'`` (default)
+    Hold and answer the step with ``'limit'`` and the reason; nothing moves until a reset.
+``'saturate'``
+    Clip each DOF to the nearest allowed value (:func:`~.limits.saturate_command`), send the
+    clipped target and answer the step with the measured values, status ``'limit'`` and a
+    message ``'saturated: ...'`` naming what was clipped: never silently. The bridge does not
+    hold. Meant for quasi-static and manual moves (e.g. jogging an actuator to a position):
+    the integrator holds on any non-``'ok'`` status anyway. Faults (NaN, inf, malformed data),
+    measurement violations, the watchdog and the emergency stop always hold.
+
 Steps are compared by equality and order only, so a step may be an ``int`` or a totally
-ordered key such as ``(step, iteration)`` (the node uses that for implicit schemes).
+ordered key such as ``(step, iteration)`` (the node uses that for implicit schemes). A key that
+cannot be ordered against the test's last step (e.g. an ``int`` after tuples) is foreign: it is
+ignored and counted like a stale step.
 
 Step bookkeeping (per test id; a new test id starts fresh but the actuator keeps its position):
 a repeated step returns the last reply without moving, a duplicate of the step in flight returns
@@ -22,6 +53,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -32,8 +64,11 @@ from .limits import (
     KIND_LIMIT,
     LimitViolation,
     SafetyLimits,
+    _fmt,
     check_command,
     check_feedback,
+    check_tracking,
+    saturate_command,
 )
 
 STATUS_OK = 'ok'
@@ -44,7 +79,11 @@ STATE_READY = 'ready'
 STATE_BUSY = 'busy'
 STATE_HOLDING = 'holding'
 
-ON_LIMIT_OPTIONS = ('hold',)
+ON_LIMIT_HOLD = 'hold'
+ON_LIMIT_SATURATE = 'saturate'
+ON_LIMIT_OPTIONS = (ON_LIMIT_HOLD, ON_LIMIT_SATURATE)
+
+SATURATED_PREFIX = 'saturated: '
 
 ReplyCallback = Callable[['BridgeReply'], None]
 
@@ -60,7 +99,8 @@ class BridgeReply:
         force: Measured (or, when holding, last measured) force per DOF, N; NaN before the
             first measurement.
         status: ``'ok'``, ``'limit'`` or ``'fault'``.
-        message: Empty for ``'ok'``, else the one-line reason.
+        message: Empty for ``'ok'``, else the one-line reason; it starts with ``'saturated: '``
+            for a step executed with a clipped target (``on_limit='saturate'``).
     """
 
     test_id: str
@@ -90,7 +130,8 @@ class ActuatorBridge:
         driver: ActuatorDriver,
         limits: SafetyLimits,
         dof_names: Sequence[str],
-        on_limit: str = 'hold',
+        on_limit: str = ON_LIMIT_HOLD,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         """Create the bridge.
 
@@ -98,7 +139,11 @@ class ActuatorBridge:
             driver: The actuator driver; the bridge sets its measurement callback.
             limits: The safety limits to enforce.
             dof_names: One unique non-empty name per driver DOF, used in messages.
-            on_limit: Reaction to a limit or a fault; only ``'hold'`` is supported.
+            on_limit: Reaction to a command beyond a limit: ``'hold'`` (hold and report) or
+                ``'saturate'`` (clip, send and report; for quasi-static and manual moves only).
+                Faults always hold.
+            clock: Monotonic time in seconds, used by the command watchdog when no explicit
+                time is passed to :meth:`handle_command` or :meth:`check_watchdog`.
 
         Raises:
             BridgeConfigError: On an invalid argument.
@@ -113,9 +158,11 @@ class ActuatorBridge:
             )
         if on_limit not in ON_LIMIT_OPTIONS:
             raise BridgeConfigError(
-                f'ActuatorBridge: on_limit must be one of {", ".join(ON_LIMIT_OPTIONS)}, '
-                f'got {on_limit!r}'
+                f'ActuatorBridge: on_limit must be one of {ON_LIMIT_HOLD}, got {on_limit!r} '
+                f'(or {ON_LIMIT_SATURATE!r}, for quasi-static and manual moves only)'
             )
+        if not callable(clock):
+            raise BridgeConfigError('ActuatorBridge: clock must be callable')
         if isinstance(dof_names, str):
             raise BridgeConfigError('ActuatorBridge: dof_names must be a list of names, got str')
         names = list(dof_names)
@@ -138,6 +185,7 @@ class ActuatorBridge:
         self._dof_names = tuple(names)
         self._n_dof = n_dof
         self._on_limit = on_limit
+        self._clock = clock
         self._lock = threading.RLock()
         self._reply_callback: ReplyCallback | None = None
 
@@ -151,6 +199,13 @@ class ActuatorBridge:
         self._last_step: int | None = None
         self._last_reply: BridgeReply | None = None
         self._in_flight: tuple[str, int] | None = None
+        self._commanded: tuple[float, ...] | None = None  # target sent for the step in flight
+        self._saturation_note = ''  # what was clipped for the step in flight
+        self._last_command: tuple[str, int] | None = None  # last (test_id, step) received
+        # Interlocks.
+        self._emergency: str | None = None  # the latched emergency-stop reason
+        self._watchdog_armed = False
+        self._last_command_time = math.nan
         # Capture of a synchronous driver's answer during driver.command().
         self._capturing = False
         self._captured: BridgeReply | None = None
@@ -160,6 +215,9 @@ class ActuatorBridge:
         self._ignored_measurements = 0
         self._repeated_steps = 0
         self._violations = 0
+        self._saturations = 0
+        self._watchdog_trips = 0
+        self._emergency_stops = 0
 
         driver.set_measurement_callback(self._on_driver_measurement)
 
@@ -225,6 +283,36 @@ class ActuatorBridge:
         """Number of limits or faults that made the bridge hold."""
         return self._violations
 
+    @property
+    def on_limit(self) -> str:
+        """``'hold'`` or ``'saturate'``."""
+        return self._on_limit
+
+    @property
+    def saturations(self) -> int:
+        """Number of commands sent with a clipped target (``on_limit='saturate'``)."""
+        return self._saturations
+
+    @property
+    def emergency_stopped(self) -> bool:
+        """Whether an emergency stop is latched (clear it with ``reset(clear_emergency=True)``)."""
+        return self._emergency is not None
+
+    @property
+    def emergency_stops(self) -> int:
+        """Number of :meth:`emergency_stop` calls."""
+        return self._emergency_stops
+
+    @property
+    def watchdog_armed(self) -> bool:
+        """Whether the command watchdog runs (a command arrived since the start or last reset)."""
+        return self._watchdog_armed and self._limits.watchdog_timeout is not None
+
+    @property
+    def watchdog_trips(self) -> int:
+        """Number of holds caused by the command watchdog."""
+        return self._watchdog_trips
+
     # ------------------------------------------------------------------ public API
 
     def set_reply_callback(self, callback: ReplyCallback | None) -> None:
@@ -233,7 +321,7 @@ class ActuatorBridge:
             self._reply_callback = callback
 
     def handle_command(
-        self, test_id: str, step: int, target: Sequence[float]
+        self, test_id: str, step: int, target: Sequence[float], now: float | None = None
     ) -> BridgeReply | None:
         """Handle one step command from the integrator.
 
@@ -241,6 +329,8 @@ class ActuatorBridge:
             test_id: Test id of the command.
             step: Step number (0 is the initial displacement).
             target: Target displacement per DOF, m.
+            now: Arrival time (monotonic seconds) for the command watchdog; the bridge's clock
+                if omitted. If the watchdog has expired, the bridge holds before anything else.
 
         Returns:
             The reply to publish now, or ``None`` when there is nothing to publish now (the
@@ -249,6 +339,13 @@ class ActuatorBridge:
         """
         with self._lock:
             self._commands_received += 1
+            self._last_command = (test_id, step)
+            if self._state != STATE_HOLDING:
+                time_now = self._time(now)
+                self._check_watchdog_locked(time_now)
+                if self._state != STATE_HOLDING:
+                    self._watchdog_armed = True
+                    self._last_command_time = time_now
             if self._state == STATE_HOLDING:
                 return self._reply(test_id, step, self._hold_status, self._hold_reason)
 
@@ -262,7 +359,7 @@ class ActuatorBridge:
             if same_test and self._last_reply is not None and step == self._last_step:
                 self._repeated_steps += 1
                 return self._last_reply
-            if same_test and self._last_step is not None and step < self._last_step:
+            if same_test and self._last_step is not None and _older(step, self._last_step):
                 self._ignored_commands += 1
                 return None
             # A new test id has no step history: nothing is a repeat or stale. Its first answer
@@ -283,12 +380,26 @@ class ActuatorBridge:
                 )
             else:
                 violation = check_command(target, current, self._limits, self._dof_names)
+            note = ''
+            checked: list[float] = []
+            if (violation is not None and violation.kind == KIND_LIMIT
+                    and self._on_limit == ON_LIMIT_SATURATE):
+                saturation = saturate_command(target, current, self._limits, self._dof_names)
+                violation = saturation.violation
+                if saturation.target is not None:
+                    checked = list(saturation.target)
+                    note = saturation.message
             if violation is not None:
                 return self._enter_hold(
                     test_id, step, violation.kind, violation.message, record=True
                 )
+            if not note:
+                checked = [float(x) for x in target]
+            else:
+                self._saturations += 1
 
-            checked = [float(x) for x in target]
+            self._commanded = tuple(checked)
+            self._saturation_note = note
             self._in_flight = (test_id, step)
             self._state = STATE_BUSY
             self._capturing = True
@@ -338,15 +449,26 @@ class ActuatorBridge:
                 # Finite and well formed: it is the actuator's true state.
                 self._displacement = tuple(float(x) for x in displacement)
                 self._force = tuple(float(f) for f in force)
+            if violation is None and self._commanded is not None:
+                violation = check_tracking(
+                    displacement, self._commanded, self._limits, self._dof_names
+                )
             if violation is not None:
                 reply = self._enter_hold(
                     test_id, step, violation.kind, violation.message, record=True
                 )
             else:
+                note = self._saturation_note
                 self._in_flight = None
+                self._commanded = None
+                self._saturation_note = ''
                 self._state = STATE_READY
+                if note:
+                    status, message = STATUS_LIMIT, SATURATED_PREFIX + note
+                else:
+                    status, message = STATUS_OK, ''
                 reply = BridgeReply(
-                    test_id, step, self._displacement, self._force, STATUS_OK, ''
+                    test_id, step, self._displacement, self._force, status, message
                 )
                 self._record(reply)
             if self._capturing:
@@ -371,21 +493,91 @@ class ActuatorBridge:
             self._enter_hold('', -1, STATUS_FAULT, message, record=False)
             return None
 
-    def reset(self) -> None:
+    def check_watchdog(self, now: float | None = None) -> BridgeReply | None:
+        """Hold if no command arrived for longer than ``watchdog_timeout`` while armed.
+
+        The watchdog is armed by the first command received while not holding and disarmed by
+        :meth:`reset`; it is idle while holding and when ``watchdog_timeout`` is ``None``.
+        Exactly ``watchdog_timeout`` seconds since the last command is still allowed. A
+        non-finite time holds (a broken clock must not disable the watchdog).
+
+        Args:
+            now: Current time (monotonic seconds, the same clock as the command times); the
+                bridge's clock if omitted.
+
+        Returns:
+            When the watchdog trips, the ``'fault'`` reply for the step in flight, or else for the
+            last command received (not recorded as its answer); ``None`` otherwise.
+        """
+        with self._lock:
+            if self._state == STATE_HOLDING:
+                return None
+            return self._check_watchdog_locked(self._time(now))
+
+    def emergency_stop(self, reason: str = '') -> BridgeReply | None:
+        """Hold at once from any state and latch the emergency stop.
+
+        The driver is told to hold even if the bridge was already holding (the hold reason then
+        becomes the emergency stop). Only ``reset(clear_emergency=True)`` clears it. This is a
+        software stop: it takes the bridge lock, so it waits for a driver ``command()`` call in
+        progress (drivers only start a move there); it does not replace the hardware
+        emergency-stop circuit.
+
+        Args:
+            reason: One-line reason (e.g. ``'operator button'``), included in the hold reason.
+
+        Returns:
+            The ``'fault'`` reply for the step in flight, or else for the last command received
+            (not recorded as its answer); ``None`` if the bridge was already holding or has not
+            received a command yet. The hold reason is :attr:`hold_reason` in every case.
+        """
+        text = ' '.join(str(reason).split())
+        message = f'emergency stop: {text}' if text else 'emergency stop'
+        with self._lock:
+            self._emergency = message
+            self._emergency_stops += 1
+            if self._state != STATE_HOLDING:
+                return self._hold_now(STATUS_FAULT, message)
+            try:
+                self._driver.hold()
+            except Exception as exc:  # noqa: BLE001 - still latch the emergency stop
+                message = f'{message}; driver hold() failed: {_describe(exc)}'
+            self._hold_status = STATUS_FAULT
+            self._hold_reason = message
+            return None
+
+    def reset(self, clear_emergency: bool = False) -> bool:
         """Leave the latched hold. This is an explicit operator action.
 
         The next command is checked against the limits from the actuator's current position. A
         repeat of the step that caused the hold is evaluated afresh (not answered from the hold
-        reply); older steps of the same test stay ignored. Does nothing unless holding.
+        reply); older steps of the same test stay ignored. The command watchdog is disarmed
+        until the next command. Does nothing unless holding.
+
+        A latched emergency stop is not cleared by a plain reset: the call is refused (returns
+        ``False``, nothing changes). ``clear_emergency=True`` clears it together with the hold.
+
+        Args:
+            clear_emergency: Also clear a latched emergency stop.
+
+        Returns:
+            ``False`` if refused because of a latched emergency stop, else ``True``.
         """
         with self._lock:
+            if self._emergency is not None and not clear_emergency:
+                return False
+            self._emergency = None
             if self._state != STATE_HOLDING:
-                return
+                return True
             self._state = STATE_READY
             self._hold_status = ''
             self._hold_reason = ''
             self._in_flight = None
+            self._commanded = None
+            self._saturation_note = ''
             self._last_reply = None
+            self._watchdog_armed = False
+            return True
 
     # ------------------------------------------------------------------ internals
 
@@ -398,6 +590,45 @@ class ActuatorBridge:
             callback = self._reply_callback
         if reply is not None and not capturing and callback is not None:
             callback(reply)
+
+    def _time(self, now: float | None) -> float:
+        """``now`` as a float, else the clock; NaN if either is unusable (the watchdog holds)."""
+        try:
+            return float(self._clock() if now is None else now)
+        except Exception:  # noqa: BLE001 - a broken clock must trip the watchdog, not crash
+            return math.nan
+
+    def _check_watchdog_locked(self, now: float) -> BridgeReply | None:
+        """Trip the watchdog if armed and expired (the caller holds the lock, not holding)."""
+        timeout = self._limits.watchdog_timeout
+        if timeout is None or not self._watchdog_armed:
+            return None
+        elapsed = now - self._last_command_time
+        if math.isfinite(elapsed) and elapsed <= timeout:
+            return None
+        if math.isfinite(elapsed):
+            message = (
+                f'watchdog: no command for more than {_fmt(timeout)} s '
+                f'(last command {_fmt(elapsed, timeout)} s ago)'
+            )
+        else:
+            message = (
+                f'watchdog: invalid time {now!r} (last command at {self._last_command_time!r}); '
+                f'no command for more than {_fmt(timeout)} s cannot be ruled out'
+            )
+        self._watchdog_trips += 1
+        return self._hold_now(STATUS_FAULT, message)
+
+    def _hold_now(self, status: str, message: str) -> BridgeReply | None:
+        """Hold because of an event outside a command; reply for the step in flight or last."""
+        if self._in_flight is not None:
+            test_id, step = self._in_flight
+            return self._enter_hold(test_id, step, status, message, record=True)
+        if self._last_command is not None:
+            test_id, step = self._last_command
+            return self._enter_hold(test_id, step, status, message, record=False)
+        self._enter_hold('', -1, status, message, record=False)
+        return None
 
     def _enter_hold(
         self, test_id: str, step: int, status: str, message: str, record: bool
@@ -412,6 +643,8 @@ class ActuatorBridge:
         self._hold_status = status
         self._hold_reason = message
         self._in_flight = None
+        self._commanded = None
+        self._saturation_note = ''
         reply = self._reply(test_id, step, status, message)
         if record:
             self._record(reply)
@@ -438,6 +671,14 @@ class ActuatorBridge:
         if self._displacement is not None:
             return self._displacement
         return (math.nan,) * self._n_dof
+
+
+def _older(step: object, last_step: object) -> bool:
+    """Whether ``step`` is older than ``last_step``; a key that cannot be ordered is foreign."""
+    try:
+        return bool(step < last_step)  # type: ignore[operator]
+    except (TypeError, ValueError):
+        return True
 
 
 def _describe(exc: BaseException) -> str:

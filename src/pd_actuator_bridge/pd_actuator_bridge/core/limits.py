@@ -2,6 +2,11 @@
 
 The limits are the bridge's own: they are enforced whatever the integrator sends. A value exactly
 at a limit is allowed; anything beyond it is rejected. There is deliberately no tolerance.
+
+Two kinds of violation are distinguished: ``'limit'`` (a finite value beyond a safety limit) and
+``'fault'`` (malformed, non-finite or inconsistent data, or an actuator that does not follow its
+command: see :func:`check_tracking`). :func:`saturate_command` clips a target to the nearest
+allowed value for the bridge's ``on_limit='saturate'`` mode; a fault is never saturated.
 """
 
 from __future__ import annotations
@@ -9,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
+from fractions import Fraction
 from numbers import Real
 from typing import Any
 
@@ -18,7 +24,7 @@ KIND_LIMIT = 'limit'
 KIND_FAULT = 'fault'
 
 _REQUIRED = ('max_displacement', 'max_increment', 'max_force')
-_OPTIONAL = ('max_velocity', 'step_duration')
+_OPTIONAL = ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout')
 
 
 @dataclass(frozen=True)
@@ -32,6 +38,10 @@ class SafetyLimits:
         max_velocity: Largest allowed mean velocity over a step, m/s; enforced as
             |x_target - x_current| / step_duration <= max_velocity. Requires ``step_duration``.
         step_duration: Time the actuator takes to execute one step, s.
+        tracking_tolerance: Largest allowed |measured - commanded displacement| of a DOF when a
+            step is answered, m (feedback plausibility); ``None`` disables the check.
+        watchdog_timeout: Longest allowed time without a command while the bridge is active, s
+            (see :meth:`~.bridge.ActuatorBridge.check_watchdog`); ``None`` disables the watchdog.
 
     Raises:
         BridgeConfigError: If a value is not a positive finite number, or ``max_velocity`` is
@@ -43,6 +53,8 @@ class SafetyLimits:
     max_force: float
     max_velocity: float | None = None
     step_duration: float | None = None
+    tracking_tolerance: float | None = None
+    watchdog_timeout: float | None = None
 
     def __post_init__(self) -> None:
         """Validate and normalise the values to ``float``."""
@@ -57,6 +69,18 @@ class SafetyLimits:
         """Whether the velocity limit is active (both ``max_velocity`` and ``step_duration``)."""
         return self.max_velocity is not None and self.step_duration is not None
 
+    @property
+    def max_step(self) -> float:
+        """Largest allowed |x_target - x_current| of a DOF in one step, m.
+
+        ``max_increment``, or ``max_velocity * step_duration`` if that is smaller. Rounding may
+        put this value an ulp away from what :func:`check_command` accepts; use it as a guide
+        (e.g. to plan moves), never as the check itself.
+        """
+        if self.max_velocity is not None and self.step_duration is not None:
+            return min(self.max_increment, self.max_velocity * self.step_duration)
+        return self.max_increment
+
     @classmethod
     def from_mapping(
         cls, mapping: Mapping[str, Any], source: str = 'safety limits'
@@ -65,7 +89,8 @@ class SafetyLimits:
 
         Args:
             mapping: Keys exactly ``max_displacement``, ``max_increment``, ``max_force`` and
-                optionally ``max_velocity`` and ``step_duration`` (``None`` means not set).
+                optionally ``max_velocity``, ``step_duration``, ``tracking_tolerance`` and
+                ``watchdog_timeout`` (``None`` means not set).
             source: Name of the file or parameter namespace, used in error messages.
 
         Returns:
@@ -259,6 +284,197 @@ def check_feedback(
                 f'exceeds max_force {_fmt(limits.max_force)} N',
             )
     return None
+
+
+def check_tracking(
+    measured: Sequence[float],
+    commanded: Sequence[float],
+    limits: SafetyLimits,
+    dof_names: Sequence[str] | None = None,
+) -> LimitViolation | None:
+    """Check that the actuator followed its command (feedback plausibility).
+
+    Args:
+        measured: Measured displacement per DOF when the step is answered, m.
+        commanded: Displacement sent to the driver for that step, m.
+        limits: The limits; nothing is checked when ``tracking_tolerance`` is ``None``.
+        dof_names: Optional DOF names used in messages.
+
+    Returns:
+        ``'fault'`` if |measured - commanded| > tracking_tolerance for a DOF (the first one), or
+        if the values are malformed, mismatched or non-finite; else ``None``. An actuator that
+        does not go where it is told is a fault of the hardware, not a value beyond a limit.
+    """
+    tolerance = limits.tracking_tolerance
+    if tolerance is None:
+        return None
+    measured_values, problem = _as_floats(measured, 'measured displacement')
+    if problem is None:
+        commanded_values, problem = _as_floats(commanded, 'commanded displacement')
+    if problem is not None:
+        return LimitViolation(KIND_FAULT, 0, problem)
+    if len(measured_values) != len(commanded_values):
+        return LimitViolation(
+            KIND_FAULT,
+            min(len(measured_values), len(commanded_values)),
+            f'measured displacement has {len(measured_values)} values but '
+            f'{len(commanded_values)} were commanded',
+        )
+    violation = _non_finite(measured_values, 'measured displacement', dof_names)
+    if violation is None:
+        violation = _non_finite(commanded_values, 'commanded displacement', dof_names)
+    if violation is not None:
+        return violation
+    for dof, (x_measured, x_commanded) in enumerate(zip(measured_values, commanded_values)):
+        error = abs(x_measured - x_commanded)
+        if error > tolerance:
+            return LimitViolation(
+                KIND_FAULT,
+                dof,
+                f'{_dof_label(dof, dof_names)}: tracking error {_fmt(error, tolerance)} m '
+                f'(measured {_fmt(x_measured)} m, commanded {_fmt(x_commanded)} m) exceeds '
+                f'tracking_tolerance {_fmt(tolerance)} m',
+            )
+    return None
+
+
+@dataclass(frozen=True)
+class Saturation:
+    """The result of :func:`saturate_command`.
+
+    Attributes:
+        target: The target to send (each DOF clipped to the nearest allowed value; it passes
+            :func:`check_command`), or ``None`` if the command cannot be made safe.
+        message: Empty if nothing was clipped, else one line naming each clipped DOF, the
+            requested and the sent value and the binding limit.
+        violation: Why the command cannot be made safe (a fault, or no allowed value exists),
+            else ``None``.
+    """
+
+    target: tuple[float, ...] | None
+    message: str
+    violation: LimitViolation | None
+
+    @property
+    def clipped(self) -> bool:
+        """Whether at least one DOF was clipped."""
+        return bool(self.message)
+
+
+# Clipped values are nudged by at most this many ulps so that the rounding of
+# ``current +- max_step`` neither produces a value beyond a limit nor stops short of the nearest
+# allowed one.
+_MAX_NUDGES = 64
+
+
+def saturate_command(
+    target: Sequence[float],
+    current: Sequence[float],
+    limits: SafetyLimits,
+    dof_names: Sequence[str] | None = None,
+) -> Saturation:
+    """Clip a target displacement to the nearest value the limits allow.
+
+    Each DOF is clipped to the interval allowed by |x| <= max_displacement and
+    |x - current| <= ``max_step`` (max_increment or, if tighter, the velocity limit), then
+    adjusted by a few ulps to the nearest value that is within the limits both as
+    :func:`check_command` computes it and in exact arithmetic (so a clipped value never relies
+    on rounding to pass). The result is verified with :func:`check_command`, so it never exceeds
+    a limit. DOFs already within the limits are sent unchanged.
+
+    A fault (malformed, mismatched or non-finite target or current position) is never
+    saturated. Neither is a DOF whose current position is so far beyond ``max_displacement``
+    that no value within one step is allowed.
+
+    Args:
+        target: Requested displacement per DOF, m.
+        current: Current (last known) displacement per DOF, m.
+        limits: The limits to enforce.
+        dof_names: Optional DOF names used in messages.
+
+    Returns:
+        The clipped target and a description of what was clipped, or the violation that
+        prevents saturation.
+    """
+    violation = check_command(target, current, limits, dof_names)
+    if violation is None:
+        return Saturation(tuple(float(x) for x in target), '', None)
+    if violation.kind != KIND_LIMIT:
+        return Saturation(None, '', violation)
+    # check_command found no fault: both are equally long sequences of finite numbers.
+    target_values = [float(x) for x in target]
+    current_values = [float(x) for x in current]
+    max_step = limits.max_step
+    if max_step < limits.max_increment:
+        step_bound = (
+            f'max_velocity {_fmt(limits.max_velocity or 0.0)} m/s over step_duration '
+            f'{_fmt(limits.step_duration or 0.0)} s'
+        )
+    else:
+        step_bound = f'max_increment {_fmt(limits.max_increment)} m'
+    clipped: list[float] = []
+    notes: list[str] = []
+    for dof, (x_target, x_current) in enumerate(zip(target_values, current_values)):
+        label = _dof_label(dof, dof_names)
+        if _dof_allowed(x_target, x_current, limits):
+            clipped.append(x_target)
+            continue
+        low = max(-limits.max_displacement, x_current - max_step)
+        high = min(limits.max_displacement, x_current + max_step)
+        value = min(max(x_target, low), high) if low <= high else math.nan
+        for _ in range(_MAX_NUDGES):
+            if math.isnan(value) or _dof_allowed_exactly(value, x_current, limits):
+                break
+            value = math.nextafter(value, x_current)
+        if math.isnan(value) or not _dof_allowed_exactly(value, x_current, limits):
+            value = math.nan
+        else:
+            # The allowed set is an interval of floats: move outwards while still allowed, so the
+            # result is the allowed value nearest the target, not one an ulp short of it.
+            for _ in range(_MAX_NUDGES):
+                further = math.nextafter(value, x_target)
+                if further == value or not _dof_allowed_exactly(further, x_current, limits):
+                    break
+                value = further
+        if math.isnan(value):
+            return Saturation(
+                None,
+                '',
+                LimitViolation(
+                    KIND_LIMIT,
+                    dof,
+                    f'{label}: cannot saturate target {_fmt(x_target)} m: no displacement '
+                    f'within max_displacement {_fmt(limits.max_displacement)} m is reachable '
+                    f'in one step ({step_bound}) from {_fmt(x_current)} m',
+                ),
+            )
+        if abs(value) == limits.max_displacement and abs(x_target) > limits.max_displacement:
+            bound = f'max_displacement {_fmt(limits.max_displacement)} m'
+        else:
+            bound = f'{step_bound} from {_fmt(x_current)} m'
+        clipped.append(value)
+        notes.append(f'{label}: target {_fmt(x_target)} m clipped to {_fmt(value)} m ({bound})')
+    final = check_command(clipped, current_values, limits, dof_names)
+    if final is not None:  # pragma: no cover - defensive: the DOFs were checked one by one
+        return Saturation(None, '', final)
+    return Saturation(tuple(clipped), '; '.join(notes), None)
+
+
+def _dof_allowed(target: float, current: float, limits: SafetyLimits) -> bool:
+    """Whether one DOF's move passes :func:`check_command` (the same arithmetic, by reuse)."""
+    return check_command([target], [current], limits) is None
+
+
+def _dof_allowed_exactly(target: float, current: float, limits: SafetyLimits) -> bool:
+    """Whether one DOF's move passes :func:`check_command` and the limits in exact arithmetic."""
+    if not _dof_allowed(target, current, limits):
+        return False
+    increment = abs(Fraction(target) - Fraction(current))
+    if increment > Fraction(limits.max_increment):
+        return False
+    if limits.max_velocity is not None and limits.step_duration is not None:
+        return increment <= Fraction(limits.max_velocity) * Fraction(limits.step_duration)
+    return True
 
 
 def _as_floats(values: Any, what: str) -> tuple[list[float], str | None]:

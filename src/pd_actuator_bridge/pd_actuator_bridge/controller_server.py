@@ -1,0 +1,808 @@
+"""Controller-side GenericTCP server (``ros2 run pd_actuator_bridge controller_server``).
+
+It plays the role of a server written for OpenFresco's ``expControl GenericTCP`` running next
+to the actuator controller (e.g. a MOOG controller): it accepts **one** client, reads the
+11-integer size ID, then answers ``setTrialResponse`` (3), ``getDaqResponse`` (6) and
+``commitState`` (5, accepted and ignored as a no-op) until the client sends ``99`` (or ``98``)
+or disconnects. The wire format is documented in :mod:`pd_actuator_bridge.core.generic_tcp`.
+OpenFresco's optional ``-initFile`` parameter messages are not supported.
+
+The "controller" behind the server is pluggable (:class:`Controller`):
+
+* :class:`ElasticController` (default): an ideal actuator that reaches every trial
+  displacement exactly, on an elastic specimen ``f = k x`` (``--stiffness``).
+* ``--emulator``: the servo-hydraulic emulator of :mod:`pd_actuator_bridge.core.emulator`
+  (1 kHz closed-loop actuator model) on the same elastic specimen, each step executed as a
+  ramp (``--ramp-time``) and hold (``--hold-time``); imported lazily through
+  :func:`load_emulator_controller`. If it is not available the server says so on stderr and
+  falls back to the elastic controller.
+
+Usage::
+
+    controller_server --host 127.0.0.1 --port 0 --dofs 1 --stiffness 2e6
+
+The first line on stdout is ``controller_server: listening on HOST:PORT`` (with the port the OS
+chose for ``--port 0``). The exit code is 0 when the client ended the session with 99 (or the
+server was interrupted), 1 when the session ended on an error or a disconnect without 99.
+
+No ``rclpy``: the server is usable in-process (:class:`ControllerServer`, started in a thread)
+as the tests do, and as a plain executable.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import math
+import signal
+import socket
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
+
+from pd_actuator_bridge.core.errors import BridgeConfigError, BridgeError
+from pd_actuator_bridge.core.generic_tcp import (
+    ACTION_COMMIT_STATE,
+    ACTION_DIE,
+    ACTION_GET_DAQ_RESPONSE,
+    ACTION_NAMES,
+    ACTION_SET_TRIAL_RESPONSE,
+    ACTION_SHUTDOWN,
+    RESPONSE_KINDS,
+    SIZE_ID_LENGTH,
+    DaqResponse,
+    GenericTCPError,
+    SizeID,
+    TrialResponse,
+    decode_size_id,
+    decode_trial,
+    decode_vector,
+    encode_daq,
+    first_non_finite,
+)
+
+LOGGER = logging.getLogger('pd_actuator_bridge.controller_server')
+
+EMULATOR_MODULE = 'pd_actuator_bridge.core.emulator'
+EMULATOR_FACTORY = 'generic_tcp_backend'
+
+_POLL = 0.1
+"""Seconds between checks of the stop request while waiting on a socket."""
+
+
+class ControllerError(BridgeError):
+    """The controller behind the server cannot serve the request (sizes, values, failure)."""
+
+
+class EmulatorUnavailable(BridgeError):
+    """The servo-hydraulic emulator cannot be imported or built."""
+
+
+class Controller(Protocol):
+    """What the server needs from the actuator controller it fronts."""
+
+    def setup(self, size_id: SizeID) -> None:
+        """Accept (or reject with :class:`ControllerError`) the client's size ID."""
+
+    def set_trial_response(self, trial: TrialResponse) -> None:
+        """Execute a trial (move the actuator)."""
+
+    def get_daq_response(self) -> DaqResponse:
+        """Return the measured response, one tuple per kind sized as the size ID says."""
+
+    def commit_state(self) -> None:
+        """Commit the current step (no-op for most controllers)."""
+
+
+# --------------------------------------------------------------------------- controllers
+
+
+class _MeasuredController:
+    """Common size checks and daq assembly for controllers measuring displacement and force."""
+
+    name = 'controller'
+
+    def __init__(self, n_dof: int) -> None:
+        if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
+            raise BridgeConfigError(
+                f'{type(self).__name__}: n_dof must be a positive integer, got {n_dof!r}'
+            )
+        self.n_dof = n_dof
+        self.size_id: SizeID | None = None
+        self.trials = 0
+        self.commits = 0
+        self._trial = TrialResponse()
+        self._t0 = time.monotonic()
+
+    def setup(self, size_id: SizeID) -> None:
+        """Check that the size ID fits this controller.
+
+        Displacement must be controlled on every DOF; displacement, velocity, acceleration and
+        force may each be acquired on 0 or ``n_dof`` channels, time on any number.
+
+        Raises:
+            ControllerError: If the sizes do not fit.
+        """
+        ctrl = dict(zip(RESPONSE_KINDS, size_id.ctrl, strict=True))
+        daq = dict(zip(RESPONSE_KINDS, size_id.daq, strict=True))
+        if ctrl['disp'] != self.n_dof:
+            raise ControllerError(
+                f'{self.name}: {self.n_dof} DOF need {self.n_dof} controlled displacement(s), '
+                f'the size ID has {ctrl["disp"]}'
+            )
+        for kind in ('vel', 'accel', 'force'):
+            if ctrl[kind] not in (0, self.n_dof):
+                raise ControllerError(
+                    f'{self.name}: controlled {kind} size must be 0 or {self.n_dof}, '
+                    f'got {ctrl[kind]}'
+                )
+        for kind in ('disp', 'vel', 'accel', 'force'):
+            if daq[kind] not in (0, self.n_dof):
+                raise ControllerError(
+                    f'{self.name}: daq {kind} size must be 0 or {self.n_dof}, got {daq[kind]}'
+                )
+        self.size_id = size_id
+        self._t0 = time.monotonic()
+
+    def set_trial_response(self, trial: TrialResponse) -> None:
+        """Execute the trial displacement (see :meth:`_move`)."""
+        self._trial = trial
+        self.trials += 1
+        self._move(list(trial.disp))
+
+    def get_daq_response(self) -> DaqResponse:
+        """Return the measured displacement and force, and the trial velocity/acceleration."""
+        assert self.size_id is not None, 'setup() first'
+        sizes = dict(zip(RESPONSE_KINDS, self.size_id.daq, strict=True))
+        disp, force = self._measure()
+        zeros = (0.0,) * self.n_dof
+        if self._trial.time:
+            now = self._trial.time[0]
+        else:
+            now = time.monotonic() - self._t0
+        return DaqResponse(
+            disp=tuple(disp) if sizes['disp'] else (),
+            vel=(self._trial.vel or zeros) if sizes['vel'] else (),
+            accel=(self._trial.accel or zeros) if sizes['accel'] else (),
+            force=tuple(force) if sizes['force'] else (),
+            time=(float(now),) * sizes['time'],
+        )
+
+    def commit_state(self) -> None:
+        """Count the commit (nothing else to do)."""
+        self.commits += 1
+
+    def _move(self, target: list[float]) -> None:
+        raise NotImplementedError
+
+    def _measure(self) -> tuple[list[float], list[float]]:
+        raise NotImplementedError
+
+
+class ElasticController(_MeasuredController):
+    """An ideal actuator on a linear elastic specimen: it reaches every target exactly.
+
+    The measured force per DOF is ``k_i * x_i``.
+
+    Attributes:
+        position: Current displacement per DOF, m.
+    """
+
+    name = 'elastic controller'
+
+    def __init__(
+        self,
+        stiffness: float | Sequence[float] = 1.0e6,
+        n_dof: int = 1,
+        initial_position: Sequence[float] | None = None,
+    ) -> None:
+        """Create the controller.
+
+        Args:
+            stiffness: Specimen stiffness, N/m: one value for every DOF or one per DOF.
+            n_dof: Number of DOF.
+            initial_position: Starting displacement per DOF, m (zeros if omitted).
+
+        Raises:
+            BridgeConfigError: On a bad argument.
+        """
+        super().__init__(n_dof)
+        values = [stiffness] * n_dof if isinstance(stiffness, int | float) else list(stiffness)
+        if len(values) != n_dof or not all(
+            isinstance(k, int | float) and not isinstance(k, bool) and math.isfinite(k)
+            for k in values
+        ):
+            raise BridgeConfigError(
+                f'ElasticController: stiffness must be a finite number or {n_dof} of them, '
+                f'got {stiffness!r}'
+            )
+        self.stiffness = [float(k) for k in values]
+        position = [0.0] * n_dof if initial_position is None else list(initial_position)
+        if len(position) != n_dof:
+            raise BridgeConfigError(
+                f'ElasticController: initial_position has {len(position)} values, '
+                f'expected {n_dof}'
+            )
+        self.position = [float(x) for x in position]
+
+    def describe(self) -> str:
+        """One-line description."""
+        k = ', '.join(f'{v:g}' for v in self.stiffness)
+        return f'ideal actuator on an elastic specimen, {self.n_dof} DOF, k = [{k}] N/m'
+
+    def _move(self, target: list[float]) -> None:
+        self.position = list(target)
+
+    def _measure(self) -> tuple[list[float], list[float]]:
+        force = [k * x for k, x in zip(self.stiffness, self.position, strict=True)]
+        return list(self.position), force
+
+
+class EmulatorController(_MeasuredController):
+    """Adapter from the GenericTCP server to an actuator emulator backend.
+
+    The backend must have ``execute(target)`` taking the target displacement per DOF (m) and
+    returning the measured displacement and force per DOF, either as a pair ``(disp, force)``
+    or as an object with ``displacement`` (or ``disp``) and ``force`` attributes.
+    """
+
+    name = 'emulator controller'
+
+    def __init__(self, backend: Any, n_dof: int = 1, description: str = '') -> None:
+        """Wrap ``backend``.
+
+        Raises:
+            BridgeConfigError: If the backend has no callable ``execute``.
+        """
+        super().__init__(n_dof)
+        if not callable(getattr(backend, 'execute', None)):
+            raise BridgeConfigError(
+                f'EmulatorController: backend {type(backend).__name__} has no execute(target)'
+            )
+        self.backend = backend
+        self._description = description or f'emulator backend {type(backend).__name__}'
+        self._disp = [0.0] * n_dof
+        self._force = [0.0] * n_dof
+
+    def describe(self) -> str:
+        """One-line description."""
+        return f'{self._description}, {self.n_dof} DOF'
+
+    def _move(self, target: list[float]) -> None:
+        result = self.backend.execute(list(target))
+        if isinstance(result, tuple | list) and len(result) == 2:
+            disp, force = result
+        else:
+            disp = getattr(result, 'displacement', getattr(result, 'disp', None))
+            force = getattr(result, 'force', None)
+        self._disp = self._vector(disp, 'displacement')
+        self._force = self._vector(force, 'force')
+
+    def _measure(self) -> tuple[list[float], list[float]]:
+        return list(self._disp), list(self._force)
+
+    def _vector(self, value: Any, what: str) -> list[float]:
+        if isinstance(value, int | float) and self.n_dof == 1:
+            return [float(value)]
+        try:
+            values = [float(v) for v in value]
+        except TypeError:
+            values = []
+        if len(values) != self.n_dof:
+            raise ControllerError(
+                f'{self.name}: backend returned {what} {value!r}, expected {self.n_dof} values'
+            )
+        return values
+
+
+class _ElasticSpecimen:
+    """Linear elastic specimen for the emulator (``r_i = k_i x_i``; no state to commit)."""
+
+    def __init__(self, stiffness: Sequence[float]) -> None:
+        self.stiffness = [float(k) for k in stiffness]
+        self.n_dof = len(self.stiffness)
+
+    def restoring_force(self, x: Sequence[float]) -> list[float]:
+        return [k * float(xi) for k, xi in zip(self.stiffness, x, strict=True)]
+
+    def commit(self) -> None:
+        pass
+
+    def revert_to_last_commit(self) -> None:
+        pass
+
+    def initial_stiffness_matrix(self) -> list[list[float]]:
+        n = self.n_dof
+        return [[self.stiffness[i] if i == j else 0.0 for j in range(n)] for i in range(n)]
+
+
+class TickRampHold:
+    """Minimal ramp-and-hold over an emulator's ``tick(command)`` (one controller period).
+
+    Each :meth:`execute` ramps the command linearly from the previous target to the new one
+    over ``ramp_time``, holds it for ``hold_time`` and returns the mean of the last ``samples``
+    measured displacements and forces. It is the server's stand-in when
+    :mod:`pd_actuator_bridge.core.emulator` offers no ``generic_tcp_backend`` factory.
+    """
+
+    def __init__(self, emulator: Any, ramp_time: float = 0.2, hold_time: float = 0.3,
+                 samples: int = 10) -> None:
+        """Wrap ``emulator`` (needs ``tick(command)``, ``rate`` and ``n_dof``)."""
+        if not (ramp_time >= 0.0 and hold_time > 0.0 and samples >= 1):
+            raise BridgeConfigError(
+                f'TickRampHold: need ramp_time >= 0, hold_time > 0 and samples >= 1, got '
+                f'{ramp_time!r}, {hold_time!r}, {samples!r}'
+            )
+        self.emulator = emulator
+        rate = float(emulator.rate)
+        self._ramp_ticks = max(1, round(ramp_time * rate))
+        self._hold_ticks = max(samples, round(hold_time * rate))
+        self._samples = samples
+        self._command = [0.0] * int(emulator.n_dof)
+
+    def execute(self, target: Sequence[float]) -> tuple[list[float], list[float]]:
+        """Ramp to ``target``, hold, and return the averaged ``(displacement, force)``."""
+        start, end = list(self._command), [float(x) for x in target]
+        n = len(end)
+        for i in range(1, self._ramp_ticks + 1):
+            a = i / self._ramp_ticks
+            self.emulator.tick([s + a * (e - s) for s, e in zip(start, end, strict=True)])
+        self._command = end
+        disp = [0.0] * n
+        force = [0.0] * n
+        for i in range(self._hold_ticks):
+            measurement = self.emulator.tick(end)
+            if i >= self._hold_ticks - self._samples:
+                for j in range(n):
+                    disp[j] += float(measurement.displacement[j]) / self._samples
+                    force[j] += float(measurement.force[j]) / self._samples
+        return disp, force
+
+
+def load_emulator_controller(
+    n_dof: int, stiffness: float, ramp_time: float = 0.2, hold_time: float = 0.3
+) -> EmulatorController:
+    """Build an :class:`EmulatorController` from :mod:`pd_actuator_bridge.core.emulator`.
+
+    The module is imported lazily and used through, in order of preference:
+
+    1. a factory ``generic_tcp_backend(n_dof=..., stiffness=...)`` returning a backend with
+       ``execute(target)`` (see :class:`EmulatorController`), e.g. the emulator's own
+       ramp-and-hold executor;
+    2. ``ServoHydraulicEmulator(specimen, stiffness=K)`` on a linear elastic specimen, driven by
+       :class:`TickRampHold` (``ramp_time``, ``hold_time``).
+
+    Raises:
+        EmulatorUnavailable: If the module is missing or the backend cannot be built.
+    """
+    try:
+        module = importlib.import_module(EMULATOR_MODULE)
+    except ImportError as exc:
+        raise EmulatorUnavailable(
+            f'the servo-hydraulic emulator ({EMULATOR_MODULE}) is not available: '
+            f'{type(exc).__name__}: {exc}'
+        ) from None
+    factory = getattr(module, EMULATOR_FACTORY, None)
+    try:
+        if factory is not None:
+            backend = factory(n_dof=n_dof, stiffness=stiffness)
+            how = f'{EMULATOR_FACTORY}()'
+        else:
+            specimen = _ElasticSpecimen([stiffness] * n_dof)
+            emulator = module.ServoHydraulicEmulator(
+                specimen, stiffness=specimen.initial_stiffness_matrix()
+            )
+            backend = TickRampHold(emulator, ramp_time, hold_time)
+            how = (f'ServoHydraulicEmulator, ramp {ramp_time:g} s + hold {hold_time:g} s, '
+                   f'k = {stiffness:g} N/m')
+        return EmulatorController(backend, n_dof, f'servo-hydraulic emulator ({how})')
+    except Exception as exc:  # noqa: BLE001 - any failure means the emulator is unusable
+        raise EmulatorUnavailable(
+            f'could not build the servo-hydraulic emulator from {EMULATOR_MODULE} '
+            f'(expected {EMULATOR_FACTORY}(n_dof, stiffness) or '
+            f'ServoHydraulicEmulator(specimen, stiffness=K) with tick(command)): '
+            f'{type(exc).__name__}: {exc}'
+        ) from None
+
+
+def make_controller(
+    n_dof: int = 1,
+    stiffness: float = 1.0e6,
+    emulator: bool = False,
+    warn: Callable[[str], None] | None = None,
+    ramp_time: float = 0.2,
+    hold_time: float = 0.3,
+) -> Any:
+    """Return the controller selected by the command-line options.
+
+    Args:
+        n_dof: Number of DOF.
+        stiffness: Specimen stiffness, N/m.
+        emulator: Use the servo-hydraulic emulator; falls back to the elastic controller
+            (with a message through ``warn``) if it is not available.
+        warn: Receives the fall-back message; logged as a warning if omitted.
+        ramp_time: Emulator ramp duration per step, s (see :class:`TickRampHold`).
+        hold_time: Emulator hold duration per step, s.
+    """
+    if emulator:
+        try:
+            return load_emulator_controller(n_dof, stiffness, ramp_time, hold_time)
+        except EmulatorUnavailable as exc:
+            message = f'{exc}; falling back to the ideal elastic controller'
+            (warn or LOGGER.warning)(message)
+    return ElasticController(stiffness, n_dof)
+
+
+# --------------------------------------------------------------------------- server
+
+
+class ControllerServer:
+    """A GenericTCP controller-side server for one client session.
+
+    :meth:`start` binds and listens (``port=0`` lets the OS choose: read :attr:`port`) and
+    serves in a background thread; :meth:`stop` ends the session at once (closing the
+    connection, like a controller that dies) and joins the thread. Usable as a context manager.
+
+    Attributes:
+        steps: Number of ``setTrialResponse`` messages executed.
+        daq_requests: Number of ``getDaqResponse`` messages answered.
+        ended_by_client: Whether the client ended the session with 99 (or 98).
+        error: Why the session ended abnormally ('' otherwise).
+        size_id: The client's size ID, once received.
+    """
+
+    def __init__(
+        self,
+        controller: Controller,
+        host: str = '127.0.0.1',
+        port: int = 0,
+        idle_timeout: float | None = None,
+        byte_order: str = 'little',
+        die_after: int | None = None,
+    ) -> None:
+        """Create the server (not listening yet).
+
+        Args:
+            controller: The controller executing the trials.
+            host: Address to bind (loopback by default).
+            port: Port to bind; 0 lets the OS choose.
+            idle_timeout: End the session if the client sends nothing for this many seconds
+                (``None``: wait indefinitely, as a lab server does between steps).
+            byte_order: ``'little'`` or ``'big'``.
+            die_after: Fault injection: after this many trials, drop the connection on the next
+                ``setTrialResponse`` without answering (a controller crash). ``None``: never.
+        """
+        self._controller = controller
+        self._host = host
+        self._requested_port = int(port)
+        self._idle_timeout = idle_timeout
+        self._byte_order = byte_order
+        self._die_after = die_after
+        self._listener: socket.socket | None = None
+        self._conn: socket.socket | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._done = threading.Event()
+        self._lock = threading.Lock()
+        self._port = 0
+        self.steps = 0
+        self.daq_requests = 0
+        self.ended_by_client = False
+        self.error = ''
+        self.size_id: SizeID | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+
+    @property
+    def host(self) -> str:
+        """Bound address."""
+        return self._host
+
+    @property
+    def port(self) -> int:
+        """Bound port (0 before :meth:`start`)."""
+        return self._port
+
+    @property
+    def done(self) -> bool:
+        """Whether the session has ended (or was stopped)."""
+        return self._done.is_set()
+
+    def start(self) -> int:
+        """Bind, listen and serve one session in a background thread.
+
+        Returns:
+            The bound port.
+
+        Raises:
+            OSError: If the address cannot be bound.
+        """
+        if self._thread is not None:
+            raise RuntimeError('ControllerServer: start() called twice')
+        family = socket.AF_INET6 if ':' in self._host else socket.AF_INET
+        listener = socket.create_server((self._host, self._requested_port), family=family,
+                                        backlog=1)
+        listener.settimeout(_POLL)
+        self._listener = listener
+        self._port = listener.getsockname()[1]
+        self._thread = threading.Thread(
+            target=self._run, name=f'controller_server:{self._port}', daemon=True
+        )
+        self._thread.start()
+        return self._port
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the session to end; return whether it has."""
+        return self._done.wait(timeout)
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """End the session now, close every socket and join the thread. Idempotent.
+
+        The connection is shut down at once (the client sees it closed, as when a controller
+        dies); the serving thread notices within a poll period and exits.
+        """
+        self._stop.set()
+        with self._lock:
+            conn = self._conn
+        if conn is not None:
+            try:
+                conn.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout)
+        self._close_sockets()
+        self._done.set()
+
+    def __enter__(self) -> ControllerServer:
+        """Start the server (if needed) and return it."""
+        if self._listener is None:
+            self.start()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        """Stop the server."""
+        self.stop()
+
+    # ------------------------------------------------------------------ serving
+
+    def _run(self) -> None:
+        try:
+            conn = self._accept()
+            if conn is not None:
+                with self._lock:
+                    self._conn = conn
+                host, port = conn.getpeername()[:2]
+                LOGGER.info('client %s:%s connected', host, port)
+                self._session(conn)
+        except Exception as exc:  # noqa: BLE001 - report, never crash the thread silently
+            self._fail(f'internal error: {type(exc).__name__}: {exc}')
+        finally:
+            self._close_sockets()
+            self._done.set()
+
+    def _accept(self) -> socket.socket | None:
+        listener = self._listener
+        assert listener is not None
+        while not self._stop.is_set():
+            try:
+                conn, _ = listener.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return None  # closed by stop()
+            # One client only: stop listening.
+            with self._lock:
+                self._listener = None
+            listener.close()
+            conn.settimeout(_POLL)
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            return conn
+        return None
+
+    def _session(self, conn: socket.socket) -> None:
+        payload = self._receive(conn, 4 * SIZE_ID_LENGTH, 'the size ID')
+        if payload is None:
+            return
+        try:
+            size_id = decode_size_id(payload, self._byte_order)
+            self._controller.setup(size_id)
+        except (GenericTCPError, ControllerError) as exc:
+            self._fail(f'setup: {exc}')
+            return
+        self.size_id = size_id
+        LOGGER.info('size ID %s', size_id.as_list())
+        while not self._stop.is_set():
+            payload = self._receive(conn, size_id.vector_bytes, 'a request', between=True)
+            if payload is None:
+                return
+            vector = decode_vector(payload, size_id.data_size, self._byte_order)
+            if not self._handle(conn, size_id, vector):
+                return
+
+    def _handle(self, conn: socket.socket, size_id: SizeID, vector: list[float]) -> bool:
+        """Execute one request; return whether the session goes on."""
+        code = vector[0]
+        if not math.isfinite(code) or code != int(code):
+            self._fail(f'malformed request: action code {code!r}')
+            return False
+        action = int(code)
+        name = ACTION_NAMES.get(action, str(action))
+        try:
+            if action == ACTION_SET_TRIAL_RESPONSE:
+                if self._die_after is not None and self.steps >= self._die_after:
+                    self._fail(f'fault injection: controller died after {self.steps} steps')
+                    return False
+                trial = decode_trial(vector, size_id)
+                bad = first_non_finite(trial)
+                if bad is not None:
+                    self._fail(f'{name}: refusing a non-finite trial: {bad}')
+                    return False
+                self._controller.set_trial_response(trial)
+                self.steps += 1
+            elif action == ACTION_GET_DAQ_RESPONSE:
+                daq = self._controller.get_daq_response()
+                conn.settimeout(self._idle_timeout if self._idle_timeout else 5.0)
+                conn.sendall(encode_daq(size_id, daq, self._byte_order))
+                conn.settimeout(_POLL)
+                self.daq_requests += 1
+            elif action == ACTION_COMMIT_STATE:
+                self._controller.commit_state()
+            elif action in (ACTION_DIE, ACTION_SHUTDOWN):
+                self.ended_by_client = True
+                LOGGER.info('client ended the session (%d) after %d steps', action, self.steps)
+                return False
+            else:
+                self._fail(f'unsupported action {action}')
+                return False
+        except (ControllerError, GenericTCPError) as exc:
+            self._fail(f'{name}: {exc}')
+            return False
+        except OSError as exc:
+            self._fail(f'{name}: connection lost: {type(exc).__name__}: {exc}')
+            return False
+        except Exception as exc:  # noqa: BLE001 - a controller failure ends the session
+            self._fail(f'{name}: controller failed: {type(exc).__name__}: {exc}')
+            return False
+        return True
+
+    def _receive(self, conn: socket.socket, n: int, what: str,
+                 between: bool = False) -> bytes | None:
+        """Read ``n`` bytes, honouring stop requests and the idle timeout."""
+        chunks: list[bytes] = []
+        got = 0
+        last = time.monotonic()
+        while got < n:
+            if self._stop.is_set():
+                return None
+            try:
+                chunk = conn.recv(n - got)
+            except TimeoutError:
+                if self._idle_timeout is not None and time.monotonic() - last > self._idle_timeout:
+                    self._fail(f'no data for {self._idle_timeout:g} s while waiting for {what} '
+                               f'({got} of {n} bytes)')
+                    return None
+                continue
+            except OSError as exc:
+                if not self._stop.is_set():
+                    self._fail(f'connection lost waiting for {what}: {type(exc).__name__}')
+                return None
+            if not chunk:
+                if self._stop.is_set():
+                    return None
+                if got or not between:
+                    self._fail(f'client closed the connection mid-message ({got} of {n} bytes '
+                               f'of {what})')
+                else:
+                    self._fail('client closed the connection without sending 99')
+                return None
+            chunks.append(chunk)
+            got += len(chunk)
+            last = time.monotonic()
+        return b''.join(chunks)
+
+    def _fail(self, message: str) -> None:
+        if not self.error:
+            self.error = message
+        LOGGER.error('%s', message)
+
+    def _close_sockets(self) -> None:
+        with self._lock:
+            listener, self._listener = self._listener, None
+            conn, self._conn = self._conn, None
+        for sock in (conn, listener):
+            if sock is None:
+                continue
+            try:
+                sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            sock.close()
+
+
+# --------------------------------------------------------------------------- executable
+
+
+def _parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog='controller_server',
+        description='OpenFresco GenericTCP controller-side server (one client session).',
+    )
+    parser.add_argument('--host', default='127.0.0.1', help='address to bind (127.0.0.1)')
+    parser.add_argument('--port', type=int, default=0,
+                        help='port to bind; 0 lets the OS choose and prints it (0)')
+    parser.add_argument('--dofs', type=int, default=1, help='number of actuated DOF (1)')
+    parser.add_argument('--stiffness', type=float, default=1.0e6,
+                        help='elastic specimen stiffness per DOF, N/m (1e6)')
+    parser.add_argument('--emulator', action='store_true',
+                        help='use the servo-hydraulic emulator (core.emulator) if available')
+    parser.add_argument('--ramp-time', type=float, default=0.2,
+                        help='emulator: ramp duration per step, s (0.2)')
+    parser.add_argument('--hold-time', type=float, default=0.3,
+                        help='emulator: hold duration per step before sampling, s (0.3)')
+    parser.add_argument('--idle-timeout', type=float, default=None,
+                        help='end the session after this many seconds without data (never)')
+    parser.add_argument('--byte-order', choices=('little', 'big'), default='little',
+                        help='byte order of the wire data (little, as OpenFresco on x86)')
+    args = parser.parse_args(argv)
+    if args.dofs < 1:
+        parser.error(f'--dofs must be >= 1, got {args.dofs}')
+    if not 0 <= args.port < 65536:
+        parser.error(f'--port must be in 0..65535, got {args.port}')
+    if not math.isfinite(args.stiffness):
+        parser.error(f'--stiffness must be finite, got {args.stiffness}')
+    if not (args.ramp_time >= 0 and args.hold_time > 0):
+        parser.error('--ramp-time must be >= 0 and --hold-time > 0')
+    if args.idle_timeout is not None and not args.idle_timeout > 0:
+        parser.error(f'--idle-timeout must be > 0, got {args.idle_timeout}')
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one GenericTCP session; see the module docstring for options and exit codes."""
+    args = _parse_args(argv)
+    logging.basicConfig(level=logging.INFO, stream=sys.stderr,
+                        format='controller_server: %(levelname)s: %(message)s')
+
+    def warn(message: str) -> None:
+        print(f'controller_server: {message}', file=sys.stderr, flush=True)
+
+    controller = make_controller(args.dofs, args.stiffness, args.emulator, warn,
+                                 args.ramp_time, args.hold_time)
+    server = ControllerServer(controller, args.host, args.port, args.idle_timeout,
+                              args.byte_order)
+    try:
+        port = server.start()
+    except OSError as exc:
+        print(f'controller_server: cannot listen on {args.host}:{args.port}: {exc}',
+              file=sys.stderr)
+        return 1
+    print(f'controller_server: listening on {args.host}:{port}', flush=True)
+    LOGGER.info('controller: %s', controller.describe())
+
+    stop_requested = threading.Event()
+
+    def on_signal(signum: int, _frame: object) -> None:
+        stop_requested.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        while not server.wait(_POLL):
+            if stop_requested.is_set():
+                LOGGER.info('stop requested')
+                break
+    finally:
+        server.stop()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    if stop_requested.is_set():
+        return 0
+    return 0 if server.ended_by_client else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

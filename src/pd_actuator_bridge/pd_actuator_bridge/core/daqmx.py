@@ -1,0 +1,852 @@
+"""``daqmx`` driver: analog command out and analog feedback in through NI DAQ hardware.
+
+This is the usual way to drive a servo-hydraulic controller (MOOG, MTS, Instron...) from a PC:
+
+* one analog output per actuator carries the **displacement command** (typically +-10 V) into
+  the controller's external command / program input, with the controller's inner loop in
+  displacement control and the external command enabled;
+* the controller's **conditioned displacement** (LVDT) output and **conditioned load-cell**
+  output (both typically +-10 V full scale) come back on two analog inputs.
+
+The driver is synchronous: :meth:`DaqmxDriver.command` converts the target (m) to volts,
+refuses a voltage outside the channel's command range, writes it, waits ``settle_time``, acquires
+``samples_per_read`` samples per input channel at ``sample_rate``, averages them, converts to m
+and N and reports the measurement before it returns. All calibrations are linear::
+
+    command:       V = (x - command_offset) / command_scale          (command_scale in m/V)
+    displacement:  x = displacement_scale * V + displacement_offset  (m/V, m)
+    force:         f = force_scale * V + force_offset                (N/V, N)
+
+The ``nidaqmx`` package is imported only inside :meth:`DaqmxDriver.open` and only when no task
+factory is injected, so it is not a dependency of the rest of the package; tests inject a fake
+task. **This driver has not been run on hardware.**
+
+nidaqmx API used (checked against NI's sources and documentation):
+
+* ``nidaqmx.Task()``; ``task.close()`` clears the task.
+* ``task.ao_channels.add_ao_voltage_chan(physical_channel, min_val=..., max_val=...)``.
+* ``task.ai_channels.add_ai_voltage_chan(physical_channel, terminal_config=..., min_val=...,
+  max_val=...)``; its default range is +-5 V, so the range is always passed explicitly.
+* ``task.timing.cfg_samp_clk_timing(rate, sample_mode=AcquisitionType.FINITE,
+  samps_per_chan=N)``: a finite acquisition that ``task.read`` starts implicitly on each call.
+* ``task.write(data, auto_start=True, timeout=...)``: a scalar for one channel, a list of one
+  value per channel for several (one sample each, on-demand timing).
+* ``task.read(number_of_samples_per_channel=N, timeout=...)``: with N given and several channels
+  it returns a list of lists, one list of N samples per channel, in channel creation order.
+* ``nidaqmx.constants.TerminalConfiguration`` members ``DEFAULT``, ``RSE``, ``NRSE``, ``DIFF``,
+  ``PSEUDO_DIFF`` (``DIFFERENTIAL`` and ``PSEUDODIFFERENTIAL`` before nidaqmx 0.7) and
+  ``nidaqmx.constants.AcquisitionType.FINITE``.
+
+References:
+    https://nidaqmx-python.readthedocs.io/ (API reference: Task, channel collections, Timing,
+    constants); https://pypi.org/project/nidaqmx/ (installation: also needs the NI-DAQmx
+    driver); https://github.com/ni/nidaqmx-python (``generated/nidaqmx/task/_task.py``:
+    ``Task.read`` and ``Task.write`` docstrings; ``task/collections/_ai_channel_collection.py``,
+    ``_ao_channel_collection.py``, ``task/_timing.py``, ``constants.py``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from .driver import ActuatorDriver
+from .errors import BridgeConfigError, DriverError
+
+TaskFactory = Callable[[str], Any]
+"""``factory(role)``: a new task with the ``nidaqmx.Task`` interface; ``role`` is ``'command'``
+(analog outputs) or ``'feedback'`` (analog inputs)."""
+
+TERMINAL_CONFIGURATIONS = ('default', 'rse', 'nrse', 'diff', 'pseudo_diff')
+"""Accepted ``terminal_configuration`` values (analog inputs)."""
+
+MAX_ABS_VOLTAGE = 10.0
+"""Largest |voltage| accepted in a channel range, V (servo-controller inputs are +-10 V)."""
+
+# nidaqmx.constants.TerminalConfiguration member names per configuration (newest first).
+_TERMINAL_MEMBERS = {
+    'default': ('DEFAULT',),
+    'rse': ('RSE',),
+    'nrse': ('NRSE',),
+    'diff': ('DIFF', 'DIFFERENTIAL'),
+    'pseudo_diff': ('PSEUDO_DIFF', 'PSEUDODIFFERENTIAL'),
+}
+
+# Stand-in for nidaqmx.constants when a task factory is injected without constants: the fake
+# tasks then receive the member names as strings.
+SYMBOLIC_CONSTANTS = SimpleNamespace(
+    TerminalConfiguration=SimpleNamespace(
+        DEFAULT='DEFAULT', RSE='RSE', NRSE='NRSE', DIFF='DIFF', PSEUDO_DIFF='PSEUDO_DIFF'
+    ),
+    AcquisitionType=SimpleNamespace(FINITE='FINITE'),
+)
+
+_CHANNEL_REQUIRED = (
+    'command_channel', 'command_scale',
+    'displacement_channel', 'displacement_scale',
+    'force_channel', 'force_scale',
+)
+_CHANNEL_OPTIONAL = (
+    'name',
+    'command_offset', 'command_min_voltage', 'command_max_voltage',
+    'displacement_offset', 'displacement_min_voltage', 'displacement_max_voltage',
+    'force_offset', 'force_min_voltage', 'force_max_voltage',
+)
+_SIGNALS = ('command', 'displacement', 'force')
+_SCALE_UNITS = {'command': 'm/V', 'displacement': 'm/V', 'force': 'N/V'}
+_OFFSET_UNITS = {'command': 'm', 'displacement': 'm', 'force': 'N'}
+
+_CONFIG_REQUIRED = ('channels',)
+_CONFIG_OPTIONAL = (
+    'sample_rate', 'samples_per_read', 'terminal_configuration', 'settle_time', 'timeout'
+)
+
+
+@dataclass(frozen=True)
+class DaqmxChannelConfig:
+    """Wiring and calibration of one actuated DOF.
+
+    Attributes:
+        command_channel: Analog output carrying the displacement command, e.g. ``'Dev1/ao0'``.
+        command_scale: Commanded displacement per volt, m/V (non-zero; negative inverts).
+        displacement_channel: Analog input of the conditioned displacement, e.g. ``'Dev1/ai0'``.
+        displacement_scale: Measured displacement per volt, m/V (non-zero).
+        force_channel: Analog input of the conditioned load-cell signal, e.g. ``'Dev1/ai1'``.
+        force_scale: Measured force per volt, N/V (non-zero).
+        name: Optional DOF name used in messages.
+        command_offset: Commanded displacement at 0 V, m.
+        command_min_voltage: Lowest voltage the driver will ever write, V.
+        command_max_voltage: Highest voltage the driver will ever write, V.
+        displacement_offset: Measured displacement at 0 V, m.
+        displacement_min_voltage: Lower end of the displacement input range, V.
+        displacement_max_voltage: Upper end of the displacement input range, V.
+        force_offset: Measured force at 0 V, N (e.g. to null a load-cell offset).
+        force_min_voltage: Lower end of the force input range, V.
+        force_max_voltage: Upper end of the force input range, V.
+
+    Every voltage range must lie within +-:data:`MAX_ABS_VOLTAGE` with min < max.
+
+    Raises:
+        BridgeConfigError: On an invalid value (one line naming the field).
+    """
+
+    command_channel: str
+    command_scale: float
+    displacement_channel: str
+    displacement_scale: float
+    force_channel: str
+    force_scale: float
+    name: str = ''
+    command_offset: float = 0.0
+    command_min_voltage: float = -10.0
+    command_max_voltage: float = 10.0
+    displacement_offset: float = 0.0
+    displacement_min_voltage: float = -10.0
+    displacement_max_voltage: float = 10.0
+    force_offset: float = 0.0
+    force_min_voltage: float = -10.0
+    force_max_voltage: float = 10.0
+
+    def __post_init__(self) -> None:
+        """Validate and normalise the numbers to ``float``."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key, value in _check_channel(values, 'DaqmxChannelConfig', '').items():
+            object.__setattr__(self, key, value)
+
+    @classmethod
+    def from_mapping(
+        cls, mapping: Mapping[str, Any], source: str = 'daqmx channel'
+    ) -> DaqmxChannelConfig:
+        """Build one DOF's configuration from a mapping (e.g. one item of a YAML list).
+
+        Args:
+            mapping: Keys as the attribute names; the six channel/scale keys are required.
+            source: File or namespace name used in error messages.
+
+        Returns:
+            The validated configuration.
+
+        Raises:
+            BridgeConfigError: On a non-mapping, an unknown or missing key, or a bad value.
+        """
+        return _channel_from_mapping(mapping, source, '')
+
+    def label(self, dof: int) -> str:
+        """``'DOF <dof> (<name>)'``, or ``'DOF <dof>'`` when unnamed."""
+        return f'DOF {dof} ({self.name})' if self.name else f'DOF {dof}'
+
+
+@dataclass(frozen=True)
+class DaqmxConfig:
+    """Configuration of the ``daqmx`` driver.
+
+    Attributes:
+        channels: One :class:`DaqmxChannelConfig` per DOF, in DOF order.
+        sample_rate: Analog input sample clock, Hz (per channel).
+        samples_per_read: Samples per input channel acquired and averaged per measurement.
+        terminal_configuration: Analog input terminal configuration, one of
+            :data:`TERMINAL_CONFIGURATIONS` (use ``'diff'`` for the conditioned outputs of a
+            servo-controller unless its outputs are ground-referenced to the DAQ).
+        settle_time: Wait between writing a command and starting the acquisition, s.
+        timeout: DAQmx write and read timeout, s; must exceed the acquisition time
+            ``samples_per_read / sample_rate``.
+
+    Raises:
+        BridgeConfigError: On an invalid value (one line naming the field).
+    """
+
+    channels: tuple[DaqmxChannelConfig, ...]
+    sample_rate: float = 1000.0
+    samples_per_read: int = 100
+    terminal_configuration: str = 'diff'
+    settle_time: float = 0.5
+    timeout: float = 10.0
+
+    def __post_init__(self) -> None:
+        """Validate and normalise the values."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key, value in _check_config(values, 'DaqmxConfig').items():
+            object.__setattr__(self, key, value)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOF (one per channel configuration)."""
+        return len(self.channels)
+
+    @classmethod
+    def from_mapping(cls, mapping: Mapping[str, Any], source: str = 'daqmx') -> DaqmxConfig:
+        """Build the configuration from a mapping such as the ``daqmx:`` section of a YAML file.
+
+        Args:
+            mapping: Keys ``channels`` (a non-empty list of channel mappings, see
+                :meth:`DaqmxChannelConfig.from_mapping`) and optionally ``sample_rate``,
+                ``samples_per_read``, ``terminal_configuration``, ``settle_time``, ``timeout``.
+            source: File or namespace name used in error messages.
+
+        Returns:
+            The validated configuration.
+
+        Raises:
+            BridgeConfigError: On a non-mapping, an unknown or missing key, or a bad value, e.g.
+                ``daqmx.yaml: channels[0].command_scale: must be a non-zero finite number,
+                got 0.0``.
+        """
+        _check_keys(mapping, source, '', _CONFIG_REQUIRED, _CONFIG_OPTIONAL, 'daqmx section')
+        raw_channels = mapping['channels']
+        if isinstance(raw_channels, (str, bytes, Mapping)) or not isinstance(
+            raw_channels, Sequence
+        ):
+            raise BridgeConfigError(
+                f'{source}: channels: must be a list of channel mappings, '
+                f'got {type(raw_channels).__name__}'
+            )
+        channels = tuple(
+            _channel_from_mapping(item, source, f'channels[{index}].')
+            for index, item in enumerate(raw_channels)
+        )
+        values = {key: mapping[key] for key in _CONFIG_OPTIONAL if key in mapping}
+        values['channels'] = channels
+        defaults = {f.name: f.default for f in fields(cls) if f.name != 'channels'}
+        checked = _check_config({**defaults, **values}, source)
+        return cls(**checked)
+
+    @classmethod
+    def from_yaml(cls, path: str | Path, section: str = 'daqmx') -> DaqmxConfig:
+        """Read the configuration from the ``section`` mapping of a YAML file.
+
+        Args:
+            path: The YAML file (see ``config/daqmx_example.yaml``).
+            section: Top-level key holding the driver configuration.
+
+        Returns:
+            The validated configuration.
+
+        Raises:
+            BridgeConfigError: If the file cannot be read or parsed, the section is missing, or
+                a value is invalid.
+        """
+        import yaml  # local: only this loader needs PyYAML
+
+        path = Path(path)
+        source = path.name
+        try:
+            text = path.read_text(encoding='utf-8')
+        except OSError as exc:
+            raise BridgeConfigError(
+                f'{path}: cannot read the daqmx configuration ({exc.strerror})'
+            ) from exc
+        try:
+            raw = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, 'problem_mark', None)
+            where = f'line {mark.line + 1}: ' if mark is not None else ''
+            problem = getattr(exc, 'problem', None) or 'invalid YAML'
+            raise BridgeConfigError(f'{source}: {where}{problem}') from exc
+        if not isinstance(raw, Mapping) or section not in raw:
+            raise BridgeConfigError(f"{source}: missing top-level section '{section}'")
+        return cls.from_mapping(raw[section], source=f'{source}: {section}')
+
+
+class DaqmxDriver(ActuatorDriver):
+    """Synchronous driver commanding a servo-controller through NI-DAQmx analog I/O.
+
+    The driver refuses (:class:`DriverError`, nothing written) any target whose command voltage
+    is non-finite or outside the channel's ``command_min_voltage..command_max_voltage``. It is a
+    last line of defence behind the bridge's own limits, not a replacement for them.
+
+    Attributes:
+        config: The driver configuration.
+    """
+
+    def __init__(
+        self,
+        config: DaqmxConfig,
+        task_factory: TaskFactory | None = None,
+        constants: Any = None,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        """Create the driver (no hardware is touched until :meth:`open`).
+
+        Args:
+            config: The driver configuration.
+            task_factory: Creates the tasks (see :data:`TaskFactory`); ``None`` uses
+                ``nidaqmx.Task``, importing ``nidaqmx`` in :meth:`open`.
+            constants: Provides ``TerminalConfiguration`` and ``AcquisitionType`` like
+                ``nidaqmx.constants``; ``None`` means ``nidaqmx.constants`` with the default
+                factory and :data:`SYMBOLIC_CONSTANTS` (member names as strings) with an
+                injected factory.
+            sleep: Waits the settle time, s (injectable for tests).
+
+        Raises:
+            BridgeConfigError: If ``config`` is not a :class:`DaqmxConfig` or an argument is
+                not callable.
+        """
+        super().__init__()
+        if not isinstance(config, DaqmxConfig):
+            raise BridgeConfigError(
+                f'DaqmxDriver: config must be a DaqmxConfig, got {type(config).__name__}'
+            )
+        if task_factory is not None and not callable(task_factory):
+            raise BridgeConfigError('DaqmxDriver: task_factory must be callable')
+        if not callable(sleep):
+            raise BridgeConfigError('DaqmxDriver: sleep must be callable')
+        self.config = config
+        self._task_factory = task_factory
+        self._constants = constants
+        self._sleep = sleep
+        self._command_task: Any = None
+        self._feedback_task: Any = None
+        self._last_voltage: tuple[float, ...] | None = None
+        self._position: tuple[float, ...] | None = None
+        self._force: tuple[float, ...] | None = None
+        self._hold_count = 0
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOF."""
+        return self.config.n_dof
+
+    @property
+    def is_open(self) -> bool:
+        """Whether the tasks exist (between a successful :meth:`open` and :meth:`close`)."""
+        return self._command_task is not None and self._feedback_task is not None
+
+    @property
+    def last_voltage(self) -> tuple[float, ...] | None:
+        """Command voltages last written since :meth:`open`, V; ``None`` before the first."""
+        return self._last_voltage
+
+    @property
+    def last_force(self) -> list[float] | None:
+        """Last measured force per DOF, N; ``None`` before the first measurement."""
+        return None if self._force is None else list(self._force)
+
+    @property
+    def hold_count(self) -> int:
+        """Number of :meth:`hold` calls."""
+        return self._hold_count
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def open(self) -> None:
+        """Create the command and feedback tasks and measure the initial position and force.
+
+        Nothing is written: the command output keeps whatever it was until the first
+        :meth:`command`. Does nothing if already open. On any failure every task already
+        created is closed again.
+
+        Raises:
+            DriverError: If ``nidaqmx`` is missing, a task or channel cannot be created, or the
+                initial measurement fails.
+        """
+        if self.is_open:
+            return
+        factory, constants = self._backend()
+        terminal = _terminal_constant(constants, self.config.terminal_configuration)
+        try:
+            finite = constants.AcquisitionType.FINITE
+        except AttributeError as exc:
+            raise DriverError(
+                'DaqmxDriver: the constants have no AcquisitionType.FINITE'
+            ) from exc
+
+        command_task: Any = None
+        feedback_task: Any = None
+        try:
+            command_task = factory('command')
+            for channel in self.config.channels:
+                command_task.ao_channels.add_ao_voltage_chan(
+                    channel.command_channel,
+                    min_val=channel.command_min_voltage,
+                    max_val=channel.command_max_voltage,
+                )
+            feedback_task = factory('feedback')
+            for channel in self.config.channels:
+                feedback_task.ai_channels.add_ai_voltage_chan(
+                    channel.displacement_channel,
+                    terminal_config=terminal,
+                    min_val=channel.displacement_min_voltage,
+                    max_val=channel.displacement_max_voltage,
+                )
+                feedback_task.ai_channels.add_ai_voltage_chan(
+                    channel.force_channel,
+                    terminal_config=terminal,
+                    min_val=channel.force_min_voltage,
+                    max_val=channel.force_max_voltage,
+                )
+            feedback_task.timing.cfg_samp_clk_timing(
+                self.config.sample_rate,
+                sample_mode=finite,
+                samps_per_chan=self.config.samples_per_read,
+            )
+        except Exception as exc:  # noqa: BLE001 - any failure: roll back and report
+            message = f'DaqmxDriver: open() failed: {_describe(exc)}'
+            message += _close_all((feedback_task, command_task))
+            raise DriverError(message) from exc
+
+        self._command_task = command_task
+        self._feedback_task = feedback_task
+        self._last_voltage = None
+        try:
+            self.measure()
+        except DriverError as exc:
+            message = f'DaqmxDriver: open(): initial measurement failed: {exc}'
+            message += self._drop_tasks()
+            raise DriverError(message) from exc
+
+    def close(self) -> None:
+        """Close both tasks. Idempotent; nothing is written.
+
+        What the command output does once its task is cleared depends on the device (see the
+        analog output idle behaviour in the NI-DAQmx help).
+
+        Raises:
+            DriverError: If a task failed to close (both are dropped anyway).
+        """
+        problems = self._drop_tasks()
+        if problems:
+            raise DriverError(f'DaqmxDriver: close() failed{problems}')
+
+    # ------------------------------------------------------------------ motion
+
+    def command(self, step: int, target: Sequence[float]) -> None:
+        """Write the command for ``target`` (m per DOF), settle, measure and report.
+
+        Every DOF's voltage is checked before anything is written.
+
+        Raises:
+            DriverError: If the driver is closed, the target is malformed or non-finite, a
+                voltage is outside its command range (nothing written), or the write or the
+                measurement fails.
+        """
+        if not self.is_open:
+            raise DriverError('DaqmxDriver: command() called while closed')
+        volts = self.command_voltages(target)
+        self._write(volts)
+        self._last_voltage = volts
+        if self.config.settle_time > 0.0:
+            self._sleep(self.config.settle_time)
+        displacement, force = self.measure()
+        self._emit(step, displacement, force)
+
+    def command_voltages(self, target: Sequence[float]) -> tuple[float, ...]:
+        """Convert a target displacement per DOF (m) to command voltages (V), checking them.
+
+        Raises:
+            DriverError: If the target is malformed or non-finite or a voltage is outside its
+                channel's command range.
+        """
+        if isinstance(target, (str, bytes, Mapping)):
+            raise DriverError(
+                f'DaqmxDriver: target must be a sequence of numbers, got {type(target).__name__}'
+            )
+        try:
+            values = [float(x) for x in target]
+        except (TypeError, ValueError) as exc:
+            raise DriverError(f'DaqmxDriver: target is not a sequence of numbers: {exc}') from exc
+        if len(values) != self.n_dof:
+            raise DriverError(
+                f'DaqmxDriver: target has {len(values)} values, expected {self.n_dof}; '
+                'nothing written'
+            )
+        volts = []
+        for dof, (value, channel) in enumerate(zip(values, self.config.channels)):
+            label = channel.label(dof)
+            if not math.isfinite(value):
+                raise DriverError(
+                    f'DaqmxDriver: {label}: non-finite target displacement {value}; '
+                    'nothing written'
+                )
+            voltage = (value - channel.command_offset) / channel.command_scale
+            low, high = channel.command_min_voltage, channel.command_max_voltage
+            if not math.isfinite(voltage) or voltage < low or voltage > high:
+                raise DriverError(
+                    f'DaqmxDriver: {label}: target {value:.6g} m needs {voltage:.6g} V on '
+                    f'{channel.command_channel}, outside the command range [{low:g}, {high:g}] V;'
+                    ' nothing written'
+                )
+            volts.append(voltage)
+        return tuple(volts)
+
+    def hold(self) -> None:
+        """Hold position by re-writing the last command voltages.
+
+        Before the first command since :meth:`open` nothing is written (the output was never
+        changed by this driver).
+
+        Raises:
+            DriverError: If the driver is closed or the write fails.
+        """
+        self._hold_count += 1
+        if not self.is_open:
+            raise DriverError('DaqmxDriver: hold() called while closed; nothing written')
+        if self._last_voltage is not None:
+            self._write(self._last_voltage)
+
+    def position(self) -> list[float]:
+        """Return the last measured displacement per DOF, m.
+
+        Raises:
+            DriverError: Before the first measurement (the driver was never opened).
+        """
+        if self._position is None:
+            raise DriverError('DaqmxDriver: position unknown: open() the driver first')
+        return list(self._position)
+
+    def measure(self) -> tuple[list[float], list[float]]:
+        """Acquire, average and convert the feedback without commanding anything.
+
+        Returns:
+            ``(displacement, force)``: per DOF, m and N. Also becomes :meth:`position` and
+            :attr:`last_force`.
+
+        Raises:
+            DriverError: If the driver is closed, the read fails, returns the wrong shape or a
+                non-finite sample, or a sample is outside its channel's input range (clipped).
+        """
+        if not self.is_open:
+            raise DriverError('DaqmxDriver: measure() called while closed')
+        config = self.config
+        n_signals = 2 * config.n_dof
+        n_samples = config.samples_per_read
+        try:
+            raw = self._feedback_task.read(
+                number_of_samples_per_channel=n_samples, timeout=config.timeout
+            )
+        except Exception as exc:  # noqa: BLE001 - any DAQmx failure is a driver failure
+            raise DriverError(
+                f'DaqmxDriver: reading the feedback failed: {_describe(exc)}'
+            ) from exc
+        try:
+            samples = np.asarray(raw, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DriverError(f'DaqmxDriver: feedback samples are not numbers: {exc}') from exc
+        if samples.shape != (n_signals, n_samples):
+            raise DriverError(
+                f'DaqmxDriver: read returned samples of shape {samples.shape}, expected '
+                f'({n_signals}, {n_samples}) (input channels, samples per channel)'
+            )
+        for row, values in enumerate(samples):
+            dof, is_force = divmod(row, 2)
+            channel = config.channels[dof]
+            signal = 'force' if is_force else 'displacement'
+            physical = channel.force_channel if is_force else channel.displacement_channel
+            if not np.all(np.isfinite(values)):
+                raise DriverError(
+                    f'DaqmxDriver: {channel.label(dof)}: non-finite {signal} sample on {physical}'
+                )
+            low = getattr(channel, f'{signal}_min_voltage')
+            high = getattr(channel, f'{signal}_max_voltage')
+            if values.min() < low or values.max() > high:
+                worst = values.min() if values.min() < low else values.max()
+                raise DriverError(
+                    f'DaqmxDriver: {channel.label(dof)}: {signal} sample {worst:.6g} V on '
+                    f'{physical} is outside the input range [{low:g}, {high:g}] V (clipped)'
+                )
+        means = samples.mean(axis=1)
+        displacement = [
+            channel.displacement_scale * float(means[2 * dof]) + channel.displacement_offset
+            for dof, channel in enumerate(config.channels)
+        ]
+        force = [
+            channel.force_scale * float(means[2 * dof + 1]) + channel.force_offset
+            for dof, channel in enumerate(config.channels)
+        ]
+        self._position = tuple(displacement)
+        self._force = tuple(force)
+        return displacement, force
+
+    # ------------------------------------------------------------------ internals
+
+    def _backend(self) -> tuple[TaskFactory, Any]:
+        """The task factory and the constants to use (importing nidaqmx if needed)."""
+        if self._task_factory is not None:
+            constants = self._constants if self._constants is not None else SYMBOLIC_CONSTANTS
+            return self._task_factory, constants
+        try:
+            import nidaqmx  # noqa: PLC0415 - optional dependency, imported on demand
+            import nidaqmx.constants  # noqa: PLC0415
+        except ImportError as exc:
+            raise DriverError(
+                f'DaqmxDriver: cannot import nidaqmx ({exc}): install nidaqmx '
+                '(python -m pip install nidaqmx) and the NI-DAQmx driver to use the daqmx driver'
+            ) from exc
+
+        def factory(role: str) -> Any:
+            return nidaqmx.Task()
+
+        constants = self._constants if self._constants is not None else nidaqmx.constants
+        return factory, constants
+
+    def _write(self, volts: Sequence[float]) -> None:
+        """Write one sample per command channel (a scalar for a single channel)."""
+        data: float | list[float] = float(volts[0]) if len(volts) == 1 else list(volts)
+        try:
+            self._command_task.write(data, auto_start=True, timeout=self.config.timeout)
+        except Exception as exc:  # noqa: BLE001 - any DAQmx failure is a driver failure
+            raise DriverError(
+                f'DaqmxDriver: writing the command failed: {_describe(exc)}'
+            ) from exc
+
+    def _drop_tasks(self) -> str:
+        """Close and forget both tasks; return ``''`` or a suffix describing close failures."""
+        tasks = (self._feedback_task, self._command_task)
+        self._feedback_task = None
+        self._command_task = None
+        self._last_voltage = None
+        return _close_all(tasks)
+
+
+def _close_all(tasks: Sequence[Any]) -> str:
+    """Close every task that is not ``None``; return ``''`` or a suffix naming failures."""
+    problems = []
+    for task in tasks:
+        if task is None:
+            continue
+        try:
+            task.close()
+        except Exception as exc:  # noqa: BLE001 - keep closing the others
+            problems.append(_describe(exc))
+    if not problems:
+        return ''
+    return '; closing a task also failed: ' + '; '.join(problems)
+
+
+def _terminal_constant(constants: Any, name: str) -> Any:
+    """The ``TerminalConfiguration`` member for ``name`` (one of the accepted spellings)."""
+    enum = getattr(constants, 'TerminalConfiguration', None)
+    for member in _TERMINAL_MEMBERS[name]:
+        if enum is not None and hasattr(enum, member):
+            return getattr(enum, member)
+    raise DriverError(
+        f'DaqmxDriver: terminal_configuration {name!r} is not available in this nidaqmx '
+        f'(looked for TerminalConfiguration.{" or .".join(_TERMINAL_MEMBERS[name])})'
+    )
+
+
+def _describe(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f'{type(exc).__name__}: {text[0]}' if text else type(exc).__name__
+
+
+# ---------------------------------------------------------------------- validation
+
+
+def _check_keys(
+    mapping: Any,
+    source: str,
+    prefix: str,
+    required: Sequence[str],
+    optional: Sequence[str],
+    what: str,
+) -> None:
+    where = prefix.rstrip('.') or what
+    if not isinstance(mapping, Mapping):
+        raise BridgeConfigError(
+            f'{source}: {where}: must be a mapping, got {type(mapping).__name__}'
+        )
+    allowed = tuple(required) + tuple(optional)
+    for key in mapping:
+        if key not in allowed:
+            raise BridgeConfigError(
+                f'{source}: {prefix}{key}: unknown key (allowed: {", ".join(sorted(allowed))})'
+            )
+    for key in required:
+        if key not in mapping:
+            raise BridgeConfigError(f"{source}: {where}: missing required key '{key}'")
+
+
+def _channel_from_mapping(mapping: Any, source: str, prefix: str) -> DaqmxChannelConfig:
+    _check_keys(mapping, source, prefix, _CHANNEL_REQUIRED, _CHANNEL_OPTIONAL, 'channel')
+    defaults = {f.name: f.default for f in fields(DaqmxChannelConfig) if f.name not in mapping}
+    values = {**defaults, **{key: mapping[key] for key in mapping}}
+    return DaqmxChannelConfig(**_check_channel(values, source, prefix))
+
+
+def _number(value: Any, source: str, key: str, *, rule: str = 'finite') -> float:
+    """Return ``value`` as a float satisfying ``rule``: finite, non-zero, positive, >= 0."""
+    what = {
+        'finite': 'a finite number',
+        'nonzero': 'a non-zero finite number',
+        'positive': 'a positive finite number',
+        'nonnegative': 'a finite number >= 0',
+    }[rule]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BridgeConfigError(
+            f'{source}: {key}: must be {what}, got {type(value).__name__} {value!r}'
+        )
+    number = float(value)
+    bad = (
+        not math.isfinite(number)
+        or (rule == 'nonzero' and number == 0.0)
+        or (rule == 'positive' and number <= 0.0)
+        or (rule == 'nonnegative' and number < 0.0)
+    )
+    if bad:
+        raise BridgeConfigError(f'{source}: {key}: must be {what}, got {value!r}')
+    return number
+
+
+def _physical_channel(value: Any, source: str, key: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise BridgeConfigError(
+            f'{source}: {key}: must be a physical channel name such as Dev1/ao0, got {value!r}'
+        )
+    if any(sep in value for sep in ',:'):
+        raise BridgeConfigError(
+            f'{source}: {key}: must name one physical channel (no list or range), got {value!r}'
+        )
+    return value.strip()
+
+
+def _check_channel(values: Mapping[str, Any], source: str, prefix: str) -> dict[str, Any]:
+    """Validate one channel's values; return them normalised."""
+    checked: dict[str, Any] = {}
+    name = values['name']
+    if not isinstance(name, str):
+        raise BridgeConfigError(f'{source}: {prefix}name: must be a string, got {name!r}')
+    checked['name'] = name
+    for signal in _SIGNALS:
+        channel_key = f'{signal}_channel'
+        checked[channel_key] = _physical_channel(values[channel_key], source, prefix + channel_key)
+        scale_key = f'{signal}_scale'
+        checked[scale_key] = _number(values[scale_key], source, prefix + scale_key, rule='nonzero')
+        offset_key = f'{signal}_offset'
+        checked[offset_key] = _number(values[offset_key], source, prefix + offset_key)
+        low_key, high_key = f'{signal}_min_voltage', f'{signal}_max_voltage'
+        low = _number(values[low_key], source, prefix + low_key)
+        high = _number(values[high_key], source, prefix + high_key)
+        for key, voltage in ((low_key, low), (high_key, high)):
+            if abs(voltage) > MAX_ABS_VOLTAGE:
+                raise BridgeConfigError(
+                    f'{source}: {prefix}{key}: {voltage:g} V is beyond +-{MAX_ABS_VOLTAGE:g} V'
+                )
+        if not low < high:
+            raise BridgeConfigError(
+                f'{source}: {prefix}{low_key}: must be below {high_key} '
+                f'({low:g} V >= {high:g} V)'
+            )
+        checked[low_key] = low
+        checked[high_key] = high
+    if checked['displacement_channel'].lower() == checked['force_channel'].lower():
+        raise BridgeConfigError(
+            f'{source}: {prefix}force_channel: same physical channel as displacement_channel '
+            f'({checked["force_channel"]})'
+        )
+    return checked
+
+
+def _check_config(values: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """Validate the driver-level values; return them normalised."""
+    channels = values['channels']
+    if isinstance(channels, DaqmxChannelConfig) or not isinstance(channels, (list, tuple)):
+        raise BridgeConfigError(
+            f'{source}: channels: must be a list of channel configurations, '
+            f'got {type(channels).__name__}'
+        )
+    if not channels:
+        raise BridgeConfigError(f'{source}: channels: must list at least one DOF')
+    for index, channel in enumerate(channels):
+        if not isinstance(channel, DaqmxChannelConfig):
+            raise BridgeConfigError(
+                f'{source}: channels[{index}]: must be a DaqmxChannelConfig, '
+                f'got {type(channel).__name__}'
+            )
+    names: set[str] = set()
+    for index, channel in enumerate(channels):
+        if channel.name in names:
+            raise BridgeConfigError(
+                f'{source}: channels[{index}].name: duplicate DOF name {channel.name!r}'
+            )
+        if channel.name:
+            names.add(channel.name)
+    seen: dict[str, str] = {}
+    for index, channel in enumerate(channels):
+        for signal in _SIGNALS:
+            key = f'channels[{index}].{signal}_channel'
+            physical = getattr(channel, f'{signal}_channel')
+            normalised = physical.lower().lstrip('/')
+            if normalised in seen:
+                raise BridgeConfigError(
+                    f'{source}: {key}: physical channel {physical} is already used by '
+                    f'{seen[normalised]}'
+                )
+            seen[normalised] = key
+
+    sample_rate = _number(values['sample_rate'], source, 'sample_rate', rule='positive')
+    samples = values['samples_per_read']
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise BridgeConfigError(
+            f'{source}: samples_per_read: must be a positive integer, got {samples!r}'
+        )
+    terminal = values['terminal_configuration']
+    if terminal not in TERMINAL_CONFIGURATIONS:
+        raise BridgeConfigError(
+            f'{source}: terminal_configuration: must be one of '
+            f'{", ".join(TERMINAL_CONFIGURATIONS)}, got {terminal!r}'
+        )
+    settle_time = _number(values['settle_time'], source, 'settle_time', rule='nonnegative')
+    timeout = _number(values['timeout'], source, 'timeout', rule='positive')
+    acquisition = samples / sample_rate
+    if timeout <= acquisition:
+        raise BridgeConfigError(
+            f'{source}: timeout: {timeout:g} s does not exceed the acquisition time '
+            f'samples_per_read / sample_rate = {acquisition:g} s'
+        )
+    return {
+        'channels': tuple(channels),
+        'sample_rate': sample_rate,
+        'samples_per_read': samples,
+        'terminal_configuration': terminal,
+        'settle_time': settle_time,
+        'timeout': timeout,
+    }
