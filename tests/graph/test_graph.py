@@ -52,7 +52,8 @@ def write_test_file(path: Path, **changes: Any) -> Path:
 
 def write_bridge_params(path: Path, **limits: float) -> Path:
     """A bridge parameter file with the default limits and ``limits`` changed."""
-    params = {'driver': 'sim_servo', 'specimen_namespace': 'specimen', 'driver_timeout': 5.0,
+    params = {'driver': 'sim_servo', 'autostart': True, 'specimen_namespace': 'specimen',
+              'driver_timeout': 5.0,
               'max_displacement': 0.25, 'max_increment': 0.02, 'max_force': 1.0e5,
               'max_velocity': 0.0, 'step_duration': 0.0}
     params.update(limits)
@@ -140,7 +141,7 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
     run = read_bag(out / 'bag')
     assert run.statuses[-1][1].state.name == 'FINISHED'
     if site == 'bridge':
-        assert any('ready' in status.message for _, status in run.bridge_statuses)
+        assert any(status.message.startswith('active') for _, status in run.bridge_statuses)
 
     # The replay rebuilds response.csv from the bag alone.
     replay = rebuild_outputs(out / 'bag', tmp_path / 'replay', figures=False)
@@ -268,3 +269,105 @@ def test_invalid_test_file_is_refused_before_anything_moves(
     assert code == 2
     assert 'dt' in log
     assert not (tmp_path / 'run').exists()
+
+
+def call_service(observer: Any, service_type: Any, name: str, request: Any) -> Any:
+    """Call a service from the observer node and wait for the answer."""
+    client = observer.create_client(service_type, name)
+    spin_until(observer, client.service_is_ready, 20.0, f'service {name}')
+    # Fast DDS may drop the first response while the client's reply reader is still being
+    # matched ("failed to send response"): give discovery a moment and retry.
+    deadline = time.monotonic() + 0.5
+    while time.monotonic() < deadline:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    for _ in range(4):
+        future = client.call_async(request)
+        limit = time.monotonic() + 5.0
+        while not future.done() and time.monotonic() < limit:
+            observer.executor_for_test.spin_once(timeout_sec=0.05)
+        if future.done():
+            return future.result()
+        client.remove_pending_request(future)
+    pytest.fail(f'no answer from {name}')
+    raise AssertionError  # unreachable
+
+
+def test_bridge_lifecycle_and_latched_emergency_stop(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    from lifecycle_msgs.msg import Transition  # noqa: PLC0415
+    from lifecycle_msgs.srv import ChangeState, GetState  # noqa: PLC0415
+    from std_srvs.srv import Trigger  # noqa: PLC0415
+
+    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+
+    test_file = write_test_file(tmp_path / 'life.yaml', test__duration=30.0,
+                                test__id='graph-life')
+    params = write_bridge_params(tmp_path / 'bridge.yaml', autostart=False)
+    statuses: list[Any] = []
+    bridge_statuses: list[Any] = []
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
+    observer.create_subscription(TestStatus, '/pd/bridge/status', bridge_statuses.append,
+                                 latched_qos())
+    processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args', '-r',
+                                 '__ns:=/pd/specimen', '-p', f'test_file:={test_file}'])
+    processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args',
+                               '--params-file', str(params)])
+    out = tmp_path / 'run'
+    integrator = processes.start('integrator', [
+        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+        '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', 'progress_interval:=0.05'])
+    node = '/pd/pd_actuator_bridge'
+    state = call_service(observer, GetState, f'{node}/get_state', GetState.Request())
+    assert state.current_state.label == 'unconfigured'
+    # An unconfigured/inactive bridge does not answer: the integrator waits, nothing moves.
+    time.sleep(1.0)
+    assert not any(s.state == TestStatus.STATE_RUNNING for s in statuses)
+    for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
+        request = ChangeState.Request()
+        request.transition.id = transition
+        assert call_service(observer, ChangeState, f'{node}/change_state', request).success
+    spin_until(observer, lambda: any(s.step >= 50 for s in statuses), RUN_TIMEOUT,
+               'the test to pass step 50')
+
+    answer = call_service(observer, Trigger, '/pd/bridge/emergency_stop', Trigger.Request())
+    assert answer.success
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
+               20.0, 'the integrator to hold after the emergency stop')
+    assert any('EMERGENCY STOP' in s.message for s in bridge_statuses)
+    # A plain reset does not clear an emergency stop.
+    refused = call_service(observer, Trigger, '/pd/bridge/reset', Trigger.Request())
+    assert not refused.success
+    cleared = call_service(observer, Trigger, '/pd/bridge/reset_emergency_stop',
+                           Trigger.Request())
+    assert cleared.success
+    Processes.signal(integrator, signal.SIGINT)
+    assert wait_exit(integrator, 30.0, lambda: processes.log('integrator')) == 1
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    assert 'emergency' in json.dumps(summary).lower() or summary['steps'] >= 50
+
+
+def test_emulator_driver_records_the_actuator_trajectory(
+        processes: Processes, tmp_path: Path) -> None:
+    test_file = write_test_file(tmp_path / 'emulator.yaml', test__duration=0.2,
+                                test__id='graph-emulator')
+    params = write_bridge_params(tmp_path / 'bridge.yaml', driver='emulator',
+                                 test_file=str(test_file))
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'none',
+                                                    '--out', str(out), '--no-figures'])
+    processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args',
+                               '--params-file', str(params)])
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    assert code == 0, processes.log('run_test')[-2000:] + processes.log('bridge')[-2000:]
+    run = read_bag(out / 'bag')
+    assert len(run.trajectories) >= 21  # step 0 and 20 integration steps
+    trajectory = run.trajectories[-1][1]
+    samples = len(trajectory.time)
+    assert trajectory.rate >= 1000.0
+    assert len(trajectory.command) == samples * trajectory.n_dof
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'finished'
+    # The emulated actuator settles close to the target, not exactly on it.
+    error = summary['dofs']['top']['max_measurement_error']
+    assert 0.0 < error < 1e-4

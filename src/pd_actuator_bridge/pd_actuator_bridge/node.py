@@ -1,21 +1,37 @@
-"""The actuator bridge node (``ros2 run pd_actuator_bridge main``).
+"""The actuator bridge node (``ros2 run pd_actuator_bridge main``): a managed (lifecycle) node.
 
 The boundary between the test loop and the hardware. It answers the integrator's
 ``step_command`` with ``step_feedback`` like a specimen does, but every command first passes the
 bridge's own safety limits (:class:`pd_actuator_bridge.core.ActuatorBridge`): a NaN, a jump or a
 target beyond a limit never reaches the driver; the actuator holds position, the command is
-answered with a limit/fault status and the reason is published on ``bridge/status``. The hold
-is latched until an operator sends ``reset`` on ``bridge/control``.
+answered with a limit/fault status and the reason is published on ``bridge/status``. A hold is
+latched until an operator sends ``reset`` on ``bridge/control`` (or calls ``bridge/reset``).
+
+Lifecycle (``ros2 lifecycle set /pd/pd_actuator_bridge <transition>``):
+
+* ``configure`` builds and opens the driver and reads the actuator's position and force;
+* ``activate`` enables motion: only now does the bridge listen on ``step_command`` (so the
+  integrator waits for an active bridge);
+* ``deactivate`` holds position and stops listening;
+* ``cleanup`` / ``shutdown`` release the hardware.
+
+With ``autostart: true`` (the simulated set-up) the node configures and activates itself.
+
+Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
+``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or a call of the
+``bridge/emergency_stop`` service (``std_srvs/Trigger``).
 
 Drivers (parameter ``driver``):
 
-* ``sim_servo``: a simulated servo actuator that forwards each checked command to a specimen
-  node (``<specimen_namespace>/step_command``) and returns its measured displacement and force.
-
-Topics (relative; namespace ``/pd``): ``step_command`` (in), ``step_feedback`` (out),
-``bridge/status`` (latched ``pd_msgs/TestStatus``), ``bridge/control`` (``std_msgs/String``:
-``reset`` or ``hold``); for ``sim_servo`` also ``specimen/step_command`` (out) and
-``specimen/step_feedback`` (in).
+* ``sim_servo``: a simulated servo that forwards each checked move to a specimen node
+  (``<specimen_namespace>/step_command``) and returns its measured displacement and force;
+* ``emulator``: an in-process servo-hydraulic actuator emulator (PID loop, valve and oil
+  dynamics, delay, noise) driving the specimen of ``test_file`` by ramp-and-hold; its sub-step
+  trajectory is published on ``bridge/trajectory``;
+* ``generic_tcp``: a client of OpenFresco's GenericTCP controller protocol (``tcp_host``,
+  ``tcp_port``), e.g. the ``controller_server`` next to a MOOG controller;
+* ``daqmx``: analog command out / feedback in through NI DAQ hardware (``driver_config``: a
+  YAML file with a ``daqmx`` section; untested on hardware).
 """
 
 from __future__ import annotations
@@ -24,18 +40,22 @@ import os
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import rclpy
+import yaml
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from builtin_interfaces.msg import Time
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
-from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
 from .core import (
     ActuatorBridge,
@@ -54,6 +74,9 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 
 _STATUS_CODES = {'ok': StepFeedback.STATUS_OK, 'limit': StepFeedback.STATUS_LIMIT,
                  'fault': StepFeedback.STATUS_FAULT}
+DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'daqmx')
+SUCCESS = TransitionCallbackReturn.SUCCESS
+FAILURE = TransitionCallbackReturn.FAILURE
 
 
 def now_stamp() -> Time:
@@ -81,7 +104,7 @@ class SimServoDriver(ActuatorDriver):
             StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS)
         self._position = [0.0] * n_dof
         self._sequence = 0
-        self._in_flight: tuple[int, int] | None = None  # (bridge step, driver sequence)
+        self._in_flight: tuple[Any, int] | None = None  # (bridge step, driver sequence)
         self._message: StepCommand | None = None
         self.sent_at = 0.0
         self.on_fault: Any = None  # callable(message) set by the node
@@ -101,7 +124,7 @@ class SimServoDriver(ActuatorDriver):
         """Whether a move is waiting for the specimen's answer."""
         return self._in_flight is not None
 
-    def command(self, step: int, target: Sequence[float]) -> None:
+    def command(self, step: Any, target: Sequence[float]) -> None:
         """Forward a checked move to the specimen."""
         self._sequence += 1
         message = StepCommand()
@@ -128,6 +151,12 @@ class SimServoDriver(ActuatorDriver):
         """Last measured displacement."""
         return list(self._position)
 
+    def close(self) -> None:
+        """Release the topics."""
+        self._in_flight = None
+        self._node.destroy_publisher(self._publisher)
+        self._node.destroy_subscription(self._subscription)
+
     def _on_feedback(self, message: StepFeedback) -> None:
         if (self._in_flight is None or message.test_id != self._session
                 or message.step != self._in_flight[1]):
@@ -142,102 +171,233 @@ class SimServoDriver(ActuatorDriver):
         self._emit(step, list(message.measured_displacement), list(message.restoring_force))
 
 
-class ActuatorBridgeNode(Node):
+def _read_yaml(path: str, what: str) -> dict[str, Any]:
+    if not path:
+        msg = f'parameter {what}: a YAML file is required for this driver'
+        raise BridgeConfigError(msg)
+    try:
+        raw = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
+    except (OSError, yaml.YAMLError) as err:
+        msg = f'{path}: cannot read ({err})'
+        raise BridgeConfigError(msg) from err
+    if not isinstance(raw, dict):
+        msg = f'{path}: must be a YAML mapping'
+        raise BridgeConfigError(msg)
+    return raw
+
+
+def make_emulator_driver(test_file: str, driver_config: str, n_dof: int) -> ActuatorDriver:
+    """The emulator driver on the specimen of ``test_file`` (settings from ``driver_config``).
+
+    ``driver_config`` (optional) may hold ``emulator`` (emulator parameters), ``ramp_hold``
+    (ramp-and-hold settings) and ``errors`` (injected experimental errors) sections.
+    """
+    from pd_specimen_sim.core import specimen_from_config  # noqa: PLC0415
+    from pd_specimen_sim.node import load_specimen_section  # noqa: PLC0415
+
+    from .core.emulator import EmulatorParameters, ServoHydraulicEmulator  # noqa: PLC0415
+    from .core.error_models import ErrorModel  # noqa: PLC0415
+    from .core.ramp_hold import EmulatorDriver  # noqa: PLC0415
+
+    if not test_file:
+        msg = 'parameter test_file: the emulator needs a test file with a specimen section'
+        raise BridgeConfigError(msg)
+    section, dof_names = load_specimen_section(test_file)
+    specimen = specimen_from_config(section, base_dir=Path(test_file).resolve().parent,
+                                    source=Path(test_file).name, dof_names=dof_names)
+    if specimen.n_dof != n_dof:
+        msg = (f'parameter dof_names: {n_dof} DOF but the specimen of {test_file} has '
+               f'{specimen.n_dof}')
+        raise BridgeConfigError(msg)
+    settings = _read_yaml(driver_config, 'driver_config') if driver_config else {}
+    parameters = (EmulatorParameters.from_mapping(settings['emulator'])
+                  if 'emulator' in settings else None)
+    errors = ErrorModel.from_mapping(settings['errors']) if 'errors' in settings else None
+    emulator = ServoHydraulicEmulator(specimen, parameters)
+    return EmulatorDriver(emulator, settings.get('ramp_hold'), errors=errors)
+
+
+class ActuatorBridgeNode(LifecycleNode):
     """Enforces the bridge's limits between the integrator and the actuator driver."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('pd_actuator_bridge', namespace='pd', **kwargs)
         describe = ParameterDescriptor
-        self.declare_parameter('driver', 'sim_servo', describe(
-            description='actuator driver: sim_servo'))
-        self.declare_parameter('dof_names', ['top'], describe(
-            description='one name per actuator DOF'))
-        self.declare_parameter('specimen_namespace', 'specimen', describe(
-            description='sim_servo: namespace of the specimen node, relative to this node'))
-        self.declare_parameter('driver_timeout', 5.0, describe(
-            description='seconds the driver may take for one move before the bridge holds'))
-        self.declare_parameter('max_displacement', 0.25, describe(
-            description='absolute displacement limit of every DOF [m]'))
-        self.declare_parameter('max_increment', 0.02, describe(
-            description='largest displacement change in one step [m]'))
-        self.declare_parameter('max_force', 1.0e5, describe(
-            description='absolute measured force limit [N]'))
-        self.declare_parameter('max_velocity', 0.0, describe(
-            description='velocity limit [m/s] (0 = off; needs step_duration)'))
-        self.declare_parameter('step_duration', 0.0, describe(
-            description='time the actuator takes for one step [s] (0 = off)'))
-
-        value = self.get_parameter
-        names = list(value('dof_names').value)
-        limits = {key: float(value(key).value) for key in
-                  ('max_displacement', 'max_increment', 'max_force')}
-        for key in ('max_velocity', 'step_duration'):
-            if float(value(key).value) > 0.0:
-                limits[key] = float(value(key).value)
-        self.limits = SafetyLimits.from_mapping(limits, source='pd_actuator_bridge parameters')
-        driver_name = value('driver').value
-        if driver_name != 'sim_servo':
-            msg = f"parameter driver: unknown driver {driver_name!r} (available: sim_servo)"
-            raise BridgeConfigError(msg)
-        self.driver_timeout = float(value('driver_timeout').value)
-        self.driver = SimServoDriver(self, len(names), value('specimen_namespace').value)
-        self.driver.on_fault = self._on_driver_fault
-        self.bridge = ActuatorBridge(self.driver, self.limits, names)
-        self.bridge.set_reply_callback(self._publish_reply)
-        self._status_pub = self.create_publisher(TestStatus, 'bridge/status', LATCHED_QOS)
-        self.create_subscription(String, 'bridge/control', self._on_control, 10)
+        for name, default, description in (
+            ('driver', 'sim_servo', f'actuator driver: {", ".join(DRIVERS)}'),
+            ('dof_names', ['top'], 'one name per actuator DOF'),
+            ('autostart', False, 'configure and activate at start (simulated set-ups)'),
+            ('specimen_namespace', 'specimen', 'sim_servo: namespace of the specimen node'),
+            ('driver_timeout', 5.0, 'seconds one move may take before the bridge holds'),
+            ('test_file', '', 'emulator: YAML test file whose specimen section is driven'),
+            ('driver_config', '', 'emulator/daqmx: YAML file with the driver settings'),
+            ('tcp_host', '127.0.0.1', 'generic_tcp: controller server host'),
+            ('tcp_port', 44000, 'generic_tcp: controller server port'),
+            ('max_displacement', 0.25, 'absolute displacement limit of every DOF [m]'),
+            ('max_increment', 0.02, 'largest displacement change in one step [m]'),
+            ('max_force', 1.0e5, 'absolute measured force limit [N]'),
+            ('max_velocity', 0.0, 'velocity limit [m/s] (0 = off; needs step_duration)'),
+            ('step_duration', 0.0, 'time the actuator takes for one step [s] (0 = off)'),
+            ('tracking_tolerance', 0.0, '|measured - commanded| limit [m] (0 = off)'),
+            ('watchdog_timeout', 0.0, 'hold after this long without a command [s] (0 = off)'),
+            ('on_limit', 'hold', "'hold' (default) or 'saturate' (quasi-static moves only)"),
+        ):
+            self.declare_parameter(name, default, describe(description=description))
+        self.bridge: ActuatorBridge | None = None
+        self.driver: ActuatorDriver | None = None
+        self.limits: SafetyLimits | None = None
+        self._emergency: str | None = None
+        self._command_sub: Any = None
         self._feedback_pub: Any = None
         self._feedback = StepFeedback()
         self._test_id = ''
         self._step = 0
-        self.publish_status(TestStatus.STATE_IDLE, 'waiting for the actuator driver')
+        self._status_pub = self.create_publisher(TestStatus, 'bridge/status', LATCHED_QOS)
+        self._trajectory_pub = self.create_publisher(ActuatorTrajectory, 'bridge/trajectory',
+                                                     STEP_QOS)
+        self.create_subscription(String, 'bridge/control', self._on_control, 10)
+        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, 10)
+        self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
+        self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
+        self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
+        self.publish_status(TestStatus.STATE_IDLE, 'unconfigured')
 
-    def connect(self) -> None:
-        """Start answering the integrator (once the driver is ready)."""
+    # -- lifecycle ------------------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Build and open the driver; read the actuator's position and force."""
+        try:
+            self._configure()
+        except (BridgeError, ValueError) as err:
+            self.get_logger().error(f'configure failed: {err}')
+            self.publish_status(TestStatus.STATE_IDLE, f'configure failed: {err}')
+            self._release()
+            return FAILURE
+        return SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Enable motion: start answering the integrator."""
+        driver = self.driver
+        if isinstance(driver, SimServoDriver) and not driver.ready():
+            self.get_logger().error('activate refused: no specimen node on '
+                                    f'{self.resolve_topic_name("specimen/step_command")}')
+            return FAILURE
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
-        self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
+        self._command_sub = self.create_subscription(StepCommand, 'step_command',
+                                                     self._on_command, STEP_QOS)
         limits = self.limits
+        assert limits is not None
         self.publish_status(TestStatus.STATE_RUNNING, (
-            f'ready: |x| <= {limits.max_displacement} m, |dx| <= {limits.max_increment} m per '
-            f'step, |f| <= {limits.max_force} N'))
+            f'active ({self.get_parameter("driver").value}): |x| <= {limits.max_displacement} '
+            f'm, |dx| <= {limits.max_increment} m per step, |f| <= {limits.max_force} N'))
+        return super().on_activate(state)
 
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Hold position and stop answering the integrator."""
+        self._hold_driver()
+        self._stop_answering()
+        self.publish_status(TestStatus.STATE_IDLE, 'inactive: holding position')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Release the driver."""
+        self._release()
+        self.publish_status(TestStatus.STATE_IDLE, 'unconfigured')
+        return SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Hold and release the hardware."""
+        self._hold_driver()
+        self._stop_answering()
+        self._release()
+        return SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Hold on any error in a transition."""
+        self._hold_driver()
+        return SUCCESS
+
+    def _configure(self) -> None:
+        value = self.get_parameter
+        names = list(value('dof_names').value)
+        limits: dict[str, float] = {key: float(value(key).value) for key in
+                                    ('max_displacement', 'max_increment', 'max_force')}
+        for key in ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout'):
+            if float(value(key).value) > 0.0:
+                limits[key] = float(value(key).value)
+        self.limits = SafetyLimits.from_mapping(limits, source='pd_actuator_bridge parameters')
+        self.driver = self._make_driver(value('driver').value, len(names))
+        self.driver.open()
+        self.bridge = ActuatorBridge(self.driver, self.limits, names,
+                                     on_limit=value('on_limit').value)
+        self.bridge.set_reply_callback(self._publish_reply)
+        if self._emergency is not None:
+            self.bridge.emergency_stop(self._emergency)
+        position = ', '.join(f'{x:.6g}' for x in self.driver.position())
+        self.publish_status(TestStatus.STATE_IDLE, f'configured: position [{position}] m')
+
+    def _make_driver(self, name: str, n_dof: int) -> ActuatorDriver:
+        value = self.get_parameter
+        if name == 'sim_servo':
+            driver = SimServoDriver(self, n_dof, value('specimen_namespace').value)
+            driver.on_fault = self._on_driver_fault
+            return driver
+        if name == 'emulator':
+            emulator = make_emulator_driver(value('test_file').value,
+                                            value('driver_config').value, n_dof)
+            emulator.set_trajectory_callback(self._publish_trajectory)  # type: ignore[attr-defined]
+            return emulator
+        if name == 'generic_tcp':
+            from .core.generic_tcp import GenericTCPDriver  # noqa: PLC0415
+
+            return GenericTCPDriver(value('tcp_host').value, int(value('tcp_port').value),
+                                    n_dof=n_dof, timeout=float(value('driver_timeout').value))
+        if name == 'daqmx':
+            from .core.daqmx import DaqmxConfig, DaqmxDriver  # noqa: PLC0415
+
+            path = value('driver_config').value
+            return DaqmxDriver(DaqmxConfig.from_mapping(
+                _read_yaml(path, 'driver_config').get('daqmx', {}), source=path))
+        msg = f'parameter driver: unknown driver {name!r} (available: {", ".join(DRIVERS)})'
+        raise BridgeConfigError(msg)
+
+    def _hold_driver(self) -> None:
+        if self.driver is not None:
+            try:
+                self.driver.hold()
+            except BridgeError as err:
+                self.get_logger().error(f'hold failed: {err}')
+
+    def _stop_answering(self) -> None:
+        if self._command_sub is not None:
+            self.destroy_subscription(self._command_sub)
+            self._command_sub = None
+        if self._feedback_pub is not None:
+            self.destroy_publisher(self._feedback_pub)
+            self._feedback_pub = None
+
+    def _release(self) -> None:
+        if self.driver is not None:
+            try:
+                self.driver.close()
+            except BridgeError as err:
+                self.get_logger().error(f'close failed: {err}')
+        self.driver = None
+        self.bridge = None
+
+    # -- status and replies -------------------------------------------------------------------
     def publish_status(self, state: int, message: str) -> None:
         """Publish the bridge's latched status."""
         status = TestStatus()
-        status.header.stamp = self.get_clock().now().to_msg()
+        status.header.stamp = now_stamp()
         status.test_id = self._test_id
         status.state = state
         status.step = self._step
         status.message = message
         self._status_pub.publish(status)
 
-    def _on_command(self, message: StepCommand) -> None:
-        self._test_id, self._step = message.test_id, message.step
-        key = (message.step, message.iteration)  # the bridge core orders steps by this key
-        was_holding = self.bridge.state == 'holding'
-        reply = self.bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
-                                           tuple(message.target_displacement))
-        if reply is None and self.bridge.in_flight == (message.test_id, key):
-            self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
-        if reply is not None:
-            self._publish_reply(reply)
-            if reply.status != 'ok' and not was_holding:
-                self.get_logger().error(f'holding: {reply.message}')
-
-    def _on_driver_fault(self, message: str) -> None:
-        reply = self.bridge.handle_fault(message)
-        if reply is not None:
-            self.get_logger().error(f'holding: {message}')
-            self._publish_reply(reply)
-
-    def check_driver(self) -> None:
-        """Hold if the driver did not answer the move in flight in time."""
-        if (self.driver.in_flight and self.bridge.state == 'busy'
-                and time.monotonic() - self.driver.sent_at > self.driver_timeout):
-            self._on_driver_fault(f'actuator did not reach step {self._step} within '
-                                  f'{self.driver_timeout} s')
-
     def _publish_reply(self, reply: BridgeReply) -> None:
+        if self._feedback_pub is None:
+            return
         feedback = self._feedback
         feedback.header.stamp = now_stamp()
         feedback.test_id = reply.test_id
@@ -249,20 +409,142 @@ class ActuatorBridgeNode(Node):
         feedback.status = _STATUS_CODES[reply.status]
         feedback.message = reply.message
         self._feedback_pub.publish(feedback)
-        if reply.status != 'ok':
+        if reply.message.startswith('saturated'):
+            self.get_logger().warning(reply.message)
+            self.publish_status(TestStatus.STATE_RUNNING, reply.message)
+        elif reply.status != 'ok':
             self.publish_status(TestStatus.STATE_HOLDING, reply.message)
+
+    def _publish_trajectory(self, step: Any, execution: Any) -> None:
+        message = ActuatorTrajectory()
+        message.header.stamp = now_stamp()
+        message.test_id = self._test_id
+        number, iteration = step if isinstance(step, tuple) else (step, 0)
+        message.step = int(number)
+        message.iteration = int(iteration)
+        times = execution.time
+        message.rate = float(1.0 / (times[1] - times[0])) if len(times) > 1 else 0.0
+        message.n_dof = int(execution.command.shape[1])
+        message.time = times.astype(float).tolist()
+        message.command = execution.command.reshape(-1).tolist()
+        message.measured_displacement = execution.measured_displacement.reshape(-1).tolist()
+        message.measured_force = execution.measured_force.reshape(-1).tolist()
+        self._trajectory_pub.publish(message)
+
+    # -- callbacks ----------------------------------------------------------------------------
+    def _on_command(self, message: StepCommand) -> None:
+        bridge = self.bridge
+        if bridge is None:
+            return
+        self._test_id, self._step = message.test_id, message.step
+        key = (message.step, message.iteration)  # the bridge core orders steps by this key
+        was_holding = bridge.state == 'holding'
+        reply = bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
+                                      tuple(message.target_displacement))
+        if (reply is None and isinstance(self.driver, SimServoDriver)
+                and bridge.in_flight == (message.test_id, key)):
+            self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
+        if reply is not None:
+            self._publish_reply(reply)
+            if reply.status != 'ok' and not was_holding:
+                self.get_logger().error(f'holding: {reply.message}')
+
+    def _on_driver_fault(self, message: str) -> None:
+        if self.bridge is None:
+            return
+        reply = self.bridge.handle_fault(message)
+        if reply is not None:
+            self.get_logger().error(f'holding: {message}')
+            self._publish_reply(reply)
+
+    def check_driver(self) -> None:
+        """Hold if the driver did not answer in time, or if the command watchdog expired."""
+        bridge, driver = self.bridge, self.driver
+        if bridge is None:
+            return
+        timeout = float(self.get_parameter('driver_timeout').value)
+        if (isinstance(driver, SimServoDriver) and driver.in_flight and bridge.state == 'busy'
+                and time.monotonic() - driver.sent_at > timeout):
+            self._on_driver_fault(f'actuator did not reach step {self._step} within '
+                                  f'{timeout} s')
+        if self._command_sub is not None:
+            reply = bridge.check_watchdog()
+            if reply is not None:
+                self.get_logger().error(f'holding: {reply.message}')
+                self._publish_reply(reply)
+
+    def emergency_stop(self, reason: str) -> None:
+        """Hold at once, from any state; latched until ``reset_emergency_stop``."""
+        reason = f'EMERGENCY STOP: {reason or "no reason given"}'
+        self._emergency = reason
+        self._hold_driver()
+        if self.bridge is not None:
+            reply = self.bridge.emergency_stop(reason)
+            if reply is not None:
+                self._publish_reply(reply)
+        self.get_logger().error(reason)
+        self.publish_status(TestStatus.STATE_HOLDING, reason)
+
+    def _on_emergency_topic(self, message: String) -> None:
+        self.emergency_stop(message.data)
+
+    def _on_emergency_service(self, request: Trigger.Request, response: Trigger.Response
+                              ) -> Trigger.Response:
+        self.emergency_stop('service call')
+        response.success = True
+        response.message = 'holding (latched until reset_emergency_stop)'
+        return response
+
+    def reset(self, *, clear_emergency: bool = False) -> tuple[bool, str]:
+        """Leave a latched hold (operator action); an e-stop needs ``clear_emergency``."""
+        if self._emergency is not None and not clear_emergency:
+            return False, f'refused: {self._emergency} (use reset_emergency_stop)'
+        if self.bridge is not None and not self.bridge.reset(clear_emergency=clear_emergency):
+            return False, 'refused by the bridge'
+        self._emergency = None
+        message = 'hold reset by operator'
+        self.get_logger().warning(message)
+        active = self._command_sub is not None
+        self.publish_status(TestStatus.STATE_RUNNING if active else TestStatus.STATE_IDLE,
+                            message)
+        return True, message
+
+    def _on_reset_service(self, request: Trigger.Request, response: Trigger.Response
+                          ) -> Trigger.Response:
+        response.success, response.message = self.reset()
+        return response
+
+    def _on_reset_emergency(self, request: Trigger.Request, response: Trigger.Response
+                            ) -> Trigger.Response:
+        response.success, response.message = self.reset(clear_emergency=True)
+        return response
 
     def _on_control(self, message: String) -> None:
         request = message.data.strip().lower()
         if request == 'reset':
-            self.bridge.reset()
-            self.get_logger().warning('hold reset by operator')
-            self.publish_status(TestStatus.STATE_RUNNING, 'hold reset by operator')
+            ok, text = self.reset()
+        elif request == 'reset_emergency_stop':
+            ok, text = self.reset(clear_emergency=True)
         elif request == 'hold':
             self._on_driver_fault('hold requested by operator')
             self.publish_status(TestStatus.STATE_HOLDING, 'hold requested by operator')
+            return
         else:
-            self.get_logger().warning(f'bridge/control: unknown request {message.data!r}')
+            self.get_logger().warning(f'bridge/control: unknown request {message.data!r} '
+                                      '(reset, reset_emergency_stop, hold)')
+            return
+        if not ok:
+            self.get_logger().warning(f'bridge/control {request}: {text}')
+
+
+def _autostart(node: ActuatorBridgeNode, executor: EventsExecutor) -> None:
+    """Configure, wait for the driver, activate (simulated set-ups)."""
+    if node.trigger_configure() != SUCCESS:
+        return
+    driver = node.driver
+    while rclpy.ok() and isinstance(driver, SimServoDriver) and not driver.ready():
+        executor.spin_once(timeout_sec=0.05)
+    node.trigger_activate()
 
 
 def main(args: list[str] | None = None) -> int:
@@ -271,26 +553,23 @@ def main(args: list[str] | None = None) -> int:
     node: ActuatorBridgeNode | None = None
     executor: EventsExecutor | None = None
     try:
-        try:
-            node = ActuatorBridgeNode()
-        except (BridgeError, ValueError) as err:
-            print(f'pd_actuator_bridge: error: {err}', file=sys.stderr)
-            return 2
+        node = ActuatorBridgeNode()
         executor = EventsExecutor()
         executor.add_node(node)
-        while rclpy.ok() and not node.driver.ready():
-            executor.spin_once(timeout_sec=0.05)
-        node.connect()
+        if node.get_parameter('autostart').value:
+            _autostart(node, executor)
         while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
+            executor.spin_once(timeout_sec=0.05)
             node.check_driver()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if node is not None:
+            node._hold_driver()  # noqa: SLF001 - hold before anything else goes away
+            node._release()  # noqa: SLF001
         if executor is not None:
             executor.shutdown()
         if node is not None:
-            node.driver.hold()
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

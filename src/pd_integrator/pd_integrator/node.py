@@ -6,7 +6,8 @@ Topics (relative to the node namespace, ``/pd`` by default):
   (``pd_msgs/TestStatus``, reliable, transient local = latched) and ``test_definition``
   (``std_msgs/String``, latched: the resolved test as JSON);
 * subscribes ``step_feedback`` (``pd_msgs/StepFeedback``, reliable), ``bridge/status`` (the
-  actuator bridge's latched status, recorded in the bag) and ``test_control``
+  actuator bridge's latched status) and ``bridge/trajectory`` (its sub-step trajectories),
+  both recorded in the bag, and ``test_control``
   (``std_msgs/String``: ``pause``, ``resume``, ``abort``).
 
 Parameters: ``test_file`` (YAML test file), ``output_dir`` (run folder; default
@@ -20,7 +21,9 @@ Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing 
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -32,12 +35,13 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from builtin_interfaces.msg import Time
 from std_msgs.msg import String
 
-from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
-from .core.bag import TOPIC_BRIDGE_STATUS, BagRecorder
+from .core.bag import TOPIC_BRIDGE_STATUS, TOPIC_TRAJECTORY, BagRecorder
 from .core.config import PARAMETER_PATHS, load_test_file
 from .core.errors import PdIntegratorError
 from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
@@ -192,6 +196,8 @@ class IntegratorNode(Node):
                                                       self._on_feedback, STEP_QOS)
         self.create_subscription(TestStatus, 'bridge/status', self._on_bridge_status,
                                  LATCHED_QOS)
+        self.create_subscription(ActuatorTrajectory, 'bridge/trajectory',
+                                 self._on_trajectory, STEP_QOS, raw=True)
         self.create_subscription(String, 'test_control', self._on_control, 10)
 
         self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
@@ -273,6 +279,9 @@ class IntegratorNode(Node):
     def _on_bridge_status(self, message: TestStatus) -> None:
         self.bag.write_status(status_data(message), time.time_ns(), topic=TOPIC_BRIDGE_STATUS)
 
+    def _on_trajectory(self, data: bytes) -> None:
+        self.bag.write_raw(TOPIC_TRAJECTORY, time.time_ns(), data)
+
     def _on_control(self, message: String) -> None:
         request = message.data.strip().lower()
         if request == 'pause':
@@ -333,11 +342,19 @@ def _describe(node: IntegratorNode) -> None:
         logger.info('initial stiffness: measured by a probe before the test')
 
 
-def run(node: IntegratorNode, executor: EventsExecutor) -> int:
-    """Wait for the specimen side, run the test, write the outputs; returns the exit code."""
+def run(node: IntegratorNode, executor: EventsExecutor, stop: threading.Event) -> int:
+    """Wait for the specimen side, run the test, write the outputs; returns the exit code.
+
+    ``stop`` (set by SIGINT/SIGTERM) aborts the test cleanly: the final status is published
+    and the outputs are written while the node is still alive.
+    """
     _describe(node)
     deadline = time.monotonic() + node.session.definition.protocol.start_timeout
     while not node.peers_ready():
+        if stop.is_set():
+            node.session.abort('interrupted before the test started')
+            node.finish()
+            return 1
         executor.spin_once(timeout_sec=0.05)
         if time.monotonic() > deadline:
             node.session.abort('no specimen side (bridge or simulator) answered on '
@@ -348,6 +365,10 @@ def run(node: IntegratorNode, executor: EventsExecutor) -> int:
     node.start()
     probing = node.session.probing
     while node.session.state not in (TestState.FINISHED, TestState.ABORTED):
+        if stop.is_set():
+            node.session.abort(f'interrupted (signal) while {node.session.state.name.lower()}'
+                               f': {node.session.message}')
+            break
         executor.spin_once(timeout_sec=0.05)
         node.check_timeout()
         if probing and not node.session.probing:
@@ -359,7 +380,12 @@ def run(node: IntegratorNode, executor: EventsExecutor) -> int:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_integrator main``."""
-    rclpy.init(args=args)
+    # SIGINT/SIGTERM only set a flag: the test is then aborted cleanly by the run loop (final
+    # status published, bag closed, outputs written) instead of interrupting a bag write.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, lambda *_: stop.set())
     node: IntegratorNode | None = None
     executor: EventsExecutor | None = None
     code = 1
@@ -371,7 +397,7 @@ def main(args: list[str] | None = None) -> int:
             return 2
         executor = EventsExecutor()
         executor.add_node(node)
-        code = run(node, executor)
+        code = run(node, executor, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         if node is not None:
             node.session.abort('interrupted (SIGINT)')

@@ -10,6 +10,7 @@ topic                      type                        content
 ``/pd/step_feedback``      ``pd_msgs/msg/StepFeedback`` every feedback received, ignored ones too
 ``/pd/test_status``        ``pd_msgs/msg/TestStatus``  every status published by the integrator
 ``/pd/bridge/status``      ``pd_msgs/msg/TestStatus``  the actuator bridge's status (if any)
+``/pd/bridge/trajectory``  ``ActuatorTrajectory``      sub-step actuator trajectories (if any)
 =========================  ==========================  ======================================
 
 Messages are written in the order the integrator saw them, so replaying the bag through the
@@ -43,10 +44,12 @@ TOPIC_COMMAND = '/pd/step_command'
 TOPIC_FEEDBACK = '/pd/step_feedback'
 TOPIC_STATUS = '/pd/test_status'
 TOPIC_BRIDGE_STATUS = '/pd/bridge/status'
+TOPIC_TRAJECTORY = '/pd/bridge/trajectory'
 
 MSG_COMMAND = 'pd_msgs/msg/StepCommand'
 MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
 MSG_STATUS = 'pd_msgs/msg/TestStatus'
+MSG_TRAJECTORY = 'pd_msgs/msg/ActuatorTrajectory'
 MSG_STRING = 'std_msgs/msg/String'
 
 _TOPICS = {
@@ -55,6 +58,7 @@ _TOPICS = {
     TOPIC_FEEDBACK: MSG_FEEDBACK,
     TOPIC_STATUS: MSG_STATUS,
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
+    TOPIC_TRAJECTORY: MSG_TRAJECTORY,
 }
 
 
@@ -83,7 +87,7 @@ def typestore() -> Typestore:
     store = get_typestore(Stores.ROS2_KILTED)
     directory = msg_directory()
     types: dict[str, Any] = {}
-    for name in ('StepCommand', 'StepFeedback', 'TestStatus'):
+    for name in ('StepCommand', 'StepFeedback', 'TestStatus', 'ActuatorTrajectory'):
         text = (directory / f'{name}.msg').read_text(encoding='utf-8')
         types.update(get_types_from_msg(text, f'pd_msgs/msg/{name}'))
     store.register(types)
@@ -154,6 +158,14 @@ class BagRecorder:
         self._writer.write(self._connections[topic], t_ns, data)
         self.counts[topic] += 1
 
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+        """Record an already serialized (CDR) message of one of the bag's topics."""
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        self._writer.write(self._connections[topic], t_ns, data)
+        self.counts[topic] += 1
+
     def write_definition(self, text: str, t_ns: int) -> None:
         """Record the resolved test definition (JSON)."""
         self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
@@ -192,12 +204,14 @@ class RecordedRun:
             the integrator sent and received them.
         statuses: the integrator's statuses.
         bridge_statuses: the bridge's statuses.
+        trajectories: the actuator's sub-step trajectories (``ActuatorTrajectory`` messages).
     """
 
     definition_json: str
     events: list[tuple[int, Command | Feedback]] = field(default_factory=list)
     statuses: list[tuple[int, Status]] = field(default_factory=list)
     bridge_statuses: list[tuple[int, Status]] = field(default_factory=list)
+    trajectories: list[tuple[int, Any]] = field(default_factory=list)
 
     @property
     def commands(self) -> list[Command]:
@@ -250,6 +264,8 @@ def read_bag(path: str | Path) -> RecordedRun:
                         iteration=int(message.iteration))))
                 elif topic == TOPIC_STATUS:
                     run.statuses.append((t_ns, _status(message)))
+                elif topic == TOPIC_TRAJECTORY:
+                    run.trajectories.append((t_ns, message))
                 else:
                     run.bridge_statuses.append((t_ns, _status(message)))
     except BagError:
