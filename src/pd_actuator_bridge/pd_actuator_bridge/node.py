@@ -17,6 +17,13 @@ Lifecycle (``ros2 lifecycle set /pd/pd_actuator_bridge <transition>``):
 
 With ``autostart: true`` (the simulated set-up) the node configures and activates itself.
 
+Tracking monitor: for every step answered OK, ``monitor/tracking`` (``/pd/monitor/tracking``,
+``std_msgs/Float64MultiArray``) carries the tracking error ``measured - commanded`` [m] of each
+DOF followed by the running tracking indicator [m²] of each DOF (positive = energy removed,
+negative = energy added; :class:`~pd_actuator_bridge.core.error_models.TrackingMonitor`, restarted
+for each test id). The integrator's outputs rebuild the same values from the bag
+(``tracking.csv``); this topic is for watching a test while it runs.
+
 Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
 ``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or a call of the
 ``bridge/emergency_stop`` service (``std_srvs/Trigger``).
@@ -52,7 +59,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import String
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
@@ -65,12 +72,17 @@ from .core import (
     BridgeReply,
     SafetyLimits,
 )
+from .core.error_models import TrackingMonitor
 
 STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: The tracking monitor: reliable, the last 100 samples for a slow subscriber.
+MONITOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
 
 _STATUS_CODES = {'ok': StepFeedback.STATUS_OK, 'limit': StepFeedback.STATUS_LIMIT,
                  'fault': StepFeedback.STATUS_FAULT}
@@ -255,6 +267,12 @@ class ActuatorBridgeNode(LifecycleNode):
         self._status_pub = self.create_publisher(TestStatus, 'bridge/status', LATCHED_QOS)
         self._trajectory_pub = self.create_publisher(ActuatorTrajectory, 'bridge/trajectory',
                                                      STEP_QOS)
+        self._monitor_pub: Any = self.create_publisher(Float64MultiArray, 'monitor/tracking',
+                                                       MONITOR_QOS)
+        self._monitor: TrackingMonitor | None = None
+        self._monitor_key: tuple[str, int] | None = None  # (test id, DOF count) monitored
+        self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
+        self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
         self.create_subscription(String, 'bridge/control', self._on_control, 10)
         self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, 10)
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
@@ -409,11 +427,42 @@ class ActuatorBridgeNode(LifecycleNode):
         feedback.status = _STATUS_CODES[reply.status]
         feedback.message = reply.message
         self._feedback_pub.publish(feedback)
+        if reply.status == 'ok' and self._monitor_pub is not None:
+            try:
+                self._publish_monitor(reply)
+            except Exception as err:  # noqa: BLE001 - a monitor must never stop the bridge
+                self.get_logger().error(f'tracking monitor disabled: {err!r}')
+                self._monitor_pub = None
         if reply.message.startswith('saturated'):
             self.get_logger().warning(reply.message)
             self.publish_status(TestStatus.STATE_RUNNING, reply.message)
         elif reply.status != 'ok':
             self.publish_status(TestStatus.STATE_HOLDING, reply.message)
+
+    def _publish_monitor(self, reply: BridgeReply) -> None:
+        """Add an answered step to the tracking monitor and publish its error and indicator."""
+        target = self._target
+        key = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
+        if target is None or (target[0], target[1]) != (reply.test_id, key):
+            return
+        if self._monitored == (reply.test_id, key):
+            return  # the same step answered again (a re-sent command): no new sample
+        n = len(target[2])
+        if self._monitor is None or self._monitor_key != (reply.test_id, n):
+            self._monitor = TrackingMonitor(n)  # a new test: a new indicator
+            self._monitor_key = (reply.test_id, n)
+        try:
+            sample = self._monitor.update(target[2], reply.displacement)
+        except ValueError:
+            return  # a malformed measurement: the bridge's own checks report it
+        self._monitored = (reply.test_id, key)
+        message = Float64MultiArray()
+        message.layout.dim = [
+            MultiArrayDimension(label='error[m],indicator[m2]', size=2, stride=2 * n),
+            MultiArrayDimension(label='dof', size=n, stride=n),
+        ]
+        message.data = [*sample.error.tolist(), *sample.indicator.tolist()]
+        self._monitor_pub.publish(message)
 
     def _publish_trajectory(self, step: Any, execution: Any) -> None:
         message = ActuatorTrajectory()
@@ -438,6 +487,7 @@ class ActuatorBridgeNode(LifecycleNode):
             return
         self._test_id, self._step = message.test_id, message.step
         key = (message.step, message.iteration)  # the bridge core orders steps by this key
+        self._target = (message.test_id, key, tuple(message.target_displacement))
         was_holding = bridge.state == 'holding'
         reply = bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
                                       tuple(message.target_displacement))

@@ -9,7 +9,8 @@ Topics (relative; namespace ``/pd`` by default, ``/pd/specimen`` behind a bridge
 ``step_command`` (subscribed) and ``step_feedback`` (published), both reliable.
 
 Parameters: ``test_file`` — the YAML test file; its ``specimen`` section and
-``structure.dof_names`` define the specimen.
+``structure.dof_names`` define the specimen, and the optional ``specimen.errors`` mapping the
+experimental errors injected into every step (see :mod:`pd_specimen_sim.core.server`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from pd_msgs.msg import StepCommand, StepFeedback
 
-from .core import SpecimenError, SpecimenServer, specimen_from_config
+from .core import SpecimenError
+from .core.server import server_from_config
 
 STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
@@ -71,15 +73,17 @@ class SpecimenSimNode(Node):
             msg = 'parameter test_file: a YAML test file is required'
             raise SpecimenError(msg)
         section, dof_names = load_specimen_section(test_file)
-        specimen = specimen_from_config(section, base_dir=Path(test_file).resolve().parent,
-                                        source=Path(test_file).name, dof_names=dof_names)
-        self.server = SpecimenServer(specimen)
+        self.server = server_from_config(section, base_dir=Path(test_file).resolve().parent,
+                                         source=Path(test_file).name, dof_names=dof_names)
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
         self._feedback = StepFeedback()
         self.get_logger().info(f'simulated specimen ready: {len(dof_names)} DOF '
                                f'({", ".join(dof_names)}) on '
                                f'{self.resolve_topic_name("step_command")}')
+        errors = self.server.errors
+        if errors is not None and not errors.is_ideal:
+            self.get_logger().warning(f'injecting experimental errors: {errors}')
 
     def _on_command(self, message: StepCommand) -> None:
         answer = self.server.handle(message.test_id, message.step,

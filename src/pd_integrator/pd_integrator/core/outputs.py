@@ -1,12 +1,22 @@
 """A run's outputs: ``response.csv``, ``summary.json`` and the figures.
 
 The same functions serve the node-graph run, the ROS-free run and the bag replay.
+
+Tracking monitors (thesis section 3.4.3): from the committed history, the command ``x`` (the
+computed displacement sent to the specimen) against the measured displacement ``xm``:
+``tracking.csv`` holds per DOF the tracking error ``xm - x`` and the running tracking indicator
+of Mercan and Ricles (``pd_actuator_bridge.core.error_models.tracking_indicator``: the area of
+the measured-vs-command loop, m²; **positive = energy removed** from the test (measured leading
+the command, like extra damping), **negative = energy added** (measured lagging, like negative
+damping); times the specimen stiffness it is an energy). ``summary.json`` gets a ``tracking``
+block and ``tracking.png`` shows measured vs command displacement and both histories.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,9 +28,12 @@ if TYPE_CHECKING:
 
 RESPONSE_CSV = 'response.csv'
 ENERGY_CSV = 'energy.csv'
+TRACKING_CSV = 'tracking.csv'
 SUMMARY_JSON = 'summary.json'
 FIGURES = ('displacement.png', 'velocity.png', 'acceleration.png', 'force_deformation.png',
-           'energy.png')
+           'energy.png', 'tracking.png')
+TRACKING_SIGN = ('positive = energy removed from the test (measured leading the command), '
+                 'negative = energy added (measured lagging the command)')
 
 
 def write_columns_csv(columns: dict[str, np.ndarray], path: str | Path) -> Path:
@@ -45,6 +58,76 @@ def write_energy_csv(history: ResponseHistory, energy: EnergyHistory, path: str 
     """Write the energy balance per step (``energy.csv``)."""
     return write_columns_csv({'time': history.time, 'step': history.steps,
                               **energy.columns()}, path)
+
+
+@dataclass(frozen=True)
+class TrackingHistory:
+    """Tracking monitors of a committed history, one row per step (step 0 first).
+
+    Attributes:
+        dof_names: DOF names.
+        command: commanded (computed) displacement x [m], shape (rows, n_dof).
+        measured: measured displacement xm [m], the same shape.
+        error: tracking error ``xm - x`` [m].
+        indicator: running tracking indicator [m²] (positive: energy removed, negative:
+            energy added).
+    """
+
+    dof_names: tuple[str, ...]
+    command: np.ndarray
+    measured: np.ndarray
+    error: np.ndarray
+    indicator: np.ndarray
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Per DOF ``error_<dof>`` [m] and ``indicator_<dof>`` [m²], for ``tracking.csv``."""
+        result: dict[str, np.ndarray] = {}
+        for j, name in enumerate(self.dof_names):
+            result[f'error_{name}'] = self.error[:, j]
+            result[f'indicator_{name}'] = self.indicator[:, j]
+        return result
+
+    def summary(self) -> dict[str, Any]:
+        """The ``tracking`` block of ``summary.json``.
+
+        Per DOF the largest |error|, the RMS error and the final tracking indicator (with its
+        extremes over the run), plus the units and the sign convention.
+        """
+        dofs: dict[str, Any] = {}
+        rows = self.error.shape[0]
+        for j, name in enumerate(self.dof_names):
+            error, indicator = self.error[:, j], self.indicator[:, j]
+            dofs[name] = {
+                'max_abs_error': float(np.max(np.abs(error))) if rows else math.nan,
+                'rms_error': float(np.sqrt(np.mean(error ** 2))) if rows else math.nan,
+                'final_indicator': float(indicator[-1]) if rows else math.nan,
+                'min_indicator': float(np.min(indicator)) if rows else math.nan,
+                'max_indicator': float(np.max(indicator)) if rows else math.nan,
+            }
+        return {'units': {'error': 'm', 'indicator': 'm^2'}, 'error': 'measured - command',
+                'indicator_sign': TRACKING_SIGN, 'dofs': dofs}
+
+
+def tracking_history(history: ResponseHistory) -> TrackingHistory:
+    """Tracking error and indicator of the committed rows (command ``x``, measured ``xm``)."""
+    from pd_actuator_bridge.core.error_models import (  # noqa: PLC0415
+        tracking_error,
+        tracking_indicator,
+    )
+
+    n = history.n_committed
+    command = history.displacement[:n]
+    measured = history.measured_displacement[:n]
+    return TrackingHistory(dof_names=tuple(history.dof_names), command=command,
+                           measured=measured, error=tracking_error(command, measured),
+                           indicator=tracking_indicator(command, measured))
+
+
+def write_tracking_csv(history: ResponseHistory, tracking: TrackingHistory, path: str | Path
+                       ) -> Path:
+    """Write the tracking monitors per step (``tracking.csv``)."""
+    return write_columns_csv({'time': history.time, 'step': history.steps,
+                              **tracking.columns()}, path)
 
 
 def read_response_csv(path: str | Path) -> dict[str, np.ndarray]:
@@ -205,18 +288,70 @@ def write_energy_figure(history: ResponseHistory, energy: EnergyHistory, directo
     return path
 
 
+def write_tracking_figure(history: ResponseHistory, tracking: TrackingHistory, directory: Path,
+                          *, title: str = '') -> Path:
+    """Measured vs command displacement, the tracking error and indicator (``tracking.png``)."""
+    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
+
+    mpl.use('Agg')
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    time = history.time
+    figure, axes = plt.subplot_mosaic([['loop', 'error'], ['loop', 'indicator']],
+                                      figsize=(12, 5.5), layout='constrained',
+                                      width_ratios=(1, 1.6))
+    loop, error, indicator = axes['loop'], axes['error'], axes['indicator']
+    several = len(tracking.dof_names) > 1
+    for j, name in enumerate(tracking.dof_names):
+        loop.plot(1e3 * tracking.command[:, j], 1e3 * tracking.measured[:, j], linewidth=0.8,
+                  label=name)
+        error.plot(time, 1e6 * tracking.error[:, j], linewidth=0.8, label=name)
+        indicator.plot(time, 1e6 * tracking.indicator[:, j], linewidth=1.0, label=name)
+    if tracking.command.size:
+        low = float(min(tracking.command.min(), tracking.measured.min())) * 1e3
+        high = float(max(tracking.command.max(), tracking.measured.max())) * 1e3
+        loop.plot([low, high], [low, high], color='0.5', linestyle='--', linewidth=0.8,
+                  label='measured = command')
+    loop.set_xlabel('Command displacement x [mm]')
+    loop.set_ylabel('Measured displacement xm [mm]')
+    loop.set_title('Measured vs command')
+    loop.set_aspect('equal', adjustable='datalim')
+    loop.legend(fontsize='small')
+    error.set_ylabel('xm − x [µm]')
+    error.set_title(f'Tracking — {title}' if title else 'Tracking')
+    indicator.set_ylabel('Indicator [mm²]')
+    indicator.set_xlabel('Time [s]')
+    indicator.annotate('> 0: energy removed, < 0: energy added', (0.01, 0.04),
+                       xycoords='axes fraction', fontsize='small')
+    for item in (loop, error, indicator):
+        item.grid(visible=True, alpha=0.4)
+    for item in (error, indicator):
+        item.set_xlim(0.0, float(time[-1]) if time.size else 1.0)
+        if several:
+            item.legend(fontsize='small')
+    path = directory / 'tracking.png'
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
 def write_run_outputs(history: ResponseHistory, summary: dict[str, Any], directory: str | Path,
                       *, figures: bool = True, title: str = '',
-                      energy: EnergyHistory | None = None) -> list[Path]:
-    """Write ``response.csv``, ``energy.csv``, ``summary.json`` and (optionally) the figures."""
+                      energy: EnergyHistory | None = None,
+                      tracking: TrackingHistory | None = None) -> list[Path]:
+    """Write the CSV files, ``summary.json`` and (optionally) the figures of a run."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     written = [write_response_csv(history, directory / RESPONSE_CSV),
                write_summary(summary, directory / SUMMARY_JSON)]
     if energy is not None:
         written.append(write_energy_csv(history, energy, directory / ENERGY_CSV))
+    if tracking is not None:
+        written.append(write_tracking_csv(history, tracking, directory / TRACKING_CSV))
     if figures:
         written += write_figures(history, directory, title=title)
         if energy is not None:
             written.append(write_energy_figure(history, energy, directory, title=title))
+        if tracking is not None:
+            written.append(write_tracking_figure(history, tracking, directory, title=title))
     return written

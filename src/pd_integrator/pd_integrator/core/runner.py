@@ -20,7 +20,7 @@ from .config import TestDefinition, from_json
 from .energy import energy_balance
 from .errors import BagError, ConfigError
 from .messages import Command, Feedback, FeedbackStatus, TestState
-from .outputs import summarize, write_run_outputs
+from .outputs import summarize, tracking_history, write_run_outputs
 from .session import TestSession
 
 if TYPE_CHECKING:
@@ -72,17 +72,19 @@ def prepare_run_directory(directory: str | Path) -> Path:
 
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                    figures: bool = True, **extra: Any) -> dict[str, Any]:
-    """Write ``response.csv``, ``summary.json`` and figures for a session; return the summary."""
+    """Write a session's CSV files, ``summary.json`` and figures; return the summary."""
     energy = None
     definition = session.definition
     if definition.initial_stiffness is not None:  # (a probe that never finished: no damping)
         structure = definition.structure()
         energy = energy_balance(session.history, structure.mass, structure.damping,
                                 structure.influence)
+    tracking = tracking_history(session.history)
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
-                        energy=energy.summary() if energy is not None else None, **extra)
+                        energy=energy.summary() if energy is not None else None,
+                        tracking=tracking.summary(), **extra)
     write_run_outputs(session.history, summary, directory, figures=figures,
-                      title=definition.test_id, energy=energy)
+                      title=definition.test_id, energy=energy, tracking=tracking)
     return summary
 
 
@@ -94,16 +96,17 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         ConfigError: the definition has no usable ``specimen`` section.
         StabilityError: ω_max·Δt is above the scheme's limit (nothing is commanded).
     """
-    from pd_specimen_sim.core import SpecimenServer, specimen_from_config  # noqa: PLC0415
+    from pd_specimen_sim.core.server import server_from_config  # noqa: PLC0415
 
     from .progress import ProgressMeter  # noqa: PLC0415
 
     if definition.specimen is None:
         msg = f'{definition.source}: specimen: section is required for a simulated run'
         raise ConfigError(msg)
-    specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
-                                    source=definition.source, dof_names=definition.dof_names)
-    server = SpecimenServer(specimen)
+    # The specimen and the experimental errors of its optional ``errors`` mapping, as in the
+    # pd_specimen_sim node: both inject the same, deterministic errors.
+    server = server_from_config(definition.specimen, base_dir=definition.base_dir,
+                                source=definition.source, dof_names=definition.dof_names)
     session = TestSession(definition)  # checks stability before anything moves
     directory = prepare_run_directory(directory)
     (directory / DEFINITION_JSON).write_text(definition.to_json(), encoding='utf-8')

@@ -227,7 +227,9 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
             files and an element count different from the DOF count.
     """
     ctx = _Context(source)
-    section = ctx.mapping(section, 'specimen', {'elements'}, {'topology'})
+    # 'errors' (injected experimental errors) belongs to the specimen server, which validates
+    # it (server.split_errors); the specimen itself ignores it.
+    section = ctx.mapping(section, 'specimen', {'elements'}, {'topology', 'errors'})
     topology = section.get('topology', 'independent')
     if topology not in TOPOLOGIES:
         raise ctx.error('specimen.topology',

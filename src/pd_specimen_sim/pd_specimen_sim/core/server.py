@@ -2,22 +2,60 @@
 
 The same :class:`SpecimenServer` serves the ``pd_specimen_sim`` node and the ROS-free runner,
 so both compute the same forces from the same displacements.
+
+Experimental errors (thesis section 3.4.3). An optional ``errors:`` mapping in the test file's
+``specimen`` section makes the simulated actuator and load cell imperfect::
+
+    specimen:
+      elements: [...]
+      errors:
+        systematic: -0.05         # fraction of the increment: -0.05 = 5 % undershoot, + overshoot
+        delay_steps: 0            # the actuator executes the target of that many steps earlier
+        displacement_noise: 0.0   # m, std of the displacement measurement noise (Gaussian)
+        force_noise: 0.0          # N, std of the force measurement noise (Gaussian)
+        force_bias: 0.0           # N, constant load-cell offset
+        seed: 1                   # noise generator seed (omit: a different draw every run)
+
+The keys and their meaning are those of ``pd_actuator_bridge.core.error_models.ErrorModel``
+(the bridge's emulator driver takes the same mapping from its ``driver_config``).
+``pd_specimen_sim`` cannot import the bridge (the bridge depends on this package), so
+:class:`SimulatedErrors` implements the same model here and the test suite checks, float for
+float, that both give the same steps for the same mapping and seed. Per new step, with the
+actuator at ``x_current`` (the displacement it reached at the previous step):
+
+* ``x_imposed = x_delayed + systematic * (x_delayed - x_current)``, where ``x_delayed`` is the
+  target of ``delay_steps`` steps earlier (the initial position before the first ones); the
+  specimen really goes there and its force is evaluated there;
+* one draw of ``2 n_dof`` standard normal numbers per step (first the displacements', then
+  the forces'): ``x_measured = x_imposed + displacement_noise * z_x`` and
+  ``f_measured = f(x_imposed) + force_bias + force_noise * z_f``.
+
+The answer reports the *measured* displacement and force. A re-sent command gets the same
+answer (no new draw), so a run is deterministic for a given seed, through the node graph or the
+ROS-free runner alike. Without ``errors`` (or with every value zero) nothing changes, bit for
+bit.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .errors import SpecimenError
+from .config import specimen_from_config
+from .errors import SpecimenConfigError, SpecimenError
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from .specimen import Specimen
+
+ERRORS_KEY = 'errors'
+"""Key of the experimental-error mapping in the ``specimen`` section."""
 
 STATUS_OK = 0
 STATUS_FAULT = 2
@@ -36,13 +74,157 @@ class Answer:
     iteration: int = 0
 
 
+@dataclass(frozen=True)
+class SimulatedErrors:
+    """Experimental errors of the simulated actuator and load cell (the same for every DOF).
+
+    The keys, ranges and meaning of ``pd_actuator_bridge.core.error_models.ErrorModel``.
+
+    Attributes:
+        systematic: Displacement error as a fraction of the increment, in ``(-1, 1]``:
+            ``-0.05`` is a 5 % undershoot, ``0.05`` a 5 % overshoot.
+        delay_steps: Constant delay of the executed target, steps.
+        displacement_noise: Standard deviation of the displacement measurement noise, m.
+        force_noise: Standard deviation of the force measurement noise, N.
+        force_bias: Constant force-measurement offset, N.
+        seed: Seed of the noise generator (``None``: a different draw every run).
+
+    Raises:
+        SpecimenConfigError: One line naming the parameter, if a value is invalid.
+    """
+
+    systematic: float = 0.0
+    delay_steps: int = 0
+    displacement_noise: float = 0.0
+    force_noise: float = 0.0
+    force_bias: float = 0.0
+    seed: int | None = None
+
+    def __post_init__(self) -> None:
+        """Validate and normalise the values."""
+        systematic = _real(self.systematic, 'systematic')
+        if not -1.0 < systematic <= 1.0:
+            msg = (f'systematic: must be in (-1, 1] (a fraction of the increment), got '
+                   f'{self.systematic!r}')
+            raise SpecimenConfigError(msg)
+        object.__setattr__(self, 'systematic', systematic)
+        for name in ('displacement_noise', 'force_noise'):
+            value = _real(getattr(self, name), name)
+            if value < 0.0:
+                msg = f'{name}: must be a non-negative finite number, got {value!r}'
+                raise SpecimenConfigError(msg)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, 'force_bias', _real(self.force_bias, 'force_bias'))
+        object.__setattr__(self, 'delay_steps', _count(self.delay_steps, 'delay_steps'))
+        if self.seed is not None:
+            object.__setattr__(self, 'seed', _count(self.seed, 'seed'))
+
+    @classmethod
+    def from_mapping(cls, mapping: Any, source: str = 'test file') -> SimulatedErrors:
+        """Build the errors from the ``specimen.errors`` mapping of a test file.
+
+        Args:
+            mapping: Any subset of the attribute names; missing ones keep their defaults.
+            source: Name of the YAML file, used in error messages.
+
+        Returns:
+            The validated errors.
+
+        Raises:
+            SpecimenConfigError: ``<source>: specimen.errors...: <what is wrong>`` on a
+                non-mapping, an unknown key or a bad value.
+        """
+        where = f'{source}: specimen.{ERRORS_KEY}'
+        if not isinstance(mapping, Mapping):
+            msg = f'{where}: must be a mapping, got {type(mapping).__name__}'
+            raise SpecimenConfigError(msg)
+        known = [f.name for f in fields(cls)]
+        for key in mapping:
+            if key not in known:
+                msg = (f"{where}: unknown key '{key}' (allowed: "
+                       f"{', '.join(sorted(known))})")
+                raise SpecimenConfigError(msg)
+        try:
+            return cls(**dict(mapping))
+        except SpecimenConfigError as exc:
+            raise SpecimenConfigError(f'{where}.{exc}') from None
+
+    @property
+    def is_ideal(self) -> bool:
+        """Whether nothing is injected (every error zero)."""
+        return (self.systematic == 0.0 and self.delay_steps == 0
+                and self.displacement_noise == 0.0 and self.force_noise == 0.0
+                and self.force_bias == 0.0)
+
+
+def _real(value: Any, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
+            value):
+        msg = f'{name}: must be a finite number, got {value!r}'
+        raise SpecimenConfigError(msg)
+    return float(value)
+
+
+def _count(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        msg = f'{name}: must be an integer >= 0, got {value!r}'
+        raise SpecimenConfigError(msg)
+    return int(value)
+
+
+def split_errors(section: Mapping[str, Any], source: str = 'test file'
+                 ) -> tuple[Any, SimulatedErrors | None]:
+    """Separate the ``errors`` mapping from the rest of a ``specimen`` section.
+
+    Args:
+        section: The parsed ``specimen:`` mapping.
+        source: Name of the YAML file, used in error messages.
+
+    Returns:
+        The section without ``errors`` (for :func:`specimen_from_config`) and the errors
+        (``None`` without an ``errors`` key).
+
+    Raises:
+        SpecimenConfigError: On an invalid ``errors`` mapping.
+    """
+    if not isinstance(section, Mapping):
+        return section, None  # specimen_from_config reports it
+    rest = {key: value for key, value in section.items() if key != ERRORS_KEY}
+    if ERRORS_KEY not in section:
+        return rest, None
+    return rest, SimulatedErrors.from_mapping(section[ERRORS_KEY], source)
+
+
+def server_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,
+                       dof_names: Sequence[str]) -> SpecimenServer:
+    """The server of the specimen (and errors) described by a ``specimen:`` section.
+
+    Args:
+        section: The parsed ``specimen:`` mapping, optionally with ``errors``.
+        base_dir: Directory against which relative file paths resolve.
+        source: Name of the YAML file, used in error messages.
+        dof_names: Names of the test's DOFs.
+
+    Returns:
+        A server around the virgin specimen.
+
+    Raises:
+        SpecimenConfigError: One line naming ``source`` and the parameter path.
+    """
+    rest, errors = split_errors(section, source)
+    specimen = specimen_from_config(rest, base_dir=Path(base_dir), source=source,
+                                    dof_names=dof_names)
+    return SpecimenServer(specimen, errors=errors)
+
+
 class SpecimenServer:
     """Moves a simulated specimen to commanded displacements and reports its forces.
 
     Commands are keyed by ``(step, iteration)`` (iteration 0 for explicit schemes).
 
     * A new step: the specimen goes to the target, its force is computed and committed; the
-      measured displacement equals the target (an ideal actuator).
+      measured displacement equals the target (an ideal actuator), unless ``errors`` are
+      injected (see the module docstring).
     * The step answered last, again (a re-sent command): the same answer, no motion.
     * An older step of the same test: ignored (``None``), counted in ``ignored``.
     * A target the model cannot take (wrong size, NaN, beyond a backbone with
@@ -52,7 +234,13 @@ class SpecimenServer:
     physical specimen, e.g. after the stiffness probe).
     """
 
-    def __init__(self, specimen: Specimen) -> None:
+    def __init__(self, specimen: Specimen, errors: SimulatedErrors | None = None) -> None:
+        """Create the server.
+
+        Args:
+            specimen: The specimen, in the state the test starts from.
+            errors: Experimental errors to inject; ``None`` (or all zero): an ideal actuator.
+        """
         self.specimen = specimen
         self.position: tuple[float, ...] = (0.0,) * specimen.n_dof
         self.force: tuple[float, ...] = tuple(
@@ -63,6 +251,20 @@ class SpecimenServer:
         self.repeated = 0
         self.ignored = 0
         self.faults = 0
+        self.errors = errors
+        self._inject = errors is not None and not errors.is_ideal
+        n = specimen.n_dof
+        self._imposed = np.zeros(n)
+        delay = errors.delay_steps if errors is not None else 0
+        self._pending: list[np.ndarray] = [np.zeros(n) for _ in range(delay)]
+        self._rng = np.random.default_rng(errors.seed if errors is not None else None)
+
+    @property
+    def imposed(self) -> tuple[float, ...]:
+        """The displacement the specimen really holds (``position`` is the measured one)."""
+        if not self._inject:
+            return self.position
+        return tuple(float(x) for x in self._imposed)
 
     def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0
                ) -> Answer | None:
@@ -87,6 +289,8 @@ class SpecimenServer:
         if len(values) != n or not all(math.isfinite(value) for value in values):
             return self._fault(test_id, step, iteration, f'invalid target displacement '
                                f'{values!r} (expected {n} finite values)')
+        if self._inject:
+            return self._move_with_errors(test_id, step, iteration, np.array(values))
         try:
             force = self.specimen.restoring_force(np.array(values))
         except SpecimenError as err:
@@ -95,6 +299,33 @@ class SpecimenServer:
         self.specimen.commit()
         self.position = tuple(values)
         self.force = tuple(float(f) for f in force)
+        self.steps_served += 1
+        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
+                      iteration=iteration)
+
+    def _move_with_errors(self, test_id: str, step: int, iteration: int, target: np.ndarray
+                          ) -> Answer:
+        """A new step through the error model (delay, systematic error, noise, bias)."""
+        errors = self.errors
+        assert errors is not None
+        queue = [*self._pending, target]
+        delayed = queue[0]
+        imposed = delayed + errors.systematic * (delayed - self._imposed)
+        try:
+            force = np.array(self.specimen.restoring_force(imposed.copy()),
+                             dtype=float).reshape(-1)
+        except SpecimenError as err:
+            self.specimen.revert_to_last_commit()  # no motion: the delay line stays as it was
+            return self._fault(test_id, step, iteration, str(err))
+        self.specimen.commit()
+        self._pending = queue[1:]
+        self._imposed = imposed
+        n = imposed.size
+        noise = self._rng.standard_normal(2 * n)
+        displacement = imposed + errors.displacement_noise * noise[:n]
+        measured = force + errors.force_bias + errors.force_noise * noise[n:]
+        self.position = tuple(float(x) for x in displacement)
+        self.force = tuple(float(f) for f in measured)
         self.steps_served += 1
         return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
                       iteration=iteration)

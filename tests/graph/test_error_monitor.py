@@ -1,0 +1,76 @@
+"""Experimental errors and the tracking monitor through the node graph (separate processes).
+
+A test file with ``specimen.errors`` (5 % undershoot, seeded noise and a force bias) run
+integrator → bridge → simulator gives the same ``response.csv`` and ``tracking.csv`` as the
+ROS-free run, float for float, and the bridge's ``/pd/monitor/tracking`` topic publishes, step by
+step, the tracking error and indicator that the outputs rebuild afterwards.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pd_integrator.core.config import load_test_file
+from pd_integrator.core.outputs import read_response_csv
+from pd_integrator.core.runner import run_offline
+
+from graph_support import REPO, Processes, executable
+
+pytestmark = pytest.mark.graph
+
+DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
+RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
+    'elcentro_1940_ns_chopra.csv')
+RUN_TIMEOUT = 120.0
+ERRORS = {'systematic': -0.05, 'displacement_noise': 1.0e-5, 'force_noise': 5.0,
+          'force_bias': 2.0, 'seed': 5}
+
+
+def test_errors_and_tracking_monitor_through_the_graph(processes: Processes, observer: object,
+                                                        tmp_path: Path) -> None:
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: PLC0415
+    from std_msgs.msg import Float64MultiArray  # noqa: PLC0415
+
+    raw = yaml.safe_load(DEFAULT_TEST.read_text(encoding='utf-8'))
+    raw['ground_motion']['file'] = str(RECORD)
+    raw['test'].update({'id': 'graph-errors', 'duration': 2.0})
+    raw['specimen']['errors'] = ERRORS
+    test_file = tmp_path / 'errors.yaml'
+    test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
+    offline = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
+
+    received: list[Float64MultiArray] = []
+    observer.create_subscription(  # type: ignore[attr-defined]
+        Float64MultiArray, '/pd/monitor/tracking', received.append,
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                   reliability=ReliabilityPolicy.RELIABLE))
+    out = tmp_path / 'graph'
+    launcher = processes.start('run_test', [
+        executable('pd_integrator', 'run_test'), str(test_file), '--site', 'bridge', '--out',
+        str(out), '--no-figures'])
+    executor = observer.executor_for_test  # type: ignore[attr-defined]
+    limit = RUN_TIMEOUT
+    while launcher.poll() is None and limit > 0:
+        executor.spin_once(timeout_sec=0.05)
+        limit -= 0.05
+    assert launcher.poll() == 0, processes.log('run_test')[-3000:]
+    for _ in range(20):  # the last samples may still be on their way
+        executor.spin_once(timeout_sec=0.05)
+
+    # The graph injects the same, deterministic errors as the ROS-free run.
+    for name in ('response.csv', 'tracking.csv'):
+        assert (out / name).read_bytes() == (offline.directory / name).read_bytes(), name
+    tracking = read_response_csv(out / 'tracking.csv')
+    assert tracking['indicator_top'][-1] < 0.0  # undershoot: energy added
+
+    # The live monitor: one sample per answered step, the values of tracking.csv.
+    assert len(received) >= 150, len(received)
+    message = received[-1]
+    assert [d.size for d in message.layout.dim] == [2, 1]
+    samples = np.array([list(m.data) for m in received])
+    rows = np.column_stack([tracking['error_top'], tracking['indicator_top']])
+    np.testing.assert_allclose(samples, rows[-len(received):], rtol=1e-12, atol=1e-20)
