@@ -12,8 +12,24 @@ An :class:`Integrator` splits every time step into the two halves of a pseudo-dy
    :meth:`Integrator.revert_to_last_step` discards it.
 
 The trial/commit bookkeeping follows OpenSees's integrators. A step is therefore in one of
-three phases: ``'committed'`` (ready to predict), ``'predicted'`` (waiting for the measured
-force) and ``'corrected'`` (ready to commit).
+four phases: ``'committed'`` (ready to predict), ``'predicted'`` (waiting for the measured
+force), ``'iterating'`` (an iterative scheme needs another trial within the same step: predict
+again) and ``'corrected'`` (ready to commit).
+
+Per step the caller runs::
+
+    target = integrator.predict()          # command (step, integrator.iteration)
+    integrator.correct(r_measured, p)      # the force measured at that target
+    if integrator.phase == 'corrected':
+        integrator.commit()                # the step is complete
+    # else: phase 'iterating' -> predict() again for the next iteration of the same step
+
+Every scheme except the implicit one (:mod:`.scheme_implicit`) has one iteration per step
+and reaches ``'corrected'`` after a single :meth:`Integrator.correct`.
+
+The schemes are registered in :data:`SCHEMES` (bottom of this module): Newmark explicit here,
+the other families in their own modules (:mod:`.scheme_explicit_alpha`,
+:mod:`.scheme_operator_splitting`, :mod:`.scheme_model_based`, :mod:`.scheme_implicit`).
 
 For a single degree of freedom the state is kept in plain Python floats, which makes the
 stepping fast and keeps the arithmetic float-for-float identical to the thesis's MATLAB code
@@ -32,10 +48,20 @@ import scipy.linalg
 
 from .errors import ConfigError, IntegratorError
 
-__all__ = ['SCHEMES', 'Integrator', 'NewmarkExplicit', 'make_integrator']
+__all__ = [
+    'SCHEMES',
+    'ArrayIntegrator',
+    'Factorization',
+    'Integrator',
+    'NewmarkExplicit',
+    'amplification_from',
+    'check_parameter',
+    'make_integrator',
+]
 
 _COMMITTED = 'committed'
 _PREDICTED = 'predicted'
+_ITERATING = 'iterating'
 _CORRECTED = 'corrected'
 
 
@@ -59,22 +85,126 @@ def _readonly(array: np.ndarray) -> np.ndarray:
     return array
 
 
+def check_parameter(
+    value: Any, name: str, low: float, high: float, *, low_open: bool = False
+) -> float:
+    """Validate a scheme parameter: a finite real number in ``[low, high]`` (ConfigError).
+
+    Args:
+        value: The value given.
+        name: Parameter name for the message.
+        low: Lower bound (inclusive unless ``low_open``).
+        high: Upper bound (inclusive).
+        low_open: Exclude ``low`` itself.
+
+    Returns:
+        The value as a float.
+    """
+    if isinstance(value, bool):
+        raise ConfigError(f'{name}: expected a number, got {value!r}')
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f'{name}: expected a number, got {value!r}') from None
+    # Values within rounding of a closed bound (e.g. 2/3 - 1 for -1/3) are taken as the bound.
+    slack = 1e-12 * max(1.0, abs(low), abs(high))
+    if math.isfinite(number) and not low_open and low - slack <= number < low:
+        number = low
+    if math.isfinite(number) and high < number <= high + slack:
+        number = high
+    below = number <= low if low_open else number < low
+    if not math.isfinite(number) or below or number > high:
+        bracket = '(' if low_open else '['
+        raise ConfigError(f'{name}: must be in {bracket}{low:g}, {high:g}], got {value!r}')
+    return number
+
+
+class Factorization:
+    """A matrix factorised once for repeated solves (Cholesky if SPD, else LU).
+
+    Used by the schemes for their constant effective matrices (``M``, ``M + Δt/2·C``,
+    ``M + γΔt C + βΔt² K_I``, ...), computed once per test.
+    """
+
+    def __init__(self, matrix: np.ndarray, name: str) -> None:
+        """Factorise ``matrix``.
+
+        Args:
+            matrix: Square matrix.
+            name: Description used in the error message.
+
+        Raises:
+            ConfigError: If the matrix is singular.
+        """
+        matrix = np.array(matrix, dtype=float)
+        self._factor: tuple[str, Any] | None = None
+        if matrix.shape == (1, 1):  # an SDOF: a division (fast and exact)
+            value = float(matrix[0, 0])
+            if value == 0.0 or not math.isfinite(value):
+                raise ConfigError(f'{name} is singular')
+            self._factor = ('scalar', value)
+            return
+        if np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
+            try:
+                self._factor = ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))
+            except np.linalg.LinAlgError:
+                self._factor = None
+        if self._factor is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
+                lu = scipy.linalg.lu_factor(matrix, check_finite=False)
+            diagonal = np.abs(np.diag(lu[0]))
+            if not np.all(diagonal > 1e-13 * max(float(np.max(diagonal)), 1e-300)):
+                raise ConfigError(f'{name} is singular')
+            self._factor = ('lu', lu)
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve ``matrix · x = rhs`` (``rhs`` a vector or a matrix of columns)."""
+        kind, factor = self._factor  # type: ignore[misc]
+        if kind == 'scalar':
+            return np.asarray(rhs, dtype=float) / factor
+        if kind == 'cholesky':
+            return scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+        return scipy.linalg.lu_solve(factor, rhs, check_finite=False)
+
+
+def amplification_from(lhs: Any, rhs: Any) -> np.ndarray:
+    """Amplification matrix ``A = L⁻¹ R`` of a one-step recursion ``L x̂_{n+1} = R x̂_n``.
+
+    The schemes write their linear SDOF step (``m = 1``, ``Δt = 1``, ``k = Ω²``,
+    ``c = 2ξΩ``) as linear relations between ``x̂_{n+1}`` and ``x̂_n``, both
+    ``(x, Δt·v, Δt²·a)``; this solves them.
+    """
+    return np.linalg.solve(np.array(lhs, dtype=float), np.array(rhs, dtype=float))
+
+
 class Integrator(abc.ABC):
     """Abstract predictor/corrector time integrator for ``M a + C v + r = p`` (thesis eq. 3.1).
 
     Subclasses implement :meth:`_setup`, :meth:`_initial_acceleration`, :meth:`_predict`
-    and :meth:`_correct`; this base class does the validation and the step bookkeeping.
+    and :meth:`_correct` (an iterative scheme also :meth:`_iterate`); this base class does the
+    validation and the step bookkeeping. A scheme with parameters takes them as keyword-only
+    constructor arguments after the base ones, validates them *before* calling
+    ``super().__init__`` (which calls :meth:`_setup`), and returns them from :attr:`parameters`.
 
     Attributes:
         name: Registry name of the scheme.
         stability_limit: Upper bound on ``Ω = ω_max·Δt`` for a stable linear response
-            (``math.inf`` for unconditionally stable schemes).
+            (``math.inf`` for unconditionally stable schemes). The class attribute holds the
+            limit for the default parameters; an instance whose limit depends on its
+            parameters overrides it in ``__init__`` (see :meth:`stability_limit_for`).
         needs_initial_stiffness: Whether the scheme requires the initial stiffness matrix.
+        numerical_damping_parameter: Name of the parameter that controls the numerical
+            dissipation (``'rho_inf'``, ``'alpha'``, ``'rho_b'``), or ``None``.
+        iterations_per_step: Trials (commands to the specimen) per time step: 1 for all but
+            the implicit scheme.
     """
 
     name: ClassVar[str] = ''
-    stability_limit: ClassVar[float] = math.inf
+    stability_limit: float = math.inf
     needs_initial_stiffness: ClassVar[bool] = False
+    numerical_damping_parameter: ClassVar[str | None] = None
+    iterations_per_step: int = 1
 
     def __init__(
         self, mass: Any, damping: Any, dt: float, initial_stiffness: Any = None
@@ -127,9 +257,11 @@ class Integrator(abc.ABC):
         self._status = 'idle'
         self._phase = _COMMITTED
         self._step = 0
+        self._iteration = 0
         if self._scalar:
             self._x = self._v = self._a = 0.0
             self._xt = self._vt = self._at = 0.0
+            self._r = self._rt = self._p = self._pt = 0.0
         else:
             zeros = np.zeros(n)
             self._x = zeros.copy()
@@ -138,6 +270,10 @@ class Integrator(abc.ABC):
             self._xt = zeros.copy()
             self._vt = zeros.copy()
             self._at = zeros.copy()
+            self._r = zeros.copy()
+            self._rt = zeros.copy()
+            self._p = zeros.copy()
+            self._pt = zeros.copy()
         self._setup()
 
     # ----------------------------------------------------------------- scheme hooks
@@ -156,7 +292,74 @@ class Integrator(abc.ABC):
 
     @abc.abstractmethod
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
-        """Return the trial ``(a_{i+1}, v_{i+1})`` for the stored trial displacement."""
+        """Return the trial ``(a_{i+1}, v_{i+1})`` for the stored trial displacement.
+
+        Called with the force measured at the last target. The base class has already set
+        the trial restoring force ``self._rt`` and load ``self._pt`` to the inputs; an
+        operator-splitting scheme replaces ``self._xt`` and ``self._rt`` by its corrected
+        displacement and force.
+        """
+
+    def _iterate(self, restoring_force: Any, load: Any) -> None:
+        """Take the force measured at a non-final iteration's target (iterative schemes).
+
+        Called instead of :meth:`_correct` while ``iteration + 1 < iterations_per_step``;
+        the next :meth:`_predict` returns the following target.
+        """
+        raise NotImplementedError(f'{type(self).__name__} does not iterate')
+
+    def _on_initialize(self) -> None:
+        """Hook: reset scheme-specific state after :meth:`initialize` (default: nothing)."""
+
+    def _on_commit(self) -> None:
+        """Hook: promote scheme-specific trial state in :meth:`commit` (default: nothing)."""
+
+    def _on_revert(self) -> None:
+        """Hook: discard scheme-specific trial state (default: nothing)."""
+
+    # ----------------------------------------------------------------- scheme description
+
+    @classmethod
+    def stability_limit_for(cls, **parameters: Any) -> float:
+        """Stability limit on ``Ω`` for the given scheme parameters (defaults if omitted).
+
+        Raises:
+            ConfigError: On an invalid parameter value.
+        """
+        if parameters:
+            names = ', '.join(sorted(parameters))
+            raise ConfigError(f'scheme {cls.name!r}: unknown parameter(s) {names}; it has none')
+        return float(cls.stability_limit)
+
+    @classmethod
+    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
+        """Amplification matrix for the linear SDOF free vibration (specimen stiffness K_I).
+
+        Acts on ``(x, Δt·v, Δt²·a)`` (unless the scheme's docstring says otherwise) with
+        ``m = 1``, ``ω = Ω/Δt``, ``c = 2ξω``; the eigenvalues give the spectral radius, the
+        numerical damping and the period error. Subclasses take their parameters as
+        keyword arguments.
+        """
+        raise NotImplementedError(f'{cls.__name__} has no amplification matrix')
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """The scheme's parameter values by constructor keyword (for summaries)."""
+        return {}
+
+    # ----------------------------------------------------------------- array helpers
+
+    def _arr(self, value: Any) -> np.ndarray:
+        """A state value as a 1-D array (a new 1-element array for an SDOF float)."""
+        if self._scalar:
+            return np.array((value,), dtype=float)
+        return value
+
+    def _out(self, array: np.ndarray) -> Any:
+        """Back from :meth:`_arr`: a float for an SDOF, else the array."""
+        if self._scalar:
+            return float(array[0])
+        return array
 
     # ----------------------------------------------------------------- input helpers
 
@@ -232,15 +435,23 @@ class Integrator(abc.ABC):
             raise IntegratorError('initialize: the initial acceleration is not finite')
         if self._scalar:
             self._x, self._v, self._a = x0v, v0v, a0
+            self._r, self._p = r0v, p0v
         else:
             self._x, self._v, self._a = x0v.copy(), v0v.copy(), np.array(a0, dtype=float)
+            self._r, self._p = r0v.copy(), p0v.copy()
         self._xt, self._vt, self._at = self._x, self._v, self._a
+        self._rt, self._pt = self._r, self._p
         self._step = 0
+        self._iteration = 0
         self._phase = _COMMITTED
         self._status = 'running'
+        self._on_initialize()
 
     def predict(self) -> np.ndarray:
         """Compute the trial (target) displacement ``x_{i+1}`` of the next step.
+
+        For an iterative scheme in phase ``'iterating'`` this is the target of the next
+        iteration (:attr:`iteration`) of the same step.
 
         Returns:
             A new ``(n,)`` array (owned by the caller) with the displacement to impose on the
@@ -254,7 +465,7 @@ class Integrator(abc.ABC):
             raise IntegratorError(
                 f'predict: integrator is {self._status!r}; call initialize() first'
             )
-        if self._phase != _COMMITTED:
+        if self._phase not in (_COMMITTED, _ITERATING):
             raise IntegratorError(
                 f'predict: step {self._step + 1} is already {self._phase}; '
                 'commit() or revert_to_last_step() first'
@@ -272,6 +483,9 @@ class Integrator(abc.ABC):
 
     def correct(self, restoring_force: Any, load: Any) -> None:
         """Compute the trial acceleration and velocity from the measured restoring force.
+
+        For an iterative scheme that needs more trials in this step, the phase becomes
+        ``'iterating'`` and :attr:`iteration` advances; otherwise it becomes ``'corrected'``.
 
         Args:
             restoring_force: Restoring force ``r_{i+1}`` (N) measured at the predicted
@@ -292,8 +506,16 @@ class Integrator(abc.ABC):
             )
         r = self._vector(restoring_force, 'restoring_force')
         p = self._vector(load, 'load')
+        if self._iteration + 1 < self.iterations_per_step:
+            self._iterate(r, p)
+            self._iteration += 1
+            self._phase = _ITERATING
+            return
+        self._rt = r
+        self._pt = p
         at, vt = self._correct(r, p)
-        if not (self._finite(at) and self._finite(vt)):
+        if not (self._finite(at) and self._finite(vt) and self._finite(self._xt)
+                and self._finite(self._rt)):
             self._status = 'failed'
             raise IntegratorError(
                 f'correct: step {self._step + 1}: the trial acceleration or velocity is not '
@@ -317,13 +539,20 @@ class Integrator(abc.ABC):
         self._x = self._xt
         self._v = self._vt
         self._a = self._at
+        self._r = self._rt
+        self._p = self._pt
         self._step += 1
+        self._iteration = 0
         self._phase = _COMMITTED
+        self._on_commit()
 
     def revert_to_last_step(self) -> None:
-        """Discard the trial state (a no-op if there is none)."""
+        """Discard the trial state and any iterations of the step (a no-op if there is none)."""
         self._xt, self._vt, self._at = self._x, self._v, self._a
+        self._rt, self._pt = self._r, self._p
+        self._iteration = 0
         self._phase = _COMMITTED
+        self._on_revert()
 
     # ----------------------------------------------------------------- properties
 
@@ -348,9 +577,28 @@ class Integrator(abc.ABC):
         return self._export(self._a)
 
     @property
+    def r(self) -> np.ndarray:
+        """Committed restoring force ``r_i`` (N) used in the equation of motion, read-only.
+
+        The measured force for the explicit and model-based schemes; the corrected force
+        ``r̃ + K_I (x − x̃)`` for the operator-splitting and implicit schemes; ``r_0`` as
+        given to :meth:`initialize` at step 0.
+        """
+        return self._export(self._r)
+
+    @property
     def step(self) -> int:
         """Number of committed steps ``i``."""
         return self._step
+
+    @property
+    def iteration(self) -> int:
+        """0-based index of the current trial within the step (0 for one-iteration schemes).
+
+        After :meth:`predict` it is the index of the target just returned; it advances when
+        :meth:`correct` leaves the step ``'iterating'`` and returns to 0 on commit/revert.
+        """
+        return self._iteration
 
     @property
     def t(self) -> float:
@@ -370,7 +618,8 @@ class Integrator(abc.ABC):
 
     @property
     def phase(self) -> str:
-        """Phase of the current step: ``'committed'``, ``'predicted'`` or ``'corrected'``."""
+        """Phase of the current step: ``'committed'``, ``'predicted'``, ``'iterating'`` or
+        ``'corrected'``."""
         return self._phase
 
     @property
@@ -394,6 +643,31 @@ class Integrator(abc.ABC):
             f'status={self._status!r}, phase={self._phase!r})'
         )
 
+class ArrayIntegrator(Integrator):
+    """Common base of the scheme families outside this module.
+
+    Works on 1-D arrays for SDOF and MDOF alike (an SDOF's float state is converted with
+    :meth:`Integrator._arr` / :meth:`Integrator._out`), factorises ``M`` once and takes the
+    initial acceleration from the equation of motion, ``a_0 = M⁻¹ (p_0 − C v_0 − r_0)``.
+    Subclasses implement :meth:`_setup_scheme` instead of :meth:`_setup`.
+    """
+
+    def _setup(self) -> None:
+        self._mass_factor = Factorization(self._mass, 'mass')
+        self._k_initial = (
+            np.zeros_like(self._mass) if self._initial_stiffness is None
+            else self._initial_stiffness
+        )
+        self._setup_scheme()
+
+    @abc.abstractmethod
+    def _setup_scheme(self) -> None:
+        """Precompute the scheme's constants and factorisations."""
+
+    def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
+        rhs = self._arr(p0) - self._damping @ self._arr(v0) - self._arr(r0)
+        return self._out(self._mass_factor.solve(rhs))
+
 
 class NewmarkExplicit(Integrator):
     """Newmark explicit scheme (``β = 0``, ``γ = 1/2``), thesis eqs. 3.20–3.22.
@@ -405,12 +679,29 @@ class NewmarkExplicit(Integrator):
         v_{i+1} = v_i + Δt 0.5 (a_i + a_{i+1})                               (3.20)
 
     For an MDOF the division is a solve with ``M + Δt/2·C``, factorised once. The scheme has
-    no numerical damping and is stable for ``ω_max·Δt ≤ 2`` (eq. 3.14).
+    no numerical damping and is stable for ``ω_max·Δt ≤ 2`` (eq. 3.14); it is second-order
+    accurate. The committed restoring force :attr:`r` is the measured one.
     """
 
     name: ClassVar[str] = 'newmark_explicit'
-    stability_limit: ClassVar[float] = 2.0
+    stability_limit: float = 2.0
     needs_initial_stiffness: ClassVar[bool] = False
+
+    @classmethod
+    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
+        """Thesis eq. 3.7 on ``(x, Δt·v, Δt²·a)``; with damping, eqs. 3.20–3.22 with
+        ``c = 2ξω`` (:func:`.stability.amplification_matrix_newmark_explicit` for ``ξ = 0``).
+        """
+        if xi == 0.0:
+            from .stability import amplification_matrix_newmark_explicit  # noqa: PLC0415
+
+            return amplification_matrix_newmark_explicit(omega_dt)
+        k = float(omega_dt) ** 2
+        c = 2.0 * float(xi) * float(omega_dt)
+        # x1 = x0 + v0 + a0/2;  v1 = v0 + (a0 + a1)/2;  a1 + c v0 + c/2 a0 + k x1 = ... (3.22)
+        lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, -0.5], [k, 0.0, 1.0 + 0.5 * c]]
+        rhs = [[1.0, 1.0, 0.5], [0.0, 1.0, 0.5], [0.0, -c, -0.5 * c]]
+        return amplification_from(lhs, rhs)
 
     def _setup(self) -> None:
         dt = self._dt
@@ -445,6 +736,8 @@ class NewmarkExplicit(Integrator):
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         kind, factor = self._factor  # type: ignore[misc]
+        if kind == 'scalar':
+            return np.asarray(rhs, dtype=float) / factor
         if kind == 'cholesky':
             return scipy.linalg.cho_solve(factor, rhs, check_finite=False)
         return scipy.linalg.lu_solve(factor, rhs, check_finite=False)
@@ -509,13 +802,46 @@ class NewmarkExplicit(Integrator):
             if a_new - a_new == 0.0 and v_new - v_new == 0.0:
                 self._at = a_new
                 self._vt = v_new
+                self._rt = restoring_force
+                self._pt = load
                 self._phase = _CORRECTED
                 return
         super().correct(restoring_force, load)
 
 
+def _builtin_schemes() -> dict[str, type[Integrator]]:
+    """The schemes of the family modules, by registry name.
+
+    Imported here, at the bottom of this module, because those modules subclass
+    :class:`Integrator`: when any of them is imported first, Python runs this module to the
+    end (the package ``__init__`` imports it) before the class statements they need.
+    """
+    from .scheme_explicit_alpha import ExplicitGeneralizedAlpha, ModifiedNewmark  # noqa: PLC0415
+    from .scheme_implicit import (  # noqa: PLC0415
+        AverageAcceleration,
+        LinearAcceleration,
+        NewmarkImplicit,
+    )
+    from .scheme_model_based import ChenRicles, KRAlpha  # noqa: PLC0415
+    from .scheme_operator_splitting import AlphaOS, GeneralizedAlphaOS  # noqa: PLC0415
+
+    classes: tuple[type[Integrator], ...] = (
+        ExplicitGeneralizedAlpha,
+        ModifiedNewmark,
+        AlphaOS,
+        GeneralizedAlphaOS,
+        ChenRicles,
+        KRAlpha,
+        NewmarkImplicit,
+        AverageAcceleration,
+        LinearAcceleration,
+    )
+    return {cls.name: cls for cls in classes}
+
+
 #: Registry of the available schemes by name.
 SCHEMES: dict[str, type[Integrator]] = {NewmarkExplicit.name: NewmarkExplicit}
+SCHEMES.update(_builtin_schemes())
 
 
 def make_integrator(name: str, **kwargs: Any) -> Integrator:
@@ -524,7 +850,8 @@ def make_integrator(name: str, **kwargs: Any) -> Integrator:
     Args:
         name: Scheme name, a key of :data:`SCHEMES` (e.g. ``'newmark_explicit'``).
         **kwargs: Passed to the scheme's constructor (``mass``, ``damping``, ``dt``,
-            ``initial_stiffness``).
+            ``initial_stiffness`` and the scheme's keyword-only parameters, e.g.
+            ``rho_inf``).
 
     Returns:
         The new integrator.

@@ -1,0 +1,223 @@
+"""Explicit model-based schemes: Chen–Ricles (CR) and Kolay–Ricles KR-α.
+
+Both are explicit in displacement *and* velocity, with integration-parameter matrices built
+once from ``M``, ``C`` and the initial stiffness ``K_I``::
+
+    x_{n+1} = x_n + Δt v_n + Δt² α₂ a_n                                     (target)
+    v_{n+1} = v_n + Δt α₁ a_n
+
+so the target needs no restoring force; the measured ``r_{n+1}`` then gives ``a_{n+1}``
+from the equation of motion. No correction is applied to the measured force: the committed
+:attr:`~pd_integrator.core.schemes.Integrator.r` is the measured one.
+
+For a linear specimen with stiffness ``K_I`` the schemes are unconditionally stable and
+second-order accurate; they stay unconditionally stable for softening specimens, while a
+specimen stiffer than ``K_I`` makes them conditionally stable (unstable at large ``Ω``).
+
+Order of accuracy, precisely: the displacement *recurrence* is second order (the
+definition used by the papers), but at low frequency ``α₂ → (1/2 + γ) I`` (``I`` for CR),
+not ``I/2``, so the self-starting first step ``x_1 = x_0 + Δt v_0 + Δt² α₂ a_0`` carries an
+``O(Δt²)`` error whenever ``a_0 ≠ 0``, which makes the global displacement error ``O(Δt)``
+for such starts (e.g. a free vibration from a displaced position). A test that starts from
+rest (``a_0 = 0``) keeps second order; the tests check both.
+
+In the amplification matrices (``m = 1``, ``Δt = 1``, ``k = Ω²``, ``c = 2ξΩ``, specimen
+stiffness ``K_I``) the state is ``(x, Δt·v, Δt²·a)``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+
+__all__ = ['ChenRicles', 'KRAlpha']
+
+
+class ChenRicles(ArrayIntegrator):
+    """CR explicit model-based scheme (Chen & Ricles 2008).
+
+    Source: C. Chen and J. M. Ricles, "Development of direct integration algorithms for
+    structural dynamics using discrete control theory", *Journal of Engineering Mechanics*
+    (ASCE) 134(8) (2008) 676–683. The algorithm::
+
+        v_{n+1} = v_n + Δt α₁ a_n                                                  (1)
+        x_{n+1} = x_n + Δt v_n + Δt² α₂ a_n                                        (2)
+        M a_{n+1} + C v_{n+1} + r_{n+1} = p_{n+1}                                  (3)
+        α₁ = α₂ = 4 (4M + 2Δt C + Δt² K_I)⁻¹ M
+
+    For a linear system with ``K = K_I`` the displacements obey
+    ``x_{n+1} − 2x_n + x_{n−1} = Δt² α a_n`` with ``a_n = −M⁻¹K x_n``: central differences
+    with ``Ω²/(1 + Ω²/4)``, i.e. the poles of the average-acceleration (trapezoidal) method:
+    unconditionally stable, no numerical dissipation, second-order recurrence (but see the
+    module docstring on starts with ``a_0 ≠ 0``). :meth:`predict` returns (2) and stores
+    (1), :meth:`correct` solves (3) with ``M`` (factorised once).
+    """
+
+    name: ClassVar[str] = 'cr'
+    stability_limit: float = math.inf
+    needs_initial_stiffness: ClassVar[bool] = True
+    numerical_damping_parameter: ClassVar[str | None] = None
+
+    @classmethod
+    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
+        """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
+        k = float(omega_dt) ** 2
+        c = 2.0 * float(xi) * float(omega_dt)
+        alpha = 4.0 / (4.0 + 2.0 * c + k)
+        lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [k, c, 1.0]]
+        rhs = [[1.0, 1.0, alpha], [0.0, 1.0, alpha], [0.0, 0.0, 0.0]]
+        return amplification_from(lhs, rhs)
+
+    def _setup_scheme(self) -> None:
+        dt = self._dt
+        model = Factorization(
+            4.0 * self._mass + 2.0 * dt * self._damping + dt * dt * self._k_initial,
+            '4M + 2 dt C + dt^2 K_I',
+        )
+        self._alpha = 4.0 * model.solve(self._mass)
+        self._v_next: Any = None
+
+    def _predict(self) -> Any:
+        dt = self._dt
+        v = self._arr(self._v)
+        increment = self._alpha @ self._arr(self._a)
+        self._v_next = self._out(v + dt * increment)
+        return self._out(self._arr(self._x) + dt * v + dt * dt * increment)
+
+    def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
+        v_new = self._arr(self._v_next)
+        rhs = self._arr(load) - self._damping @ v_new - self._arr(restoring_force)
+        return self._out(self._mass_factor.solve(rhs)), self._v_next
+
+
+class KRAlpha(ArrayIntegrator):
+    """KR-α explicit model-based scheme (Kolay & Ricles 2014), parameter ``rho_inf``.
+
+    Source: C. Kolay and J. M. Ricles, "Development of a family of unconditionally stable
+    explicit direct integration algorithms with controllable numerical energy dissipation",
+    *Earthquake Engineering & Structural Dynamics* 43 (2014) 1361–1380; the public source of
+    OpenSees's ``KRAlphaExplicit`` integrator. The algorithm::
+
+        v_{n+1} = v_n + Δt α₁ a_n                                                  (1)
+        x_{n+1} = x_n + Δt v_n + Δt² α₂ a_n                                        (2)
+        M [(I − α₃) a_{n+1} + α₃ a_n] + C v_{n+1−α_f} + r_{n+1−α_f} = p_{n+1−α_f}  (3)
+
+    with ``(·)_{n+1−α_f} = (1 − α_f)(·)_{n+1} + α_f (·)_n`` and::
+
+        α_m = (2ρ∞ − 1)/(ρ∞ + 1),  α_f = ρ∞/(ρ∞ + 1),
+        γ = 1/2 − α_m + α_f,       β = (1 − α_m + α_f)²/4
+        D = M + γΔt C + βΔt² K_I
+        α₁ = D⁻¹ M,  α₂ = (1/2 + γ) α₁,  α₃ = D⁻¹ (α_m M + α_f γΔt C + α_f βΔt² K_I)
+
+    For ``K = K_I`` it is spectrally the generalized-α method: unconditionally stable,
+    second-order recurrence (see the module docstring on starts with ``a_0 ≠ 0``), spectral
+    radius ``ρ∞`` at ``Ω → ∞`` (``ρ∞ = 1``: no dissipation, and then ``α₃ = I/2``). (3) is
+    solved with ``M (I − α₃)``, factorised once.
+    """
+
+    name: ClassVar[str] = 'kr_alpha'
+    stability_limit: float = math.inf
+    needs_initial_stiffness: ClassVar[bool] = True
+    numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
+
+    def __init__(
+        self,
+        mass: Any,
+        damping: Any,
+        dt: float,
+        initial_stiffness: Any = None,
+        *,
+        rho_inf: float = 0.5,
+    ) -> None:
+        """Create the scheme.
+
+        Args:
+            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
+            damping: Damping matrix.
+            dt: Time step in s.
+            initial_stiffness: Initial stiffness ``K_I`` (required).
+            rho_inf: Spectral radius at infinite frequency, in ``[0, 1]``.
+
+        Raises:
+            ConfigError: On invalid input (the message names the parameter).
+        """
+        self._rho_inf = check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        self._alpha_m, self._alpha_f, self._beta, self._gamma = self.coefficients(self._rho_inf)
+        super().__init__(mass, damping, dt, initial_stiffness)
+
+    @staticmethod
+    def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
+        """``(α_m, α_f, β, γ)`` for ``ρ∞``."""
+        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+        alpha_f = rho_inf / (rho_inf + 1.0)
+        gamma = 0.5 - alpha_m + alpha_f
+        beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
+        return alpha_m, alpha_f, beta, gamma
+
+    @classmethod
+    def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
+        """``inf`` (for specimens not stiffer than ``K_I``)."""
+        check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        return math.inf
+
+    @classmethod
+    def amplification_matrix(
+        cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
+    ) -> np.ndarray:
+        """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
+        alpha_m, alpha_f, beta, gamma = cls.coefficients(
+            check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        )
+        k = float(omega_dt) ** 2
+        c = 2.0 * float(xi) * float(omega_dt)
+        d = 1.0 + gamma * c + beta * k
+        alpha1 = 1.0 / d
+        alpha2 = (0.5 + gamma) * alpha1
+        alpha3 = (alpha_m + alpha_f * gamma * c + alpha_f * beta * k) / d
+        w = 1.0 - alpha_f
+        lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [w * k, w * c, 1.0 - alpha3]]
+        rhs = [[1.0, 1.0, alpha2], [0.0, 1.0, alpha1], [-alpha_f * k, -alpha_f * c, -alpha3]]
+        return amplification_from(lhs, rhs)
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """``{'rho_inf': ρ∞}``."""
+        return {'rho_inf': self._rho_inf}
+
+    def _setup_scheme(self) -> None:
+        dt = self._dt
+        m, c, k = self._mass, self._damping, self._k_initial
+        gamma, beta, alpha_f = self._gamma, self._beta, self._alpha_f
+        model = Factorization(
+            m + gamma * dt * c + beta * dt * dt * k, 'M + gamma dt C + beta dt^2 K_I'
+        )
+        self._alpha1 = model.solve(m)
+        self._alpha2 = (0.5 + gamma) * self._alpha1
+        self._alpha3 = model.solve(
+            self._alpha_m * m + alpha_f * gamma * dt * c + alpha_f * beta * dt * dt * k
+        )
+        self._m_alpha3 = m @ self._alpha3
+        self._effective_mass = Factorization(m - self._m_alpha3, 'M (I - alpha3)')
+        self._v_next: Any = None
+
+    def _predict(self) -> Any:
+        dt = self._dt
+        v = self._arr(self._v)
+        a = self._arr(self._a)
+        self._v_next = self._out(v + dt * (self._alpha1 @ a))
+        return self._out(self._arr(self._x) + dt * v + dt * dt * (self._alpha2 @ a))
+
+    def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
+        w = 1.0 - self._alpha_f
+        c = self._damping
+        v_new = self._arr(self._v_next)
+        rhs = (
+            w * (self._arr(load) - self._arr(restoring_force) - c @ v_new)
+            + self._alpha_f * (self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v))
+            - self._m_alpha3 @ self._arr(self._a)
+        )
+        return self._out(self._effective_mass.solve(rhs)), self._v_next

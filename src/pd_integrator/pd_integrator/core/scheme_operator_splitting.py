@@ -1,0 +1,282 @@
+"""Operator-splitting (OS) schemes: α-OS and generalized-α-OS.
+
+An OS scheme imposes an explicit *predictor* displacement ``x̃_{n+1}`` on the specimen and
+corrects the measured force ``r̃_{n+1}`` for the implicit part of the displacement with the
+initial stiffness ``K_I`` (Nakashima et al. 1990; Combescure & Pegon 1997)::
+
+    x̃_{n+1} = x_n + Δt v_n + Δt² (1/2 − β) a_n          (predictor, imposed)
+    ṽ_{n+1} = v_n + Δt (1 − γ) a_n
+    x_{n+1} = x̃_{n+1} + β Δt² a_{n+1}                    (corrector, not imposed)
+    v_{n+1} = ṽ_{n+1} + γ Δt a_{n+1}
+    r_{n+1} = r̃_{n+1} + K_I (x_{n+1} − x̃_{n+1})          (corrected restoring force)
+
+and ``a_{n+1}`` solves the (weighted) equation of motion, a linear system with the constant
+matrix ``(1 − α_m) M + (1 − α_f)(γ Δt C + β Δt² K_I)`` factorised once. The committed
+displacement :attr:`~pd_integrator.core.schemes.Integrator.x` is the corrected ``x_{n+1}``
+and the committed :attr:`~pd_integrator.core.schemes.Integrator.r` the corrected force,
+which enters the next step's equation of motion.
+
+For a linear specimen with stiffness ``K_I`` the correction is exact and the scheme is the
+underlying implicit one (HHT-α, generalized-α): unconditionally stable, second-order
+accurate. For a softening specimen (tangent stiffness ≤ ``K_I``) it stays unconditionally
+stable; a specimen *stiffer* than ``K_I`` can make it unstable at large ``Ω`` (Combescure &
+Pegon 1997).
+
+In the amplification matrices (``m = 1``, ``Δt = 1``, ``k = Ω²``, ``c = 2ξΩ``, specimen
+stiffness ``K_I``) the state is ``(x, Δt·v, Δt²·a)``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+
+__all__ = ['AlphaOS', 'GeneralizedAlphaOS']
+
+
+class _OperatorSplitting(ArrayIntegrator):
+    """OS predictor/corrector for the generalized-α weighting (Chung & Hulbert 1993)::
+
+        M [(1 − α_m) a_{n+1} + α_m a_n] + (1 − α_f)(C v_{n+1} + r_{n+1} − p_{n+1})
+            + α_f (C v_n + r_n − p_n) = 0
+
+    HHT-α (α-OS) is ``α_m = 0``, ``α_f = −α``.
+    """
+
+    stability_limit: float = math.inf
+    needs_initial_stiffness: ClassVar[bool] = True
+
+    _alpha_m: float
+    _alpha_f: float
+    _beta: float
+    _gamma: float
+
+    def _setup_scheme(self) -> None:
+        dt = self._dt
+        matrix = (1.0 - self._alpha_m) * self._mass + (1.0 - self._alpha_f) * (
+            self._gamma * dt * self._damping + self._beta * dt * dt * self._k_initial
+        )
+        self._effective = Factorization(matrix, 'the alpha-OS effective matrix')
+        self._v_predictor: np.ndarray | None = None
+
+    def _predict(self) -> Any:
+        dt = self._dt
+        x = self._arr(self._x)
+        v = self._arr(self._v)
+        a = self._arr(self._a)
+        self._v_predictor = v + dt * (1.0 - self._gamma) * a
+        return self._out(x + dt * v + dt * dt * (0.5 - self._beta) * a)
+
+    def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
+        dt = self._dt
+        c = self._damping
+        x_pred = self._arr(self._xt)
+        v_pred = self._v_predictor
+        assert v_pred is not None
+        r_meas = self._arr(restoring_force)
+        weight = 1.0 - self._alpha_f
+        rhs = weight * (self._arr(load) - r_meas - c @ v_pred) + self._alpha_f * (
+            self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
+        )
+        if self._alpha_m != 0.0:
+            rhs = rhs - self._alpha_m * (self._mass @ self._arr(self._a))
+        a_new = self._effective.solve(rhs)
+        correction = self._beta * dt * dt * a_new
+        self._xt = self._out(x_pred + correction)
+        self._rt = self._out(r_meas + self._k_initial @ correction)
+        return self._out(a_new), self._out(v_pred + self._gamma * dt * a_new)
+
+    @staticmethod
+    def _generalized_matrix(
+        omega_dt: float, xi: float, alpha_m: float, alpha_f: float, beta: float, gamma: float
+    ) -> np.ndarray:
+        k = float(omega_dt) ** 2
+        c = 2.0 * float(xi) * float(omega_dt)
+        w = 1.0 - alpha_f
+        lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], [w * k, w * c, 1.0 - alpha_m]]
+        rhs = [
+            [1.0, 1.0, 0.5 - beta],
+            [0.0, 1.0, 1.0 - gamma],
+            [-alpha_f * k, -alpha_f * c, -alpha_m],
+        ]
+        return amplification_from(lhs, rhs)
+
+
+class AlphaOS(_OperatorSplitting):
+    """α-operator-splitting scheme (Nakashima et al. 1990; Combescure & Pegon 1997).
+
+    Sources: M. Nakashima, K. Ishii and K. Ando, "Integration techniques for substructure
+    pseudo dynamic test", *Proc. 4th U.S. National Conference on Earthquake Engineering*,
+    Palm Springs (1990); D. Combescure and P. Pegon, "α-Operator
+    splitting time integration technique for pseudodynamic testing. Error propagation
+    analysis", *Soil Dynamics and Earthquake Engineering* 16 (1997) 427–443. Also the public
+    documentation and source of OpenSees's ``AlphaOS`` integrator (A. Schellenberg).
+
+    The OS predictor/corrector of the module docstring with the HHT-α equation of motion
+    (Hilber, Hughes & Taylor 1977)::
+
+        M a_{n+1} + (1 + α)(C v_{n+1} + r_{n+1} − p_{n+1}) − α (C v_n + r_n − p_n) = 0
+        α ∈ [−1/3, 0],   β = (1 − α)²/4,   γ = 1/2 − α
+
+    solved as ``[M + (1+α)(γΔt C + βΔt² K_I)] a_{n+1} = (1+α)(p_{n+1} − r̃_{n+1} − C ṽ_{n+1})
+    − α (p_n − r_n − C v_n)`` with the committed, corrected ``r_n``.
+
+    Mapping to OpenSees's ``integrator AlphaOS $alpha``: OpenSees weights the new state by
+    ``α_OS`` and the old one by ``1 − α_OS`` with ``β = (2 − α_OS)²/4``, ``γ = 3/2 − α_OS``
+    and ``2/3 ≤ α_OS ≤ 1``; hence ``α_OS = 1 + α`` (:meth:`alpha_to_opensees`,
+    :meth:`alpha_from_opensees`): ``α = 0`` ↔ ``α_OS = 1`` (no dissipation), ``α = −1/3`` ↔
+    ``α_OS = 2/3``.
+
+    Unconditionally stable for linear and softening specimens (``stability_limit = inf``),
+    second-order accurate; as for HHT-α, the spectral radius at ``Ω → ∞`` is
+    ``ρ∞ = (1 + α)/(1 − α)`` (0.5 at ``α = −1/3``).
+    """
+
+    name: ClassVar[str] = 'alpha_os'
+    numerical_damping_parameter: ClassVar[str | None] = 'alpha'
+
+    def __init__(
+        self,
+        mass: Any,
+        damping: Any,
+        dt: float,
+        initial_stiffness: Any = None,
+        *,
+        alpha: float = -0.05,
+    ) -> None:
+        """Create the scheme.
+
+        Args:
+            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
+            damping: Damping matrix.
+            dt: Time step in s.
+            initial_stiffness: Initial stiffness ``K_I`` (required).
+            alpha: HHT ``α`` in ``[−1/3, 0]`` (``α_OpenSees − 1``); 0 is the undamped
+                average-acceleration OS scheme.
+
+        Raises:
+            ConfigError: On invalid input (the message names the parameter).
+        """
+        self._alpha = check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        self._alpha_m = 0.0
+        self._alpha_f = -self._alpha
+        self._beta, self._gamma = self.newmark_parameters(self._alpha)
+        super().__init__(mass, damping, dt, initial_stiffness)
+
+    @staticmethod
+    def newmark_parameters(alpha: float) -> tuple[float, float]:
+        """``(β, γ) = ((1 − α)²/4, 1/2 − α)``."""
+        return (1.0 - alpha) ** 2 / 4.0, 0.5 - alpha
+
+    @staticmethod
+    def alpha_to_opensees(alpha: float) -> float:
+        """OpenSees ``AlphaOS`` parameter for the HHT ``α``: ``α_OS = 1 + α``."""
+        return 1.0 + float(alpha)
+
+    @staticmethod
+    def alpha_from_opensees(alpha_opensees: float) -> float:
+        """HHT ``α`` for OpenSees's ``AlphaOS`` parameter: ``α = α_OS − 1``."""
+        return float(alpha_opensees) - 1.0
+
+    @classmethod
+    def stability_limit_for(cls, *, alpha: float = -0.05) -> float:
+        """``inf`` (for specimens not stiffer than ``K_I``)."""
+        check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        return math.inf
+
+    @classmethod
+    def amplification_matrix(
+        cls, omega_dt: float, xi: float = 0.0, *, alpha: float = -0.05
+    ) -> np.ndarray:
+        """HHT-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
+        value = check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        beta, gamma = cls.newmark_parameters(value)
+        return cls._generalized_matrix(omega_dt, xi, 0.0, -value, beta, gamma)
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """``{'alpha': α}`` (HHT convention)."""
+        return {'alpha': self._alpha}
+
+
+class GeneralizedAlphaOS(_OperatorSplitting):
+    """Generalized-α operator-splitting scheme, parameter ``rho_inf``.
+
+    Sources: J. Chung and G. M. Hulbert, "A time integration algorithm for structural
+    dynamics with improved numerical dissipation: the generalized-α method", *Journal of
+    Applied Mechanics* 60 (1993) 371–375, for the weighting and the parameters; the OS
+    predictor/corrector of Combescure & Pegon (1997) as in :class:`AlphaOS`; the public
+    source of OpenSees's ``AlphaOSGeneralized`` integrator (A. Schellenberg), whose
+    ``alphaI = 1 − α_m`` and ``alphaF = 1 − α_f`` for ``rhoInf``.
+
+    The OS predictor/corrector of the module docstring with::
+
+        M [(1 − α_m) a_{n+1} + α_m a_n] + (1 − α_f)(C v_{n+1} + r_{n+1} − p_{n+1})
+            + α_f (C v_n + r_n − p_n) = 0
+        α_m = (2ρ∞ − 1)/(ρ∞ + 1),  α_f = ρ∞/(ρ∞ + 1),
+        γ = 1/2 − α_m + α_f,       β = (1 − α_m + α_f)²/4
+
+    ``ρ∞ ∈ [0, 1]`` is the spectral radius as ``Ω → ∞`` (for ``K = K_I``); ``ρ∞ = 1`` is the
+    average-acceleration OS scheme without dissipation. Unconditionally stable for linear and
+    softening specimens, second-order accurate.
+    """
+
+    name: ClassVar[str] = 'generalized_alpha_os'
+    numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
+
+    def __init__(
+        self,
+        mass: Any,
+        damping: Any,
+        dt: float,
+        initial_stiffness: Any = None,
+        *,
+        rho_inf: float = 0.5,
+    ) -> None:
+        """Create the scheme.
+
+        Args:
+            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
+            damping: Damping matrix.
+            dt: Time step in s.
+            initial_stiffness: Initial stiffness ``K_I`` (required).
+            rho_inf: Spectral radius at infinite frequency, in ``[0, 1]``.
+
+        Raises:
+            ConfigError: On invalid input (the message names the parameter).
+        """
+        self._rho_inf = check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        self._alpha_m, self._alpha_f, self._beta, self._gamma = self.coefficients(self._rho_inf)
+        super().__init__(mass, damping, dt, initial_stiffness)
+
+    @staticmethod
+    def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
+        """``(α_m, α_f, β, γ)`` of the generalized-α method for ``ρ∞``."""
+        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+        alpha_f = rho_inf / (rho_inf + 1.0)
+        gamma = 0.5 - alpha_m + alpha_f
+        beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
+        return alpha_m, alpha_f, beta, gamma
+
+    @classmethod
+    def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
+        """``inf`` (for specimens not stiffer than ``K_I``)."""
+        check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        return math.inf
+
+    @classmethod
+    def amplification_matrix(
+        cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
+    ) -> np.ndarray:
+        """Generalized-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
+        coefficients = cls.coefficients(check_parameter(rho_inf, 'rho_inf', 0.0, 1.0))
+        return cls._generalized_matrix(omega_dt, xi, *coefficients)
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """``{'rho_inf': ρ∞}``."""
+        return {'rho_inf': self._rho_inf}
