@@ -244,7 +244,7 @@ class TestSession:
             target = np.zeros(self.definition.n_dof)
         else:
             target = integrator.predict()
-            iteration = getattr(integrator, "iteration", 0)  # TODO: base-class attribute
+            iteration = integrator.iteration
         return Command(test_id=self.definition.test_id, step=step,
                        test_time=self.definition.time(step), dof_names=self.definition.dof_names,
                        target_displacement=tuple(target.tolist()), iteration=iteration)
@@ -278,8 +278,8 @@ class TestSession:
             'test_id': definition.test_id,
             'scheme': definition.scheme,
             'scheme_parameters': (self._integrator.parameters if self._integrator is not None
-                                  and hasattr(self._integrator, 'parameters')
                                   else dict(definition.scheme_parameters)),
+            'numerical_damping': stability.numerical_damping if stability else math.nan,
             'state': self.state.name.lower(),
             'message': self.message,
             'total_steps': definition.n_steps,

@@ -22,7 +22,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import ConfigError, StabilityError
+from .errors import ConfigError, PdIntegratorError, StabilityError
 from .schemes import SCHEMES, Integrator
 from .structure import omega_max as structure_omega_max
 
@@ -40,17 +40,24 @@ __all__ = [
 ]
 
 
-def amplification_matrix_newmark_explicit(omega_dt: float, dt: float = 1.0) -> np.ndarray:
-    """Amplification matrix ``A`` of the undamped Newmark explicit scheme (thesis eq. 3.7).
+def amplification_matrix_newmark_explicit(
+    omega_dt: float, dt: float = 1.0, xi: float = 0.0
+) -> np.ndarray:
+    """Amplification matrix ``A`` of the Newmark explicit scheme (thesis eq. 3.7).
 
     With ``ω = omega_dt/dt`` the matrix acts on ``x̂ = (x, v, a)``. The default ``dt = 1``
     gives the Δt-normalised form, which acts on ``(x, Δt·v, Δt²·a)``; all choices of ``dt``
     give similar matrices (``D A D⁻¹`` with ``D = diag(1, Δt, Δt²)``), so the eigenvalues and
-    the spectral radius depend on ``Ω = ωΔt`` only.
+    the spectral radius depend on ``Ω = ωΔt`` (and ``ξ``) only.
+
+    With viscous damping (``m = 1``, ``c = 2ξω``) the step of eqs. 3.20–3.22 reads, with
+    ``d = 1 + ξΩ``: ``a_{i+1} = −(ω² x_{i+1} + c v_i + c Δt/2 a_i)/d``; ``ξ = 0`` gives eq. 3.7
+    exactly.
 
     Args:
         omega_dt: ``Ω = ωΔt`` (≥ 0).
         dt: Time step in s used to dimension the matrix (positive).
+        xi: Viscous damping ratio ``ξ`` (≥ 0).
 
     Returns:
         The 3×3 amplification matrix.
@@ -59,11 +66,17 @@ def amplification_matrix_newmark_explicit(omega_dt: float, dt: float = 1.0) -> n
         raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
     w = float(omega_dt) / dt
     w2 = w * w
+    c = 2.0 * float(xi) * w
+    d = 1.0 + c * dt / 2.0
     return np.array(
         [
             [1.0, dt, dt**2 / 2.0],
-            [-w2 * dt / 2.0, 1.0 - w2 * dt**2 / 2.0, dt / 2.0 - w2 * dt**3 / 4.0],
-            [-w2, -w2 * dt, -w2 * dt**2 / 2.0],
+            [
+                -w2 * dt / 2.0 / d,
+                1.0 - (w2 * dt**2 + c * dt) / (2.0 * d),
+                dt / 2.0 - (w2 * dt**3 / 2.0 + c * dt**2 / 2.0) / (2.0 * d),
+            ],
+            [-w2 / d, -(w2 * dt + c) / d, -(w2 * dt**2 / 2.0 + c * dt / 2.0) / d],
         ]
     )
 
@@ -105,17 +118,21 @@ NUMERICAL_FREQUENCY: dict[str, Callable[[float], float]] = {
 def period_distortion(omega_dt: float, scheme: str = 'newmark_explicit') -> float:
     """Relative period error ``(T̄ − T)/T = Ω/Ω̄ − 1`` (negative: the period shrinks).
 
+    Newmark explicit uses the closed form of eq. 3.19; any other registered scheme with an
+    ``amplification_matrix`` (default parameters, no viscous damping) uses the spectral
+    analysis of :mod:`pd_integrator.core.analysis`.
+
     Args:
         omega_dt: ``Ω = ωΔt``.
-        scheme: Scheme name (a key of :data:`NUMERICAL_FREQUENCY`).
+        scheme: Scheme name (a key of :data:`NUMERICAL_FREQUENCY` or of ``SCHEMES``).
 
     Returns:
-        The distortion, ``0`` at ``Ω = 0``, NaN above the stability limit or for a scheme
-        without a known numerical frequency.
+        The distortion, ``0`` at ``Ω = 0``, NaN above the stability limit, for an unknown
+        scheme or for a scheme without a known numerical frequency.
     """
     frequency = NUMERICAL_FREQUENCY.get(scheme)
     if frequency is None:
-        return math.nan
+        return _expected_accuracy(scheme, omega_dt, {})[0]
     omega = float(omega_dt)
     if omega == 0.0:
         return 0.0
@@ -155,6 +172,8 @@ class StabilityReport:
         stable: ``Ω ≤ limit`` (thesis eq. 3.14 counts ``Ω = 2`` as stable).
         period_distortion: ``(T̄ − T)/T`` of the highest mode (NaN if unstable or unknown).
         message: One human-readable line summarising the above.
+        numerical_damping: The scheme's numerical damping ratio ``ξ̄`` of the highest mode
+            (without viscous damping; NaN if unstable or unknown).
     """
 
     scheme: str
@@ -165,6 +184,7 @@ class StabilityReport:
     stable: bool
     period_distortion: float
     message: str
+    numerical_damping: float = math.nan
 
     @property
     def max_stable_dt(self) -> float:
@@ -186,6 +206,30 @@ def _resolve_scheme(scheme: str | type[Integrator] | Integrator) -> type[Integra
         raise ConfigError(
             f'scheme: unknown integration scheme {scheme!r}; valid: {valid}'
         ) from None
+
+
+def _expected_accuracy(
+    scheme: str | type[Integrator], omega_dt: float, parameters: dict[str, Any]
+) -> tuple[float, float, float]:
+    """``(period distortion, numerical damping, spectral radius)`` from the analysis, or NaNs.
+
+    For the undamped mode (``ξ = 0``): the scheme's own distortion and damping. NaN for an
+    unknown scheme, one without ``amplification_matrix``, or parameters the analysis rejects;
+    NaN distortion and damping where the spectrum is unstable.
+    """
+    from . import analysis  # noqa: PLC0415 - analysis imports this module
+
+    nan = (math.nan, math.nan, math.nan)
+    try:
+        if not analysis.has_amplification_matrix(scheme):
+            return nan
+        properties = analysis.spectral_properties(scheme, omega_dt, 0.0, **parameters)
+    except (PdIntegratorError, ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError):
+        return nan
+    if not properties.stable:  # no meaningful period or damping of a growing response
+        return math.nan, math.nan, properties.spectral_radius
+    return (properties.period_error, properties.numerical_damping,
+            properties.spectral_radius)
 
 
 def _format_limit(limit: float) -> str:
@@ -222,12 +266,20 @@ def check_stability(
     limit = float(scheme.stability_limit if isinstance(scheme, Integrator) else
                   cls.stability_limit)
     stable = omega_dt <= limit
-    distortion = period_distortion(omega_dt, cls.name) if stable else math.nan
+    distortion = damping = rho = math.nan
+    if stable:
+        # An instance's parameters (e.g. its rho_inf) shape its spectrum; a class: defaults.
+        parameters = getattr(scheme, 'parameters', None) if isinstance(scheme, Integrator) else {}
+        distortion, damping, rho = _expected_accuracy(cls, omega_dt, dict(parameters or {}))
     head = f'ω_max·Δt = {omega_dt:.4g} (limit {_format_limit(limit)} for {cls.name})'
     if stable:
         message = f'{head}: stable'
         if not math.isnan(distortion):
             message += f'; period distortion {100.0 * distortion:.2g} %'.replace('-', '−')
+        if abs(damping) >= 1e-6:  # False for NaN
+            message += f'; numerical damping {100.0 * damping:.2g} %'.replace('-', '−')
+        if rho > 1.0 + 1e-6:
+            message += f'; but the spectral radius is {rho:.6g} > 1'
     else:
         message = (
             f'{head}: UNSTABLE; dt = {dt_value:g} s must be ≤ {limit / w_max:.6g} s '
@@ -242,6 +294,7 @@ def check_stability(
         stable=stable,
         period_distortion=distortion,
         message=message,
+        numerical_damping=damping,
     )
 
 
