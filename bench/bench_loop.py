@@ -20,6 +20,11 @@ or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
    QoS like the nodes), with the EventsExecutor (``spin_once`` loop) and, for comparison, the
    SingleThreadedExecutor.
 4. The goal (>= 2,000 steps/s through the graph) next to what was reached.
+5. Per registered integration scheme (``--schemes`` limits the set), the ROS-free core's
+   steps/s (``TestSession`` + ``SpecimenServer``, no bag, best of 3) for (a) the default SDOF
+   test and (b) a 200-DOF linear shear building (lumped masses, elastic stories, 5 % Rayleigh
+   damping, El Centro, 200 steps of a dt stable for every conditionally stable scheme: 0.9 times
+   the smallest stability limit over ω_max). Printed as a second table after the first.
 
 Every process it starts gets its own process group and is stopped with SIGINT, then SIGKILL;
 Fast DDS shared-memory segments that a killed process left behind are removed.
@@ -29,8 +34,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import fcntl
+import inspect
 import json
+import math
 import os
 import platform
 import signal
@@ -560,6 +568,254 @@ def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> float 
     return events_rate
 
 
+# -- 5. schemes (ROS-free core) -----------------------------------------------------------
+SHEAR_STORIES = 200
+SHEAR_STEPS = 200
+SHEAR_MASS = 1.0e5  # kg per floor
+SHEAR_STIFFNESS = 2.5e9  # N/m per story: T1 = 5.07 s, omega_max = 316.2 rad/s
+SHEAR_DAMPING = 0.05  # Rayleigh, modes 1 and 2
+SHEAR_DT_FRACTION = 0.9  # dt = 0.9 * smallest finite stability limit / omega_max
+ELCENTRO = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / \
+    'elcentro_1940_ns_chopra.csv'
+
+
+@dataclass
+class SchemeRow:
+    """One scheme's figures: (a) the default SDOF test, (b) the 200-DOF shear building."""
+
+    scheme: str
+    iterations: int | None = None
+    sdof_rate: float | None = None
+    mdof_rate: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class SchemeBench:
+    """The scheme section: its rows and what was run."""
+
+    rows: list[SchemeRow] = field(default_factory=list)
+    sdof: str = ''
+    mdof: str = ''
+
+
+def select_schemes(text: str | None) -> list[str]:
+    """Registered schemes named in ``a,b`` (all for None or 'all', none for 'none').
+
+    Raises:
+        ValueError: an unknown scheme name.
+    """
+    from pd_integrator.core.schemes import SCHEMES
+
+    if text is None or text.strip() == 'all':
+        return list(SCHEMES)
+    if text.strip() == 'none':
+        return []
+    names = [name.strip() for name in text.split(',') if name.strip()]
+    unknown = [name for name in names if name not in SCHEMES]
+    if unknown:
+        msg = f'unknown scheme {unknown[0]!r}; registered: {", ".join(SCHEMES)}'
+        raise ValueError(msg)
+    return names
+
+
+def required_parameters(scheme: str) -> list[str]:
+    """Keyword-only constructor parameters of a scheme that have no default."""
+    from pd_integrator.core.schemes import SCHEMES
+
+    signature = inspect.signature(SCHEMES[scheme].__init__)
+    return [p.name for p in signature.parameters.values()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY and p.default is inspect.Parameter.empty]
+
+
+def defaults_rejected(scheme: str, definition: Any) -> str:
+    """Why a scheme cannot run the test with its default parameters ('' if it can)."""
+    from pd_integrator.core.schemes import make_integrator
+
+    structure = definition.structure()
+    try:
+        make_integrator(scheme, mass=structure.mass, damping=structure.damping,
+                        dt=definition.dt, initial_stiffness=structure.initial_stiffness)
+    except Exception as err:  # noqa: BLE001 - reported, not raised
+        text = ' '.join(str(err).split())
+        return text if len(text) <= 90 else text[:87] + '...'
+    return ''
+
+
+def session_loop(definition: Any) -> tuple[float, int]:
+    """One run of ``TestSession`` + ``SpecimenServer`` (no bag): (loop seconds, commands).
+
+    Setup (specimen, session: factorisations, stability check) is not timed. Every command is
+    answered with its own iteration (the implicit schemes send several per step).
+
+    Raises:
+        RuntimeError: the session stopped before the last step.
+    """
+    from pd_integrator.core.messages import Feedback, FeedbackStatus, TestState
+    from pd_integrator.core.session import TestSession
+    from pd_specimen_sim.core import SpecimenServer, specimen_from_config
+
+    specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
+                                    source=definition.source, dof_names=definition.dof_names)
+    server = SpecimenServer(specimen)
+    session = TestSession(definition)
+    commands = 0
+    start = time.perf_counter()
+    while (command := session.next_command()) is not None:
+        answer = server.handle(command.test_id, command.step, command.target_displacement,
+                               iteration=command.iteration)
+        if answer is None:
+            break
+        commands += 1
+        session.on_feedback(Feedback(
+            test_id=answer.test_id, step=answer.step, iteration=answer.iteration,
+            measured_displacement=answer.displacement, restoring_force=answer.force,
+            status=FeedbackStatus(answer.status), message=answer.message))
+    elapsed = time.perf_counter() - start
+    if session.state is not TestState.FINISHED:
+        msg = f'stopped at step {session.committed_step}: {session.message}'
+        raise RuntimeError(msg)
+    return elapsed, commands
+
+
+def shear_building_definition() -> tuple[Any, float, float, float]:
+    """The 200-DOF linear shear building test: (definition, dt, omega_max, limit used).
+
+    dt is ``SHEAR_DT_FRACTION`` times the smallest finite stability limit of the registered
+    schemes (default parameters) over omega_max, rounded down to 2 significant digits.
+    """
+    import numpy as np
+    import scipy.linalg
+    from pd_integrator.core.config import from_dict
+    from pd_integrator.core.schemes import SCHEMES
+
+    n = SHEAR_STORIES
+    k = SHEAR_STIFFNESS
+    stiffness = np.zeros((n, n))
+    for i in range(n):  # story i between floor i-1 (ground for i = 0) and floor i
+        stiffness[i, i] += k
+        if i + 1 < n:
+            stiffness[i, i] += k
+            stiffness[i, i + 1] = stiffness[i + 1, i] = -k
+    omega_max = math.sqrt(float(scipy.linalg.eigh(
+        stiffness, np.eye(n) * SHEAR_MASS, eigvals_only=True, subset_by_index=(n - 1, n - 1))[0]))
+    limits = []
+    for cls in SCHEMES.values():
+        with contextlib.suppress(Exception):
+            limits.append(float(cls.stability_limit_for()))
+    limit = min((value for value in limits if math.isfinite(value)), default=2.0)
+    raw_dt = SHEAR_DT_FRACTION * limit / omega_max
+    scale = 10.0 ** (math.floor(math.log10(raw_dt)) - 1)
+    dt = math.floor(raw_dt / scale) * scale
+    names = [f'f{i + 1}' for i in range(n)]
+    raw = {
+        'test': {'id': 'bench-shear-200', 'scheme': 'newmark_explicit', 'dt': dt,
+                 'duration': SHEAR_STEPS * dt},
+        'structure': {'dof_names': names, 'mass': [SHEAR_MASS] * n,
+                      'damping': {'ratio': SHEAR_DAMPING},
+                      'initial_stiffness': stiffness.tolist(), 'influence': [1.0] * n},
+        'ground_motion': {'file': str(ELCENTRO), 'units': 'g'},
+        'specimen': {'topology': 'shear_building',
+                     'elements': [{'model': 'elastic', 'stiffness': k}] * n},
+    }
+    definition = from_dict(raw, source='bench 200-DOF shear building', base_dir=REPO)
+    return definition, dt, omega_max, limit
+
+
+def _best_rate(definition: Any, repeats: int) -> tuple[float, int]:
+    """Best steps/s over ``repeats`` session loops, and the commands per run."""
+    times: list[float] = []
+    commands = 0
+    for _ in range(repeats):
+        elapsed, commands = session_loop(definition)
+        times.append(elapsed)
+    return definition.n_steps / min(times), commands
+
+
+def bench_schemes(schemes: list[str], overrides: dict[str, Any], verbose: bool) -> SchemeBench:
+    """Section 5: per scheme, steps/s of the ROS-free core for the SDOF and the 200-DOF test."""
+    from pd_integrator.core.config import load_test_file
+
+    result = SchemeBench()
+    if not schemes:
+        return result
+    sdof = load_test_file(DEFAULT_TEST, overrides)
+    result.sdof = (f'(a) default SDOF test ({DEFAULT_TEST.name}): {sdof.n_steps} steps of '
+                   f'{sdof.dt:g} s, bilinear pushover specimen')
+    try:
+        mdof, dt, omega_max, limit = shear_building_definition()
+    except Exception as err:  # noqa: BLE001 - a benchmark reports, it does not stop
+        mdof = None
+        result.mdof = f'(b) 200-DOF shear building: FAILED to set up: {err}'
+    else:
+        result.mdof = (
+            f'(b) {SHEAR_STORIES}-DOF linear shear building: {SHEAR_MASS:g} kg/floor, '
+            f'{SHEAR_STIFFNESS:g} N/m/story (elastic), {SHEAR_DAMPING:.0%} Rayleigh (modes 1, 2), '
+            f'El Centro; {mdof.n_steps} steps of dt = {dt:g} s = {SHEAR_DT_FRACTION:g} x '
+            f'{limit:.4g} / omega_max (omega_max = {omega_max:.1f} rad/s, '
+            f'omega_max*dt = {omega_max * dt:.3f})')
+    for scheme in schemes:
+        row = SchemeRow(scheme)
+        result.rows.append(row)
+        missing = required_parameters(scheme)
+        if missing:
+            row.notes.append(f'skipped: needs {", ".join(missing)} (no default)')
+            continue
+        rejected = defaults_rejected(scheme, sdof)
+        if rejected:
+            row.notes.append(f'skipped: its default parameters are rejected here: {rejected}')
+            continue
+        for label, definition in (('a', sdof), ('b', mdof)):
+            if definition is None:
+                continue
+            try:
+                rate, commands = _best_rate(dataclasses.replace(
+                    definition, scheme=scheme, scheme_parameters={},
+                    test_id=f'{definition.test_id}-{scheme}'[:64]), REPEATS)
+            except Exception as err:  # noqa: BLE001 - e.g. unstable, or a scheme error
+                text = ' '.join(str(err).split())
+                row.notes.append(f'({label}) FAILED: {text[:90]}')
+                continue
+            row.iterations = round(commands / definition.n_steps) if definition.n_steps else None
+            if label == 'a':
+                row.sdof_rate = rate
+            else:
+                row.mdof_rate = rate
+        if verbose:
+            print(f'  {scheme}: (a) {_fmt_steps(row.sdof_rate)} (b) {_fmt_steps(row.mdof_rate)}'
+                  f' {"; ".join(row.notes)}', file=sys.stderr, flush=True)
+    return result
+
+
+def _fmt_steps(rate: float | None) -> str:
+    return '-' if rate is None else f'{rate:,.0f}'
+
+
+def _fmt_us(rate: float | None) -> str:
+    return '-' if not rate else f'{1e6 / rate:,.0f}'
+
+
+def render_schemes(bench: SchemeBench) -> str:
+    """Section 5 as aligned plain text."""
+    header = ('scheme', 'cmds/step', '(a) SDOF steps/s', 'us/step', '(b) 200-DOF steps/s',
+              'us/step', 'notes')
+    cells = [header] + [(row.scheme, '-' if row.iterations is None else str(row.iterations),
+                         _fmt_steps(row.sdof_rate), _fmt_us(row.sdof_rate),
+                         _fmt_steps(row.mdof_rate), _fmt_us(row.mdof_rate),
+                         '; '.join(row.notes)) for row in bench.rows]
+    widths = [max(len(cell[i]) for cell in cells) for i in range(len(header) - 1)]
+    lines = [f'5 schemes: ROS-free core, TestSession + SpecimenServer (no bag), best of '
+             f'{REPEATS}; setup (factorisations, stability check) not timed', bench.sdof,
+             bench.mdof, '']
+    for index, cell in enumerate(cells):
+        parts = [cell[0].ljust(widths[0])] + [cell[i].rjust(widths[i])
+                                               for i in range(1, len(header) - 1)] + [cell[-1]]
+        lines.append('  '.join(parts).rstrip())
+        if index == 0:
+            lines.append('-' * len(lines[-1]))
+    return '\n'.join(lines)
+
+
 # -- main -----------------------------------------------------------------------------------
 def machine_header(domain_id: int) -> str:
     """Date, machine, Python and ROS versions."""
@@ -602,6 +858,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         '--quick)')
     parser.add_argument('--verbose', '-v', action='store_true',
                         help='print each figure as soon as it is measured')
+    parser.add_argument('--schemes', default=None, metavar='A,B|all|none',
+                        help='schemes of section 5 (per-scheme core steps/s), comma-separated '
+                        '(default: all registered; none: skip the section)')
     args = parser.parse_args(argv)
     if not 0 <= args.domain_id <= 232:
         parser.error('--domain-id: expected 0..232')
@@ -657,6 +916,11 @@ def main(argv: list[str] | None = None) -> int:
     from pd_integrator.core.config import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
+    try:
+        schemes = select_schemes(args.schemes)
+    except ValueError as err:
+        print(f'bench_loop: error: --schemes: {err}', file=sys.stderr)
+        return 2
     print(machine_header(args.domain_id))
     print(f'test: {definition.test_id} ({DEFAULT_TEST.name}), {definition.n_steps} steps of '
           f'{definition.dt} s, {definition.scheme}{" [--quick]" if args.quick else ""}')
@@ -666,6 +930,7 @@ def main(argv: list[str] | None = None) -> int:
     shm_before = shm_snapshot()
     rates: dict[str, float | None] = {}
     floor: float | None = None
+    scheme_bench: SchemeBench | None = None
     interrupted = False
     try:
         with _workdir() as work:
@@ -678,6 +943,9 @@ def main(argv: list[str] | None = None) -> int:
                                                   work, timeout, graph_runs))
             floor = _timed('ping-pong', args.verbose, table,
                            lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
+            if schemes:
+                scheme_bench = _timed('schemes', args.verbose, table,
+                                      lambda: bench_schemes(schemes, overrides, args.verbose))
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -695,6 +963,9 @@ def main(argv: list[str] | None = None) -> int:
     if interrupted:
         table.add(Row('-', 'INTERRUPTED', note='the figures above are all that was measured'))
     print(render(table))
+    if scheme_bench is not None:
+        print()
+        print(render_schemes(scheme_bench))
     print(f'\n(benchmark wall time {time.perf_counter() - started:.0f} s)')
     return 130 if interrupted else 0
 

@@ -14,6 +14,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/config/study_ch5', glob('config/study_ch5/*.yaml')),
         ('share/' + PACKAGE + '/data/ground_motions', glob('data/ground_motions/*')),
     ],
     install_requires=['setuptools'],
@@ -28,6 +29,9 @@ setup(
             'run_test = pd_integrator.launcher:main',
             'offline = pd_integrator.offline:main',
             'replay = pd_integrator.replay:main',
+            'analyze = pd_integrator.analyze:main',
+            'study_ch5 = pd_integrator.study_ch5:main',
+            'study_errors = pd_integrator.study_errors:main',
         ],
     },
 )
