@@ -21,7 +21,13 @@ import numpy as np
 import scipy.linalg
 
 from .errors import ConfigError
-from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+from .schemes import (
+    ArrayIntegrator,
+    Factorization,
+    _newmark_amplification,
+    _unit_sdof,
+    amplification_from,
+)
 
 __all__ = ['ExplicitGeneralizedAlpha', 'ModifiedNewmark']
 
@@ -83,6 +89,7 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
     stability_limit: float = 2.0
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = 'rho_b'
+    _PARAMETER_RANGES = {'rho_b': (0.0, 1.0), 'xi': (0.0, 1.0)}
 
     def __init__(
         self,
@@ -106,7 +113,7 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._rho_b = check_parameter(rho_b, 'rho_b', 0.0, 1.0)
+        self._rho_b = self._check('rho_b', rho_b)
         self._alpha_m, self._beta, self._gamma = self.coefficients(self._rho_b)
         super().__init__(mass, damping, dt, initial_stiffness)
         xi_max = self._max_damping_ratio()
@@ -149,8 +156,8 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
         :meth:`amplification_matrix` stays ≤ 1 on ``(0, Ω]``, found by a scan and bisection;
         0 for ``ρ_b = 1`` (unstable at any ``Ω > 0``).
         """
-        rho = check_parameter(rho_b, 'rho_b', 0.0, 1.0)
-        damping = check_parameter(xi, 'xi', 0.0, 1.0)
+        rho = cls._check('rho_b', rho_b)
+        damping = cls._check('xi', xi)
         undamped = math.sqrt(12.0 * (1.0 + rho) * (2.0 - rho) / (10.0 - 5.0 * rho + rho * rho))
         if damping == 0.0:
             return undamped
@@ -181,7 +188,7 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
     @classmethod
     def bifurcation_limit(cls, rho_b: float = 1.0) -> float:
         """``Ω_b = (1 + ρ_b) √(2 − ρ_b)``, where the spectral radius is ``ρ_b``."""
-        rho = check_parameter(rho_b, 'rho_b', 0.0, 1.0)
+        rho = cls._check('rho_b', rho_b)
         return (1.0 + rho) * math.sqrt(2.0 - rho)
 
     @classmethod
@@ -189,12 +196,9 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
         cls, omega_dt: float, xi: float = 0.0, *, rho_b: float = 1.0
     ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring on ``(x, Δt·v, Δt²·a)``."""
-        alpha_m, beta, gamma = cls.coefficients(check_parameter(rho_b, 'rho_b', 0.0, 1.0))
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
-        lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], [0.0, 0.0, 1.0 - alpha_m]]
-        rhs = [[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma], [-k, -c, -alpha_m]]
-        return amplification_from(lhs, rhs)
+        alpha_m, beta, gamma = cls.coefficients(cls._check('rho_b', rho_b))
+        k, c = _unit_sdof(omega_dt, xi)
+        return _newmark_amplification(beta, gamma, [0.0, 0.0, 1.0 - alpha_m], [-k, -c, -alpha_m])
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -207,10 +211,8 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
 
     def _predict(self) -> Any:
         dt = self._dt
-        x = self._arr(self._x)
-        v = self._arr(self._v)
-        a = self._arr(self._a)
-        rhs = self._arr(self._p) - self._damping @ v - self._arr(self._r)
+        x, v, a = self._committed()
+        rhs = self._motion_rhs(self._arr(self._p), v, self._arr(self._r))
         a_new = (self._mass_factor.solve(rhs) - self._alpha_m * a) / (1.0 - self._alpha_m)
         x_new = x + dt * v + dt * dt * ((0.5 - self._beta) * a + self._beta * a_new)
         v_new = v + dt * ((1.0 - self._gamma) * a + self._gamma * a_new)
@@ -273,6 +275,7 @@ class ModifiedNewmark(ArrayIntegrator):
 
     #: Largest accepted ``α`` (``Ω_s = √2`` there).
     ALPHA_MAX: ClassVar[float] = 0.5
+    _PARAMETER_RANGES = {'alpha': (0.0, ALPHA_MAX)}
 
     def __init__(
         self,
@@ -295,14 +298,14 @@ class ModifiedNewmark(ArrayIntegrator):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._alpha = check_parameter(alpha, 'alpha', 0.0, self.ALPHA_MAX)
+        self._alpha = self._check('alpha', alpha)
         self.stability_limit = self.stability_limit_for(alpha=self._alpha)
         super().__init__(mass, damping, dt, initial_stiffness)
 
     @classmethod
     def stability_limit_for(cls, *, alpha: float = 0.05) -> float:
         """``Ω_s = 2/√(1 + 2α)``."""
-        value = check_parameter(alpha, 'alpha', 0.0, cls.ALPHA_MAX)
+        value = cls._check('alpha', alpha)
         return 2.0 / math.sqrt(1.0 + 2.0 * value)
 
     @classmethod
@@ -310,9 +313,8 @@ class ModifiedNewmark(ArrayIntegrator):
         cls, omega_dt: float, xi: float = 0.0, *, alpha: float = 0.05
     ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring on ``(x, Δt·v, Δt²·a)``."""
-        value = check_parameter(alpha, 'alpha', 0.0, cls.ALPHA_MAX)
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
+        value = cls._check('alpha', alpha)
+        k, c = _unit_sdof(omega_dt, xi)
         w = 1.0 + value
         lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, -0.5], [w * k, w * c, 1.0]]
         rhs = [[1.0, 1.0, 0.5], [0.0, 1.0, 0.5], [value * k, value * c, 0.0]]
@@ -331,9 +333,8 @@ class ModifiedNewmark(ArrayIntegrator):
 
     def _predict(self) -> Any:
         dt = self._dt
-        return self._out(
-            self._arr(self._x) + dt * self._arr(self._v) + self._arr(self._a) * dt * dt * 0.5
-        )
+        x, v, a = self._committed()
+        return self._out(x + dt * v + a * dt * dt * 0.5)
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         alpha = self._alpha

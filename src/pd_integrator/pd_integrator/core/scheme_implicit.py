@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import ConfigError
-from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+from .schemes import ArrayIntegrator, Factorization, _newmark_amplification, _unit_sdof
 
 __all__ = ['AverageAcceleration', 'LinearAcceleration', 'NewmarkImplicit']
 
@@ -108,6 +108,9 @@ class NewmarkImplicit(ArrayIntegrator):
 
     #: ``β`` of the aliases (``None``: free parameter).
     FIXED_BETA: ClassVar[float | None] = None
+    _PARAMETER_RANGES = {
+        'beta': (0.0, 0.5, True), 'gamma': (0.5, 1.0), 'increment_reduction': (0.0, 1.0, True),
+    }
 
     def __init__(
         self,
@@ -136,12 +139,10 @@ class NewmarkImplicit(ArrayIntegrator):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._beta = check_parameter(beta, 'beta', 0.0, 0.5, low_open=True)
-        self._gamma = check_parameter(gamma, 'gamma', 0.5, 1.0)
+        self._beta = self._check('beta', beta)
+        self._gamma = self._check('gamma', gamma)
         self.iterations_per_step = _check_iterations(iterations)
-        self._reduction = check_parameter(
-            increment_reduction, 'increment_reduction', 0.0, 1.0, low_open=True
-        )
+        self._reduction = self._check('increment_reduction', increment_reduction)
         self.stability_limit = self._limit(self._beta, self._gamma)
         super().__init__(mass, damping, dt, initial_stiffness)
 
@@ -162,11 +163,8 @@ class NewmarkImplicit(ArrayIntegrator):
     ) -> float:
         """``inf`` if ``2β ≥ γ``, else ``1/√(γ/2 − β)`` (``√12`` for ``β = 1/6``)."""
         _check_iterations(iterations)
-        check_parameter(increment_reduction, 'increment_reduction', 0.0, 1.0, low_open=True)
-        return cls._limit(
-            check_parameter(beta, 'beta', 0.0, 0.5, low_open=True),
-            check_parameter(gamma, 'gamma', 0.5, 1.0),
-        )
+        cls._check('increment_reduction', increment_reduction)
+        return cls._limit(cls._check('beta', beta), cls._check('gamma', gamma))
 
     @classmethod
     def amplification_matrix(
@@ -188,11 +186,8 @@ class NewmarkImplicit(ArrayIntegrator):
 
     @staticmethod
     def _newmark_matrix(omega_dt: float, xi: float, beta: float, gamma: float) -> np.ndarray:
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
-        lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], [k, c, 1.0]]
-        rhs = [[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma], [0.0, 0.0, 0.0]]
-        return amplification_from(lhs, rhs)
+        k, c = _unit_sdof(omega_dt, xi)
+        return _newmark_amplification(beta, gamma, [k, c, 1.0], [0.0, 0.0, 0.0])
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -261,9 +256,7 @@ class NewmarkImplicit(ArrayIntegrator):
     def _predict(self) -> Any:
         if self._iteration == 0:
             dt = self._dt
-            x = self._arr(self._x)
-            v = self._arr(self._v)
-            a = self._arr(self._a)
+            x, v, a = self._committed()
             self._x_pred = x + dt * v + (0.5 - self._beta) * dt * dt * a
             self._v_pred = v + (1.0 - self._gamma) * dt * a
             self._direction = np.zeros(self._n)

@@ -32,12 +32,32 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+from .schemes import (
+    ArrayIntegrator,
+    Factorization,
+    _GeneralizedAlphaFamily,
+    _unit_sdof,
+    amplification_from,
+)
 
 __all__ = ['ChenRicles', 'KRAlpha']
 
 
-class ChenRicles(ArrayIntegrator):
+class _ModelBased(ArrayIntegrator):
+    """The predictor of the module docstring: target ``x_{n+1}``, ``v_{n+1}`` kept."""
+
+    _alpha1: np.ndarray
+    _alpha2: np.ndarray
+    _v_next: Any = None
+
+    def _predict(self) -> Any:
+        dt = self._dt
+        x, v, a = self._committed()
+        self._v_next = self._out(v + dt * (self._alpha1 @ a))
+        return self._out(x + dt * v + dt * dt * (self._alpha2 @ a))
+
+
+class ChenRicles(_ModelBased):
     """CR explicit model-based scheme (Chen & Ricles 2008).
 
     Source: C. Chen and J. M. Ricles, "Development of direct integration algorithms for
@@ -65,8 +85,7 @@ class ChenRicles(ArrayIntegrator):
     @classmethod
     def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
+        k, c = _unit_sdof(omega_dt, xi)
         alpha = 4.0 / (4.0 + 2.0 * c + k)
         lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [k, c, 1.0]]
         rhs = [[1.0, 1.0, alpha], [0.0, 1.0, alpha], [0.0, 0.0, 0.0]]
@@ -78,23 +97,16 @@ class ChenRicles(ArrayIntegrator):
             4.0 * self._mass + 2.0 * dt * self._damping + dt * dt * self._k_initial,
             '4M + 2 dt C + dt^2 K_I',
         )
-        self._alpha = 4.0 * model.solve(self._mass)
-        self._v_next: Any = None
-
-    def _predict(self) -> Any:
-        dt = self._dt
-        v = self._arr(self._v)
-        increment = self._alpha @ self._arr(self._a)
-        self._v_next = self._out(v + dt * increment)
-        return self._out(self._arr(self._x) + dt * v + dt * dt * increment)
+        self._alpha1 = self._alpha2 = 4.0 * model.solve(self._mass)
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
-        v_new = self._arr(self._v_next)
-        rhs = self._arr(load) - self._damping @ v_new - self._arr(restoring_force)
+        rhs = self._motion_rhs(
+            self._arr(load), self._arr(self._v_next), self._arr(restoring_force)
+        )
         return self._out(self._mass_factor.solve(rhs)), self._v_next
 
 
-class KRAlpha(ArrayIntegrator):
+class KRAlpha(_ModelBased, _GeneralizedAlphaFamily):
     """KR-α explicit model-based scheme (Kolay & Ricles 2014), parameter ``rho_inf``.
 
     Source: C. Kolay and J. M. Ricles, "Development of a family of unconditionally stable
@@ -120,9 +132,6 @@ class KRAlpha(ArrayIntegrator):
     """
 
     name: ClassVar[str] = 'kr_alpha'
-    stability_limit: float = math.inf
-    needs_initial_stiffness: ClassVar[bool] = True
-    numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
 
     def __init__(
         self,
@@ -145,23 +154,13 @@ class KRAlpha(ArrayIntegrator):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._rho_inf = check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
-        self._alpha_m, self._alpha_f, self._beta, self._gamma = self.coefficients(self._rho_inf)
+        self._set_rho_inf(rho_inf)
         super().__init__(mass, damping, dt, initial_stiffness)
-
-    @staticmethod
-    def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
-        """``(α_m, α_f, β, γ)`` for ``ρ∞``."""
-        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
-        alpha_f = rho_inf / (rho_inf + 1.0)
-        gamma = 0.5 - alpha_m + alpha_f
-        beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
-        return alpha_m, alpha_f, beta, gamma
 
     @classmethod
     def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
         """``inf`` (for specimens not stiffer than ``K_I``)."""
-        check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        cls._check('rho_inf', rho_inf)
         return math.inf
 
     @classmethod
@@ -169,11 +168,8 @@ class KRAlpha(ArrayIntegrator):
         cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
     ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        alpha_m, alpha_f, beta, gamma = cls.coefficients(
-            check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
-        )
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
+        alpha_m, alpha_f, beta, gamma = cls.coefficients(cls._check('rho_inf', rho_inf))
+        k, c = _unit_sdof(omega_dt, xi)
         d = 1.0 + gamma * c + beta * k
         alpha1 = 1.0 / d
         alpha2 = (0.5 + gamma) * alpha1
@@ -182,11 +178,6 @@ class KRAlpha(ArrayIntegrator):
         lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [w * k, w * c, 1.0 - alpha3]]
         rhs = [[1.0, 1.0, alpha2], [0.0, 1.0, alpha1], [-alpha_f * k, -alpha_f * c, -alpha3]]
         return amplification_from(lhs, rhs)
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``{'rho_inf': ρ∞}``."""
-        return {'rho_inf': self._rho_inf}
 
     def _setup_scheme(self) -> None:
         dt = self._dt
@@ -202,22 +193,9 @@ class KRAlpha(ArrayIntegrator):
         )
         self._m_alpha3 = m @ self._alpha3
         self._effective_mass = Factorization(m - self._m_alpha3, 'M (I - alpha3)')
-        self._v_next: Any = None
-
-    def _predict(self) -> Any:
-        dt = self._dt
-        v = self._arr(self._v)
-        a = self._arr(self._a)
-        self._v_next = self._out(v + dt * (self._alpha1 @ a))
-        return self._out(self._arr(self._x) + dt * v + dt * dt * (self._alpha2 @ a))
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
-        w = 1.0 - self._alpha_f
-        c = self._damping
-        v_new = self._arr(self._v_next)
-        rhs = (
-            w * (self._arr(load) - self._arr(restoring_force) - c @ v_new)
-            + self._alpha_f * (self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v))
-            - self._m_alpha3 @ self._arr(self._a)
-        )
+        rhs = self._weighted_rhs(
+            self._alpha_f, load, self._arr(restoring_force), self._arr(self._v_next)
+        ) - self._m_alpha3 @ self._arr(self._a)
         return self._out(self._effective_mass.solve(rhs)), self._v_next

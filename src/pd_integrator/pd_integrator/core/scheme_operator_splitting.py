@@ -33,7 +33,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .schemes import ArrayIntegrator, Factorization, amplification_from, check_parameter
+from .schemes import (
+    ArrayIntegrator,
+    Factorization,
+    _GeneralizedAlphaFamily,
+    _newmark_amplification,
+    _unit_sdof,
+)
 
 __all__ = ['AlphaOS', 'GeneralizedAlphaOS']
 
@@ -65,23 +71,17 @@ class _OperatorSplitting(ArrayIntegrator):
 
     def _predict(self) -> Any:
         dt = self._dt
-        x = self._arr(self._x)
-        v = self._arr(self._v)
-        a = self._arr(self._a)
+        x, v, a = self._committed()
         self._v_predictor = v + dt * (1.0 - self._gamma) * a
         return self._out(x + dt * v + dt * dt * (0.5 - self._beta) * a)
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         dt = self._dt
-        c = self._damping
         x_pred = self._arr(self._xt)
         v_pred = self._v_predictor
         assert v_pred is not None
         r_meas = self._arr(restoring_force)
-        weight = 1.0 - self._alpha_f
-        rhs = weight * (self._arr(load) - r_meas - c @ v_pred) + self._alpha_f * (
-            self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
-        )
+        rhs = self._weighted_rhs(self._alpha_f, load, r_meas, v_pred)
         if self._alpha_m != 0.0:
             rhs = rhs - self._alpha_m * (self._mass @ self._arr(self._a))
         a_new = self._effective.solve(rhs)
@@ -94,16 +94,11 @@ class _OperatorSplitting(ArrayIntegrator):
     def _generalized_matrix(
         omega_dt: float, xi: float, alpha_m: float, alpha_f: float, beta: float, gamma: float
     ) -> np.ndarray:
-        k = float(omega_dt) ** 2
-        c = 2.0 * float(xi) * float(omega_dt)
+        k, c = _unit_sdof(omega_dt, xi)
         w = 1.0 - alpha_f
-        lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], [w * k, w * c, 1.0 - alpha_m]]
-        rhs = [
-            [1.0, 1.0, 0.5 - beta],
-            [0.0, 1.0, 1.0 - gamma],
-            [-alpha_f * k, -alpha_f * c, -alpha_m],
-        ]
-        return amplification_from(lhs, rhs)
+        return _newmark_amplification(
+            beta, gamma, [w * k, w * c, 1.0 - alpha_m], [-alpha_f * k, -alpha_f * c, -alpha_m]
+        )
 
 
 class AlphaOS(_OperatorSplitting):
@@ -138,6 +133,7 @@ class AlphaOS(_OperatorSplitting):
 
     name: ClassVar[str] = 'alpha_os'
     numerical_damping_parameter: ClassVar[str | None] = 'alpha'
+    _PARAMETER_RANGES = {'alpha': (-1.0 / 3.0, 0.0)}
 
     def __init__(
         self,
@@ -161,7 +157,7 @@ class AlphaOS(_OperatorSplitting):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._alpha = check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        self._alpha = self._check('alpha', alpha)
         self._alpha_m = 0.0
         self._alpha_f = -self._alpha
         self._beta, self._gamma = self.newmark_parameters(self._alpha)
@@ -185,7 +181,7 @@ class AlphaOS(_OperatorSplitting):
     @classmethod
     def stability_limit_for(cls, *, alpha: float = -0.05) -> float:
         """``inf`` (for specimens not stiffer than ``K_I``)."""
-        check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        cls._check('alpha', alpha)
         return math.inf
 
     @classmethod
@@ -193,7 +189,7 @@ class AlphaOS(_OperatorSplitting):
         cls, omega_dt: float, xi: float = 0.0, *, alpha: float = -0.05
     ) -> np.ndarray:
         """HHT-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        value = check_parameter(alpha, 'alpha', -1.0 / 3.0, 0.0)
+        value = cls._check('alpha', alpha)
         beta, gamma = cls.newmark_parameters(value)
         return cls._generalized_matrix(omega_dt, xi, 0.0, -value, beta, gamma)
 
@@ -203,7 +199,7 @@ class AlphaOS(_OperatorSplitting):
         return {'alpha': self._alpha}
 
 
-class GeneralizedAlphaOS(_OperatorSplitting):
+class GeneralizedAlphaOS(_OperatorSplitting, _GeneralizedAlphaFamily):
     """Generalized-α operator-splitting scheme, parameter ``rho_inf``.
 
     Sources: J. Chung and G. M. Hulbert, "A time integration algorithm for structural
@@ -226,7 +222,6 @@ class GeneralizedAlphaOS(_OperatorSplitting):
     """
 
     name: ClassVar[str] = 'generalized_alpha_os'
-    numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
 
     def __init__(
         self,
@@ -249,23 +244,13 @@ class GeneralizedAlphaOS(_OperatorSplitting):
         Raises:
             ConfigError: On invalid input (the message names the parameter).
         """
-        self._rho_inf = check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
-        self._alpha_m, self._alpha_f, self._beta, self._gamma = self.coefficients(self._rho_inf)
+        self._set_rho_inf(rho_inf)
         super().__init__(mass, damping, dt, initial_stiffness)
-
-    @staticmethod
-    def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
-        """``(α_m, α_f, β, γ)`` of the generalized-α method for ``ρ∞``."""
-        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
-        alpha_f = rho_inf / (rho_inf + 1.0)
-        gamma = 0.5 - alpha_m + alpha_f
-        beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
-        return alpha_m, alpha_f, beta, gamma
 
     @classmethod
     def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
         """``inf`` (for specimens not stiffer than ``K_I``)."""
-        check_parameter(rho_inf, 'rho_inf', 0.0, 1.0)
+        cls._check('rho_inf', rho_inf)
         return math.inf
 
     @classmethod
@@ -273,10 +258,5 @@ class GeneralizedAlphaOS(_OperatorSplitting):
         cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
     ) -> np.ndarray:
         """Generalized-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        coefficients = cls.coefficients(check_parameter(rho_inf, 'rho_inf', 0.0, 1.0))
+        coefficients = cls.coefficients(cls._check('rho_inf', rho_inf))
         return cls._generalized_matrix(omega_dt, xi, *coefficients)
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``{'rho_inf': ρ∞}``."""
-        return {'rho_inf': self._rho_inf}

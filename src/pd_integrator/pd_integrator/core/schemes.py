@@ -137,35 +137,48 @@ class Factorization:
             ConfigError: If the matrix is singular.
         """
         matrix = np.array(matrix, dtype=float)
-        self._factor: tuple[str, Any] | None = None
         if matrix.shape == (1, 1):  # an SDOF: a division (fast and exact)
             value = float(matrix[0, 0])
             if value == 0.0 or not math.isfinite(value):
                 raise ConfigError(f'{name} is singular')
-            self._factor = ('scalar', value)
+            self._factor: tuple[str, Any] = ('scalar', value)
             return
-        if np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
-            try:
-                self._factor = ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))
-            except np.linalg.LinAlgError:
-                self._factor = None
-        if self._factor is None:
-            with warnings.catch_warnings():
-                warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
-                lu = scipy.linalg.lu_factor(matrix, check_finite=False)
-            diagonal = np.abs(np.diag(lu[0]))
+        self._factor = _cholesky_or_lu(
+            matrix, bool(np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0))
+        )
+        if self._factor[0] == 'lu':
+            diagonal = np.abs(np.diag(self._factor[1][0]))
             if not np.all(diagonal > 1e-13 * max(float(np.max(diagonal)), 1e-300)):
                 raise ConfigError(f'{name} is singular')
-            self._factor = ('lu', lu)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve ``matrix · x = rhs`` (``rhs`` a vector or a matrix of columns)."""
-        kind, factor = self._factor  # type: ignore[misc]
-        if kind == 'scalar':
-            return np.asarray(rhs, dtype=float) / factor
-        if kind == 'cholesky':
-            return scipy.linalg.cho_solve(factor, rhs, check_finite=False)
-        return scipy.linalg.lu_solve(factor, rhs, check_finite=False)
+        return _solve_factored(self._factor, rhs)
+
+
+def _cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
+    """``('cholesky', …)`` if ``symmetric`` and positive definite, else ``('lu', …)``.
+
+    The LU factors are not checked for singularity: the caller does that.
+    """
+    if symmetric:
+        try:
+            return ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))
+        except np.linalg.LinAlgError:
+            pass  # not positive definite: fall back to LU
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
+        return ('lu', scipy.linalg.lu_factor(matrix, check_finite=False))
+
+
+def _solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
+    """Solve with a ``(kind, factor)`` of :class:`Factorization` or :func:`_cholesky_or_lu`."""
+    kind, value = factor
+    if kind == 'scalar':
+        return np.asarray(rhs, dtype=float) / value
+    if kind == 'cholesky':
+        return scipy.linalg.cho_solve(value, rhs, check_finite=False)
+    return scipy.linalg.lu_solve(value, rhs, check_finite=False)
 
 
 def amplification_from(lhs: Any, rhs: Any) -> np.ndarray:
@@ -176,6 +189,21 @@ def amplification_from(lhs: Any, rhs: Any) -> np.ndarray:
     ``(x, Δt·v, Δt²·a)``; this solves them.
     """
     return np.linalg.solve(np.array(lhs, dtype=float), np.array(rhs, dtype=float))
+
+
+def _unit_sdof(omega_dt: float, xi: float) -> tuple[float, float]:
+    """``(k, c) = (Ω², 2ξΩ)`` of the amplification matrices' SDOF (``m = 1``, ``Δt = 1``)."""
+    return float(omega_dt) ** 2, 2.0 * float(xi) * float(omega_dt)
+
+
+def _newmark_amplification(
+    beta: float, gamma: float, lhs_motion: list[float], rhs_motion: list[float]
+) -> np.ndarray:
+    """:func:`amplification_from` with Newmark's ``x``, ``v`` updates (``β``, ``γ``) as the
+    first two rows and the scheme's equation of motion as the third."""
+    lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], lhs_motion]
+    rhs = [[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma], rhs_motion]
+    return amplification_from(lhs, rhs)
 
 
 class Integrator(abc.ABC):
@@ -205,6 +233,10 @@ class Integrator(abc.ABC):
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = None
     iterations_per_step: int = 1
+
+    #: Accepted range of each real scheme parameter, ``name: (low, high)`` or
+    #: ``name: (low, high, low_open)`` (see :func:`check_parameter`).
+    _PARAMETER_RANGES: ClassVar[dict[str, tuple[Any, ...]]] = {}
 
     def __init__(
         self, mass: Any, damping: Any, dt: float, initial_stiffness: Any = None
@@ -330,6 +362,12 @@ class Integrator(abc.ABC):
             names = ', '.join(sorted(parameters))
             raise ConfigError(f'scheme {cls.name!r}: unknown parameter(s) {names}; it has none')
         return float(cls.stability_limit)
+
+    @classmethod
+    def _check(cls, name: str, value: Any) -> float:
+        """:func:`check_parameter` with the range of ``name`` in :attr:`_PARAMETER_RANGES`."""
+        low, high, *rest = cls._PARAMETER_RANGES[name]
+        return check_parameter(value, name, low, high, low_open=bool(rest) and rest[0])
 
     @classmethod
     def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
@@ -665,8 +703,57 @@ class ArrayIntegrator(Integrator):
         """Precompute the scheme's constants and factorisations."""
 
     def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
-        rhs = self._arr(p0) - self._damping @ self._arr(v0) - self._arr(r0)
+        rhs = self._motion_rhs(self._arr(p0), self._arr(v0), self._arr(r0))
         return self._out(self._mass_factor.solve(rhs))
+
+    def _committed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The committed ``(x, v, a)`` as arrays."""
+        return self._arr(self._x), self._arr(self._v), self._arr(self._a)
+
+    def _motion_rhs(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """``p − C v − r``, the right-hand side of ``M a = p − C v − r`` (arrays)."""
+        return p - self._damping @ v - r
+
+    def _weighted_rhs(
+        self, alpha_f: float, load: Any, r_new: np.ndarray, v_new: np.ndarray
+    ) -> np.ndarray:
+        """``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
+        generalized-α), with the committed state at ``t_n``."""
+        c = self._damping
+        return (1.0 - alpha_f) * (self._arr(load) - r_new - c @ v_new) + alpha_f * (
+            self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
+        )
+
+
+class _GeneralizedAlphaFamily(ArrayIntegrator):
+    """Common base of the schemes with Chung & Hulbert's (1993) parameters of ``rho_inf``
+    (:class:`.GeneralizedAlphaOS`, :class:`.KRAlpha`): unconditionally stable for specimens
+    not stiffer than ``K_I`` (required)."""
+
+    stability_limit: float = math.inf
+    needs_initial_stiffness: ClassVar[bool] = True
+    numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
+    _PARAMETER_RANGES = {'rho_inf': (0.0, 1.0)}
+
+    def _set_rho_inf(self, rho_inf: Any) -> None:
+        """Validate ``rho_inf`` and set ``α_m``, ``α_f``, ``β``, ``γ`` (for the constructors,
+        which keep their own signatures: :mod:`.analysis` reads them)."""
+        self._rho_inf = self._check('rho_inf', rho_inf)
+        self._alpha_m, self._alpha_f, self._beta, self._gamma = self.coefficients(self._rho_inf)
+
+    @staticmethod
+    def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
+        """``(α_m, α_f, β, γ)`` of the generalized-α method for ``ρ∞``."""
+        alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+        alpha_f = rho_inf / (rho_inf + 1.0)
+        gamma = 0.5 - alpha_m + alpha_f
+        beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
+        return alpha_m, alpha_f, beta, gamma
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """``{'rho_inf': ρ∞}``."""
+        return {'rho_inf': self._rho_inf}
 
 
 class NewmarkExplicit(Integrator):
@@ -719,28 +806,13 @@ class NewmarkExplicit(Integrator):
         c = self._damping
         self._half_dt_c_matrix = dt * 0.5 * c
         lhs = self._mass + dt * 0.5 * c
-        self._factor: tuple[str, Any] | None = None
-        if np.array_equal(c, c.T):
-            try:
-                self._factor = ('cholesky', scipy.linalg.cho_factor(lhs, check_finite=False))
-            except np.linalg.LinAlgError:
-                self._factor = None  # not positive definite: fall back to LU
-        if self._factor is None:
-            with warnings.catch_warnings():
-                warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
-                lu = scipy.linalg.lu_factor(lhs, check_finite=False)
-            if np.any(np.diag(lu[0]) == 0.0):
-                raise ConfigError('damping: M + dt/2*C is singular')
-            self._factor = ('lu', lu)
+        self._factor = _cholesky_or_lu(lhs, bool(np.array_equal(c, c.T)))
+        if self._factor[0] == 'lu' and np.any(np.diag(self._factor[1][0]) == 0.0):
+            raise ConfigError('damping: M + dt/2*C is singular')
         self._mass_factor = scipy.linalg.cho_factor(self._mass)
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
-        kind, factor = self._factor  # type: ignore[misc]
-        if kind == 'scalar':
-            return np.asarray(rhs, dtype=float) / factor
-        if kind == 'cholesky':
-            return scipy.linalg.cho_solve(factor, rhs, check_finite=False)
-        return scipy.linalg.lu_solve(factor, rhs, check_finite=False)
+        return _solve_factored(self._factor, rhs)
 
     def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
         if self._scalar:
