@@ -91,12 +91,13 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from numbers import Integral, Real
 from typing import Any, Protocol
 
 import numpy as np
 
+from .error_models import parameters_from_mapping
 from .errors import BridgeConfigError, DriverError
 
 MIN_RATE = 1000.0
@@ -247,21 +248,8 @@ class EmulatorParameters:
         Raises:
             BridgeConfigError: On a non-mapping, an unknown key or a bad value.
         """
-        if not isinstance(mapping, Mapping):
-            raise BridgeConfigError(
-                f'{source}: emulator parameters must be a mapping, got {type(mapping).__name__}'
-            )
-        known = [f.name for f in fields(cls)]
-        for key in mapping:
-            if key not in known:
-                raise BridgeConfigError(
-                    f'{source}: unknown emulator parameter {key!r} '
-                    f'(expected one of: {", ".join(sorted(known))})'
-                )
-        try:
-            return cls(**dict(mapping))
-        except BridgeConfigError as exc:
-            raise BridgeConfigError(f'{source}: {exc}') from None
+        return parameters_from_mapping(cls, mapping, source, 'emulator parameters',
+                                       'emulator parameter')
 
     @property
     def dt(self) -> float:

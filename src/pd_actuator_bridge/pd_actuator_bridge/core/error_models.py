@@ -17,9 +17,13 @@ cannot be applied exactly, and force feedback affected by the measurement and by
 * a constant force-measurement bias (N).
 
 :func:`apply_error_model` applies a model (without delay) to one step; :class:`ErrorInjector`
-keeps the state needed for the delay and a seeded generator. The same model serves the specimen
-simulator (wrapping a specimen's ``restoring_force``) and the emulator's ramp-and-hold executor
-(which drives the erroneous target and corrupts the averaged measurement).
+keeps the state needed for the delay and a seeded generator. The model and its application are
+implemented once, in :mod:`pd_specimen_sim.core.errors_model` (the bridge depends on
+``pd_specimen_sim``, not the other way round): the specimen simulator uses them directly
+(wrapping a specimen's ``restoring_force``); :class:`ErrorModel` and :class:`ErrorInjector` here
+are thin subclasses that add the bridge's exceptions (:class:`~.errors.BridgeConfigError`,
+:class:`~.errors.DriverError`) and input checks, for the emulator's ramp-and-hold executor (which
+drives the erroneous target and corrupts the averaged measurement).
 
 Monitors. :func:`tracking_error` is the history of ``measured - command``.
 :func:`tracking_indicator` is the tracking indicator proposed by Mercan and Ricles ("Stability and
@@ -42,23 +46,66 @@ damping). For ``x_c = a sin(w t)`` and ``x_m = a sin(w t - phi)`` one cycle give
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from numbers import Integral, Real
-from typing import Any
+from numbers import Integral
+from typing import Any, TypeVar
 
 import numpy as np
+from pd_specimen_sim.core import errors_model as _shared
+from pd_specimen_sim.core.errors_model import (
+    ErroneousStep,
+    RestoringForce,
+    systematic_displacement,
+)
 
 from .errors import BridgeConfigError, DriverError
 
-RestoringForce = Callable[[np.ndarray], Sequence[float]]
-"""``r(x)``: displacement per DOF (m) to restoring force per DOF (N)."""
+_P = TypeVar('_P')
 
 
-@dataclass(frozen=True)
-class ErrorModel:
+def parameters_from_mapping(
+    cls: type[_P], mapping: Mapping[str, Any], source: str, what: str, item: str
+) -> _P:
+    """Build a parameter dataclass from a mapping (a parsed YAML section or ROS parameters).
+
+    Shared by :meth:`ErrorModel.from_mapping` and ``EmulatorParameters.from_mapping``.
+
+    Args:
+        cls: The dataclass; it raises :class:`~.errors.BridgeConfigError` on a bad value.
+        mapping: Any subset of the field names; missing ones keep their defaults.
+        source: Name of the file or parameter namespace, used in error messages.
+        what: Name of the whole mapping in error messages (``'error model'``).
+        item: Name of one key in error messages (``'error model parameter'``).
+
+    Returns:
+        The validated instance.
+
+    Raises:
+        BridgeConfigError: On a non-mapping, an unknown key or a bad value.
+    """
+    if not isinstance(mapping, Mapping):
+        raise BridgeConfigError(
+            f'{source}: {what} must be a mapping, got {type(mapping).__name__}'
+        )
+    known = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+    for key in mapping:
+        if key not in known:
+            raise BridgeConfigError(
+                f'{source}: unknown {item} {key!r} '
+                f'(expected one of: {", ".join(sorted(known))})'
+            )
+    try:
+        return cls(**dict(mapping))
+    except BridgeConfigError as exc:
+        raise BridgeConfigError(f'{source}: {exc}') from None
+
+
+class ErrorModel(_shared.ErrorModel):
     """Experimental errors injected into each step (the same for every DOF).
+
+    :class:`pd_specimen_sim.core.errors_model.ErrorModel` (the same attributes, validation and
+    meaning), raising :class:`~.errors.BridgeConfigError`.
 
     Attributes:
         systematic: Displacement error as a fraction of the increment: ``-0.05`` is a 5 %
@@ -73,34 +120,9 @@ class ErrorModel:
         BridgeConfigError: One line naming the parameter, if a value is invalid.
     """
 
-    systematic: float = 0.0
-    delay_steps: int = 0
-    displacement_noise: float = 0.0
-    force_noise: float = 0.0
-    force_bias: float = 0.0
-    seed: int | None = None
-
-    def __post_init__(self) -> None:
-        """Validate and normalise the values."""
-        where = 'ErrorModel'
-        systematic = _real(self.systematic, 'systematic', where)
-        if not -1.0 < systematic <= 1.0:
-            raise BridgeConfigError(
-                f'{where}: systematic must be in (-1, 1] (a fraction of the increment), '
-                f'got {self.systematic!r}'
-            )
-        object.__setattr__(self, 'systematic', systematic)
-        for name in ('displacement_noise', 'force_noise'):
-            value = _real(getattr(self, name), name, where)
-            if value < 0.0:
-                raise BridgeConfigError(
-                    f'{where}: {name} must be a non-negative finite number, got {value!r}'
-                )
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, 'force_bias', _real(self.force_bias, 'force_bias', where))
-        object.__setattr__(self, 'delay_steps', _count(self.delay_steps, 'delay_steps', where))
-        if self.seed is not None:
-            object.__setattr__(self, 'seed', _count(self.seed, 'seed', where))
+    @classmethod
+    def _invalid(cls, name: str, problem: str) -> Exception:
+        return BridgeConfigError(f'ErrorModel: {name} {problem}')
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any], source: str = 'errors') -> ErrorModel:
@@ -116,64 +138,8 @@ class ErrorModel:
         Raises:
             BridgeConfigError: On a non-mapping, an unknown key or a bad value.
         """
-        if not isinstance(mapping, Mapping):
-            raise BridgeConfigError(
-                f'{source}: error model must be a mapping, got {type(mapping).__name__}'
-            )
-        known = [f.name for f in fields(cls)]
-        for key in mapping:
-            if key not in known:
-                raise BridgeConfigError(
-                    f'{source}: unknown error model parameter {key!r} '
-                    f'(expected one of: {", ".join(sorted(known))})'
-                )
-        try:
-            return cls(**dict(mapping))
-        except BridgeConfigError as exc:
-            raise BridgeConfigError(f'{source}: {exc}') from None
-
-    @property
-    def is_ideal(self) -> bool:
-        """Whether the model injects no error at all."""
-        return (
-            self.systematic == 0.0
-            and self.delay_steps == 0
-            and self.displacement_noise == 0.0
-            and self.force_noise == 0.0
-            and self.force_bias == 0.0
-        )
-
-
-@dataclass(frozen=True)
-class ErroneousStep:
-    """One step with its injected errors (one value per DOF in every array).
-
-    Attributes:
-        target: Ideal (commanded) displacement, m.
-        imposed: Displacement actually imposed on the specimen (delay, systematic error), m.
-        true_force: Restoring force at the imposed displacement, N.
-        displacement: Measured displacement (imposed plus noise), m.
-        force: Measured force (true force plus bias and noise), N.
-    """
-
-    target: np.ndarray
-    imposed: np.ndarray
-    true_force: np.ndarray
-    displacement: np.ndarray
-    force: np.ndarray
-
-
-def systematic_displacement(
-    target: np.ndarray, current: np.ndarray, systematic: float
-) -> np.ndarray:
-    """Displacement reached with a systematic error: ``target + systematic * (target - current)``.
-
-    Args:
-        target: Commanded displacement per DOF, m.
-        current: Displacement before the step per DOF, m.
-        systematic: Fraction of the increment (negative: undershoot).
-    """
-    return target + systematic * (target - current)
+        return parameters_from_mapping(cls, mapping, source, 'error model',
+                                       'error model parameter')
 
 
 def apply_error_model(
@@ -210,20 +176,21 @@ def apply_error_model(
     imposed = systematic_displacement(x_t, x_c, model.systematic)
     force = _vector(restoring_force(imposed.copy()), 'restoring force', x_t.size)
     generator = np.random.default_rng(model.seed) if rng is None else rng
-    displacement, measured = _measure(model, imposed, force, generator)
+    displacement, measured = _shared.measure(model, imposed, force, generator)
     return ErroneousStep(x_t, imposed, force, displacement, measured)
 
 
-class ErrorInjector:
+class ErrorInjector(_shared.ErrorInjector):
     """Applies an :class:`ErrorModel` step after step (keeps the delay line and the generator).
 
-    The actuator's current position is the displacement imposed at the previous step (or the
+    :class:`pd_specimen_sim.core.errors_model.ErrorInjector` with the bridge's input checks:
+    the actuator's current position is the displacement imposed at the previous step (or the
     initial position), unless :meth:`impose` is given one explicitly.
     """
 
     def __init__(
         self,
-        model: ErrorModel,
+        model: _shared.ErrorModel,
         n_dof: int = 1,
         initial_position: Sequence[float] | None = None,
     ) -> None:
@@ -237,7 +204,7 @@ class ErrorInjector:
         Raises:
             BridgeConfigError: On a bad model, ``n_dof`` or ``initial_position``.
         """
-        if not isinstance(model, ErrorModel):
+        if not isinstance(model, _shared.ErrorModel):
             raise BridgeConfigError(
                 f'ErrorInjector: model must be an ErrorModel, got {type(model).__name__}'
             )
@@ -245,27 +212,16 @@ class ErrorInjector:
             raise BridgeConfigError(
                 f'ErrorInjector: n_dof must be a positive integer, got {n_dof!r}'
             )
-        self._model = model
         self._n = int(n_dof)
         try:
-            self.reset(initial_position)
+            super().__init__(model, self._start(initial_position))
         except DriverError as exc:
             raise BridgeConfigError(str(exc)) from None
 
-    @property
-    def model(self) -> ErrorModel:
-        """The error model."""
-        return self._model
-
-    @property
-    def n_dof(self) -> int:
-        """Number of DOF."""
-        return self._n
-
-    @property
-    def current(self) -> np.ndarray:
-        """The actuator's current position (the last imposed displacement), m."""
-        return self._current.copy()
+    def _start(self, position: Sequence[float] | None) -> np.ndarray:
+        if position is None:
+            return np.zeros(self._n)
+        return _vector(position, 'ErrorInjector: position', self._n)
 
     def reset(self, position: Sequence[float] | None = None) -> None:
         """Restart: empty the delay line at ``position`` and re-seed the generator.
@@ -273,13 +229,7 @@ class ErrorInjector:
         Args:
             position: Position per DOF, m; zeros if omitted.
         """
-        if position is None:
-            start = np.zeros(self._n)
-        else:
-            start = _vector(position, 'ErrorInjector: position', self._n)
-        self._current = start
-        self._pending = [start.copy() for _ in range(self._model.delay_steps)]
-        self._rng = np.random.default_rng(self._model.seed)
+        super().reset(self._start(position))
 
     def impose(
         self, target: Sequence[float] | np.ndarray, current: Sequence[float] | None = None
@@ -300,13 +250,8 @@ class ErrorInjector:
             DriverError: On a malformed or non-finite value.
         """
         x_t = _vector(target, 'target', self._n)
-        x_c = self._current if current is None else _vector(current, 'current', self._n)
-        if self._model.delay_steps:
-            self._pending.append(x_t)
-            x_t = self._pending.pop(0)
-        imposed = systematic_displacement(x_t, x_c, self._model.systematic)
-        self._current = imposed.copy()
-        return imposed
+        x_c = None if current is None else _vector(current, 'current', self._n)
+        return super().impose(x_t, x_c)
 
     def measure(
         self, displacement: Sequence[float] | np.ndarray, force: Sequence[float] | np.ndarray
@@ -325,7 +270,7 @@ class ErrorInjector:
         """
         x = _vector(displacement, 'displacement', self._n)
         f = _vector(force, 'force', self._n)
-        return _measure(self._model, x, f, self._rng)
+        return super().measure(x, f)
 
     def apply(
         self, target: Sequence[float] | np.ndarray, restoring_force: RestoringForce
@@ -342,18 +287,8 @@ class ErrorInjector:
         x_t = _vector(target, 'target', self._n)
         imposed = self.impose(x_t)
         force = _vector(restoring_force(imposed.copy()), 'restoring force', self._n)
-        displacement, measured = _measure(self._model, imposed, force, self._rng)
+        displacement, measured = super().measure(imposed, force)
         return ErroneousStep(x_t, imposed, force, displacement, measured)
-
-
-def _measure(
-    model: ErrorModel, x: np.ndarray, f: np.ndarray, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
-    """Add noise (always drawn, so that the sequence does not depend on the stds) and bias."""
-    noise = rng.standard_normal(2 * x.size)
-    displacement = x + model.displacement_noise * noise[: x.size]
-    force = f + model.force_bias + model.force_noise * noise[x.size:]
-    return displacement, force
 
 
 # ---------------------------------------------------------------------- monitors
@@ -543,14 +478,3 @@ def _vector(values: Any, what: str, n: int | None) -> np.ndarray:
         raise DriverError(f'non-finite {what}: {vector.tolist()}')
     return vector
 
-
-def _real(value: Any, name: str, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise BridgeConfigError(f'{where}: {name} must be a finite number, got {value!r}')
-    return float(value)
-
-
-def _count(value: Any, name: str, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, Integral) or int(value) < 0:
-        raise BridgeConfigError(f'{where}: {name} must be an integer >= 0, got {value!r}')
-    return int(value)

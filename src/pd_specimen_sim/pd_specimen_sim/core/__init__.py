@@ -6,6 +6,7 @@ from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_
                        load_opensees_pushover)
 from .config import specimen_from_config
 from .errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
+from .errors_model import ErroneousStep, ErrorInjector, ErrorModel
 from .hysteresis import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic, HysteresisModel,
                          PushoverHysteresis)
 from .server import Answer, SpecimenServer
@@ -19,6 +20,9 @@ __all__ = [
     'BilinearKinematic',
     'Elastic',
     'ElasticPerfectlyPlastic',
+    'ErroneousStep',
+    'ErrorInjector',
+    'ErrorModel',
     'HysteresisError',
     'HysteresisModel',
     'PushoverHysteresis',

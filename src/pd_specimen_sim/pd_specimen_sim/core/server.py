@@ -16,11 +16,10 @@ Experimental errors (thesis section 3.4.3). An optional ``errors:`` mapping in t
         force_bias: 0.0           # N, constant load-cell offset
         seed: 1                   # noise generator seed (omit: a different draw every run)
 
-The keys and their meaning are those of ``pd_actuator_bridge.core.error_models.ErrorModel``
-(the bridge's emulator driver takes the same mapping from its ``driver_config``).
-``pd_specimen_sim`` cannot import the bridge (the bridge depends on this package), so
-:class:`SimulatedErrors` implements the same model here and the test suite checks, float for
-float, that both give the same steps for the same mapping and seed. Per new step, with the
+The model is :class:`pd_specimen_sim.core.errors_model.ErrorModel` (here also named
+:data:`SimulatedErrors`), the one the bridge's emulator driver re-exports as
+``pd_actuator_bridge.core.error_models.ErrorModel`` and takes from its ``driver_config``, and
+an :class:`~pd_specimen_sim.core.errors_model.ErrorInjector` applies it. Per new step, with the
 actuator at ``x_current`` (the displacement it reached at the previous step):
 
 * ``x_imposed = x_delayed + systematic * (x_delayed - x_current)``, where ``x_delayed`` is the
@@ -40,22 +39,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .config import specimen_from_config
-from .errors import SpecimenConfigError, SpecimenError
+from .errors import SpecimenError
+from .errors_model import ERRORS_KEY, ErrorInjector, ErrorModel
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from .specimen import Specimen
 
-ERRORS_KEY = 'errors'
-"""Key of the experimental-error mapping in the ``specimen`` section."""
+SimulatedErrors = ErrorModel
+"""The experimental error model of the simulated actuator and load cell (its former name)."""
 
 STATUS_OK = 0
 STATUS_FAULT = 2
@@ -72,104 +72,6 @@ class Answer:
     status: int = STATUS_OK
     message: str = ''
     iteration: int = 0
-
-
-@dataclass(frozen=True)
-class SimulatedErrors:
-    """Experimental errors of the simulated actuator and load cell (the same for every DOF).
-
-    The keys, ranges and meaning of ``pd_actuator_bridge.core.error_models.ErrorModel``.
-
-    Attributes:
-        systematic: Displacement error as a fraction of the increment, in ``(-1, 1]``:
-            ``-0.05`` is a 5 % undershoot, ``0.05`` a 5 % overshoot.
-        delay_steps: Constant delay of the executed target, steps.
-        displacement_noise: Standard deviation of the displacement measurement noise, m.
-        force_noise: Standard deviation of the force measurement noise, N.
-        force_bias: Constant force-measurement offset, N.
-        seed: Seed of the noise generator (``None``: a different draw every run).
-
-    Raises:
-        SpecimenConfigError: One line naming the parameter, if a value is invalid.
-    """
-
-    systematic: float = 0.0
-    delay_steps: int = 0
-    displacement_noise: float = 0.0
-    force_noise: float = 0.0
-    force_bias: float = 0.0
-    seed: int | None = None
-
-    def __post_init__(self) -> None:
-        """Validate and normalise the values."""
-        systematic = _real(self.systematic, 'systematic')
-        if not -1.0 < systematic <= 1.0:
-            msg = (f'systematic: must be in (-1, 1] (a fraction of the increment), got '
-                   f'{self.systematic!r}')
-            raise SpecimenConfigError(msg)
-        object.__setattr__(self, 'systematic', systematic)
-        for name in ('displacement_noise', 'force_noise'):
-            value = _real(getattr(self, name), name)
-            if value < 0.0:
-                msg = f'{name}: must be a non-negative finite number, got {value!r}'
-                raise SpecimenConfigError(msg)
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, 'force_bias', _real(self.force_bias, 'force_bias'))
-        object.__setattr__(self, 'delay_steps', _count(self.delay_steps, 'delay_steps'))
-        if self.seed is not None:
-            object.__setattr__(self, 'seed', _count(self.seed, 'seed'))
-
-    @classmethod
-    def from_mapping(cls, mapping: Any, source: str = 'test file') -> SimulatedErrors:
-        """Build the errors from the ``specimen.errors`` mapping of a test file.
-
-        Args:
-            mapping: Any subset of the attribute names; missing ones keep their defaults.
-            source: Name of the YAML file, used in error messages.
-
-        Returns:
-            The validated errors.
-
-        Raises:
-            SpecimenConfigError: ``<source>: specimen.errors...: <what is wrong>`` on a
-                non-mapping, an unknown key or a bad value.
-        """
-        where = f'{source}: specimen.{ERRORS_KEY}'
-        if not isinstance(mapping, Mapping):
-            msg = f'{where}: must be a mapping, got {type(mapping).__name__}'
-            raise SpecimenConfigError(msg)
-        known = [f.name for f in fields(cls)]
-        for key in mapping:
-            if key not in known:
-                msg = (f"{where}: unknown key '{key}' (allowed: "
-                       f"{', '.join(sorted(known))})")
-                raise SpecimenConfigError(msg)
-        try:
-            return cls(**dict(mapping))
-        except SpecimenConfigError as exc:
-            raise SpecimenConfigError(f'{where}.{exc}') from None
-
-    @property
-    def is_ideal(self) -> bool:
-        """Whether nothing is injected (every error zero)."""
-        return (self.systematic == 0.0 and self.delay_steps == 0
-                and self.displacement_noise == 0.0 and self.force_noise == 0.0
-                and self.force_bias == 0.0)
-
-
-def _real(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-            value):
-        msg = f'{name}: must be a finite number, got {value!r}'
-        raise SpecimenConfigError(msg)
-    return float(value)
-
-
-def _count(value: Any, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        msg = f'{name}: must be an integer >= 0, got {value!r}'
-        raise SpecimenConfigError(msg)
-    return int(value)
 
 
 def split_errors(section: Mapping[str, Any], source: str = 'test file'
@@ -253,18 +155,15 @@ class SpecimenServer:
         self.faults = 0
         self.errors = errors
         self._inject = errors is not None and not errors.is_ideal
-        n = specimen.n_dof
-        self._imposed = np.zeros(n)
-        delay = errors.delay_steps if errors is not None else 0
-        self._pending: list[np.ndarray] = [np.zeros(n) for _ in range(delay)]
-        self._rng = np.random.default_rng(errors.seed if errors is not None else None)
+        self._injector = (ErrorInjector(errors, np.zeros(specimen.n_dof))
+                          if errors is not None else None)
 
     @property
     def imposed(self) -> tuple[float, ...]:
         """The displacement the specimen really holds (``position`` is the measured one)."""
-        if not self._inject:
+        if not self._inject or self._injector is None:
             return self.position
-        return tuple(float(x) for x in self._imposed)
+        return tuple(float(x) for x in self._injector.current)
 
     def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0
                ) -> Answer | None:
@@ -306,26 +205,16 @@ class SpecimenServer:
     def _move_with_errors(self, test_id: str, step: int, iteration: int, target: np.ndarray
                           ) -> Answer:
         """A new step through the error model (delay, systematic error, noise, bias)."""
-        errors = self.errors
-        assert errors is not None
-        queue = [*self._pending, target]
-        delayed = queue[0]
-        imposed = delayed + errors.systematic * (delayed - self._imposed)
+        injector = self._injector
+        assert injector is not None
         try:
-            force = np.array(self.specimen.restoring_force(imposed.copy()),
-                             dtype=float).reshape(-1)
+            erroneous = injector.step(target, self.specimen.restoring_force)
         except SpecimenError as err:
             self.specimen.revert_to_last_commit()  # no motion: the delay line stays as it was
             return self._fault(test_id, step, iteration, str(err))
         self.specimen.commit()
-        self._pending = queue[1:]
-        self._imposed = imposed
-        n = imposed.size
-        noise = self._rng.standard_normal(2 * n)
-        displacement = imposed + errors.displacement_noise * noise[:n]
-        measured = force + errors.force_bias + errors.force_noise * noise[n:]
-        self.position = tuple(float(x) for x in displacement)
-        self.force = tuple(float(f) for f in measured)
+        self.position = tuple(float(x) for x in erroneous.displacement)
+        self.force = tuple(float(f) for f in erroneous.force)
         self.steps_served += 1
         return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
                       iteration=iteration)
