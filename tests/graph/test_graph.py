@@ -217,12 +217,15 @@ def test_specimen_killed_mid_test_leads_to_holding(
     statuses: list[Any] = []
     observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
     control = observer.create_publisher(String, '/pd/test_control', 10)
-    specimen = processes.start('specimen', [
-        executable('pd_specimen_sim'), '--ros-args', '-p', f'test_file:={test_file}'])
     out = tmp_path / 'run'
     integrator = processes.start('integrator', [
         executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
         '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', 'progress_interval:=0.05'])
+    # The observer must hear the integrator before the specimen appears: on a quiet machine
+    # the whole test takes about two seconds.
+    spin_until(observer, lambda: bool(statuses), RUN_TIMEOUT, 'the integrator status')
+    specimen = processes.start('specimen', [
+        executable('pd_specimen_sim'), '--ros-args', '-p', f'test_file:={test_file}'])
     spin_until(observer, lambda: any(s.step >= 100 for s in statuses), RUN_TIMEOUT,
                'the test to pass step 100')
     Processes.signal(specimen, signal.SIGKILL)
@@ -300,7 +303,8 @@ def test_bridge_lifecycle_and_latched_emergency_stop(
 
     from pd_msgs.msg import TestStatus  # noqa: PLC0415
 
-    test_file = write_test_file(tmp_path / 'life.yaml', test__duration=30.0,
+    # Long (free vibration after the record): the emergency stop must come while it runs.
+    test_file = write_test_file(tmp_path / 'life.yaml', test__duration=600.0,
                                 test__id='graph-life')
     params = write_bridge_params(tmp_path / 'bridge.yaml', autostart=False)
     statuses: list[Any] = []
