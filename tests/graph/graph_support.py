@@ -12,12 +12,14 @@ import itertools
 import os
 import signal
 import subprocess
+import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'scripts'))
+import clean_shm  # noqa: E402 - scripts/ holds the one implementation
 
 REPO = Path(__file__).resolve().parents[2]
 DOMAINS = itertools.count()
@@ -92,31 +94,12 @@ def shm_segments() -> set[str]:
     return {path.name for path in shm.glob('fastdds_*')} if shm.is_dir() else set()
 
 
-def _segments_in_use() -> set[str]:
-    """Names of /dev/shm files that some live process has mapped or open."""
-    used: set[str] = set()
-    for proc in Path('/proc').iterdir():
-        if not proc.name.isdigit():
-            continue
-        try:
-            maps = (proc / 'maps').read_text(encoding='utf-8', errors='replace')
-            used.update(line.rsplit('/', 1)[-1].split(' ')[0]
-                        for line in maps.splitlines() if '/dev/shm/' in line)
-            for fd in (proc / 'fd').iterdir():
-                target = os.readlink(fd)
-                if target.startswith('/dev/shm/'):
-                    used.add(target.rsplit('/', 1)[-1])
-        except OSError:
-            continue
-    return used
-
-
 def remove_stale_segments(before: set[str]) -> None:
     """Remove Fast DDS segments created during the test that no live process uses."""
     new = shm_segments() - before
     if not new:
         return
-    in_use = _segments_in_use()
+    in_use = clean_shm.in_use()
     for name in new - in_use:
         try:
             (Path('/dev/shm') / name).unlink()
