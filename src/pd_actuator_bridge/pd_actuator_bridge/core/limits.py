@@ -181,12 +181,10 @@ def check_command(
     Returns:
         The first violation found, or ``None`` if the command is safe.
     """
-    target_values, problem = _as_floats(target, 'target displacement')
-    if problem is not None:
-        return LimitViolation(KIND_FAULT, 0, problem)
-    current_values, problem = _as_floats(current, 'current displacement')
-    if problem is not None:
-        return LimitViolation(KIND_FAULT, 0, problem)
+    target_values, current_values, violation = _parse_pair(
+        target, 'target displacement', current, 'current displacement')
+    if violation is not None:
+        return violation
     if len(target_values) != len(current_values):
         return LimitViolation(
             KIND_FAULT,
@@ -194,9 +192,8 @@ def check_command(
             f'target displacement has {len(target_values)} values but the actuator has '
             f'{len(current_values)} DOF',
         )
-    violation = _non_finite(target_values, 'target displacement', dof_names)
-    if violation is None:
-        violation = _non_finite(current_values, 'current displacement', dof_names)
+    violation = _non_finite_pair(target_values, 'target displacement', current_values,
+                                 'current displacement', dof_names)
     if violation is not None:
         return violation
 
@@ -255,12 +252,10 @@ def check_feedback(
         ``'fault'`` for malformed, mismatched or non-finite measurements, ``'limit'`` for
         |force| > max_force, else ``None``.
     """
-    displacement_values, problem = _as_floats(displacement, 'measured displacement')
-    if problem is not None:
-        return LimitViolation(KIND_FAULT, 0, problem)
-    force_values, problem = _as_floats(force, 'measured force')
-    if problem is not None:
-        return LimitViolation(KIND_FAULT, 0, problem)
+    displacement_values, force_values, violation = _parse_pair(
+        displacement, 'measured displacement', force, 'measured force')
+    if violation is not None:
+        return violation
     expected = len(displacement_values) if n_dof is None else n_dof
     for what, values in (('measured displacement', displacement_values),
                          ('measured force', force_values)):
@@ -270,9 +265,8 @@ def check_feedback(
                 min(len(values), expected),
                 f'{what} has {len(values)} values but the actuator has {expected} DOF',
             )
-    violation = _non_finite(displacement_values, 'measured displacement', dof_names)
-    if violation is None:
-        violation = _non_finite(force_values, 'measured force', dof_names)
+    violation = _non_finite_pair(displacement_values, 'measured displacement', force_values,
+                                 'measured force', dof_names)
     if violation is not None:
         return violation
     for dof, value in enumerate(force_values):
@@ -308,11 +302,10 @@ def check_tracking(
     tolerance = limits.tracking_tolerance
     if tolerance is None:
         return None
-    measured_values, problem = _as_floats(measured, 'measured displacement')
-    if problem is None:
-        commanded_values, problem = _as_floats(commanded, 'commanded displacement')
-    if problem is not None:
-        return LimitViolation(KIND_FAULT, 0, problem)
+    measured_values, commanded_values, violation = _parse_pair(
+        measured, 'measured displacement', commanded, 'commanded displacement')
+    if violation is not None:
+        return violation
     if len(measured_values) != len(commanded_values):
         return LimitViolation(
             KIND_FAULT,
@@ -320,9 +313,8 @@ def check_tracking(
             f'measured displacement has {len(measured_values)} values but '
             f'{len(commanded_values)} were commanded',
         )
-    violation = _non_finite(measured_values, 'measured displacement', dof_names)
-    if violation is None:
-        violation = _non_finite(commanded_values, 'commanded displacement', dof_names)
+    violation = _non_finite_pair(measured_values, 'measured displacement', commanded_values,
+                                 'commanded displacement', dof_names)
     if violation is not None:
         return violation
     for dof, (x_measured, x_commanded) in enumerate(zip(measured_values, commanded_values)):
@@ -488,6 +480,27 @@ def _as_floats(values: Any, what: str) -> tuple[list[float], str | None]:
         except (TypeError, ValueError, OverflowError):
             return [], f'{what} for DOF {dof} is not a number: {value!r}'
     return result, None
+
+
+def _parse_pair(
+    first: Any, first_what: str, second: Any, second_what: str
+) -> tuple[list[float], list[float], LimitViolation | None]:
+    """Both sequences as floats, or the fault describing the first one that is malformed."""
+    first_values, problem = _as_floats(first, first_what)
+    if problem is None:
+        second_values, problem = _as_floats(second, second_what)
+    if problem is not None:
+        return [], [], LimitViolation(KIND_FAULT, 0, problem)
+    return first_values, second_values, None
+
+
+def _non_finite_pair(
+    first: Sequence[float], first_what: str, second: Sequence[float], second_what: str,
+    dof_names: Sequence[str] | None,
+) -> LimitViolation | None:
+    """The fault for the first non-finite value of ``first``, then of ``second``."""
+    violation = _non_finite(first, first_what, dof_names)
+    return violation if violation is not None else _non_finite(second, second_what, dof_names)
 
 
 def _non_finite(
