@@ -7,6 +7,18 @@ definition schema, the step protocol, the session that runs a test, bags and out
 from __future__ import annotations
 
 from .config import PARAMETER_PATHS, TestDefinition, from_dict, from_json, load_test_file
+from .elements import (
+    Condensation,
+    ModalProperties,
+    assemble,
+    beam_column_2d_stiffness,
+    modal_damping,
+    modal_properties,
+    rayleigh_coefficients,
+    rayleigh_damping,
+    spring_stiffness,
+    static_condensation,
+)
 from .errors import (
     BagError,
     ConfigError,
@@ -30,6 +42,7 @@ __all__ = [
     'SCHEMES',
     'BagError',
     'Command',
+    'Condensation',
     'ConfigError',
     'Feedback',
     'FeedbackStatus',
@@ -37,6 +50,7 @@ __all__ = [
     'GroundMotionError',
     'Integrator',
     'IntegratorError',
+    'ModalProperties',
     'NewmarkExplicit',
     'PdIntegratorError',
     'ProtocolError',
@@ -50,6 +64,8 @@ __all__ = [
     'TestSession',
     'TestState',
     'Verdict',
+    'assemble',
+    'beam_column_2d_stiffness',
     'check_stability',
     'damping_from_ratio',
     'from_dict',
@@ -57,8 +73,14 @@ __all__ = [
     'load_test_file',
     'make_integrator',
     'modal_analysis',
+    'modal_damping',
+    'modal_properties',
     'omega_max',
     'period_distortion',
+    'rayleigh_coefficients',
+    'rayleigh_damping',
     'read_ground_motion',
     'require_stable',
+    'spring_stiffness',
+    'static_condensation',
 ]
