@@ -9,6 +9,11 @@ Starts each node as its own process, exactly as ``ros2 run`` would (the executab
 * ``--site none``: only the integrator; the specimen side (e.g. the physical specimen's bridge)
   is started elsewhere.
 
+A substructured test (experimental elements at named sites) gets one bridge and one simulator
+per site, each in the site's namespace ``/pd/<site>`` (the simulator in ``/pd/<site>/specimen``
+behind the bridge); a site's ``sites.<site>.bridge`` mapping of the test file overrides bridge
+parameters (e.g. its limits) for that site only.
+
 It waits for the integrator to finish, then stops the other nodes (SIGINT, then SIGKILL) and
 prints where the run folder is. DDS discovery stays on this host unless
 ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set.
@@ -27,7 +32,7 @@ from pathlib import Path
 
 import yaml
 
-from .core.config import load_test_file
+from .core.config import TestDefinition, load_test_file
 from .core.errors import PdIntegratorError
 from .core.runner import default_run_directory
 from .core.session import TestSession
@@ -102,6 +107,44 @@ def parse_overrides(items: list[str]) -> dict[str, object]:
     return overrides
 
 
+def site_commands(definition: TestDefinition, test_file: Path, mode: str,
+                  bridge_params: Path | None) -> list[tuple[str, list[str]]]:
+    """The processes of the specimen side: per site a simulator (and its bridge)."""
+    if mode == 'none':
+        return []
+    params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+    if definition.model is None:
+        sites = [('', '/pd', list(definition.dof_names), {})]
+    else:
+        settings = definition.sites or {}
+        sites = []
+        for site in definition.model.site_names:
+            extra = settings.get(site, {}).get('bridge', {}) if isinstance(
+                settings.get(site), dict) else {}
+            if not isinstance(extra, dict):
+                msg = f'{definition.source}: sites.{site}.bridge: must be a mapping of parameters'
+                raise LaunchError(msg)
+            sites.append((site, f'/pd/{site}', list(definition.model.actuator_names(site)),
+                          extra))
+    commands: list[tuple[str, list[str]]] = []
+    for site, namespace, names, extra in sites:
+        label = f'[{site}]' if site else ''
+        specimen_ns = f'{namespace}/specimen' if mode == 'bridge' else namespace
+        simulator = [str(find_executable('pd_specimen_sim')), '--ros-args',
+                     '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file}']
+        if site:
+            simulator += ['-p', f'site:={site}', '-p', f'dof_names:={json.dumps(names)}']
+        commands.append((f'pd_specimen_sim{label}', simulator))
+        if mode == 'bridge':
+            bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
+                      '--params-file', str(params), '-r', f'__ns:={namespace}',
+                      '-p', f'dof_names:={json.dumps(names)}']
+            for name, value in extra.items():
+                bridge += ['-p', f'{name}:={json.dumps(value)}']
+            commands.append((f'pd_actuator_bridge{label}', bridge))
+    return commands
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """Command-line arguments."""
     parser = argparse.ArgumentParser(
@@ -138,19 +181,8 @@ def main(argv: list[str] | None = None) -> int:
                       '-p', f'figures:={"false" if args.no_figures else "true"}']
         for item in args.param:
             integrator += ['-p', item]
-        commands: list[tuple[str, list[str]]] = []
-        if args.site != 'none':
-            specimen_ns = '/pd/specimen' if args.site == 'bridge' else '/pd'
-            commands.append(('pd_specimen_sim', [
-                str(find_executable('pd_specimen_sim')), '--ros-args',
-                '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file.resolve()}']))
-        if args.site == 'bridge':
-            params = Path(args.bridge_params) if args.bridge_params else share_file(
-                'pd_actuator_bridge', 'config', 'bridge.yaml')
-            commands.append(('pd_actuator_bridge', [
-                str(find_executable('pd_actuator_bridge')), '--ros-args',
-                '--params-file', str(params),
-                '-p', f'dof_names:={json.dumps(list(definition.dof_names))}']))
+        commands = site_commands(definition, test_file.resolve(), args.site,
+                                 Path(args.bridge_params) if args.bridge_params else None)
     except PdIntegratorError as err:
         print(f'run_test: error: {err}', file=sys.stderr)
         return 2

@@ -1,6 +1,7 @@
 """The integrator node (``ros2 run pd_integrator main``): a thin shell around ``TestSession``.
 
-Topics (relative to the node namespace, ``/pd`` by default):
+Topics (relative to the node namespace, ``/pd`` by default; a substructured test has one set
+of ``step_command``/``step_feedback``/``bridge/...`` topics per site, under ``<site>/``):
 
 * publishes ``step_command`` (``pd_msgs/StepCommand``, reliable), ``test_status``
   (``pd_msgs/TestStatus``, reliable, transient local = latched) and ``test_definition``
@@ -41,8 +42,9 @@ from std_msgs.msg import String
 
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
-from .core.bag import TOPIC_BRIDGE_STATUS, TOPIC_TRAJECTORY, BagRecorder
+from .core.bag import BagRecorder, site_topic_name
 from .core.config import PARAMETER_PATHS, load_test_file
+from .core.dispatch import StepDispatcher
 from .core.errors import PdIntegratorError
 from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
 from .core.progress import ProgressMeter
@@ -55,6 +57,7 @@ from .core.runner import (
     prepare_run_directory,
 )
 from .core.session import TestSession
+from .core.substructure import site_topic
 
 #: Reliable, keep-all: every command and feedback must arrive, in order.
 STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
@@ -189,25 +192,37 @@ class IntegratorNode(Node):
         self.meter = ProgressMeter(definition.n_steps,
                                    float(self.get_parameter('progress_interval').value))
 
-        self._command_pub = self.create_publisher(StepCommand, 'step_command', STEP_QOS)
+        self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
+        self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
+        self._command_pubs: dict[str, Any] = {}
+        self._feedback_subs: dict[str, Any] = {}
+        for site in self.dispatcher.sites:
+            self._command_pubs[site] = self.create_publisher(
+                StepCommand, site_topic(site, 'step_command'), STEP_QOS)
+            self._feedback_subs[site] = self.create_subscription(
+                StepFeedback, site_topic(site, 'step_feedback'),
+                lambda message, site=site: self._on_feedback(site, message), STEP_QOS)
+            status_topic = site_topic_name(site, 'bridge/status')
+            trajectory_topic = site_topic_name(site, 'bridge/trajectory')
+            self.create_subscription(
+                TestStatus, site_topic(site, 'bridge/status'),
+                lambda message, topic=status_topic: self._on_bridge_status(message, topic),
+                LATCHED_QOS)
+            self.create_subscription(
+                ActuatorTrajectory, site_topic(site, 'bridge/trajectory'),
+                lambda data, topic=trajectory_topic: self._on_trajectory(data, topic),
+                STEP_QOS, raw=True)
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
-        self._feedback_sub = self.create_subscription(StepFeedback, 'step_feedback',
-                                                      self._on_feedback, STEP_QOS)
-        self.create_subscription(TestStatus, 'bridge/status', self._on_bridge_status,
-                                 LATCHED_QOS)
-        self.create_subscription(ActuatorTrajectory, 'bridge/trajectory',
-                                 self._on_trajectory, STEP_QOS, raw=True)
         self.create_subscription(String, 'test_control', self._on_control, 10)
 
-        self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
         text = definition.to_json()
         (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
         self.bag.write_definition(text, time.time_ns())
         self._definition_pub.publish(String(data=text))
         self._command_message = StepCommand()
         self._sent_at = 0.0
-        self._round_trips: list[float] = []  # s, command sent -> its feedback accepted
+        self._round_trips: list[float] = []  # s, step sent -> its (assembled) feedback accepted
         self._last_state: TestState | None = None
         self._started = 0.0
         self.publish_status()
@@ -218,7 +233,7 @@ class IntegratorNode(Node):
 
     def publish_status(self) -> None:
         """Publish (and record) the session's status."""
-        status = self.session.status()
+        status = self.dispatcher.status()
         self._status_pub.publish(status_message(status, self._stamp()))
         self.bag.write_status(status, time.time_ns())
         if status.state is not self._last_state:
@@ -229,69 +244,60 @@ class IntegratorNode(Node):
             else:
                 self.get_logger().info(line)
 
-    def send(self, command: Command) -> None:
-        """Publish and record a command; restart the feedback timer."""
-        t_ns = time.time_ns()
-        self._command_pub.publish(command_message(command, stamp_from_ns(t_ns),
-                                                  self._command_message))
+    def _publish_command(self, site: str, command: Command) -> None:
+        """Publish one site command; restart the feedback timer."""
+        self._command_pubs[site].publish(command_message(
+            command, stamp_from_ns(time.time_ns()), self._command_message))
         self._sent_at = time.monotonic()
-        self.bag.write_command(command, t_ns)
 
     def peers_ready(self) -> bool:
-        """Whether a specimen side listens to commands and talks back."""
-        return (self._command_pub.get_subscription_count() > 0
-                and self._feedback_sub.get_publisher_count() > 0)
+        """Whether every site listens to its commands and talks back."""
+        return all(self._command_pubs[site].get_subscription_count() > 0
+                   and self._feedback_subs[site].get_publisher_count() > 0
+                   for site in self.dispatcher.sites)
+
+    def missing_sites(self) -> list[str]:
+        """The command topics nobody answers on yet (for the start-up error)."""
+        return [self.resolve_topic_name(site_topic(site, 'step_command'))
+                for site in self.dispatcher.sites
+                if not (self._command_pubs[site].get_subscription_count() > 0
+                        and self._feedback_subs[site].get_publisher_count() > 0)]
 
     def start(self) -> None:
         """Send the first command."""
         self._started = time.perf_counter()
         self.meter = ProgressMeter(self.session.total_steps, self.meter.interval)
-        command = self.session.next_command()
-        if command is not None:
-            self.send(command)
+        self.dispatcher.start()
         self.publish_status()
 
     # -- callbacks ----------------------------------------------------------------------------
-    def _on_feedback(self, message: StepFeedback) -> None:
+    def _on_feedback(self, site: str, message: StepFeedback) -> None:
         received = time.monotonic()
-        received_ns = time.time_ns()
-        feedback = feedback_data(message)
-        if self.session.on_feedback(feedback) is Verdict.ACCEPTED:
-            self._round_trips.append(received - self._sent_at)
-        command = self.session.next_command()
-        if command is not None:
-            # The next command goes out first; the bag is written while the specimen moves
-            # (in reception order: this feedback, then the command).
-            sent_ns = time.time_ns()
-            self._command_pub.publish(command_message(command, stamp_from_ns(sent_ns),
-                                                      self._command_message))
-            self._sent_at = time.monotonic()
-            self.bag.write_feedback(feedback, received_ns)
-            self.bag.write_command(command, sent_ns)
-        else:
-            self.bag.write_feedback(feedback, received_ns)
+        sent_at = self._sent_at
+        committed = self.session.history.n_committed
+        pending = self.session.protocol.pending
+        self.dispatcher.on_feedback(site, feedback_data(message))
+        if (self.session.history.n_committed != committed
+                or (pending is not None and self.session.protocol.pending is not pending)):
+            self._round_trips.append(received - sent_at)
         if self.session.state is not TestState.RUNNING:
             self.publish_status()
         elif (line := self.meter.update(max(self.session.committed_step, 0))) is not None:
             self.get_logger().info(line)
             self.publish_status()
 
-    def _on_bridge_status(self, message: TestStatus) -> None:
-        self.bag.write_status(status_data(message), time.time_ns(), topic=TOPIC_BRIDGE_STATUS)
+    def _on_bridge_status(self, message: TestStatus, topic: str) -> None:
+        self.bag.write_status(status_data(message), time.time_ns(), topic=topic)
 
-    def _on_trajectory(self, data: bytes) -> None:
-        self.bag.write_raw(TOPIC_TRAJECTORY, time.time_ns(), data)
+    def _on_trajectory(self, data: bytes, topic: str) -> None:
+        self.bag.write_raw(topic, time.time_ns(), data)
 
     def _on_control(self, message: String) -> None:
         request = message.data.strip().lower()
         if request == 'pause':
             self.session.pause()
         elif request == 'resume':
-            command = self.session.resume()
-            if command is None:
-                command = self.session.next_command()
-            if command is not None:
-                self.send(command)
+            self.dispatcher.resume()
         elif request == 'abort':
             self.session.abort('aborted by operator')
         else:
@@ -307,12 +313,13 @@ class IntegratorNode(Node):
                 or time.monotonic() - self._sent_at
                 < session.definition.protocol.feedback_timeout):
             return
-        command = session.on_timeout()
-        if command is not None:
-            self.get_logger().warning(f'no feedback for step {command.step}: re-sending '
+        step = session.protocol.pending.step
+        if self.dispatcher.on_timeout():
+            self.get_logger().warning(f'no feedback for step {step}: re-sending '
                                       f'({session.protocol.attempts}/'
                                       f'{session.protocol.max_retries})')
-            self.send(command)
+        else:
+            self._sent_at = time.monotonic()
         self.publish_status()
 
     def finish(self) -> dict[str, Any]:
@@ -336,6 +343,11 @@ def _describe(node: IntegratorNode) -> None:
     definition = node.session.definition
     logger.info(f'test {definition.test_id}: {definition.n_steps} steps of {definition.dt} s, '
                 f'scheme {definition.scheme}, {definition.n_dof} DOF')
+    if definition.site_names:
+        logger.info(f'sites: {", ".join(definition.site_names)} (namespaces '
+                    f'{", ".join("/pd/" + site for site in definition.site_names)})')
+    if report := definition.modal_report():
+        logger.info('modal analysis (initial stiffness):\n' + report)
     if stability is not None:
         logger.info(stability.message)
     else:
@@ -358,7 +370,7 @@ def run(node: IntegratorNode, executor: EventsExecutor, stop: threading.Event) -
         executor.spin_once(timeout_sec=0.05)
         if time.monotonic() > deadline:
             node.session.abort('no specimen side (bridge or simulator) answered on '
-                               f'{node.resolve_topic_name("step_command")} within '
+                               f'{", ".join(node.missing_sites())} within '
                                f'{node.session.definition.protocol.start_timeout} s')
             node.finish()
             return 1

@@ -11,6 +11,11 @@ Topics (relative; namespace ``/pd`` by default, ``/pd/specimen`` behind a bridge
 Parameters: ``test_file`` — the YAML test file; its ``specimen`` section and
 ``structure.dof_names`` define the specimen, and the optional ``specimen.errors`` mapping the
 experimental errors injected into every step (see :mod:`pd_specimen_sim.core.server`).
+``site`` — in a substructured test, the site this node simulates: the specimen is then
+``sites.<site>.specimen`` and the node runs in the namespace ``/pd/<site>`` (``-r
+__ns:=/pd/<site>``; ``/pd/<site>/specimen`` behind that site's bridge). ``dof_names`` — the
+names of the specimen's DOFs (the site's actuators; default: ``structure.dof_names``, or
+``a1, a2, ...`` for a site).
 """
 
 from __future__ import annotations
@@ -32,25 +37,41 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from pd_msgs.msg import StepCommand, StepFeedback
 
 from .core import SpecimenError
+from .core.config import load_yaml
 from .core.server import server_from_config
 
 STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 
 
-def load_specimen_section(path: str | Path) -> tuple[dict[str, Any], list[str]]:
-    """The ``specimen`` section and DOF names of a test file.
+def load_specimen_section(path: str | Path, site: str = ''
+                          ) -> tuple[dict[str, Any], list[str] | None]:
+    """The specimen section (of the test, or of ``site``) and the test's DOF names.
+
+    The DOF names are ``None`` for a site (they are the site's actuators: the caller knows).
 
     Raises:
-        SpecimenError: the file cannot be read or has no ``specimen`` section.
+        SpecimenError: the file cannot be read or has no such section.
     """
     path = Path(path)
     try:
-        raw = yaml.safe_load(path.read_text(encoding='utf-8')) or {}
+        raw = load_yaml(path.read_text(encoding='utf-8')) or {}
     except (OSError, yaml.YAMLError) as err:
         msg = f'{path}: cannot read the test file ({err})'
         raise SpecimenError(msg) from err
-    if not isinstance(raw, dict) or not isinstance(raw.get('specimen'), dict):
+    if not isinstance(raw, dict):
+        msg = f'{path.name}: a test file must be a mapping of sections'
+        raise SpecimenError(msg)
+    if site:
+        sites = raw.get('sites')
+        settings = sites.get(site) if isinstance(sites, dict) else None
+        section = settings.get('specimen') if isinstance(settings, dict) else None
+        if not isinstance(section, dict):
+            msg = (f'{path.name}: sites.{site}.specimen: section is required for the '
+                   f'simulated specimen of site {site!r}')
+            raise SpecimenError(msg)
+        return section, None
+    if not isinstance(raw.get('specimen'), dict):
         msg = f'{path.name}: specimen: section is required for the simulated specimen'
         raise SpecimenError(msg)
     structure = raw.get('structure') or {}
@@ -68,13 +89,32 @@ class SpecimenSimNode(Node):
         super().__init__('pd_specimen_sim', namespace='pd', **kwargs)
         self.declare_parameter('test_file', '', ParameterDescriptor(
             description='YAML test file whose specimen section defines the specimen'))
+        self.declare_parameter('site', '', ParameterDescriptor(
+            description='site of a substructured test (its specimen: sites.<site>.specimen)'))
+        self.declare_parameter('dof_names', [''], ParameterDescriptor(
+            description='names of the specimen DOFs (default: from the test file)'))
         test_file = self.get_parameter('test_file').value
         if not test_file:
             msg = 'parameter test_file: a YAML test file is required'
             raise SpecimenError(msg)
-        section, dof_names = load_specimen_section(test_file)
-        self.server = server_from_config(section, base_dir=Path(test_file).resolve().parent,
-                                         source=Path(test_file).name, dof_names=dof_names)
+        site = str(self.get_parameter('site').value)
+        section, dof_names = load_specimen_section(test_file, site)
+        given = [name for name in self.get_parameter('dof_names').value if name]
+        if given:
+            dof_names = given
+        elif dof_names is None:
+            elements = section.get('elements')
+            dof_names = [f'a{i + 1}' for i in range(len(elements) if isinstance(
+                elements, list) else 1)]
+        source = Path(test_file).name
+        try:
+            self.server = server_from_config(section, base_dir=Path(test_file).resolve().parent,
+                                             source=source, dof_names=dof_names)
+        except SpecimenError as err:
+            if not site:
+                raise
+            msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
+            raise SpecimenError(msg) from None
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
         self._feedback = StepFeedback()

@@ -13,6 +13,13 @@ topic                      type                        content
 ``/pd/bridge/trajectory``  ``ActuatorTrajectory``      sub-step actuator trajectories (if any)
 =========================  ==========================  ======================================
 
+A substructured test (``structure.elements`` with experimental elements at named sites) has
+instead, per site, ``/pd/<site>/step_command`` and ``/pd/<site>/step_feedback`` (what went to
+and came from that site, in actuator DOFs) and ``/pd/<site>/bridge/status`` (and
+``.../bridge/trajectory``) when a bridge serves it, plus the structure-level stream the
+integrator's session saw, ``/pd/structure/step_command`` and ``/pd/structure/step_feedback``
+(structure DOFs, total restoring force incl. the numerical elements).
+
 Messages are written in the order the integrator saw them, so replaying the bag through the
 same step protocol reproduces the run exactly (see :mod:`.replay`). The ``pd_msgs`` message
 definitions are read from the installed ``pd_msgs`` package (or the source tree), so there is
@@ -45,6 +52,8 @@ TOPIC_FEEDBACK = '/pd/step_feedback'
 TOPIC_STATUS = '/pd/test_status'
 TOPIC_BRIDGE_STATUS = '/pd/bridge/status'
 TOPIC_TRAJECTORY = '/pd/bridge/trajectory'
+TOPIC_STRUCTURE_COMMAND = '/pd/structure/step_command'
+TOPIC_STRUCTURE_FEEDBACK = '/pd/structure/step_feedback'
 
 MSG_COMMAND = 'pd_msgs/msg/StepCommand'
 MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
@@ -60,6 +69,23 @@ _TOPICS = {
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
     TOPIC_TRAJECTORY: MSG_TRAJECTORY,
 }
+
+
+def site_topic_name(site: str, name: str) -> str:
+    """Absolute topic ``name`` of ``site`` (``/pd/<site>/<name>``; ``/pd/<name>`` for '')."""
+    return f'/pd/{site}/{name}' if site else f'/pd/{name}'
+
+
+def _message_type(topic: str) -> str | None:
+    """The message type of a bag topic (fixed ones, or per-site ones by their last part)."""
+    if topic in _TOPICS:
+        return _TOPICS[topic]
+    for suffix, msgtype in (('/step_command', MSG_COMMAND), ('/step_feedback', MSG_FEEDBACK),
+                            ('/bridge/status', MSG_STATUS),
+                            ('/bridge/trajectory', MSG_TRAJECTORY)):
+        if topic.startswith('/pd/') and topic.endswith(suffix):
+            return msgtype
+    return None
 
 
 def msg_directory() -> Path:
@@ -150,12 +176,30 @@ class BagRecorder:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _connection(self, topic: str) -> Connection:
+        """The connection of ``topic`` (per-site topics are added on first use)."""
+        connection = self._connections.get(topic)
+        if connection is not None:
+            return connection
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        msgtype = _message_type(topic)
+        if msgtype is None:
+            msg = f'{self.path}: {topic}: not a topic of a run bag'
+            raise BagError(msg)
+        connection = self._writer.add_connection(topic, msgtype, typestore=self._store)
+        self._connections[topic] = connection
+        self.counts[topic] = 0
+        return connection
+
     def _write(self, topic: str, t_ns: int, message: Any) -> None:
         if self._writer is None:
             msg = f'{self.path}: bag is not open'
             raise BagError(msg)
-        data = self._store.serialize_cdr(message, _TOPICS[topic])
-        self._writer.write(self._connections[topic], t_ns, data)
+        connection = self._connection(topic)
+        data = self._store.serialize_cdr(message, connection.msgtype)
+        self._writer.write(connection, t_ns, data)
         self.counts[topic] += 1
 
     def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
@@ -163,23 +207,24 @@ class BagRecorder:
         if self._writer is None:
             msg = f'{self.path}: bag is not open'
             raise BagError(msg)
-        self._writer.write(self._connections[topic], t_ns, data)
+        self._writer.write(self._connection(topic), t_ns, data)
         self.counts[topic] += 1
 
     def write_definition(self, text: str, t_ns: int) -> None:
         """Record the resolved test definition (JSON)."""
         self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
 
-    def write_command(self, command: Command, t_ns: int) -> None:
+    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND) -> None:
         """Record a step command."""
-        self._write(TOPIC_COMMAND, t_ns, self._store.types[MSG_COMMAND](
+        self._write(topic, t_ns, self._store.types[MSG_COMMAND](
             header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
             iteration=command.iteration, test_time=command.test_time, dof_names=list(command.dof_names),
             target_displacement=np.array(command.target_displacement, dtype=np.float64)))
 
-    def write_feedback(self, feedback: Feedback, t_ns: int) -> None:
+    def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK
+                       ) -> None:
         """Record a step feedback."""
-        self._write(TOPIC_FEEDBACK, t_ns, self._store.types[MSG_FEEDBACK](
+        self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
             header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
             iteration=feedback.iteration, measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
             restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
@@ -205,6 +250,7 @@ class RecordedRun:
         statuses: the integrator's statuses.
         bridge_statuses: the bridge's statuses.
         trajectories: the actuator's sub-step trajectories (``ActuatorTrajectory`` messages).
+        site_events: per site of a substructured test, ``(t_ns, item)`` of its own stream.
     """
 
     definition_json: str
@@ -212,6 +258,7 @@ class RecordedRun:
     statuses: list[tuple[int, Status]] = field(default_factory=list)
     bridge_statuses: list[tuple[int, Status]] = field(default_factory=list)
     trajectories: list[tuple[int, Any]] = field(default_factory=list)
+    site_events: dict[str, list[tuple[int, Command | Feedback]]] = field(default_factory=dict)
 
     @property
     def commands(self) -> list[Command]:
@@ -231,6 +278,21 @@ def _status(message: Any) -> Status:
                   message=message.message)
 
 
+def _command(message: Any) -> Command:
+    return Command(test_id=message.test_id, step=int(message.step),
+                   test_time=float(message.test_time), dof_names=tuple(message.dof_names),
+                   target_displacement=tuple(message.target_displacement.tolist()),
+                   iteration=int(message.iteration))
+
+
+def _feedback(message: Any) -> Feedback:
+    return Feedback(test_id=message.test_id, step=int(message.step),
+                    measured_displacement=tuple(message.measured_displacement.tolist()),
+                    restoring_force=tuple(message.restoring_force.tolist()),
+                    status=FeedbackStatus(message.status), message=message.message,
+                    iteration=int(message.iteration))
+
+
 def read_bag(path: str | Path) -> RecordedRun:
     """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
 
@@ -242,29 +304,27 @@ def read_bag(path: str | Path) -> RecordedRun:
     run = RecordedRun(definition_json='')
     try:
         with AnyReader([path], default_typestore=typestore()) as reader:
-            connections = [c for c in reader.connections if c.topic in _TOPICS]
+            connections = [c for c in reader.connections if _message_type(c.topic) is not None]
+            structured = any(c.topic == TOPIC_STRUCTURE_COMMAND for c in connections)
+            main_topics = ((TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK) if structured
+                           else (TOPIC_COMMAND, TOPIC_FEEDBACK))
             for connection, t_ns, raw in reader.messages(connections=connections):
                 message = reader.deserialize(raw, connection.msgtype)
                 topic = connection.topic
+                msgtype = connection.msgtype
                 if topic == TOPIC_DEFINITION:
                     definition = definition or message.data
-                elif topic == TOPIC_COMMAND:
-                    run.events.append((t_ns, Command(
-                        test_id=message.test_id, step=int(message.step),
-                        test_time=float(message.test_time),
-                        dof_names=tuple(message.dof_names),
-                        target_displacement=tuple(message.target_displacement.tolist()),
-                        iteration=int(message.iteration))))
-                elif topic == TOPIC_FEEDBACK:
-                    run.events.append((t_ns, Feedback(
-                        test_id=message.test_id, step=int(message.step),
-                        measured_displacement=tuple(message.measured_displacement.tolist()),
-                        restoring_force=tuple(message.restoring_force.tolist()),
-                        status=FeedbackStatus(message.status), message=message.message,
-                        iteration=int(message.iteration))))
+                elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
+                    item = (_command(message) if msgtype == MSG_COMMAND
+                            else _feedback(message))
+                    if topic in main_topics:
+                        run.events.append((t_ns, item))
+                    else:
+                        site = topic.removeprefix('/pd/').rsplit('/', 1)[0]
+                        run.site_events.setdefault(site, []).append((t_ns, item))
                 elif topic == TOPIC_STATUS:
                     run.statuses.append((t_ns, _status(message)))
-                elif topic == TOPIC_TRAJECTORY:
+                elif msgtype == MSG_TRAJECTORY:
                     run.trajectories.append((t_ns, message))
                 else:
                     run.bridge_statuses.append((t_ns, _status(message)))

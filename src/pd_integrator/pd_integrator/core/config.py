@@ -26,14 +26,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from pd_specimen_sim.core.config import load_yaml
+
 from .errors import ConfigError, GroundMotionError
 from .ground_motion import GroundMotion, read_ground_motion
 from .structure import Structure, as_matrix, damping_from_ratio
 
 if TYPE_CHECKING:
+    from .substructure import StructuralModel
+
+if TYPE_CHECKING:
     from collections.abc import Mapping
 
-SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen')
+SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen', 'sites')
 SCHEMA_VERSION = 1
 
 #: Node parameter name -> path in the test definition (the integrator node's overrides).
@@ -145,6 +150,27 @@ class ProbeSettings:
 
 
 @dataclass(frozen=True)
+class GroundComponent:
+    """One component of the ground motion (bi-directional tests have two).
+
+    Attributes:
+        name: component name (e.g. ``H1``), for reports.
+        motion: the record at its own step, in m/s², scale and direction applied.
+        acceleration: the record resampled to the test ``dt``, padded to ``n_steps + 1``.
+        influence: influence vector over the session's DOFs.
+        influence_raw: the influence as given (over ``structure.dof_names``), for the bag.
+        info: description of the record (file, format, units, scale, direction).
+    """
+
+    name: str
+    motion: GroundMotion
+    acceleration: np.ndarray
+    influence: np.ndarray
+    influence_raw: list[float] | None
+    info: dict[str, Any]
+
+
+@dataclass(frozen=True)
 class TestDefinition:
     """A complete, validated pseudo-dynamic test.
 
@@ -190,6 +216,11 @@ class TestDefinition:
     base_dir: Path = field(default_factory=Path.cwd)
     record_info: dict[str, Any] = field(default_factory=dict)
     scheme_parameters: dict[str, float] = field(default_factory=dict)
+    damping_spec: dict[str, Any] | None = None
+    components: tuple[GroundComponent, ...] = ()
+    model: StructuralModel | None = None
+    structure_raw: dict[str, Any] | None = None
+    sites: dict[str, Any] | None = None
 
     @property
     def n_dof(self) -> int:
@@ -211,8 +242,39 @@ class TestDefinition:
         return step * self.dt
 
     def load(self, step: int) -> np.ndarray:
-        """External load p = −M ι a_g at ``step`` [N]."""
-        return -(self.mass @ self.influence) * self.ground_acceleration[step]
+        """External load p = −M Σ ι_c a_gc at ``step`` [N]."""
+        return self.loads(step, step + 1)[0]
+
+    def loads(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """External loads p_k = −M Σ_c ι_c a_gc(t_k) for steps ``start..stop-1`` [N]."""
+        components = self.components or (GroundComponent(
+            'ground', self.ground_motion, self.ground_acceleration, self.influence, None, {}),)
+        stop = self.n_steps + 1 if stop is None else stop
+        total = np.zeros((max(stop - start, 0), self.n_dof))
+        for component in components:
+            total -= np.outer(component.acceleration[start:stop], self.mass @ component.influence)
+        return total
+
+    def modal_report(self) -> str:
+        """Periods, participation and mode shapes of the initial-stiffness model (MDOF).
+
+        Empty when the stiffness is not known yet (probe) or the structure is an SDOF.
+        """
+        if self.initial_stiffness is None or self.n_dof < 2:
+            return ''
+        from .elements import modal_properties  # noqa: PLC0415
+
+        components = self.components or ()
+        influences = (np.array([c.influence for c in components]) if components
+                      else self.influence.reshape(1, -1))
+        names = [c.name for c in components] if components else ['ground']
+        properties = modal_properties(self.mass, self.initial_stiffness, influences)
+        return properties.report(list(self.dof_names), names)
+
+    @property
+    def site_names(self) -> tuple[str, ...]:
+        """The sites of a substructured test (``()``: the whole structure is one specimen)."""
+        return self.model.site_names if self.model is not None else ()
 
     def structure(self, initial_stiffness: np.ndarray | None = None) -> Structure:
         """The structure, with ``initial_stiffness`` (measured) if the definition has none.
@@ -226,8 +288,8 @@ class TestDefinition:
             raise ConfigError(msg)
         damping = self.damping
         if damping is None:
-            ratio = self.damping_ratio if self.damping_ratio is not None else 0.0
-            damping = damping_from_ratio(self.mass, stiffness, ratio)
+            damping = damping_matrix(self.mass, stiffness, self.damping_ratio, self.damping_spec,
+                                     self.source)
         return Structure(dof_names=self.dof_names, mass=self.mass, damping=damping,
                          initial_stiffness=stiffness, influence=self.influence)
 
@@ -239,6 +301,8 @@ class TestDefinition:
 
     def to_resolved_dict(self) -> dict[str, Any]:
         """A self-contained plain-data form (exact floats) that :func:`from_dict` reads back."""
+        if self.structure_raw is not None:
+            return self._resolved_with_model()
         structure: dict[str, Any] = {
             'dof_names': list(self.dof_names),
             'mass': self.mass.tolist(),
@@ -252,23 +316,58 @@ class TestDefinition:
             structure['damping'] = {'ratio': self.damping_ratio}
         if self.initial_stiffness is None:
             structure['initial_stiffness'] = 'probe'
+        if len(self.components) > 1:
+            structure.pop('influence')
         return {
             'schema_version': SCHEMA_VERSION,
             'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
                      'duration': self.duration,
                      'scheme_parameters': dict(self.scheme_parameters)},
             'structure': structure,
-            'ground_motion': {
-                'inline': {'dt': self.ground_motion.dt,
-                           'acceleration': self.ground_motion.acceleration.tolist()},
-                'units': 'm/s2',
-                'record': dict(self.record_info),
-            },
+            'ground_motion': self._resolved_ground_motion(),
             'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
                          'max_retries': self.protocol.max_retries,
                          'start_timeout': self.protocol.start_timeout},
             'probe': {'amplitude': self.probe.amplitude},
             'specimen': self.specimen,
+        }
+
+    def _resolved_ground_motion(self) -> Any:
+        if len(self.components) <= 1:
+            return {'inline': {'dt': self.ground_motion.dt,
+                               'acceleration': self.ground_motion.acceleration.tolist()},
+                    'units': 'm/s2', 'record': dict(self.record_info)}
+        return [{'name': component.name,
+                 'inline': {'dt': component.motion.dt,
+                            'acceleration': component.motion.acceleration.tolist()},
+                 'units': 'm/s2', 'record': dict(component.info),
+                 'influence': (component.influence_raw if component.influence_raw is not None
+                               else component.influence.tolist())}
+                for component in self.components]
+
+    def _resolved_with_model(self) -> dict[str, Any]:
+        """Resolved form of a test with ``structure.elements`` (the structure as given)."""
+        import copy  # noqa: PLC0415
+
+        structure = copy.deepcopy(self.structure_raw)
+        ground = self._resolved_ground_motion()
+        if isinstance(ground, dict) and self.components:
+            ground_influence = self.components[0].influence_raw
+            if ground_influence is not None:
+                structure['influence'] = ground_influence
+        return {
+            'schema_version': SCHEMA_VERSION,
+            'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
+                     'duration': self.duration,
+                     'scheme_parameters': dict(self.scheme_parameters)},
+            'structure': structure,
+            'ground_motion': ground,
+            'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
+                         'max_retries': self.protocol.max_retries,
+                         'start_timeout': self.protocol.start_timeout},
+            'probe': {'amplitude': self.probe.amplitude},
+            'specimen': self.specimen,
+            'sites': self.sites,
         }
 
     def to_json(self) -> str:
@@ -295,7 +394,7 @@ def load_test_file(path: str | Path, overrides: Mapping[str, Any] | None = None
         msg = f'{path}: cannot read the test file ({err.strerror})'
         raise ConfigError(msg) from err
     try:
-        raw = yaml.safe_load(text)
+        raw = load_yaml(text)
     except yaml.YAMLError as err:
         mark = getattr(err, 'problem_mark', None)
         where = f'line {mark.line + 1}: ' if mark is not None else ''
@@ -383,34 +482,52 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     test.finish()
 
     structure = _Reader(raw.get('structure', {}), 'structure', source)
+    structure_raw = raw.get('structure', {})
     dof_names = _dof_names(structure)
     n = len(dof_names)
+    elements_raw = structure.get('elements')
     mass = _matrix(structure, 'mass', n, required=True)
     assert mass is not None
     stiffness_raw = structure.get('initial_stiffness')
     stiffness: np.ndarray | None
-    if stiffness_raw == 'probe':
+    model = None
+    retained = list(range(n))
+    if elements_raw is not None:
+        from .model_config import parse_elements  # noqa: PLC0415
+
+        if stiffness_raw is not None:
+            raise structure.error('initial_stiffness', 'must not be given with elements (it '
+                                  "follows from them and the experimental elements' "
+                                  'initial_stiffness)')
+        parsed = parse_elements(elements_raw, dof_names=dof_names, mass=mass, source=source,
+                                base_dir=base_dir)
+        model = parsed.model
+        retained = parsed.retained
+        mass = parsed.mass
+        stiffness = None
+    elif stiffness_raw == 'probe':
         stiffness = None
     elif stiffness_raw is None:
         raise structure.error('initial_stiffness', "is required (a value or 'probe')")
     else:
         stiffness = _matrix(structure, 'initial_stiffness', n, required=True)
-    damping, damping_ratio = _damping(structure, n)
+    damping, damping_ratio, damping_spec = _damping(structure, n)
+    if damping is not None and model is not None:
+        raise structure.error('damping', 'give a ratio, rayleigh or modal damping with '
+                              'elements (a coefficient matrix would include massless DOFs)')
+    influence_given = 'influence' in structure.raw
     influence_raw = structure.get('influence', [1.0] * n)
-    influence = _vector(structure, 'influence', influence_raw, n)
+    influence_full = _vector(structure, 'influence', influence_raw, n)
     structure.finish()
 
-    ground_motion, record_info = _ground_motion(raw.get('ground_motion'), source, base_dir)
-    record_steps = math.floor(ground_motion.duration / dt + 1e-9)
+    components, record_steps = _ground_components(
+        raw.get('ground_motion'), source, base_dir, dof_names=dof_names, retained=retained,
+        default_influence=influence_full, influence_given=influence_given, dt=dt)
     n_steps = record_steps if duration is None else math.floor(duration / dt + 1e-9)
     if n_steps < 1:
-        raise test.error('dt', f'is longer than the test ({ground_motion.duration} s)')
-    resampled = ground_motion.resampled(dt).acceleration
-    ground_acceleration = np.zeros(n_steps + 1)
-    count = min(n_steps + 1, resampled.size)
-    ground_acceleration[:count] = resampled[:count]
-    ground_acceleration.setflags(write=False)
-
+        raise test.error('dt', f'is longer than the test ({components[0].motion.duration} s)')
+    components = tuple(_padded(component, n_steps) for component in components)
+    first = components[0]
     proto = _Reader(raw.get('protocol', {}), 'protocol', source)
     protocol = ProtocolSettings(
         feedback_timeout=proto.number('feedback_timeout', 2.0, positive=True) or 2.0,
@@ -428,13 +545,24 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         msg = f'{source}: specimen: must be a mapping'
         raise ConfigError(msg)
 
+    sites = raw.get('sites')
+    if sites is not None and not isinstance(sites, dict):
+        msg = f'{source}: sites: must be a mapping of site names to their settings'
+        raise ConfigError(msg)
+    if model is not None:
+        stiffness = model.initial_stiffness()
+        model.raw = dict(structure_raw)
+        dof_names = model.dof_names
+
     definition = TestDefinition(
         test_id=test_id, scheme=scheme, dt=dt, n_steps=n_steps, dof_names=dof_names, mass=mass,
         damping=damping, damping_ratio=damping_ratio, initial_stiffness=stiffness,
-        influence=influence, ground_motion=ground_motion,
-        ground_acceleration=ground_acceleration, specimen=specimen, protocol=protocol,
-        probe=probe, source=source, base_dir=base_dir, record_info=record_info,
-        scheme_parameters={key: float(value) for key, value in scheme_parameters.items()})
+        influence=first.influence, ground_motion=first.motion,
+        ground_acceleration=first.acceleration, specimen=specimen, protocol=protocol,
+        probe=probe, source=source, base_dir=base_dir, record_info=first.info,
+        scheme_parameters={key: float(value) for key, value in scheme_parameters.items()},
+        damping_spec=damping_spec, components=components, model=model,
+        structure_raw=dict(structure_raw) if model is not None else None, sites=sites)
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)
@@ -482,29 +610,150 @@ def _vector(reader: _Reader, key: str, value: Any, n: int) -> np.ndarray:
     return vector
 
 
-def _damping(reader: _Reader, n: int) -> tuple[np.ndarray | None, float | None]:
+def _damping(reader: _Reader, n: int
+             ) -> tuple[np.ndarray | None, float | None, dict[str, Any] | None]:
+    """``(coefficient matrix, ratio, rayleigh/modal spec)``: exactly one is set."""
     raw = reader.get('damping', {'ratio': 0.0})
     if isinstance(raw, (int, float)) and not isinstance(raw, bool):
         raw = {'ratio': raw}
     damping = _Reader(raw, f'{reader.path}.damping', reader.source)
     ratio = damping.number('ratio')
     coefficient = damping.get('coefficient')
+    rayleigh = damping.get('rayleigh')
+    modal = damping.get('modal')
     damping.finish()
-    if (ratio is None) == (coefficient is None):
-        raise reader.error('damping', 'give exactly one of ratio or coefficient')
+    given = [key for key, value in (('ratio', ratio), ('coefficient', coefficient),
+                                    ('rayleigh', rayleigh), ('modal', modal))
+             if value is not None]
+    if len(given) != 1:
+        raise reader.error('damping', 'give exactly one of ratio, coefficient, rayleigh or '
+                           f'modal, got {", ".join(given) or "none"}')
     if ratio is not None:
         if not 0.0 <= ratio < 1.0:
             raise damping.error('ratio', f'must be in [0, 1), got {ratio!r}')
-        return None, ratio
+        return None, ratio, None
+    if rayleigh is not None:
+        spec = _Reader(rayleigh, f'{reader.path}.damping.rayleigh', reader.source)
+        modes = spec.get('modes', [1, 2])
+        ratios = spec.get('ratios')
+        spec.finish()
+        if (not isinstance(modes, list) or len(modes) != 2 or not all(
+                isinstance(m, int) and not isinstance(m, bool) and m >= 1 for m in modes)
+                or modes[0] == modes[1]):
+            raise spec.error('modes', f'must be two distinct mode numbers (1-based), got {modes!r}')
+        ratios = _ratios(spec, 'ratios', ratios, 2)
+        return None, None, {'rayleigh': {'modes': list(modes), 'ratios': ratios}}
+    if modal is not None:
+        return None, None, {'modal': _ratios(damping, 'modal', modal, None)}
     matrix = _matrix(damping, 'coefficient', n, value=coefficient)
-    return matrix, None
+    return matrix, None, None
 
 
-def _ground_motion(raw: Any, source: str, base_dir: Path) -> tuple[GroundMotion, dict[str, Any]]:
+def _ratios(reader: _Reader, key: str, value: Any, count: int | None) -> list[float]:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value] * (count or 1)
+    if (not isinstance(value, list) or not value or (count is not None and len(value) != count)
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                       and math.isfinite(v) and 0.0 <= v < 1.0 for v in value)):
+        size = f'{count} ' if count else ''
+        raise reader.error(key, f'must be a list of {size}damping ratios in [0, 1), got {value!r}')
+    return [float(v) for v in value]
+
+
+def damping_matrix(mass: np.ndarray, stiffness: np.ndarray, ratio: float | None,
+                   spec: dict[str, Any] | None, source: str = '<memory>') -> np.ndarray:
+    """The viscous damping matrix of a ratio (thesis / Rayleigh modes 1-2) or a spec.
+
+    Raises:
+        ConfigError: the modes requested do not exist or cannot be matched.
+    """
+    from .elements import modal_damping, rayleigh_damping  # noqa: PLC0415
+
+    try:
+        if spec is None:
+            return damping_from_ratio(mass, stiffness, ratio if ratio is not None else 0.0)
+        if 'rayleigh' in spec:
+            rayleigh = spec['rayleigh']
+            if mass.shape[0] < max(rayleigh['modes']):
+                msg = (f'modes: {rayleigh["modes"]} asked, the structure has {mass.shape[0]} '
+                       'modes')
+                raise ConfigError(msg)
+            return rayleigh_damping(mass, stiffness, tuple(rayleigh['modes']),
+                                    tuple(rayleigh['ratios']))
+        ratios = spec['modal']
+        if len(ratios) > mass.shape[0]:
+            msg = f'modal: {len(ratios)} ratios for {mass.shape[0]} modes'
+            raise ConfigError(msg)
+        return modal_damping(mass, stiffness, ratios)
+    except ConfigError as err:
+        msg = f'{source}: structure.damping: {err}'
+        raise ConfigError(msg) from None
+
+
+def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tuple[str, ...],
+                       retained: list[int], default_influence: np.ndarray,
+                       influence_given: bool, dt: float
+                       ) -> tuple[tuple[GroundComponent, ...], int]:
+    """The ground motion components (one mapping, or a list for multi-directional tests)."""
     if raw is None:
         msg = f'{source}: ground_motion: section is required'
         raise ConfigError(msg)
-    reader = _Reader(raw, 'ground_motion', source)
+    n = len(dof_names)
+    items: list[tuple[str, Any, Any, str]]
+    if isinstance(raw, list):
+        if not 1 <= len(raw) <= 3:
+            msg = f'{source}: ground_motion: give 1 to 3 components, got {len(raw)}'
+            raise ConfigError(msg)
+        if influence_given:
+            msg = (f'{source}: structure.influence: with several ground motion components give '
+                   'each component its own influence')
+            raise ConfigError(msg)
+        items = []
+        for k, item in enumerate(raw):
+            path = f'ground_motion[{k}]'
+            if not isinstance(item, dict):
+                msg = f'{source}: {path}: must be a mapping, got {type(item).__name__}'
+                raise ConfigError(msg)
+            item = dict(item)
+            if 'influence' not in item:
+                msg = f'{source}: {path}.influence: is required (one value per DOF)'
+                raise ConfigError(msg)
+            name = item.pop('name', f'component{k + 1}')
+            items.append((str(name), item.pop('influence'), item, path))
+    else:
+        items = [('ground', None, raw, 'ground_motion')]
+    components = []
+    for name, influence_raw, item, path in items:
+        motion, info = _ground_motion(item, source, base_dir, path)
+        if influence_raw is None:
+            full = default_influence
+        else:
+            full = _vector(_Reader({}, path, source), 'influence', influence_raw, n)
+        influence = np.array(full[retained], dtype=float)
+        influence.setflags(write=False)
+        resampled = motion.resampled(dt).acceleration
+        components.append(GroundComponent(
+            name=name, motion=motion, acceleration=resampled, influence=influence,
+            influence_raw=None if influence_raw is None else [float(v) for v in full],
+            info={**info, 'name': name} if isinstance(raw, list) else info))
+    record_steps = max(math.floor(c.motion.duration / dt + 1e-9) for c in components)
+    return tuple(components), record_steps
+
+
+def _padded(component: GroundComponent, n_steps: int) -> GroundComponent:
+    """The component with its resampled record cut or zero-padded to ``n_steps + 1`` values."""
+    acceleration = np.zeros(n_steps + 1)
+    count = min(n_steps + 1, component.acceleration.size)
+    acceleration[:count] = component.acceleration[:count]
+    acceleration.setflags(write=False)
+    return GroundComponent(name=component.name, motion=component.motion,
+                           acceleration=acceleration, influence=component.influence,
+                           influence_raw=component.influence_raw, info=component.info)
+
+
+def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_motion'
+                   ) -> tuple[GroundMotion, dict[str, Any]]:
+    reader = _Reader(raw, where, source)
     scale = reader.number('scale', 1.0)
     assert scale is not None
     direction = reader.number('direction', 1.0)
@@ -523,7 +772,7 @@ def _ground_motion(raw: Any, source: str, base_dir: Path) -> tuple[GroundMotion,
         raise reader.error('file', 'give exactly one of file or inline')
     try:
         if inline is not None:
-            inline_reader = _Reader(inline, 'ground_motion.inline', source)
+            inline_reader = _Reader(inline, f'{where}.inline', source)
             dt = inline_reader.number('dt', positive=True, required=True)
             values = inline_reader.get('acceleration')
             inline_reader.finish()
@@ -547,9 +796,9 @@ def _ground_motion(raw: Any, source: str, base_dir: Path) -> tuple[GroundMotion,
                     'record_samples': motion.n_samples}
             motion = motion.scaled(scale * direction)
     except GroundMotionError as err:
-        msg = f'{source}: ground_motion: {err}'
+        msg = f'{source}: {where}: {err}'
         raise ConfigError(msg) from err
     except (TypeError, ValueError) as err:
-        msg = f'{source}: ground_motion: {err}'
+        msg = f'{source}: {where}: {err}'
         raise ConfigError(msg) from err
     return motion, info

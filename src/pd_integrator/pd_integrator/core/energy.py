@@ -83,12 +83,16 @@ def _trapezoid(force: np.ndarray, displacement: np.ndarray) -> np.ndarray:
 
 
 def energy_balance(history: ResponseHistory, mass: np.ndarray, damping: np.ndarray,
-                   influence: np.ndarray) -> EnergyHistory:
-    """The energy terms of a committed history (see the module docstring)."""
+                   influence: np.ndarray, loads: np.ndarray | None = None) -> EnergyHistory:
+    """The energy terms of a committed history (see the module docstring).
+
+    ``loads`` (rows p_k = −M Σ ι_c a_gc) replaces ``−M ι a_g`` for multi-component motions.
+    """
     n = history.n_committed
     x = history.displacement[:n]
     v = history.velocity[:n]
-    load = -np.outer(history.ground_acceleration[:n], mass @ influence)
+    load = (-np.outer(history.ground_acceleration[:n], mass @ influence) if loads is None
+            else loads[:n])
     kinetic = 0.5 * np.einsum('ij,jk,ik->i', v, mass, v)
     return EnergyHistory(
         input=_trapezoid(load, x),

@@ -10,6 +10,7 @@ every recomputed command equals the recorded one (bit for bit) and returns the h
 from __future__ import annotations
 
 import time
+from collections import deque
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -21,10 +22,13 @@ from .energy import energy_balance
 from .errors import BagError, ConfigError
 from .messages import Command, Feedback, FeedbackStatus, TestState
 from .outputs import summarize, tracking_history, write_run_outputs
+from .dispatch import StepDispatcher
 from .session import TestSession
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+
+    from pd_specimen_sim.core.server import SpecimenServer
 
 BAG_DIRECTORY = 'bag'
 DEFINITION_JSON = 'test_definition.json'
@@ -78,7 +82,7 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
     if definition.initial_stiffness is not None:  # (a probe that never finished: no damping)
         structure = definition.structure()
         energy = energy_balance(session.history, structure.mass, structure.damping,
-                                structure.influence)
+                                structure.influence, loads=definition.loads())
     tracking = tracking_history(session.history)
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
                         energy=energy.summary() if energy is not None else None,
@@ -96,46 +100,77 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         ConfigError: the definition has no usable ``specimen`` section.
         StabilityError: ω_max·Δt is above the scheme's limit (nothing is commanded).
     """
-    from pd_specimen_sim.core.server import server_from_config  # noqa: PLC0415
-
     from .progress import ProgressMeter  # noqa: PLC0415
 
-    if definition.specimen is None:
-        msg = f'{definition.source}: specimen: section is required for a simulated run'
-        raise ConfigError(msg)
-    # The specimen and the experimental errors of its optional ``errors`` mapping, as in the
-    # pd_specimen_sim node: both inject the same, deterministic errors.
-    server = server_from_config(definition.specimen, base_dir=definition.base_dir,
-                                source=definition.source, dof_names=definition.dof_names)
+    servers = site_servers(definition)
     session = TestSession(definition)  # checks stability before anything moves
     directory = prepare_run_directory(directory)
     (directory / DEFINITION_JSON).write_text(definition.to_json(), encoding='utf-8')
     meter = ProgressMeter(definition.n_steps)
     start = time.perf_counter()
+    queue: deque[tuple[str, Command]] = deque()
     with BagRecorder(directory / BAG_DIRECTORY) as bag:
+        dispatcher = StepDispatcher(session, lambda site, command: queue.append((site, command)),
+                                    bag)
         bag.write_definition(definition.to_json(), time.time_ns())
         bag.write_status(session.status(), time.time_ns())
-        while (command := session.next_command()) is not None:
-            bag.write_command(command, time.time_ns())
-            answer = server.handle(command.test_id, command.step, command.target_displacement,
-                                   iteration=command.iteration)
+        dispatcher.start()
+        while queue:
+            site, command = queue.popleft()
+            answer = servers[site].handle(command.test_id, command.step,
+                                          command.target_displacement,
+                                          iteration=command.iteration)
             if answer is None:  # cannot happen for a fresh command; keep the protocol honest
                 session.abort(f'specimen ignored step {command.step}')
                 break
-            feedback = Feedback(test_id=answer.test_id, step=answer.step,
-                                iteration=answer.iteration,
-                                measured_displacement=answer.displacement,
-                                restoring_force=answer.force,
-                                status=FeedbackStatus(answer.status), message=answer.message)
-            bag.write_feedback(feedback, time.time_ns())
-            session.on_feedback(feedback)
+            dispatcher.on_feedback(site, Feedback(
+                test_id=answer.test_id, step=answer.step, iteration=answer.iteration,
+                measured_displacement=answer.displacement, restoring_force=answer.force,
+                status=FeedbackStatus(answer.status), message=answer.message))
             if progress is not None and (line := meter.update(session.committed_step)):
                 progress(line)
-        bag.write_status(session.status(), time.time_ns())
+        bag.write_status(dispatcher.status(), time.time_ns())
     wall_time = time.perf_counter() - start
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
                              mode='offline')
     return RunResult(session=session, directory=directory, summary=summary)
+
+
+def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
+    """The simulated specimen of every site (``''``: the test's ``specimen`` section).
+
+    Raises:
+        ConfigError: a site has no ``specimen`` to simulate.
+    """
+    from pd_specimen_sim.core import SpecimenError  # noqa: PLC0415
+    from pd_specimen_sim.core.server import server_from_config  # noqa: PLC0415
+
+    sections: dict[str, tuple[Any, tuple[str, ...], str]] = {}
+    if definition.model is None:
+        sections[''] = (definition.specimen, definition.dof_names, 'specimen')
+    else:
+        sites = definition.sites or {}
+        for site in definition.model.site_names:
+            settings = sites.get(site)
+            section = settings.get('specimen') if isinstance(settings, dict) else None
+            sections[site] = (section, definition.model.actuator_names(site),
+                              f'sites.{site}.specimen')
+    servers = {}
+    for site, (section, names, path) in sections.items():
+        if not isinstance(section, dict):
+            msg = f'{definition.source}: {path}: section is required for a simulated run'
+            raise ConfigError(msg)
+        try:
+            # The specimen and its optional ``errors``, exactly as the pd_specimen_sim node
+            # builds them: both inject the same, deterministic errors.
+            servers[site] = server_from_config(section, base_dir=definition.base_dir,
+                                               source=definition.source, dof_names=names)
+        except SpecimenError as err:
+            if not site:
+                raise
+            msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
+            raise ConfigError(msg) from None
+    return servers
 
 
 def _same_command(recorded: Command, computed: Command) -> bool:

@@ -61,8 +61,7 @@ class TestSession:
         self._probe_forces: list[tuple[float, ...]] = []
         self._last_command: Command | None = None
         # p_k = -M ι a_g(t_k) for every step, computed once.
-        self._loads = -np.outer(definition.ground_acceleration,
-                                definition.mass @ definition.influence)
+        self._loads = definition.loads()
         if definition.needs_probe:
             self._plan_probe()
         else:

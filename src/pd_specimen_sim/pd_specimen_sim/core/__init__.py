@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_csv,
                        load_opensees_pushover)
-from .config import specimen_from_config
+from .config import hysteresis_from_config, load_yaml, specimen_from_config
 from .errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
 from .errors_model import ErroneousStep, ErrorInjector, ErrorModel
 from .hysteresis import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic, HysteresisModel,
@@ -32,7 +32,9 @@ __all__ = [
     'SpecimenServer',
     'TOPOLOGIES',
     'bilinear_backbone',
+    'hysteresis_from_config',
     'load_backbone_csv',
     'load_opensees_pushover',
+    'load_yaml',
     'specimen_from_config',
 ]

@@ -25,9 +25,12 @@ Relative file paths resolve against ``base_dir``. Every error is a one-line
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_csv,
                        load_opensees_pushover)
@@ -99,6 +102,25 @@ class _Context:
         if not isinstance(value, str) or not value.strip():
             raise self.error(path, f'must be a non-empty string, got {_show(value)}')
         return value
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e5`` and ``3.5e7`` as numbers as YAML 1.2 does."""
+
+
+_Loader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
+    list('-+0123456789.'))
+
+
+def load_yaml(text: str) -> Any:
+    """Parse a test file's YAML text (safe; exponent floats without a dot or sign allowed).
+
+    Raises:
+        yaml.YAMLError: the text is not YAML.
+    """
+    return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
 
 
 def _show(value: Any) -> str:
@@ -206,6 +228,19 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
             backbone, None if ku is None else number('unloading_stiffness'), beyond)
     except SpecimenError as exc:
         raise ctx.error(path, str(exc)) from None
+
+
+def hysteresis_from_config(value: Any, *, path: str, base_dir: Path, source: str
+                           ) -> HysteresisModel:
+    """One hysteresis model from a mapping like an element of ``specimen.elements``.
+
+    Used by the integrator for nonlinear *numerical* springs, so that a numerical spring and a
+    simulated specimen with the same mapping are the same model.
+
+    Raises:
+        SpecimenConfigError: one line naming ``source`` and ``path``.
+    """
+    return _element(_Context(source), value, path, Path(base_dir))
 
 
 def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,

@@ -1,0 +1,170 @@
+"""The step loop between a session and its sites, shared by the node and the ROS-free runner.
+
+:class:`StepDispatcher` owns the order of things for one test: take the session's next
+structure-level command, fan it out to the sites (:class:`~.substructure.SiteCoordinator`,
+numerical elements evaluated on the way), *send* the site commands (a callable: the node
+publishes, the ROS-free runner calls a specimen), take each site's feedback, hand the
+assembled feedback to the session, and record everything in the bag **after** the next
+commands went out (the specimen moves while the bag is written).
+
+Bag streams: a test without substructures records ``/pd/step_command`` and
+``/pd/step_feedback`` exactly as before; a substructured test records each site's stream
+(``/pd/<site>/...``) and the structure-level stream (``/pd/structure/...``) that the replay
+re-runs through the session.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK, site_topic_name
+from .messages import Command, Feedback, Status, TestState
+from .protocol import Verdict
+from .substructure import SiteCoordinator
+
+if TYPE_CHECKING:
+    from .bag import BagRecorder
+    from .session import TestSession
+
+__all__ = ['SendFunction', 'StepDispatcher']
+
+SendFunction = Callable[[str, Command], None]
+"""``send(site, command)``: deliver a site command (publish it, or call a specimen)."""
+
+
+class StepDispatcher:
+    """Drives a :class:`~.session.TestSession` through its sites.
+
+    Args:
+        session: the test.
+        send: delivers one site command.
+        bag: where commands and feedback are recorded (``None``: not recorded).
+        clock: time stamps for the bag [ns].
+    """
+
+    def __init__(self, session: TestSession, send: SendFunction,
+                 bag: BagRecorder | None = None,
+                 clock: Callable[[], int] = time.time_ns) -> None:
+        self.session = session
+        self.coordinator = SiteCoordinator(session.definition.model,
+                                           session.definition.protocol.max_retries)
+        self._send = send
+        self.bag = bag
+        self._clock = clock
+        self._topics = {site: (site_topic_name(site, 'step_command'),
+                               site_topic_name(site, 'step_feedback'))
+                        for site in self.coordinator.sites}
+
+    @property
+    def sites(self) -> tuple[str, ...]:
+        """The site names ('' for the single default site of an unstructured test)."""
+        return self.coordinator.sites
+
+    def status(self) -> Status:
+        """The session's status, counting the feedback ignored at the sites too."""
+        status = self.session.status()
+        ignored = self.coordinator.ignored_total
+        if not ignored:
+            return status
+        return Status(test_id=status.test_id, state=status.state, step=status.step,
+                      total_steps=status.total_steps, omega_dt=status.omega_dt,
+                      retries=status.retries,
+                      ignored_messages=status.ignored_messages + ignored,
+                      message=status.message)
+
+    # -- commands -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """Send the first command(s)."""
+        self._flush(self._next_batch())
+
+    def on_feedback(self, site: str, feedback: Feedback) -> Verdict:
+        """One site's feedback: advance the test if the step is complete; send what follows."""
+        received = self._clock()
+        verdict, assembled = self.coordinator.on_feedback(site, feedback)
+        if assembled is not None:
+            session_verdict = self.session.on_feedback(assembled)
+            if self.coordinator.passthrough:
+                verdict = session_verdict
+        batch = self._next_batch()
+        self._send_batch(batch)
+        self._record_feedback(site, feedback, received)
+        if assembled is not None and not self.coordinator.passthrough:
+            self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
+        self._record_batch(batch)
+        return verdict
+
+    def on_timeout(self) -> bool:
+        """The pending step's feedback is late: re-send to the sites still owing it, or hold.
+
+        Returns:
+            Whether something was re-sent.
+        """
+        command = self.session.on_timeout()
+        if command is None:
+            return False
+        self._flush([(command, self.coordinator.resend(command))])
+        return True
+
+    def resume(self) -> None:
+        """Leave HOLDING/PAUSED: re-send what is owed, or go on with the next step."""
+        command = self.session.resume()
+        if command is not None:
+            self._flush([(command, self.coordinator.resend(command))])
+        else:
+            self.start()
+
+    # -- internals ----------------------------------------------------------------------------
+    def _next_batch(self) -> list[tuple[Command, list[tuple[str, Command]]]]:
+        """The next command(s); steps without any site are completed at once."""
+        batch: list[tuple[Command, list[tuple[str, Command]]]] = []
+        session = self.session
+        while (command := session.next_command()) is not None:
+            site_commands = self.coordinator.dispatch(command)
+            batch.append((command, site_commands))
+            if site_commands:
+                break
+            # A fully numerical model: nothing to wait for.
+            feedback = self.coordinator.complete()
+            batch.append((feedback, []))  # type: ignore[arg-type]
+            session.on_feedback(feedback)
+            if session.state is not TestState.RUNNING:
+                break
+        return batch
+
+    def _send_batch(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+        for _, site_commands in batch:
+            for site, site_command in site_commands:
+                self._send(site, site_command)
+
+    def _flush(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+        self._send_batch(batch)
+        self._record_batch(batch)
+
+    def _record_batch(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+        if self.bag is None:
+            return
+        t_ns = self._clock()
+        passthrough = self.coordinator.passthrough
+        for item, site_commands in batch:
+            if isinstance(item, Feedback):
+                self._record(TOPIC_STRUCTURE_FEEDBACK, item, t_ns)
+                continue
+            if not passthrough:
+                self._record(TOPIC_STRUCTURE_COMMAND, item, t_ns)
+            for site, site_command in site_commands:
+                self._record(self._topics[site][0], site_command, t_ns)
+
+    def _record_feedback(self, site: str, feedback: Feedback, t_ns: int) -> None:
+        topics = self._topics.get(site)
+        if topics is not None:
+            self._record(topics[1], feedback, t_ns)
+
+    def _record(self, topic: str, item: Command | Feedback, t_ns: int) -> None:
+        if self.bag is None:
+            return
+        if isinstance(item, Command):
+            self.bag.write_command(item, t_ns, topic)
+        else:
+            self.bag.write_feedback(item, t_ns, topic)

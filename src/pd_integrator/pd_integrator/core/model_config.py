@@ -1,0 +1,292 @@
+"""The ``structure.elements`` list of a test file: numerical and experimental elements.
+
+Each element names the structure DOFs it connects (``dofs``; ``null`` = the ground)::
+
+    structure:
+      dof_names: [u1, u2, u3]
+      mass: [2.0e4, 2.0e4, 1.5e4]        # diagonal; 0 = massless (condensed) DOF
+      damping: {rayleigh: {modes: [1, 3], ratios: [0.05, 0.05]}}   # or {modal: [...]}, ratio
+      elements:
+        - {type: experimental, name: story1, site: lab_a, dofs: [u1],
+           setup: {type: one_to_one}, initial_stiffness: 4.0e7}
+        - {type: spring, dofs: [u1, u2], stiffness: 3.5e7}        # (alias: story)
+        - {type: nonlinear_spring, dofs: [u2, u3],
+           model: {model: epp, stiffness: 3.0e7, yield_force: 2.0e5}}
+        - {type: beam_column, dofs: [null, null, null, u4, v4, r4],
+           coordinates: [[0, 0], [0, 3.0]], E: 2.0e11, A: 1.0e-2, I: 1.0e-4}
+
+* ``spring`` / ``story``: linear, ``dofs: [i, j]`` (deformation ``x_j − x_i``) or ``[j]``
+  (to the ground), ``stiffness`` [N/m].
+* ``beam_column``: linear 2-D Euler–Bernoulli frame element, six end DOFs
+  ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]``, ``coordinates`` of its ends [m], ``E``, ``A``, ``I``.
+* ``nonlinear_spring``: like ``spring`` with a ``model`` mapping exactly as an element of a
+  ``specimen`` section (elastic, epp, bilinear, pushover).
+* ``experimental``: measured at ``site``; basic DOFs ``dofs`` (optionally minus
+  ``relative_to``, same length, ``null`` = ground), ``setup`` (``one_to_one`` or
+  ``rigid_link_2``, see :mod:`.setups`), ``actuators`` (names of the site's actuator DOFs;
+  default from the element), ``initial_stiffness`` in basic DOFs (scalar, diagonal or matrix).
+
+DOFs with zero mass are statically condensed out (only linear elements may touch them); the
+session integrates the retained DOFs.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
+from .errors import ConfigError
+from .setups import OneToOneSetup, setup_from_config
+from .structure import as_matrix
+from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
+
+__all__ = ['ELEMENT_TYPES', 'SITE_NAME', 'ParsedModel', 'parse_elements']
+
+ELEMENT_TYPES = ('spring', 'story', 'beam_column', 'nonlinear_spring', 'experimental')
+#: Site names become ROS namespaces: letters, digits and underscores, starting with a letter.
+SITE_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
+
+_KEYS: dict[str, tuple[set[str], set[str]]] = {
+    'spring': ({'dofs', 'stiffness'}, set()),
+    'story': ({'dofs', 'stiffness'}, set()),
+    'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, set()),
+    'nonlinear_spring': ({'dofs', 'model'}, set()),
+    'experimental': ({'dofs', 'site', 'initial_stiffness'},
+                     {'relative_to', 'setup', 'actuators'}),
+}
+
+
+class ParsedModel:
+    """The model on the retained DOFs plus what the test definition needs from it.
+
+    Attributes:
+        model: the :class:`StructuralModel`.
+        retained: indices of the retained DOFs in ``structure.dof_names``.
+        mass: the retained mass matrix.
+    """
+
+    def __init__(self, model: StructuralModel, retained: list[int], mass: np.ndarray) -> None:
+        self.model = model
+        self.retained = retained
+        self.mass = mass
+
+
+def _number(value: Any, where: str, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
+            float(value)) or (positive and float(value) <= 0.0):
+        kind = 'a positive finite number' if positive else 'a finite number'
+        msg = f'{where}: must be {kind}, got {value!r}'
+        raise ConfigError(msg)
+    return float(value)
+
+
+def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndarray,
+                   source: str, base_dir: Path) -> ParsedModel:
+    """Build the structural model of ``structure.elements``.
+
+    Raises:
+        ConfigError: one line naming ``source`` and the element parameter.
+    """
+    where = f'{source}: structure.elements'
+    if not isinstance(raw_elements, list) or not raw_elements:
+        msg = f'{where}: must be a non-empty list of elements'
+        raise ConfigError(msg)
+    names = list(dof_names)
+    index = {name: i for i, name in enumerate(names)}
+    n_all = len(names)
+    linear: list[tuple[list[int | None], np.ndarray]] = []
+    springs: list[tuple[list[int | None], Any, str, str]] = []
+    experimental: list[dict[str, Any]] = []
+    touched_nonlinear: set[int] = set()
+    element_names: set[str] = set()
+    for number, raw in enumerate(raw_elements):
+        path = f'{where}[{number}]'
+        if not isinstance(raw, Mapping):
+            msg = f'{path}: must be a mapping with a type, got {raw!r}'
+            raise ConfigError(msg)
+        kind = raw.get('type')
+        if kind not in _KEYS:
+            msg = f'{path}.type: must be one of {", ".join(ELEMENT_TYPES)}, got {kind!r}'
+            raise ConfigError(msg)
+        required, optional = _KEYS[kind]
+        unknown = sorted(set(raw) - required - optional - {'type', 'name'})
+        if unknown:
+            msg = f'{path}.{unknown[0]}: unknown parameter for a {kind} element'
+            raise ConfigError(msg)
+        missing = sorted(required - set(raw))
+        if missing:
+            msg = f'{path}.{missing[0]}: is required for a {kind} element'
+            raise ConfigError(msg)
+        name = raw.get('name', f'{kind}{number + 1}')
+        if not isinstance(name, str) or not name or name in element_names:
+            msg = f'{path}.name: must be a unique non-empty string, got {name!r}'
+            raise ConfigError(msg)
+        element_names.add(name)
+        path = f'{where}[{number}] ({name})'
+
+        def dof_list(key: str, size: int | tuple[int, ...], *, nulls: bool = True,
+                     _raw: Mapping[str, Any] = raw, _path: str = path) -> list[int | None]:
+            value = _raw.get(key)
+            sizes = (size,) if isinstance(size, int) else size
+            if not isinstance(value, list) or len(value) not in sizes:
+                msg = (f'{_path}.{key}: must be a list of {" or ".join(map(str, sizes))} DOF '
+                       f'names, got {value!r}')
+                raise ConfigError(msg)
+            out: list[int | None] = []
+            for item in value:
+                if item is None and nulls:
+                    out.append(None)
+                elif isinstance(item, str) and item in index:
+                    out.append(index[item])
+                else:
+                    allowed = 'a DOF name or null' if nulls else 'a DOF name'
+                    msg = (f'{_path}.{key}: {item!r} is not {allowed} (DOFs: '
+                           f'{", ".join(names)})')
+                    raise ConfigError(msg)
+            return out
+
+        if kind in ('spring', 'story'):
+            dofs = dof_list('dofs', (1, 2))
+            if len(dofs) == 1:
+                dofs = [None, *dofs]
+            linear.append((dofs, spring_stiffness(_number(raw['stiffness'], f'{path}.stiffness'),
+                                                  name=name)))
+        elif kind == 'beam_column':
+            dofs = dof_list('dofs', 6)
+            coords = raw['coordinates']
+            if (not isinstance(coords, list) or len(coords) != 2 or not all(
+                    isinstance(c, list) and len(c) == 2 for c in coords)):
+                msg = f'{path}.coordinates: must be [[x_i, y_i], [x_j, y_j]] in m, got {coords!r}'
+                raise ConfigError(msg)
+            xi = (_number(coords[0][0], f'{path}.coordinates', positive=False),
+                  _number(coords[0][1], f'{path}.coordinates', positive=False))
+            xj = (_number(coords[1][0], f'{path}.coordinates', positive=False),
+                  _number(coords[1][1], f'{path}.coordinates', positive=False))
+            try:
+                matrix = beam_column_2d_stiffness(
+                    xi, xj, _number(raw['E'], f'{path}.E'), _number(raw['A'], f'{path}.A'),
+                    _number(raw['I'], f'{path}.I'), name=name)
+            except ConfigError as err:
+                msg = f'{path}: {err}'
+                raise ConfigError(msg) from None
+            linear.append((dofs, matrix))
+        elif kind == 'nonlinear_spring':
+            dofs = dof_list('dofs', (1, 2))
+            if len(dofs) == 1:
+                dofs = [None, *dofs]
+            touched_nonlinear.update(i for i in dofs if i is not None)
+            springs.append((dofs, raw['model'], name, f'{path}.model'))
+        else:
+            dofs = dof_list('dofs', tuple(range(1, n_all + 1)), nulls=False)
+            relative = (dof_list('relative_to', len(dofs)) if raw.get('relative_to') is not None
+                        else [None] * len(dofs))
+            site = raw['site']
+            if not isinstance(site, str) or not SITE_NAME.match(site):
+                msg = (f'{path}.site: must be a name of letters, digits and _ starting with a '
+                       f'letter (it becomes the namespace /pd/<site>), got {site!r}')
+                raise ConfigError(msg)
+            touched_nonlinear.update(i for i in dofs if i is not None)
+            touched_nonlinear.update(i for i in relative if i is not None)
+            experimental.append({'name': name, 'site': site, 'dofs': dofs, 'relative': relative,
+                                 'raw': raw, 'path': path})
+
+    # Massless DOFs are condensed out (the mass must be diagonal for that).
+    diagonal = np.diag(mass)
+    massless = [i for i in range(n_all) if diagonal[i] == 0.0]
+    if massless and not np.array_equal(mass, np.diag(diagonal)):
+        msg = f'{source}: structure.mass: must be diagonal when some DOFs are massless'
+        raise ConfigError(msg)
+    bad = sorted(set(massless) & touched_nonlinear)
+    if bad:
+        msg = (f'{source}: structure.mass: DOF {names[bad[0]]} is massless but connected to a '
+               'nonlinear or experimental element (only linear elements may touch massless '
+               'DOFs, which are condensed out)')
+        raise ConfigError(msg)
+    retained = [i for i in range(n_all) if i not in set(massless)]
+    if not retained:
+        msg = f'{source}: structure.mass: every DOF is massless'
+        raise ConfigError(msg)
+    linear_full = assemble(n_all, linear) if linear else np.zeros((n_all, n_all))
+    if massless:
+        try:
+            condensation = static_condensation(
+                linear_full.toarray() if hasattr(linear_full, 'toarray') else linear_full,
+                massless)
+        except ConfigError as err:
+            msg = f'{source}: structure.elements: {err}'
+            raise ConfigError(msg) from None
+        linear_retained: Any = condensation.stiffness
+    else:
+        linear_retained = linear_full
+    position = {full: i for i, full in enumerate(retained)}
+
+    def remap(indices: list[int | None]) -> tuple[np.ndarray, np.ndarray]:
+        return (np.array([position[i] for i in indices if i is not None], dtype=int),
+                np.array([-1 if i is None else position[i] for i in indices], dtype=int))
+
+    from pd_specimen_sim.core import SpecimenError, hysteresis_from_config  # noqa: PLC0415
+
+    spring_objects = []
+    for dofs, model_raw, name, path in springs:
+        i, j = dofs
+        assert j is not None or i is not None
+        if j is None:  # [i, null]: deformation -x_i; keep the convention x_j - x_i
+            msg = f'{path.removesuffix(".model")}.dofs: the second DOF must not be null'
+            raise ConfigError(msg)
+        try:
+            model = hysteresis_from_config(model_raw, path=path.split(': ', 1)[-1],
+                                           base_dir=base_dir, source=source)
+        except SpecimenError as err:
+            raise ConfigError(str(err)) from None
+        spring_objects.append(NonlinearSpring(
+            dofs=np.array([position[j]]),
+            relative=np.array([-1 if i is None else position[i]]), name=name, model=model))
+
+    experimental_objects = []
+    actuator_names_seen: dict[str, set[str]] = {}
+    for item in experimental:
+        raw = item['raw']
+        path = item['path']
+        n_basic = len(item['dofs'])
+        setup = setup_from_config(raw.get('setup'), n_basic, f'{path}.setup')
+        actuators = raw.get('actuators')
+        if actuators is None:
+            if isinstance(setup, OneToOneSetup):
+                actuators = [names[d] if r is None else f'{names[d]}-{names[r]}'
+                             for d, r in zip(item['dofs'], item['relative'])]
+            else:
+                actuators = [f'{item["name"]}.a{k + 1}' for k in range(setup.n_actuators)]
+        if (not isinstance(actuators, list) or len(actuators) != setup.n_actuators
+                or not all(isinstance(a, str) and a for a in actuators)):
+            msg = (f'{path}.actuators: must be a list of {setup.n_actuators} actuator names, '
+                   f'got {actuators!r}')
+            raise ConfigError(msg)
+        seen = actuator_names_seen.setdefault(item['site'], set())
+        clash = sorted(seen & set(actuators))
+        if clash or len(set(actuators)) != len(actuators):
+            msg = f'{path}.actuators: actuator names must be unique within site {item["site"]}'
+            raise ConfigError(msg)
+        seen.update(actuators)
+        try:
+            stiffness = as_matrix(raw['initial_stiffness'], n_basic, 'initial_stiffness')
+        except ConfigError as err:
+            msg = f'{path}.{err}'
+            raise ConfigError(msg) from None
+        dofs_r, _ = remap(item['dofs'])
+        _, relative_r = remap(item['relative'])
+        experimental_objects.append(ExperimentalElement(
+            dofs=dofs_r, relative=relative_r, name=item['name'], site=item['site'],
+            setup=setup, actuator_names=tuple(actuators), initial_stiffness=stiffness))
+
+    model = StructuralModel(
+        dof_names=tuple(names[i] for i in retained), linear_stiffness=linear_retained,
+        springs=spring_objects, experimental=experimental_objects,
+        condensed_names=tuple(names[i] for i in massless))
+    mass_retained = mass[np.ix_(retained, retained)]
+    return ParsedModel(model, retained, mass_retained)
