@@ -114,6 +114,12 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
         if kind not in _KEYS:
             msg = f'{path}.type: must be one of {", ".join(ELEMENT_TYPES)}, got {kind!r}'
             raise ConfigError(msg)
+        name = raw.get('name', f'{kind}{number + 1}')
+        if not isinstance(name, str) or not name or name in element_names:
+            msg = f'{path}.name: must be a unique non-empty string, got {name!r}'
+            raise ConfigError(msg)
+        element_names.add(name)
+        path = f'{where}[{number}] ({name})'
         required, optional = _KEYS[kind]
         unknown = sorted(set(raw) - required - optional - {'type', 'name'})
         if unknown:
@@ -123,12 +129,6 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
         if missing:
             msg = f'{path}.{missing[0]}: is required for a {kind} element'
             raise ConfigError(msg)
-        name = raw.get('name', f'{kind}{number + 1}')
-        if not isinstance(name, str) or not name or name in element_names:
-            msg = f'{path}.name: must be a unique non-empty string, got {name!r}'
-            raise ConfigError(msg)
-        element_names.add(name)
-        path = f'{where}[{number}] ({name})'
 
         def dof_list(key: str, size: int | tuple[int, ...], *, nulls: bool = True,
                      _raw: Mapping[str, Any] = raw, _path: str = path) -> list[int | None]:

@@ -290,7 +290,9 @@ class TestSession:
             'ignored_messages': self.protocol.ignored_total,
             'ignored_by_reason': {verdict.value: count
                                   for verdict, count in self.protocol.ignored.items()},
-            'ground_motion': dict(definition.record_info),
+            'ground_motion': (dict(definition.record_info) if len(definition.components) <= 1
+                              else [dict(c.info) for c in definition.components]),
+            'sites': list(definition.site_names),
             'initial_stiffness': (definition.initial_stiffness.tolist()
                                   if definition.initial_stiffness is not None else None),
             'initial_stiffness_probed': self.probe_stiffness is not None,
