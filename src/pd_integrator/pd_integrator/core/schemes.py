@@ -45,6 +45,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
 
 from .errors import ConfigError, IntegratorError
 
@@ -156,11 +158,35 @@ class Factorization:
         return _solve_factored(self._factor, rhs)
 
 
+#: Matrices of at least this many DOFs that are mostly zeros (a shear building, a frame) are
+#: factorised and multiplied as sparse matrices: a step then costs O(nnz) instead of O(n²).
+SPARSE_MIN_DOF = 64
+SPARSE_MAX_DENSITY = 0.1
+
+
+def _is_sparse_structure(matrix: np.ndarray) -> bool:
+    n = matrix.shape[0]
+    return n >= SPARSE_MIN_DOF and np.count_nonzero(matrix) <= SPARSE_MAX_DENSITY * n * n
+
+
+def operator(matrix: np.ndarray) -> Any:
+    """``matrix`` for repeated products: CSR when it is large and sparse, else itself."""
+    if matrix.ndim == 2 and _is_sparse_structure(matrix):
+        return scipy.sparse.csr_matrix(matrix)
+    return matrix
+
+
 def _cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
     """``('cholesky', …)`` if ``symmetric`` and positive definite, else ``('lu', …)``.
 
-    The LU factors are not checked for singularity: the caller does that.
+    Large sparse matrices get a sparse LU (``('sparse', splu)``), which raises ``ConfigError``
+    when singular. The dense LU factors are not checked for singularity: the caller does that.
     """
+    if _is_sparse_structure(matrix):
+        try:
+            return ('sparse', scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(matrix)))
+        except RuntimeError as err:  # "Factor is exactly singular"
+            raise ConfigError(f'matrix of {matrix.shape[0]} DOFs is singular ({err})') from None
     if symmetric:
         try:
             return ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))
@@ -178,6 +204,8 @@ def _solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
         return np.asarray(rhs, dtype=float) / value
     if kind == 'cholesky':
         return scipy.linalg.cho_solve(value, rhs, check_finite=False)
+    if kind == 'sparse':
+        return value.solve(np.asarray(rhs, dtype=float))
     return scipy.linalg.lu_solve(value, rhs, check_finite=False)
 
 
@@ -804,7 +832,8 @@ class NewmarkExplicit(Integrator):
                 raise ConfigError(f'damping: m + dt/2*c = {self._lhs!r} must be positive')
             return
         c = self._damping
-        self._half_dt_c_matrix = dt * 0.5 * c
+        self._half_dt_c_matrix = operator(dt * 0.5 * c)
+        self._damping_operator = operator(c)
         lhs = self._mass + dt * 0.5 * c
         self._factor = _cholesky_or_lu(lhs, bool(np.array_equal(c, c.T)))
         if self._factor[0] == 'lu' and np.any(np.diag(self._factor[1][0]) == 0.0):
@@ -830,7 +859,8 @@ class NewmarkExplicit(Integrator):
             a_new = (load - restoring_force - self._c * v - self._half_dt_c * a) / self._lhs
         else:
             a_new = self._solve(
-                load - restoring_force - self._damping @ v - self._half_dt_c_matrix @ a
+                load - restoring_force - self._damping_operator @ v
+                - self._half_dt_c_matrix @ a
             )
         v_new = v + self._half_dt * (a + a_new)
         return a_new, v_new

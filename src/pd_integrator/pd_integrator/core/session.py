@@ -30,6 +30,13 @@ if TYPE_CHECKING:
 PROBE_SUFFIX = ':probe'
 
 
+def _all_finite(values: tuple[float, ...]) -> bool:
+    """Whether every value is finite (numpy for long vectors, plain Python for short ones)."""
+    if isinstance(values, np.ndarray) or len(values) > 16:
+        return bool(np.isfinite(np.asarray(values, dtype=float)).all())
+    return all(math.isfinite(value) for value in values)
+
+
 class TestSession:
     """Drives one test.
 
@@ -127,8 +134,8 @@ class TestSession:
             self._hold(f'step {feedback.step}: {feedback.status.name.lower()} reported by the '
                        f'specimen side: {feedback.message or "no reason given"}')
             return Verdict.REFUSED
-        if len(feedback.restoring_force) != self.definition.n_dof or not all(
-                math.isfinite(value) for value in feedback.restoring_force):
+        if len(feedback.restoring_force) != self.definition.n_dof or not _all_finite(
+                feedback.restoring_force):
             self._hold(f'step {feedback.step}: invalid restoring force '
                        f'{list(feedback.restoring_force)!r}')
             return Verdict.REFUSED

@@ -371,9 +371,13 @@ class SiteCoordinator:
                                     pending.x, force, measured)
         command = pending.command
         self._pending = None
+        # Read-only arrays rather than tuples: a large model then skips two conversions of
+        # every DOF per step (the session, the history and the bag take any float sequence).
+        measured.setflags(write=False)
+        force.setflags(write=False)
         return Feedback(test_id=command.test_id, step=command.step, iteration=command.iteration,
-                        measured_displacement=tuple(measured.tolist()),
-                        restoring_force=tuple(force.tolist()))
+                        measured_displacement=measured,  # type: ignore[arg-type]
+                        restoring_force=force)  # type: ignore[arg-type]
 
     def summary(self) -> dict[str, Any]:
         """Per-site protocol counters (for ``summary.json``)."""

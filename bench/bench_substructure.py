@@ -1,0 +1,178 @@
+"""Benchmark of substructured tests: prints per-step wall time and steps/s. Asserts nothing.
+
+Run inside the sourced workspace (``. scripts/env.sh``)::
+
+    python bench/bench_substructure.py [--quick] [--dofs 1000]
+
+or ``./pd bench`` (after the loop benchmark). Figures:
+
+1. Core time of a large numerical substructure with one physical DOF: an N-story linear shear
+   building (default N = 1,000; lumped masses, 5 % Rayleigh damping, Newmark explicit) whose
+   first story is an experimental element at a site served in-process by a simulated elastic
+   specimen (no ROS, no bag): milliseconds per step (session + site coordinator + numerical
+   elements + specimen) and steps/s, best of 3; plus the one-off set-up (parsing the model,
+   modal/stability analysis, factorisations). Goal: under 1 ms per step.
+2. A two-site test through the node graph (3-story building, stories 1 and 3 at sites
+   ``lab1`` and ``lab3``, one process per node started by ``run_test``), with ``--site direct``
+   (a simulator per site) and ``--site bridge`` (a bridge and a simulator per site): steps/s
+   and the median / p99 step round trip from ``summary.json``, best of 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
+    'elcentro_1940_ns_chopra.csv')
+GOAL_MS = 1.0
+
+
+def large_model(n: int, steps: int) -> dict[str, Any]:
+    """An ``n``-story shear building, story 1 at site ``lab`` (raw test definition)."""
+    names = [f'u{i + 1}' for i in range(n)]
+    k, m = 1.0e8, 1.0e4
+    elements: list[dict[str, Any]] = [
+        {'type': 'experimental', 'name': 'story1', 'site': 'lab', 'dofs': ['u1'],
+         'initial_stiffness': k}]
+    elements += [{'type': 'story', 'dofs': [names[i - 1], names[i]], 'stiffness': k}
+                 for i in range(1, n)]
+    dt = 0.005  # ω_max < 2 sqrt(k/m) = 200 rad/s: ω_max·Δt < 1
+    return {
+        'test': {'id': f'bench-{n}-dof', 'dt': dt, 'duration': steps * dt},
+        'structure': {'dof_names': names, 'mass': [m] * n, 'elements': elements,
+                      'damping': {'rayleigh': {'modes': [1, 2], 'ratios': [0.05, 0.05]}}},
+        'ground_motion': {'file': str(RECORD)},
+        'sites': {'lab': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': k}]}}},
+    }
+
+
+def core_large(n: int, steps: int) -> dict[str, float]:
+    """Per-step core time of the large model (best of 3), and the set-up time."""
+    from pd_integrator.core.config import from_dict
+    from pd_integrator.core.dispatch import StepDispatcher
+    from pd_integrator.core.messages import Feedback
+    from pd_integrator.core.runner import site_servers
+    from pd_integrator.core.session import TestSession
+
+    raw = large_model(n, steps)
+    best = float('inf')
+    setup = float('inf')
+    for _ in range(3):
+        start = time.perf_counter()
+        definition = from_dict(raw, source='bench.yaml')
+        session = TestSession(definition)
+        servers = site_servers(definition)
+        setup = min(setup, time.perf_counter() - start)
+        queue: list[Any] = []
+        dispatcher = StepDispatcher(session, lambda site, command: queue.append((site, command)))
+        start = time.perf_counter()
+        dispatcher.start()
+        while queue:
+            site, command = queue.pop()
+            answer = servers[site].handle(command.test_id, command.step,
+                                          command.target_displacement,
+                                          iteration=command.iteration)
+            dispatcher.on_feedback(site, Feedback(
+                test_id=answer.test_id, step=answer.step, iteration=answer.iteration,
+                measured_displacement=answer.displacement, restoring_force=answer.force))
+        elapsed = time.perf_counter() - start
+        if session.state.name != 'FINISHED':
+            msg = f'the {n}-DOF run stopped: {session.message}'
+            raise RuntimeError(msg)
+        best = min(best, elapsed / (definition.n_steps + 1))
+    return {'ms_per_step': best * 1e3, 'steps_per_s': 1.0 / best, 'setup_s': setup}
+
+
+def two_site_file(directory: Path, duration: float) -> Path:
+    """The two-site test of the graph tests, as a file."""
+    raw = {
+        'test': {'id': 'bench-two-sites', 'dt': 0.005, 'duration': duration},
+        'structure': {
+            'dof_names': ['u1', 'u2', 'u3'], 'mass': [2.0e4, 2.0e4, 1.5e4],
+            'damping': {'rayleigh': {'modes': [1, 3], 'ratios': [0.05, 0.05]}},
+            'elements': [
+                {'type': 'experimental', 'name': 'story1', 'site': 'lab1', 'dofs': ['u1'],
+                 'initial_stiffness': 4.0e7},
+                {'type': 'story', 'dofs': ['u1', 'u2'], 'stiffness': 3.5e7},
+                {'type': 'experimental', 'name': 'story3', 'site': 'lab3', 'dofs': ['u3'],
+                 'relative_to': ['u2'], 'initial_stiffness': 3.0e7}]},
+        'ground_motion': {'file': str(RECORD)},
+        'sites': {'lab1': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': 4.0e7}]},
+                           'bridge': {'max_force': 1.0e7}},
+                  'lab3': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': 3.0e7}]},
+                           'bridge': {'max_force': 1.0e7}}},
+    }
+    path = directory / 'two_sites.yaml'
+    path.write_text(yaml.safe_dump(raw), encoding='utf-8')
+    return path
+
+
+def graph_two_sites(mode: str, test_file: Path, directory: Path, domain: int
+                    ) -> dict[str, float]:
+    """One launcher run; figures from its summary."""
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    out = directory / f'{mode}-{time.monotonic_ns()}'
+    command = [sys.executable, '-m', 'pd_integrator.launcher', str(test_file), '--site', mode,
+               '--out', str(out), '--no-figures']
+    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600,
+                            check=False)
+    if result.returncode != 0:
+        msg = f'run_test --site {mode} failed:\n{result.stderr[-2000:]}'
+        raise RuntimeError(msg)
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    trip = summary.get('step_round_trip', {})
+    return {'steps_per_s': summary['steps'] / summary['wall_time'],
+            'median_ms': trip.get('median_ms', float('nan')),
+            'p99_ms': trip.get('p99_ms', float('nan'))}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the figures."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--quick', action='store_true', help='shorter runs')
+    parser.add_argument('--dofs', type=int, default=1000, help='DOFs of the large model')
+    parser.add_argument('--domain-id', type=int, default=63,
+                        help='ROS domain of the graph runs')
+    parser.add_argument('--no-graph', action='store_true', help='skip the node-graph runs')
+    # (./pd bench passes the loop benchmark's options too: those are not ours)
+    args, _ = parser.parse_known_args(argv)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    steps = 200 if args.quick else 1000
+    print(f'Substructured tests ({os.cpu_count()} CPUs, numpy {np.__version__})')
+    large = core_large(args.dofs, steps)
+    verdict = 'meets' if large['ms_per_step'] < GOAL_MS else 'misses'
+    print(f'  {args.dofs}-DOF numerical substructure + 1 physical DOF, core only ({steps} '
+          f'steps, best of 3): {large["ms_per_step"]:.3f} ms/step = '
+          f'{large["steps_per_s"]:,.0f} steps/s ({verdict} the {GOAL_MS:g} ms goal); '
+          f'set-up {large["setup_s"]:.2f} s')
+    if args.no_graph:
+        return 0
+    duration = 2.5 if args.quick else 10.0
+    with tempfile.TemporaryDirectory(prefix='pd-bench-sites-') as tmp:
+        test_file = two_site_file(Path(tmp), duration)
+        for mode in ('direct', 'bridge'):
+            runs = [graph_two_sites(mode, test_file, Path(tmp), args.domain_id)
+                    for _ in range(2)]
+            best = max(runs, key=lambda run: run['steps_per_s'])
+            print(f'  two sites through the graph, --site {mode:6s} '
+                  f'({int(duration / 0.005)} steps, best of 2): '
+                  f'{best["steps_per_s"]:,.0f} steps/s = '
+                  f'{1e3 / best["steps_per_s"]:.2f} ms/step; step round trip median '
+                  f'{best["median_ms"]:.2f} ms, p99 {best["p99_ms"]:.2f} ms')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
