@@ -355,3 +355,20 @@ def test_coordinator_passes_a_site_limit_on_and_resends_to_that_site_only() -> N
     assert refused is not None and refused.status is FeedbackStatus.LIMIT
     assert refused.message == 'site lab3: stroke'
     assert [site for site, _ in sites.resend(command)] == ['lab3']
+
+
+def test_shipped_two_site_example_runs_and_yields(tmp_path: Path) -> None:
+    from pd_integrator.core.config import load_test_file  # noqa: PLC0415
+
+    example = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
+               / 'three_story_two_sites.yaml')
+    definition = load_test_file(example, {'duration': 3.0})
+    assert definition.site_names == ('lab1', 'lab3')
+    result = run_offline(definition, tmp_path / 'run', figures=False)
+    assert result.session.state is State.FINISHED
+    history = result.session.history
+    # story 1 yields (bilinear, F_y = 150 kN): its force stays near the backbone
+    story1 = history.restoring_force[:, 0] + history.restoring_force[:, 1] + \
+        history.restoring_force[:, 2]
+    assert np.max(np.abs(story1)) < 1.6e5
+    assert np.max(np.abs(4.0e7 * history.displacement[:, 0])) > 1.6e5
