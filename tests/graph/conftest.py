@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ from graph_support import (
     shm_segments,
     worker_index,
 )
+from netns_support import NetnsHub, NetnsUnavailable
 
 
 @pytest.fixture
@@ -66,3 +68,24 @@ def observer(domain_id: int) -> Iterator[Any]:
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=context)
+
+
+@pytest.fixture
+def netns_hub() -> Iterator[Callable[..., NetnsHub]]:
+    """Factory ``netns_hub('integrator', 'site_a', ...)``: network namespaces of this test alone
+    (hub topology, see netns_support), deleted after the test with everything running in them.
+    Skips the test when namespaces cannot be created (not root, no iproute2)."""
+    before = shm_segments()
+    try:
+        with contextlib.ExitStack() as stack:
+
+            def make(*names: str, **options: Any) -> NetnsHub:
+                try:
+                    return stack.enter_context(NetnsHub(names, **options))
+                except NetnsUnavailable as exc:
+                    pytest.skip(f'network namespaces unavailable: {exc}')
+                raise AssertionError  # unreachable
+
+            yield make
+    finally:
+        remove_stale_segments(before)

@@ -8,7 +8,9 @@ same file float for float, the bag holds each site's stream, and the replay rebu
 from __future__ import annotations
 
 import json
+import subprocess
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -18,7 +20,7 @@ from pd_integrator.core.bag import read_bag
 from pd_integrator.core.config import load_test_file
 from pd_integrator.core.runner import rebuild_outputs, run_offline
 
-from graph_support import REPO, Processes
+from graph_support import REPO, Processes, executable
 from test_graph import RUN_TIMEOUT, run_launcher, wait_exit
 
 pytestmark = pytest.mark.graph
@@ -99,3 +101,40 @@ def test_two_sites_through_the_graph_match_the_ros_free_run(
     replay = rebuild_outputs(out / 'bag', tmp_path / 'replay', figures=False)
     assert (replay.directory / 'response.csv').read_bytes() == (
         out / 'response.csv').read_bytes()
+
+
+def test_two_sites_on_three_hosts_match_the_one_host_run(
+        site_test: tuple[Path, Path], netns_hub: Any, ros_env: dict[str, str],
+        tmp_path: Path) -> None:
+    """Integrator and two sites in three network namespaces (veth links, UDP only)."""
+    test_file, offline = site_test
+    ns = netns_hub('integrator', 'lab1', 'lab3')
+    before = {name: ns.link_bytes(name) for name in ns.names}
+    logs = {}
+    started = []
+    for lab, names in (('lab1', ['u1']), ('lab3', ['u3-u2'])):
+        logs[lab] = (tmp_path / f'{lab}.log').open('wb')
+        started.append(ns.popen(lab, [
+            executable('pd_specimen_sim'), '--ros-args', '-r', f'__ns:=/pd/{lab}',
+            '-p', f'test_file:={test_file}', '-p', f'site:={lab}',
+            '-p', f'dof_names:={json.dumps(names)}'], ns.env(lab, ros_env),
+            stdout=logs[lab], stderr=subprocess.STDOUT))
+    out = tmp_path / 'multi-host'
+    log_path = tmp_path / 'integrator.log'
+    with log_path.open('wb') as log:
+        integrator = ns.popen('integrator', [
+            executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+            '-p', f'output_dir:={out}', '-p', 'figures:=false'],
+            ns.env('integrator', ros_env), stdout=log, stderr=subprocess.STDOUT)
+        code = wait_exit(integrator, RUN_TIMEOUT,
+                         lambda: log_path.read_text(encoding='utf-8', errors='replace'))
+    text = log_path.read_text(encoding='utf-8', errors='replace')
+    assert code == 0, text[-3000:]
+    assert (out / 'response.csv').read_bytes() == (offline / 'response.csv').read_bytes()
+    # Every step crossed the links: each site's veth carried its commands and answers.
+    for lab in ('lab1', 'lab3'):
+        grown = {way: ns.link_bytes(lab)[way] - before[lab][way] for way in ('rx', 'tx')}
+        assert grown['rx'] > 301 * 100 and grown['tx'] > 301 * 100, (lab, grown)
+    assert all(process.poll() is None for process in started)  # the sites are still serving
+    for handle in logs.values():
+        handle.close()
