@@ -128,9 +128,13 @@ def test_first_story_at_a_site_equals_the_numerical_run(tmp_path: Path,
         assert np.max(np.abs(story_force)) > 1.5 * story_model['yield_force']
 
 
-def test_two_sites_equal_the_numerical_run_and_replay_from_the_bag(tmp_path: Path) -> None:
-    numerical = run(building(), tmp_path, 'numerical')
-    two_sites = run(building(experimental=(0, 2)), tmp_path, 'two-sites')
+@pytest.mark.parametrize('scheme', ['newmark_explicit', 'alpha_os', 'linear_acceleration'])
+def test_two_sites_equal_the_numerical_run_and_replay_from_the_bag(tmp_path: Path,
+                                                                   scheme: str) -> None:
+    # (linear_acceleration iterates: every site and numerical element sees (step, iteration))
+    numerical = run(building(scheme=scheme), tmp_path, 'numerical')
+    two_sites = run(building(experimental=(0, 2), scheme=scheme), tmp_path, 'two-sites')
+    assert two_sites.session.state is State.FINISHED
     scale = float(np.max(np.abs(numerical.session.history.displacement)))
     np.testing.assert_allclose(two_sites.session.history.displacement,
                                numerical.session.history.displacement, rtol=0.0,
