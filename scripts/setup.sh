@@ -45,6 +45,10 @@ fi
 command -v cmake >/dev/null 2>&1 || need_apt+=(cmake)
 command -v g++ >/dev/null 2>&1 || need_apt+=(g++)
 command -v make >/dev/null 2>&1 || need_apt+=(make)
+# openseespy's bundled libgfortran needs the system's libquadmath (the OpenSees site tests)
+if ! { ldconfig -p 2>/dev/null || /sbin/ldconfig -p 2>/dev/null; } | grep -q 'libquadmath\.so\.0'; then
+    need_apt+=(libquadmath0)
+fi
 if [ "${#need_apt[@]}" -gt 0 ]; then
     log "installing system packages: ${need_apt[*]}"
     SUDO=""

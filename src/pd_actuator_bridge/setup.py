@@ -25,6 +25,7 @@ setup(
         'console_scripts': [
             'main = pd_actuator_bridge.node:main',
             'controller_server = pd_actuator_bridge.controller_server:main',
+            'opensees_site = pd_actuator_bridge.opensees_site:main',
         ],
     },
 )

@@ -86,7 +86,7 @@ MONITOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
 
 _STATUS_CODES = {'ok': StepFeedback.STATUS_OK, 'limit': StepFeedback.STATUS_LIMIT,
                  'fault': StepFeedback.STATUS_FAULT}
-DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'daqmx')
+DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'opensees_adapter', 'daqmx')
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
 
@@ -369,6 +369,12 @@ class ActuatorBridgeNode(LifecycleNode):
 
             return GenericTCPDriver(value('tcp_host').value, int(value('tcp_port').value),
                                     n_dof=n_dof, timeout=float(value('driver_timeout').value))
+        if name == 'opensees_adapter':
+            from .core.opensees_adapter import OpenSeesAdapterDriver  # noqa: PLC0415
+
+            return OpenSeesAdapterDriver(value('tcp_host').value, int(value('tcp_port').value),
+                                         n_dof=n_dof,
+                                         timeout=float(value('driver_timeout').value))
         if name == 'daqmx':
             from .core.daqmx import DaqmxConfig, DaqmxDriver  # noqa: PLC0415
 

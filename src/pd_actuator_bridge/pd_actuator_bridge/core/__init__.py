@@ -59,6 +59,10 @@ __all__ += [
     'TrialResponse',
 ]
 
+from .opensees_adapter import OpenSeesAdapterDriver, OpenSeesAdapterError  # noqa: E402
+
+__all__ += ['OpenSeesAdapterDriver', 'OpenSeesAdapterError']
+
 from .emulator import EmulatorParameters, Measurement, ServoHydraulicEmulator  # noqa: E402
 from .error_models import (  # noqa: E402
     ErroneousStep,
