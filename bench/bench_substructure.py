@@ -12,8 +12,9 @@ or ``./pd bench`` (after the loop benchmark). Figures:
    specimen (no ROS, no bag): milliseconds per step (session + site coordinator + numerical
    elements + specimen) and steps/s, best of 3; plus the one-off set-up (parsing the model,
    modal/stability analysis, factorisations). Goal: under 1 ms per step.
-2. A two-site test through the node graph (3-story building, stories 1 and 3 at sites
-   ``lab1`` and ``lab3``, one process per node started by ``run_test``), with ``--site direct``
+2. A two-site test through the node graph (the example
+   ``config/three_story_two_sites.yaml``: stories 1 and 3 at sites ``lab1`` and ``lab3``, one
+   process per node started by ``run_test``), with ``--site direct``
    (a simulator per site) and ``--site bridge`` (a bridge and a simulator per site): steps/s
    and the median / p99 step round trip from ``summary.json``, best of 2.
 """
@@ -31,7 +32,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
@@ -95,37 +95,16 @@ def core_large(n: int, steps: int) -> dict[str, float]:
     return {'ms_per_step': best * 1e3, 'steps_per_s': 1.0 / best, 'setup_s': setup}
 
 
-def two_site_file(directory: Path, duration: float) -> Path:
-    """The two-site test of the graph tests, as a file."""
-    raw = {
-        'test': {'id': 'bench-two-sites', 'dt': 0.005, 'duration': duration},
-        'structure': {
-            'dof_names': ['u1', 'u2', 'u3'], 'mass': [2.0e4, 2.0e4, 1.5e4],
-            'damping': {'rayleigh': {'modes': [1, 3], 'ratios': [0.05, 0.05]}},
-            'elements': [
-                {'type': 'experimental', 'name': 'story1', 'site': 'lab1', 'dofs': ['u1'],
-                 'initial_stiffness': 4.0e7},
-                {'type': 'story', 'dofs': ['u1', 'u2'], 'stiffness': 3.5e7},
-                {'type': 'experimental', 'name': 'story3', 'site': 'lab3', 'dofs': ['u3'],
-                 'relative_to': ['u2'], 'initial_stiffness': 3.0e7}]},
-        'ground_motion': {'file': str(RECORD)},
-        'sites': {'lab1': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': 4.0e7}]},
-                           'bridge': {'max_force': 1.0e7}},
-                  'lab3': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': 3.0e7}]},
-                           'bridge': {'max_force': 1.0e7}}},
-    }
-    path = directory / 'two_sites.yaml'
-    path.write_text(yaml.safe_dump(raw), encoding='utf-8')
-    return path
+EXAMPLE = REPO / 'src' / 'pd_integrator' / 'config' / 'three_story_two_sites.yaml'
 
 
-def graph_two_sites(mode: str, test_file: Path, directory: Path, domain: int
+def graph_two_sites(mode: str, duration: float, directory: Path, domain: int
                     ) -> dict[str, float]:
     """One launcher run; figures from its summary."""
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     out = directory / f'{mode}-{time.monotonic_ns()}'
-    command = [sys.executable, '-m', 'pd_integrator.launcher', str(test_file), '--site', mode,
-               '--out', str(out), '--no-figures']
+    command = [sys.executable, '-m', 'pd_integrator.launcher', str(EXAMPLE), '--site', mode,
+               '--out', str(out), '--no-figures', '-p', f'duration:={duration}']
     result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600,
                             check=False)
     if result.returncode != 0:
@@ -161,9 +140,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     duration = 2.5 if args.quick else 10.0
     with tempfile.TemporaryDirectory(prefix='pd-bench-sites-') as tmp:
-        test_file = two_site_file(Path(tmp), duration)
         for mode in ('direct', 'bridge'):
-            runs = [graph_two_sites(mode, test_file, Path(tmp), args.domain_id)
+            runs = [graph_two_sites(mode, duration, Path(tmp), args.domain_id)
                     for _ in range(2)]
             best = max(runs, key=lambda run: run['steps_per_s'])
             print(f'  two sites through the graph, --site {mode:6s} '

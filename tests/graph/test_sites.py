@@ -30,41 +30,18 @@ RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')
 
 
-def two_site_test(path: Path, *, duration: float = 1.5) -> Path:
-    """A 3-story building whose first and third stories are at sites lab1 and lab3."""
-    raw = {
-        'test': {'id': 'two-sites', 'dt': 0.005, 'duration': duration},
-        'structure': {
-            'dof_names': ['u1', 'u2', 'u3'], 'mass': [2.0e4, 2.0e4, 1.5e4],
-            'damping': {'rayleigh': {'modes': [1, 3], 'ratios': [0.05, 0.05]}},
-            'elements': [
-                {'type': 'experimental', 'name': 'story1', 'site': 'lab1', 'dofs': ['u1'],
-                 'initial_stiffness': 4.0e7},
-                {'type': 'story', 'name': 'story2', 'dofs': ['u1', 'u2'], 'stiffness': 3.5e7},
-                {'type': 'experimental', 'name': 'story3', 'site': 'lab3', 'dofs': ['u3'],
-                 'relative_to': ['u2'], 'initial_stiffness': 3.0e7},
-            ]},
-        'ground_motion': {'file': str(RECORD), 'scale': 2.0},
-        'sites': {
-            'lab1': {'specimen': {'elements': [{'model': 'epp', 'stiffness': 4.0e7,
-                                                'yield_force': 1.5e5}]},
-                     'bridge': {'max_force': 1.0e6, 'max_increment': 0.01}},
-            'lab3': {'specimen': {'elements': [{'model': 'elastic', 'stiffness': 3.0e7}]},
-                     'bridge': {'max_force': 1.0e6, 'max_increment': 0.01}},
-        },
-        'protocol': {'start_timeout': 60.0},
-    }
-    path.write_text(yaml.safe_dump(raw), encoding='utf-8')
-    return path
+EXAMPLE = REPO / 'src' / 'pd_integrator' / 'config' / 'three_story_two_sites.yaml'
+#: The shipped example (stories 1 and 3 at sites lab1 and lab3), cut to 300 steps.
+DURATION = 1.5
 
 
 @pytest.fixture(scope='module')
 def site_test(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """The two-site test file and its ROS-free run."""
+    """The two-site example and its ROS-free run (cut to ``DURATION``)."""
     directory = tmp_path_factory.mktemp('sites')
-    test_file = two_site_test(directory / 'two_sites.yaml')
+    test_file = EXAMPLE
     out = directory / 'offline'
-    result = run_offline(load_test_file(test_file), out, figures=False)
+    result = run_offline(load_test_file(test_file, {'duration': DURATION}), out, figures=False)
     assert result.summary['state'] == 'finished'
     return test_file, out
 
@@ -75,7 +52,8 @@ def test_two_sites_through_the_graph_match_the_ros_free_run(
     test_file, offline = site_test
     out = tmp_path / 'graph'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', site,
-                                                    '--out', str(out), '--no-figures'])
+                                                    '--out', str(out), '--no-figures',
+                                                    '-p', f'duration:={DURATION}'])
     code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
     log = processes.log('run_test')
     assert code == 0, log[-3000:]
@@ -125,7 +103,7 @@ def test_two_sites_on_three_hosts_match_the_one_host_run(
     with log_path.open('wb') as log:
         integrator = ns.popen('integrator', [
             executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
-            '-p', f'output_dir:={out}', '-p', 'figures:=false'],
+            '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', f'duration:={DURATION}'],
             ns.env('integrator', ros_env), stdout=log, stderr=subprocess.STDOUT)
         code = wait_exit(integrator, RUN_TIMEOUT,
                          lambda: log_path.read_text(encoding='utf-8', errors='replace'))

@@ -318,19 +318,26 @@ class TestDefinition:
             structure['initial_stiffness'] = 'probe'
         if len(self.components) > 1:
             structure.pop('influence')
-        return {
+        return self._resolved(structure, self._resolved_ground_motion())
+
+    def _resolved(self, structure: dict[str, Any], ground: Any) -> dict[str, Any]:
+        """The resolved form around a resolved structure and ground motion section."""
+        resolved = {
             'schema_version': SCHEMA_VERSION,
             'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
                      'duration': self.duration,
                      'scheme_parameters': dict(self.scheme_parameters)},
             'structure': structure,
-            'ground_motion': self._resolved_ground_motion(),
+            'ground_motion': ground,
             'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
                          'max_retries': self.protocol.max_retries,
                          'start_timeout': self.protocol.start_timeout},
             'probe': {'amplitude': self.probe.amplitude},
             'specimen': self.specimen,
         }
+        if self.sites is not None:
+            resolved['sites'] = self.sites
+        return resolved
 
     def _resolved_ground_motion(self) -> Any:
         if len(self.components) <= 1:
@@ -355,20 +362,7 @@ class TestDefinition:
             ground_influence = self.components[0].influence_raw
             if ground_influence is not None:
                 structure['influence'] = ground_influence
-        return {
-            'schema_version': SCHEMA_VERSION,
-            'test': {'id': self.test_id, 'scheme': self.scheme, 'dt': self.dt,
-                     'duration': self.duration,
-                     'scheme_parameters': dict(self.scheme_parameters)},
-            'structure': structure,
-            'ground_motion': ground,
-            'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
-                         'max_retries': self.protocol.max_retries,
-                         'start_timeout': self.protocol.start_timeout},
-            'probe': {'amplitude': self.probe.amplitude},
-            'specimen': self.specimen,
-            'sites': self.sites,
-        }
+        return self._resolved(structure, ground)
 
     def to_json(self) -> str:
         """The resolved definition as JSON (floats round-trip exactly)."""

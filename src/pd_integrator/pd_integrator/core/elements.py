@@ -28,7 +28,7 @@ import scipy.linalg
 import scipy.sparse
 
 from .errors import ConfigError
-from .structure import modal_analysis
+from .structure import _square, modal_analysis
 
 __all__ = [
     'RIGID_BODY_RTOL',
@@ -68,20 +68,10 @@ def _positive(value: Any, name: str, what: str) -> float:
 
 
 def _dense_square(value: Any, name: str) -> np.ndarray:
-    """A square float matrix from an array-like, a scalar or a scipy.sparse matrix."""
+    """A square finite float matrix from an array-like, a scalar or a scipy.sparse matrix."""
     if scipy.sparse.issparse(value):
         value = value.toarray()
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f'{name}: expected a matrix of numbers ({exc})') from None
-    if array.ndim == 0:
-        array = array.reshape(1, 1)
-    if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
-        raise ConfigError(f'{name}: expected a square matrix, got shape {array.shape}')
-    if not np.all(np.isfinite(array)):
-        raise ConfigError(f'{name}: all values must be finite')
-    return array
+    return _square(value, name)
 
 
 def _matching(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
