@@ -6,7 +6,7 @@ Pure Python (no ``rclpy``): the node shell wires it to the step command and feed
 from __future__ import annotations
 
 from .bridge import ActuatorBridge, BridgeReply
-from .driver import ActuatorDriver, LoopbackDriver, MeasurementCallback
+from .driver import ActuatorDriver, LoopbackDriver, MeasurementCallback, RemoteDriver
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
 from .limits import (
     LimitViolation,
@@ -29,6 +29,7 @@ __all__ = [
     'LimitViolation',
     'LoopbackDriver',
     'MeasurementCallback',
+    'RemoteDriver',
     'SafetyLimits',
     'Saturation',
     'check_command',

@@ -11,6 +11,7 @@ Drivers perform no safety checks of their own: the :class:`~.bridge.ActuatorBrid
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Callable, Sequence
 
 from .errors import BridgeConfigError, DriverError
@@ -64,6 +65,106 @@ class ActuatorDriver(abc.ABC):
         """Deliver a measurement to the callback, if one is set."""
         if self._measurement_callback is not None:
             self._measurement_callback(step, displacement, force)
+
+
+class RemoteDriver(ActuatorDriver):
+    """A synchronous driver of a remote controller reached over a connection (TCP).
+
+    Shared by the OpenFresco GenericTCP and the OpenSees adapter drivers: target validation,
+    the exchange of one step, the last measurement, holding (send nothing: the controller keeps
+    its last command) and the fault bookkeeping. Subclasses implement :meth:`_exchange`,
+    :attr:`connected` and :attr:`address` (and ``open``/``close``).
+
+    Attributes:
+        hold_count: Number of :meth:`hold` calls.
+        fault: The last communication failure message ('' if none).
+    """
+
+    #: The subclass's communication error (recorded in :attr:`fault`, then re-raised).
+    error_type: type[DriverError] = DriverError
+
+    def __init__(self, n_dof: int, name: str) -> None:
+        """Create the driver state for ``n_dof`` DOF (``name`` for messages).
+
+        Raises:
+            BridgeConfigError: ``n_dof`` is not a positive integer.
+        """
+        super().__init__()
+        if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
+            raise BridgeConfigError(f'{name}: n_dof must be a positive integer, got {n_dof!r}')
+        self._n_dof = n_dof
+        self._name = name
+        self._position: list[float] = [math.nan] * n_dof
+        self._force: list[float] = [math.nan] * n_dof
+        self.hold_count = 0
+        self.fault = ''
+
+    @property
+    def n_dof(self) -> int:
+        """Number of DOF."""
+        return self._n_dof
+
+    @property
+    @abc.abstractmethod
+    def connected(self) -> bool:
+        """Whether the connection is open."""
+
+    @property
+    @abc.abstractmethod
+    def address(self) -> str:
+        """``host:port`` of the remote side."""
+
+    @property
+    def is_open(self) -> bool:
+        """Whether the connection is open."""
+        return self.connected
+
+    @property
+    def last_force(self) -> list[float]:
+        """Force per DOF of the last measurement, N (NaN before the first)."""
+        return list(self._force)
+
+    @abc.abstractmethod
+    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+        """Send the trial displacement; return the measured ``(displacement, force)``."""
+
+    def command(self, step: int, target: Sequence[float]) -> None:
+        """Send ``target`` as the trial displacement, read the response and report it.
+
+        Raises:
+            DriverError: If the driver is not open or the target is malformed.
+            error_type: On any communication failure (recorded in :attr:`fault`).
+        """
+        values = [float(x) for x in target]
+        if len(values) != self._n_dof:
+            raise DriverError(f'{self._name} {self.address}: target has {len(values)} values, '
+                              f'expected {self._n_dof}')
+        if not all(math.isfinite(value) for value in values):
+            raise DriverError(f'{self._name} {self.address}: refusing a non-finite target '
+                              f'{values} at step {step}')
+        if not self.connected:
+            raise DriverError(
+                f'{self._name} {self.address}: command() at step {step} while not connected'
+                + (f' (last fault: {self.fault})' if self.fault else ''))
+        try:
+            displacement, force = self._exchange(step, values)
+        except self.error_type as exc:
+            self.fault = str(exc)
+            raise
+        self._store(displacement, force)
+        self._emit(step, list(self._position), list(self._force))
+
+    def hold(self) -> None:
+        """Hold: send nothing, so the remote side keeps its last command."""
+        self.hold_count += 1
+
+    def position(self) -> list[float]:
+        """Last measured displacement per DOF, m (NaN before :meth:`open`)."""
+        return list(self._position)
+
+    def _store(self, displacement: Sequence[float], force: Sequence[float]) -> None:
+        self._position = [float(x) for x in displacement]
+        self._force = [float(f) for f in force]
 
 
 class LoopbackDriver(ActuatorDriver):

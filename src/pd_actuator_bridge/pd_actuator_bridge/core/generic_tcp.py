@@ -58,7 +58,7 @@ import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
-from .driver import ActuatorDriver
+from .driver import RemoteDriver
 from .errors import BridgeConfigError, DriverError
 
 # Action codes (OpenFresco FrescoGlobals.h, OF_RemoteTest_*).
@@ -736,7 +736,7 @@ class GenericTCPClient:
 # --------------------------------------------------------------------------- driver
 
 
-class GenericTCPDriver(ActuatorDriver):
+class GenericTCPDriver(RemoteDriver):
     """Synchronous actuator driver for a GenericTCP controller-side server.
 
     :meth:`open` connects, sends the size ID (displacement controlled; displacement and force
@@ -753,6 +753,8 @@ class GenericTCPDriver(ActuatorDriver):
         hold_count: Number of :meth:`hold` calls.
         fault: The last communication failure message ('' if none).
     """
+
+    error_type = GenericTCPError
 
     def __init__(
         self,
@@ -779,25 +781,11 @@ class GenericTCPDriver(ActuatorDriver):
         Raises:
             BridgeConfigError: On an invalid argument.
         """
-        super().__init__()
-        if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
-            raise BridgeConfigError(
-                f'GenericTCPDriver: n_dof must be a positive integer, got {n_dof!r}'
-            )
-        self._n_dof = n_dof
+        super().__init__(n_dof, 'GenericTCPDriver')
         self._client = GenericTCPClient(host, port, timeout, connect_timeout, data_size,
                                         byte_order)
         # Validate the sizes now rather than at open().
         SizeID({'disp': n_dof}, {'disp': n_dof, 'force': n_dof}, data_size)  # type: ignore[arg-type]
-        self._position: list[float] = [math.nan] * n_dof
-        self._force: list[float] = [math.nan] * n_dof
-        self.hold_count = 0
-        self.fault = ''
-
-    @property
-    def n_dof(self) -> int:
-        """Number of DOF."""
-        return self._n_dof
 
     @property
     def client(self) -> GenericTCPClient:
@@ -805,14 +793,14 @@ class GenericTCPDriver(ActuatorDriver):
         return self._client
 
     @property
-    def is_open(self) -> bool:
+    def connected(self) -> bool:
         """Whether the connection to the controller is open."""
         return self._client.connected
 
     @property
-    def last_force(self) -> list[float]:
-        """Force per DOF of the last acquisition, N (NaN before the first)."""
-        return list(self._force)
+    def address(self) -> str:
+        """``host:port`` of the controller-side server."""
+        return self._client.address
 
     def open(self) -> None:
         """Connect, send the size ID and read the current position and force.
@@ -826,7 +814,8 @@ class GenericTCPDriver(ActuatorDriver):
         try:
             n = self._n_dof
             self._client.setup({'disp': n}, {'disp': n, 'force': n})
-            self._store(self._client.get_daq_response())
+            daq = self._client.get_daq_response()
+            self._store(daq.disp, daq.force)
         except GenericTCPError as exc:
             self.fault = str(exc)
             self._client.close()
@@ -837,43 +826,10 @@ class GenericTCPDriver(ActuatorDriver):
         """Send ``99`` and disconnect. Idempotent."""
         self._client.close()
 
-    def command(self, step: int, target: Sequence[float]) -> None:
-        """Send ``target`` as the trial displacement, acquire, and report the measurement.
-
-        Raises:
-            DriverError: If the driver is not open or the target has the wrong length.
-            GenericTCPError: On any communication failure (the connection is then closed).
-        """
-        values = [float(x) for x in target]
-        if len(values) != self._n_dof:
-            raise DriverError(
-                f'GenericTCPDriver: target has {len(values)} values, expected {self._n_dof}'
-            )
-        if not self._client.connected:
-            raise DriverError(
-                f'GenericTCPDriver {self._client.address}: command() at step {step} while '
-                f'not connected' + (f' (last fault: {self.fault})' if self.fault else '')
-            )
-        try:
-            self._client.set_trial_response(disp=values)
-            daq = self._client.get_daq_response()
-        except GenericTCPError as exc:
-            self.fault = str(exc)
-            raise
-        self._store(daq)
-        self._emit(step, list(self._position), list(self._force))
-
-    def hold(self) -> None:
-        """Hold: send nothing, so the controller keeps its last command."""
-        self.hold_count += 1
-
-    def position(self) -> list[float]:
-        """Return the last measured displacement per DOF, m (NaN before :meth:`open`)."""
-        return list(self._position)
-
-    def _store(self, daq: DaqResponse) -> None:
-        self._position = list(daq.disp)
-        self._force = list(daq.force)
+    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+        self._client.set_trial_response(disp=target)
+        daq = self._client.get_daq_response()
+        return list(daq.disp), list(daq.force)
 
 
 def _describe(exc: BaseException) -> str:

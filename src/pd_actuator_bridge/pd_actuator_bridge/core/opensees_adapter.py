@@ -59,11 +59,10 @@ from __future__ import annotations
 import math
 import socket
 import time
-from collections.abc import Sequence
 
 import numpy as np
 
-from .driver import ActuatorDriver
+from .driver import RemoteDriver
 from .errors import BridgeConfigError, DriverError
 from .generic_tcp import (
     DEFAULT_DATA_SIZE,
@@ -103,13 +102,15 @@ def adapter_size_id(n_dof: int, data_size: int = DEFAULT_DATA_SIZE) -> SizeID:
     return SizeID(sizes, {'disp': n_dof, 'force': n_dof}, data_size)  # type: ignore[arg-type]
 
 
-class OpenSeesAdapterDriver(ActuatorDriver):
+class OpenSeesAdapterDriver(RemoteDriver):
     """Synchronous driver for an OpenSees ``adapter`` element (see the module docstring).
 
     Attributes:
         hold_count: Number of :meth:`hold` calls.
         fault: The last communication failure message ('' if none).
     """
+
+    error_type = OpenSeesAdapterError
 
     def __init__(
         self,
@@ -134,14 +135,12 @@ class OpenSeesAdapterDriver(ActuatorDriver):
         Raises:
             BridgeConfigError: On an invalid argument.
         """
-        super().__init__()
+        super().__init__(n_dof, 'OpenSeesAdapterDriver')
         where = 'OpenSeesAdapterDriver'
         if not isinstance(host, str) or not host:
             raise BridgeConfigError(f'{where}: host must be a non-empty string, got {host!r}')
         if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
             raise BridgeConfigError(f'{where}: port must be an integer in 1..65535, got {port!r}')
-        if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
-            raise BridgeConfigError(f'{where}: n_dof must be a positive integer, got {n_dof!r}')
         for name, value in (('timeout', timeout), ('connect_timeout', connect_timeout)):
             if isinstance(value, bool) or not isinstance(value, int | float) or not (
                 math.isfinite(value) and value > 0
@@ -152,21 +151,11 @@ class OpenSeesAdapterDriver(ActuatorDriver):
         self._size_id = adapter_size_id(n_dof, data_size)
         self._host = host
         self._port = port
-        self._n_dof = n_dof
         self._timeout = float(timeout)
         self._connect_timeout = float(connect_timeout)
         self._sock: socket.socket | None = None
-        self._position: list[float] = [math.nan] * n_dof
-        self._force: list[float] = [math.nan] * n_dof
-        self.hold_count = 0
-        self.fault = ''
 
     # ------------------------------------------------------------------ properties
-
-    @property
-    def n_dof(self) -> int:
-        """Number of DOF."""
-        return self._n_dof
 
     @property
     def address(self) -> str:
@@ -174,7 +163,7 @@ class OpenSeesAdapterDriver(ActuatorDriver):
         return f'{self._host}:{self._port}'
 
     @property
-    def is_open(self) -> bool:
+    def connected(self) -> bool:
         """Whether the connection is open."""
         return self._sock is not None
 
@@ -182,11 +171,6 @@ class OpenSeesAdapterDriver(ActuatorDriver):
     def size_id(self) -> SizeID:
         """The size ID sent at :meth:`open`."""
         return self._size_id
-
-    @property
-    def last_force(self) -> list[float]:
-        """Restoring force per DOF of the last reply, N (NaN before :meth:`open`)."""
-        return list(self._force)
 
     # ------------------------------------------------------------------ driver API
 
@@ -202,54 +186,18 @@ class OpenSeesAdapterDriver(ActuatorDriver):
         self._sock = self._connect()
         try:
             self._send('setup', encode_size_id(self._size_id))
-            self._store(self._acquire('open'))
+            self._store(*self._split(self._acquire('open')))
         except OpenSeesAdapterError as exc:
             self.fault = str(exc)
             self._drop()
             raise
         self.fault = ''
 
-    def command(self, step: int, target: Sequence[float]) -> None:
-        """Send ``target`` as the trial displacement, read the response and report it.
-
-        Raises:
-            DriverError: If the driver is not open or the target is malformed.
-            OpenSeesAdapterError: On any communication failure (the connection is closed).
-        """
-        values = np.asarray([float(x) for x in target], dtype=float)
-        if values.size != self._n_dof:
-            raise DriverError(
-                f'OpenSeesAdapterDriver {self.address}: target has {values.size} values, '
-                f'expected {self._n_dof}'
-            )
-        if not np.all(np.isfinite(values)):
-            raise DriverError(
-                f'OpenSeesAdapterDriver {self.address}: refusing a non-finite target '
-                f'{values.tolist()} at step {step}'
-            )
-        if self._sock is None:
-            raise DriverError(
-                f'OpenSeesAdapterDriver {self.address}: command() at step {step} while not '
-                f'connected' + (f' (last fault: {self.fault})' if self.fault else '')
-            )
-        try:
-            action = f'step {step}'
-            self._send(action, encode_action(ACTION_SET_TRIAL_RESPONSE, self._size_id.data_size,
-                                             values.tolist()))
-            reply = self._acquire(action)
-        except OpenSeesAdapterError as exc:
-            self.fault = str(exc)
-            raise
-        self._store(reply)
-        self._emit(step, list(self._position), list(self._force))
-
-    def hold(self) -> None:
-        """Hold: send nothing; OpenSees waits with the substructure at its last state."""
-        self.hold_count += 1
-
-    def position(self) -> list[float]:
-        """Last displacement per DOF reported by the adapter, m (NaN before :meth:`open`)."""
-        return list(self._position)
+    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+        action = f'step {step}'
+        self._send(action, encode_action(ACTION_SET_TRIAL_RESPONSE, self._size_id.data_size,
+                                         target))
+        return self._split(self._acquire(action))
 
     def close(self) -> None:
         """Send ``[99]`` (OpenSees ends its analysis) and disconnect. Idempotent."""
@@ -363,10 +311,10 @@ class OpenSeesAdapterDriver(ActuatorDriver):
             raise self._error(action, f'non-finite {kind}[{index}] = {daq[i]} in the reply')
         return daq
 
-    def _store(self, daq: np.ndarray) -> None:
+    def _split(self, daq: np.ndarray) -> tuple[list[float], list[float]]:
+        """``(displacement, force)`` of the adapter's ``[disp…, force…]`` reply."""
         n = self._n_dof
-        self._position = [float(v) for v in daq[:n]]
-        self._force = [float(v) for v in daq[n:2 * n]]
+        return daq[:n].tolist(), daq[n:2 * n].tolist()
 
 
 def _describe(exc: BaseException) -> str:
