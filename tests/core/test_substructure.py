@@ -376,3 +376,17 @@ def test_shipped_two_site_example_runs_and_yields(tmp_path: Path) -> None:
         history.restoring_force[:, 2]
     assert np.max(np.abs(story1)) < 1.6e5
     assert np.max(np.abs(4.0e7 * history.displacement[:, 0])) > 1.6e5
+
+
+def test_replay_of_a_pushover_spring_model_needs_only_the_bag(tmp_path: Path,
+                                                              monkeypatch) -> None:
+    # A numerical spring whose backbone is a CSV next to the test file: the bag's definition
+    # names it by an absolute path, so the replay works from any folder.
+    (tmp_path / 'curve.csv').write_text('d,f\n0,0\n0.01,4.0e5\n0.05,4.5e5\n', encoding='utf-8')
+    raw = building(story_model={'model': 'pushover', 'backbone': {'csv': 'curve.csv'}})
+    result = run(raw, tmp_path, 'pushover')
+    assert result.session.state is State.FINISHED
+    monkeypatch.chdir(tmp_path.parent)
+    replayed = replay_bag(result.bag_path)
+    np.testing.assert_array_equal(replayed.history.displacement,
+                                  result.session.history.displacement)

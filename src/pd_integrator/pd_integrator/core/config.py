@@ -556,11 +556,27 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         probe=probe, source=source, base_dir=base_dir, record_info=first.info,
         scheme_parameters={key: float(value) for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
-        structure_raw=dict(structure_raw) if model is not None else None, sites=sites)
+        structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None
+        else None, sites=sites)
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)
     return definition
+
+
+#: Keys of a hysteresis mapping that name files (pushover backbones).
+_FILE_KEYS = ('csv', 'displacement_file', 'reaction_file')
+
+
+def _with_absolute_paths(raw: Any, base_dir: Path) -> Any:
+    """A deep copy of ``raw`` whose backbone file names are absolute (for the bag's copy)."""
+    if isinstance(raw, dict):
+        return {key: (str((base_dir / value).resolve()) if key in _FILE_KEYS
+                      and isinstance(value, str) else _with_absolute_paths(value, base_dir))
+                for key, value in raw.items()}
+    if isinstance(raw, list):
+        return [_with_absolute_paths(item, base_dir) for item in raw]
+    return raw
 
 
 def _dof_names(reader: _Reader) -> tuple[str, ...]:
