@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+import time
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from pd_integrator.core.config import load_test_file
 from pd_integrator.core.runner import rebuild_outputs, run_offline
 
 from graph_support import REPO, Processes, executable
-from test_graph import RUN_TIMEOUT, run_launcher, wait_exit
+from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
 pytestmark = pytest.mark.graph
 
@@ -177,3 +178,57 @@ def test_opensees_substructure_is_a_site(processes: Processes, tmp_path: Path) -
     np.testing.assert_allclose(x_ops, x_ref, rtol=0.0, atol=1e-5 * np.max(np.abs(x_ref)))
     np.testing.assert_allclose(force_ops, history.restoring_force[:, 0], rtol=0.0,
                                atol=1e-5 * yield_force)
+
+
+def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer: Any,
+                                                  tmp_path: Path) -> None:
+    """lab1's bridge refuses a command past its limit: the integrator holds naming lab1, the
+    other site is not driven further, and an abort ends the test with its outputs."""
+    from std_msgs.msg import String  # noqa: PLC0415
+
+    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
+
+    from pd_integrator.core.messages import Command, Feedback, FeedbackStatus  # noqa: PLC0415
+
+    limit = 0.004  # m; story 1 reaches ~0.013 m
+    raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))
+    raw['ground_motion']['file'] = str(RECORD)
+    raw['test'].update(duration=4.0, id='site-limit')
+    raw['sites']['lab1']['bridge']['max_displacement'] = limit
+    test_file = tmp_path / 'limit.yaml'
+    test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
+
+    forwarded: list[float] = []
+    statuses: list[Any] = []
+    observer.create_subscription(StepCommand, '/pd/lab1/specimen/step_command',
+                                 lambda m: forwarded.extend(m.target_displacement), 100)
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append,
+                                 latched_qos())
+    control = observer.create_publisher(String, '/pd/test_control', 10)
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
+                                                    '--out', str(out), '--no-figures'])
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
+               RUN_TIMEOUT, 'the integrator to hold')
+    holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
+    assert 'site lab1' in holding.message and 'max_displacement' in holding.message
+    time.sleep(0.5)  # nothing moves while holding
+    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
+    control.publish(String(data='abort'))
+    code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
+    assert code == 1
+    assert all(abs(x) <= limit for x in forwarded)
+
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    run = read_bag(out / 'bag')
+    refused = [item for _, item in run.site_events['lab1']
+               if isinstance(item, Feedback) and item.status is FeedbackStatus.LIMIT]
+    assert refused
+    held_step = refused[0].step
+    assert summary['steps'] == held_step - 1
+    lab3_steps = [item.step for _, item in run.site_events['lab3'] if isinstance(item, Command)]
+    assert max(lab3_steps) == held_step  # the other site got the held step, nothing after
+    lab1_commands = {item.step: item for _, item in run.site_events['lab1']
+                     if isinstance(item, Command)}
+    assert abs(lab1_commands[held_step].target_displacement[0]) > limit
