@@ -390,3 +390,45 @@ def test_replay_of_a_pushover_spring_model_needs_only_the_bag(tmp_path: Path,
     replayed = replay_bag(result.bag_path)
     np.testing.assert_array_equal(replayed.history.displacement,
                                   result.session.history.displacement)
+
+
+def write_at2(path: Path, values: np.ndarray, dt: float) -> Path:
+    """A PEER-format record (4 header lines, NPTS/DT on line 4, values in g, 5 per line)."""
+    lines = ['PEER NGA STRONG MOTION DATABASE RECORD', 'SYNTHETIC TEST RECORD, COMPONENT',
+             'ACCELERATION TIME SERIES IN UNITS OF G',
+             f'NPTS= {values.size:7d}, DT= {dt:.4f} SEC']
+    for start in range(0, values.size, 5):
+        lines.append('  '.join(f'{v: .7E}' for v in values[start:start + 5]))
+    path.write_text('\n'.join(lines) + '\n', encoding='utf-8')
+    return path
+
+
+def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path) -> None:
+    t = np.arange(0.0, 2.0, 0.01)
+    h1 = 0.1 * np.sin(2 * np.pi * 1.5 * t)
+    h2 = 0.05 * np.cos(2 * np.pi * 2.5 * t) * np.minimum(t, 1.0)
+    write_at2(tmp_path / 'STATION_H1.AT2', h1, 0.01)
+    write_at2(tmp_path / 'STATION_H2.AT2', h2, 0.01)
+    raw = {'test': {'id': 'two-at2', 'dt': 0.01},
+           'structure': {'dof_names': ['x', 'y', 'r'], 'mass': [1.0e4, 1.0e4, 2.0e3],
+                         'damping': {'ratio': 0.02},
+                         'elements': [{'type': 'spring', 'dofs': ['x'], 'stiffness': 2.0e6},
+                                      {'type': 'spring', 'dofs': ['y'], 'stiffness': 3.0e6},
+                                      {'type': 'spring', 'dofs': ['r'], 'stiffness': 5.0e5}]},
+           'ground_motion': [
+               {'name': 'H1', 'file': 'STATION_H1.AT2', 'influence': [1, 0, 0]},
+               {'name': 'H2', 'file': 'STATION_H2.AT2', 'influence': [0, 1, 0]}]}
+    definition = from_dict(raw, source='two.yaml', base_dir=tmp_path)
+    loads = definition.loads()
+    g = 9.81
+    # (the files hold 8 significant digits)
+    np.testing.assert_allclose(loads[:200, 0], -1.0e4 * h1 * g, rtol=1e-7, atol=1e-6)
+    np.testing.assert_allclose(loads[:200, 1], -1.0e4 * h2 * g, rtol=1e-7, atol=1e-6)
+    assert not loads[:, 2].any()
+    report = definition.modal_report()
+    assert 'H1' in report and 'H2' in report
+    # Resolved (bag) form reads back to the same loads.
+    from pd_integrator.core.config import from_json  # noqa: PLC0415
+
+    again = from_json(definition.to_json())
+    np.testing.assert_array_equal(again.loads(), loads)
