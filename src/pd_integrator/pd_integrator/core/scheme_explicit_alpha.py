@@ -341,7 +341,7 @@ class ModifiedNewmark(ArrayIntegrator):
         w = 1.0 + alpha
         v = self._arr(self._v)
         a = self._arr(self._a)
-        c = self._damping
+        c = self._damping_product
         rhs = (
             w * (self._arr(load) - self._arr(restoring_force))
             - alpha * (self._arr(self._p) - self._arr(self._r))

@@ -239,8 +239,8 @@ class NewmarkImplicit(ArrayIntegrator):
         offset = x - self._x_pred
         residual = (
             p
-            - self._c_acc * (self._mass @ offset)
-            - self._damping @ (self._v_pred + self._c_vel * offset)
+            - self._c_acc * (self._mass_product @ offset)
+            - self._damping_product @ (self._v_pred + self._c_vel * offset)
             - r
         )
         return self._iteration_matrix.solve(residual)
@@ -282,7 +282,7 @@ class NewmarkImplicit(ArrayIntegrator):
         self._r_cmd_trial = r_measured.copy()
         self._p_previous_trial = self._arr(self._p).copy()
         self._xt = self._out(x_new)
-        self._rt = self._out(r_measured + self._k_initial @ increment)
+        self._rt = self._out(r_measured + self._k_initial_product @ increment)
         return self._out(a_new), self._out(v_new)
 
 

@@ -83,11 +83,11 @@ class _OperatorSplitting(ArrayIntegrator):
         r_meas = self._arr(restoring_force)
         rhs = self._weighted_rhs(self._alpha_f, load, r_meas, v_pred)
         if self._alpha_m != 0.0:
-            rhs = rhs - self._alpha_m * (self._mass @ self._arr(self._a))
+            rhs = rhs - self._alpha_m * (self._mass_product @ self._arr(self._a))
         a_new = self._effective.solve(rhs)
         correction = self._beta * dt * dt * a_new
         self._xt = self._out(x_pred + correction)
-        self._rt = self._out(r_meas + self._k_initial @ correction)
+        self._rt = self._out(r_meas + self._k_initial_product @ correction)
         return self._out(a_new), self._out(v_pred + self._gamma * dt * a_new)
 
     @staticmethod

@@ -724,6 +724,10 @@ class ArrayIntegrator(Integrator):
             np.zeros_like(self._mass) if self._initial_stiffness is None
             else self._initial_stiffness
         )
+        # Products every step: sparse when the model is large and sparse (see ``operator``).
+        self._mass_product = operator(self._mass)
+        self._damping_product = operator(self._damping)
+        self._k_initial_product = operator(self._k_initial)
         self._setup_scheme()
 
     @abc.abstractmethod
@@ -740,14 +744,14 @@ class ArrayIntegrator(Integrator):
 
     def _motion_rhs(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
         """``p − C v − r``, the right-hand side of ``M a = p − C v − r`` (arrays)."""
-        return p - self._damping @ v - r
+        return p - self._damping_product @ v - r
 
     def _weighted_rhs(
         self, alpha_f: float, load: Any, r_new: np.ndarray, v_new: np.ndarray
     ) -> np.ndarray:
         """``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
         generalized-α), with the committed state at ``t_n``."""
-        c = self._damping
+        c = self._damping_product
         return (1.0 - alpha_f) * (self._arr(load) - r_new - c @ v_new) + alpha_f * (
             self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
         )
