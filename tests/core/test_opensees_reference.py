@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pd_actuator_bridge.opensees_site import opensees_environment
+
 from pd_integrator.core.config import from_dict
 from pd_integrator.core.elements import rayleigh_coefficients
 from pd_integrator.core.runner import run_offline
@@ -72,9 +74,10 @@ print(json.dumps(history))
 
 
 def opensees_available() -> bool:
-    """Whether openseespy imports in a child process."""
+    """Whether openseespy imports in a child process (with its bundled libraries' path)."""
     result = subprocess.run([sys.executable, '-c', 'import openseespy.opensees'],
-                            capture_output=True, timeout=60, check=False)
+                            capture_output=True, timeout=60, check=False,
+                            env=opensees_environment(dict(os.environ)))
     return result.returncode == 0
 
 
@@ -105,7 +108,7 @@ def opensees_history(integrator: str, yield_force: float | None) -> np.ndarray:
             'steps': STEPS}
     result = subprocess.run([sys.executable, '-c', OPENSEES_SCRIPT], input=json.dumps(spec),
                             capture_output=True, text=True, timeout=120, check=False,
-                            env=dict(os.environ))
+                            env=opensees_environment(dict(os.environ)))
     assert result.returncode == 0, result.stderr[-2000:]
     return np.array(json.loads(result.stdout.strip().splitlines()[-1]))
 
