@@ -232,3 +232,46 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
     lab1_commands = {item.step: item for _, item in run.site_events['lab1']
                      if isinstance(item, Command)}
     assert abs(lab1_commands[held_step].target_displacement[0]) > limit
+
+
+def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, observer: Any,
+                                                      tmp_path: Path) -> None:
+    from std_msgs.msg import String  # noqa: PLC0415
+
+    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+
+    raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))
+    raw['ground_motion']['file'] = str(RECORD)
+    raw['test'].update(duration=60.0, id='site-estop')
+    raw['protocol'].update(feedback_timeout=0.5, max_retries=1)
+    test_file = tmp_path / 'estop.yaml'
+    test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
+    statuses: list[Any] = []
+    bridges: dict[str, list[Any]] = {'lab1': [], 'lab3': []}
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append,
+                                 latched_qos())
+    for lab, seen in bridges.items():
+        observer.create_subscription(TestStatus, f'/pd/{lab}/bridge/status', seen.append,
+                                     latched_qos())
+    stop = observer.create_publisher(String, '/pd/emergency_stop', 10)
+    control = observer.create_publisher(String, '/pd/test_control', 10)
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
+                                                    '--out', str(out), '--no-figures'])
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_RUNNING and s.step > 50
+                                     for s in statuses), RUN_TIMEOUT, 'the test to run')
+    spin_until(observer, lambda: stop.get_subscription_count() >= 2, 10.0,
+               'both bridges on /pd/emergency_stop')
+    stop.publish(String(data='operator pressed the lab e-stop'))
+    for lab, seen in bridges.items():
+        spin_until(observer, lambda seen=seen: any(
+            'operator pressed the lab e-stop' in s.message for s in seen), 10.0,
+            f'{lab} to hold on the e-stop')
+    spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
+               30.0, 'the integrator to hold')
+    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
+    control.publish(String(data='abort'))
+    assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    assert summary['steps'] < 12000

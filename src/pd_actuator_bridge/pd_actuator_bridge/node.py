@@ -25,7 +25,8 @@ for each test id). The integrator's outputs rebuild the same values from the bag
 (``tracking.csv``); this topic is for watching a test while it runs.
 
 Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
-``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or a call of the
+``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or on the lab-wide
+``/pd/emergency_stop`` topic (every bridge of every site listens to it), or a call of the
 ``bridge/emergency_stop`` service (``std_srvs/Trigger``).
 
 Drivers (parameter ``driver``):
@@ -86,6 +87,8 @@ MONITOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
 
 _STATUS_CODES = {'ok': StepFeedback.STATUS_OK, 'limit': StepFeedback.STATUS_LIMIT,
                  'fault': StepFeedback.STATUS_FAULT}
+#: Absolute topic every bridge (whatever its site namespace) takes emergency stops from.
+GLOBAL_EMERGENCY_STOP = '/pd/emergency_stop'
 DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'opensees_adapter', 'daqmx')
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
@@ -275,6 +278,8 @@ class ActuatorBridgeNode(LifecycleNode):
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
         self.create_subscription(String, 'bridge/control', self._on_control, 10)
         self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, 10)
+        # The lab-wide emergency stop: one message holds every site's bridge at once.
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic, 10)
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
