@@ -120,17 +120,9 @@ def test_two_sites_on_three_hosts_match_the_one_host_run(
         handle.close()
 
 
-def free_port() -> int:
-    """A TCP port free on loopback now."""
-    import socket  # noqa: PLC0415
-
-    with socket.socket() as sock:
-        sock.bind(('127.0.0.1', 0))
-        return int(sock.getsockname()[1])
-
-
 def test_opensees_substructure_is_a_site(processes: Processes, tmp_path: Path) -> None:
-    """An EPP spring modelled in OpenSees behind its adapter element, as the site of a test,
+    """An EPP spring modelled in OpenSees behind its adapter element, as the site of a test
+    (run_test starts opensees_site and the site's bridge with the opensees_adapter driver),
     gives the response of the same spring simulated by pd_specimen_sim."""
     pytest.importorskip('openseespy.opensees', reason='openseespy cannot be imported')
     stiffness, yield_force = 312559.0, 10000.0
@@ -140,35 +132,29 @@ def test_opensees_substructure_is_a_site(processes: Processes, tmp_path: Path) -
                       'elements': [{'type': 'experimental', 'name': 'column', 'site': 'ops',
                                     'dofs': ['top'], 'initial_stiffness': stiffness}]},
         'ground_motion': {'file': str(RECORD)},
-        'sites': {'ops': {'specimen': {'elements': [
-            {'model': 'epp', 'stiffness': stiffness, 'yield_force': yield_force}]}}},
+        'sites': {'ops': {
+            # what the graph run uses: OpenSees behind its adapter element
+            'opensees': {'model': 'epp', 'stiffness': stiffness, 'yield_force': yield_force},
+            'bridge': {'driver_timeout': 10.0},
+            # what the ROS-free reference run uses: the same spring in pd_specimen_sim
+            'specimen': {'elements': [
+                {'model': 'epp', 'stiffness': stiffness, 'yield_force': yield_force}]}}},
         'protocol': {'start_timeout': 60.0, 'feedback_timeout': 5.0},
     }
     test_file = tmp_path / 'opensees_site.yaml'
     test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
     reference = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
 
-    port = free_port()
-    processes.start('opensees_site', [
-        executable('pd_actuator_bridge', 'opensees_site'), '--port', str(port), '--model',
-        'epp', '--stiffness', str(stiffness), '--yield-force', str(yield_force)])
-    params = tmp_path / 'bridge.yaml'
-    params.write_text(yaml.safe_dump({'/**': {'ros__parameters': {
-        'driver': 'opensees_adapter', 'autostart': True, 'tcp_host': '127.0.0.1',
-        'tcp_port': port, 'driver_timeout': 10.0, 'max_displacement': 0.25,
-        'max_increment': 0.02, 'max_force': 1.0e5}}}), encoding='utf-8')
-    processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args', '--params-file',
-                               str(params), '-r', '__ns:=/pd/ops', '-p', 'dof_names:=["top"]'])
     out = tmp_path / 'graph'
-    integrator = processes.start('integrator', [
-        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
-        '-p', f'output_dir:={out}', '-p', 'figures:=false'])
-    code = wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator'))
-    assert code == 0, processes.log('integrator')[-2000:] + processes.log('bridge')[-2000:]
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--out', str(out),
+                                                    '--no-figures'])
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    assert code == 0, processes.log('run_test')[-3000:]
 
     history = reference.session.history
     x_ref = history.displacement[:, 0]
     data = np.genfromtxt(out / 'response.csv', delimiter=',', names=True)
+    assert 'opensees_site' in processes.log('run_test')
     x_ops = data['x_top']
     force_ops = data['fs_top']
     assert np.max(np.abs(history.restoring_force[:, 0])) == pytest.approx(yield_force,

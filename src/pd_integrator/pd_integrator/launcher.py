@@ -12,7 +12,11 @@ Starts each node as its own process, exactly as ``ros2 run`` would (the executab
 A substructured test (experimental elements at named sites) gets one bridge and one simulator
 per site, each in the site's namespace ``/pd/<site>`` (the simulator in ``/pd/<site>/specimen``
 behind the bridge); a site's ``sites.<site>.bridge`` mapping of the test file overrides bridge
-parameters (e.g. its limits) for that site only.
+parameters (e.g. its limits) for that site only. A site with an ``opensees`` mapping
+(``{model: epp|elastic, stiffness, yield_force, penalty}`` or ``{script: FILE}``) is an OpenSees
+substructure instead: ``opensees_site`` runs it behind an ``adapter`` element on a free local
+port and the site's bridge drives it with the ``opensees_adapter`` driver (with ``--site
+direct`` too: the adapter's client is the bridge).
 
 It waits for the integrator to finish, then stops the other nodes (SIGINT, then SIGKILL) and
 prints where the run folder is. DDS discovery stays on this host unless
@@ -25,10 +29,12 @@ import argparse
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -129,6 +135,19 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
     commands: list[tuple[str, list[str]]] = []
     for site, namespace, names, extra in sites:
         label = f'[{site}]' if site else ''
+        opensees = (definition.sites or {}).get(site, {}).get('opensees') if site else None
+        if opensees is not None:
+            port = _free_port()
+            commands.append((f'opensees_site{label}', opensees_command(
+                opensees, port, definition, f'sites.{site}.opensees')))
+            bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
+                      '--params-file', str(params), '-r', f'__ns:={namespace}',
+                      '-p', f'dof_names:={json.dumps(names)}', '-p', 'driver:=opensees_adapter',
+                      '-p', 'tcp_host:=127.0.0.1', '-p', f'tcp_port:={port}']
+            for name, value in extra.items():
+                bridge += ['-p', f'{name}:={json.dumps(value)}']
+            commands.append((f'pd_actuator_bridge{label}', bridge))
+            continue
         specimen_ns = f'{namespace}/specimen' if mode == 'bridge' else namespace
         simulator = [str(find_executable('pd_specimen_sim')), '--ros-args',
                      '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file}']
@@ -143,6 +162,44 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
                 bridge += ['-p', f'{name}:={json.dumps(value)}']
             commands.append((f'pd_actuator_bridge{label}', bridge))
     return commands
+
+
+def _free_port() -> int:
+    """A TCP port free on loopback now (for a local OpenSees adapter element)."""
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        return int(sock.getsockname()[1])
+
+
+#: ``sites.<site>.opensees`` keys -> ``opensees_site`` options.
+_OPENSEES_OPTIONS = {'model': '--model', 'stiffness': '--stiffness',
+                     'yield_force': '--yield-force', 'penalty': '--penalty',
+                     'script': '--script', 'tolerance': '--tolerance'}
+
+
+def opensees_command(settings: Any, port: int, definition: TestDefinition, where: str
+                     ) -> list[str]:
+    """The ``opensees_site`` command line of a site's ``opensees`` mapping.
+
+    Raises:
+        LaunchError: the mapping is not one, or has an unknown key.
+    """
+    if not isinstance(settings, dict):
+        msg = f'{definition.source}: {where}: must be a mapping (model, stiffness, ...)'
+        raise LaunchError(msg)
+    command = [str(find_executable('pd_actuator_bridge', 'opensees_site')), '--port', str(port),
+               '--quiet']
+    if 'script' in settings and 'model' not in settings:
+        settings = {**settings, 'model': 'script'}
+    for key, value in settings.items():
+        if key not in _OPENSEES_OPTIONS:
+            msg = (f'{definition.source}: {where}.{key}: unknown (expected '
+                   f'{", ".join(_OPENSEES_OPTIONS)})')
+            raise LaunchError(msg)
+        if key == 'script':
+            value = (definition.base_dir / str(value)).resolve()
+        command += [_OPENSEES_OPTIONS[key], str(value)]
+    return command
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
