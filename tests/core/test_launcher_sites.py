@@ -1,0 +1,46 @@
+"""What run_test starts for a substructured test (the command lines; nothing is started)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pd_integrator.core.config import load_test_file
+from pd_integrator.launcher import LaunchError, opensees_command, site_commands
+
+EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
+           / 'three_story_two_sites.yaml')
+
+
+def test_each_site_gets_its_namespace_its_names_and_its_bridge_limits() -> None:
+    definition = load_test_file(EXAMPLE)
+    commands = dict(site_commands(definition, EXAMPLE, 'bridge', None))
+    assert set(commands) == {'pd_specimen_sim[lab1]', 'pd_actuator_bridge[lab1]',
+                             'pd_specimen_sim[lab3]', 'pd_actuator_bridge[lab3]'}
+    simulator = commands['pd_specimen_sim[lab3]']
+    assert '__ns:=/pd/lab3/specimen' in simulator
+    assert 'site:=lab3' in simulator
+    assert f'dof_names:={json.dumps(["u3-u2"])}' in simulator
+    bridge = commands['pd_actuator_bridge[lab1]']
+    assert '__ns:=/pd/lab1' in bridge
+    assert 'max_force:=1000000.0' in bridge and 'max_displacement:=0.1' in bridge
+    direct = dict(site_commands(definition, EXAMPLE, 'direct', None))
+    assert set(direct) == {'pd_specimen_sim[lab1]', 'pd_specimen_sim[lab3]'}
+    assert '__ns:=/pd/lab1' in direct['pd_specimen_sim[lab1]']
+    assert site_commands(definition, EXAMPLE, 'none', None) == []
+
+
+def test_opensees_site_options_and_errors() -> None:
+    definition = load_test_file(EXAMPLE)
+    command = opensees_command({'model': 'epp', 'stiffness': 1.0e5, 'yield_force': 2.0e3},
+                               45001, definition, 'sites.lab1.opensees')
+    assert command[1:] == ['--port', '45001', '--quiet', '--model', 'epp', '--stiffness',
+                           '100000.0', '--yield-force', '2000.0']
+    script = opensees_command({'script': 'model.py'}, 45001, definition, 'x')
+    assert script[script.index('--model') + 1] == 'script'
+    assert Path(script[script.index('--script') + 1]).is_absolute()
+    with pytest.raises(LaunchError, match=r"^three_story_two_sites\.yaml: sites\.lab1\.opensees"
+                                          r"\.stifness: unknown"):
+        opensees_command({'stifness': 1.0}, 45001, definition, 'sites.lab1.opensees')
