@@ -62,6 +62,7 @@ def test_two_sites_through_the_graph_match_the_ros_free_run(
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'finished'
     assert summary['sites'] == ['lab1', 'lab3']
+    assert set(summary['site_protocol']) == {'lab1', 'lab3'}
     assert 'modal analysis' in log and 'sites: lab1, lab3' in log
 
     run = read_bag(out / 'bag')

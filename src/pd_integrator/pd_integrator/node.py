@@ -332,7 +332,8 @@ class IntegratorNode(Node):
         wall_time = time.perf_counter() - self._started if self._started else 0.0
         summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
                                  figures=self.figures, mode='graph',
-                                 step_round_trip=round_trip_statistics(self._round_trips))
+                                 step_round_trip=round_trip_statistics(self._round_trips),
+                                 site_protocol=self.dispatcher.coordinator.summary())
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
 

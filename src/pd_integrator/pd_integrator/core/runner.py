@@ -132,7 +132,7 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         bag.write_status(dispatcher.status(), time.time_ns())
     wall_time = time.perf_counter() - start
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
-                             mode='offline')
+                             mode='offline', site_protocol=dispatcher.coordinator.summary())
     return RunResult(session=session, directory=directory, summary=summary)
 
 
