@@ -294,6 +294,8 @@ def test_setup_config_errors() -> None:
      r'structure\.damping: modes: \[1, 4\] asked, the structure has 3 modes'),
     (lambda raw: raw.update(ground_motion=[smooth_record()]),
      r'ground_motion\[0\]\.influence: is required'),
+    (lambda raw: raw['sites'].update(lab_1={}),
+     r'sites\.lab_1: no experimental element is at this site \(sites: lab1\)'),
 ])
 def test_model_config_errors_are_one_line(tmp_path: Path, change, pattern: str) -> None:
     raw = building(experimental=(0,))

@@ -543,6 +543,14 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     if sites is not None and not isinstance(sites, dict):
         msg = f'{source}: sites: must be a mapping of site names to their settings'
         raise ConfigError(msg)
+    if sites:
+        used = model.site_names if model is not None else ()
+        unknown = sorted(str(name) for name in sites if name not in used)
+        if unknown:
+            where = (f'no experimental element is at this site (sites: {", ".join(used)})'
+                     if used else 'only a test with experimental elements has sites')
+            msg = f'{source}: sites.{unknown[0]}: {where}'
+            raise ConfigError(msg)
     if model is not None:
         stiffness = model.initial_stiffness()
         model.raw = dict(structure_raw)
