@@ -434,3 +434,34 @@ def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path)
 
     again = from_json(definition.to_json())
     np.testing.assert_array_equal(again.loads(), loads)
+
+
+def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites(
+        tmp_path: Path) -> None:
+    from pd_integrator.core.dispatch import StepDispatcher  # noqa: PLC0415
+    from pd_integrator.core.session import TestSession  # noqa: PLC0415
+
+    definition = from_dict(building(experimental=(0, 2)), source='b.yaml', base_dir=tmp_path)
+    session = TestSession(definition)
+    sent: list[tuple[str, Command]] = []
+    dispatcher = StepDispatcher(session, lambda site, command: sent.append((site, command)))
+    dispatcher.start()
+    assert [site for site, _ in sent] == ['lab1', 'lab3']
+    session.hold('emergency stop: test')
+    assert session.state is State.HOLDING
+    for site, command in sent:
+        force = (0.0,) * len(command.target_displacement)
+        dispatcher.on_feedback(site, answer(command, force))
+    assert session.state is State.HOLDING and session.committed_step == -1
+    sent.clear()
+    dispatcher.resume()
+    # Both sites answered (the coordinator assembled step 0, the holding session ignored it):
+    # the session re-sends step 0 and the sites answer it again with the same result.
+    assert sorted(site for site, _ in sent) == ['lab1', 'lab3']
+    assert all(command.step == 0 for _, command in sent)
+    resent = list(sent)
+    sent.clear()
+    for site, command in resent:
+        dispatcher.on_feedback(site, answer(command, (0.0,) * len(command.target_displacement)))
+    assert session.state is State.RUNNING and session.committed_step == 0
+    assert {command.step for _, command in sent} == {1}

@@ -230,7 +230,6 @@ def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, obse
     raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))
     raw['ground_motion']['file'] = str(RECORD)
     raw['test'].update(duration=60.0, id='site-estop')
-    raw['protocol'].update(feedback_timeout=0.5, max_retries=1)
     test_file = tmp_path / 'estop.yaml'
     test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
     statuses: list[Any] = []
@@ -256,6 +255,8 @@ def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, obse
             f'{lab} to hold on the e-stop')
     spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
                30.0, 'the integrator to hold')
+    holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
+    assert holding.message == 'emergency stop: operator pressed the lab e-stop'
     spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
     control.publish(String(data='abort'))
     assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1

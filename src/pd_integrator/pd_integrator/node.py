@@ -6,7 +6,8 @@ of ``step_command``/``step_feedback``/``bridge/...`` topics per site, under ``<s
 * publishes ``step_command`` (``pd_msgs/StepCommand``, reliable), ``test_status``
   (``pd_msgs/TestStatus``, reliable, transient local = latched) and ``test_definition``
   (``std_msgs/String``, latched: the resolved test as JSON);
-* subscribes ``step_feedback`` (``pd_msgs/StepFeedback``, reliable), ``bridge/status`` (the
+* subscribes ``/pd/emergency_stop`` (``std_msgs/String``: hold at once, as every bridge does),
+  ``step_feedback`` (``pd_msgs/StepFeedback``, reliable), ``bridge/status`` (the
   actuator bridge's latched status) and ``bridge/trajectory`` (its sub-step trajectories),
   both recorded in the bag, and ``test_control``
   (``std_msgs/String``: ``pause``, ``resume``, ``abort``).
@@ -215,6 +216,8 @@ class IntegratorNode(Node):
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
         self.create_subscription(String, 'test_control', self._on_control, 10)
+        # The lab-wide emergency stop (every bridge holds on it too): hold at once.
+        self.create_subscription(String, '/pd/emergency_stop', self._on_emergency_stop, 10)
 
         text = definition.to_json()
         (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
@@ -291,6 +294,10 @@ class IntegratorNode(Node):
 
     def _on_trajectory(self, data: bytes, topic: str) -> None:
         self.bag.write_raw(topic, time.time_ns(), data)
+
+    def _on_emergency_stop(self, message: String) -> None:
+        self.session.hold(f'emergency stop: {message.data or "no reason given"}')
+        self.publish_status()
 
     def _on_control(self, message: String) -> None:
         request = message.data.strip().lower()

@@ -161,6 +161,15 @@ class TestSession:
             return None
         return self.protocol.pending
 
+    def hold(self, reason: str) -> None:
+        """Hold now (e.g. an emergency stop): nothing more is commanded until :meth:`resume`.
+
+        The pending step stays pending; its feedback, if it arrives while holding, is ignored
+        and the step is re-sent on resume.
+        """
+        if self.state in (TestState.RUNNING, TestState.PAUSED, TestState.IDLE):
+            self._hold(reason)
+
     def pause(self) -> None:
         """Stop after the pending step (operator request)."""
         if self.state is TestState.RUNNING:
