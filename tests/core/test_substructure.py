@@ -455,8 +455,8 @@ def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites
     assert session.state is State.HOLDING and session.committed_step == -1
     sent.clear()
     dispatcher.resume()
-    # Both sites answered (the coordinator assembled step 0, the holding session ignored it):
-    # the session re-sends step 0 and the sites answer it again with the same result.
+    # Both sites answered while the test held: not taken; on resume step 0 goes to both
+    # sites again (they answer a repeated step with the same answer, without moving).
     assert sorted(site for site, _ in sent) == ['lab1', 'lab3']
     assert all(command.step == 0 for _, command in sent)
     resent = list(sent)

@@ -82,6 +82,12 @@ class StepDispatcher:
     def on_feedback(self, site: str, feedback: Feedback) -> Verdict:
         """One site's feedback: advance the test if the step is complete; send what follows."""
         received = self._clock()
+        if not self.coordinator.passthrough and not self.session.accepting:
+            # Holding, paused or finished: the site's answer is not taken (as the session
+            # itself does); the held step is re-sent to every site on resume.
+            self.session.protocol.ignore(Verdict.UNEXPECTED)
+            self._record_feedback(site, feedback, received)
+            return Verdict.UNEXPECTED
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
             session_verdict = self.session.on_feedback(assembled)

@@ -95,6 +95,12 @@ class TestSession:
         """Whether the stiffness probe is still running."""
         return bool(self._probe_plan) and self.probe_stiffness is None
 
+    @property
+    def accepting(self) -> bool:
+        """Whether feedback is taken now (running, or paused with a step still pending)."""
+        return self.state is TestState.RUNNING or (
+            self.state is TestState.PAUSED and self.protocol.pending is not None)
+
     def next_command(self) -> Command | None:
         """The next command to send, or ``None`` (finished, holding, or one pending)."""
         if self.state in (TestState.FINISHED, TestState.ABORTED, TestState.HOLDING,
@@ -120,9 +126,7 @@ class TestSession:
         Feedback is ignored (and counted) while holding, paused or finished. Accepted feedback
         with a non-OK status puts the test on hold; the step is not advanced.
         """
-        accepting = self.state is TestState.RUNNING or (
-            self.state is TestState.PAUSED and self.protocol.pending is not None)
-        if not accepting:
+        if not self.accepting:
             self.protocol.ignore(Verdict.UNEXPECTED)
             return Verdict.UNEXPECTED
         verdict = self.protocol.verdict(feedback)
