@@ -465,3 +465,27 @@ def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites
         dispatcher.on_feedback(site, answer(command, (0.0,) * len(command.target_displacement)))
     assert session.state is State.RUNNING and session.committed_step == 0
     assert {command.step for _, command in sent} == {1}
+
+
+def test_a_site_limit_holds_and_resume_resends_to_the_sites_still_owing(
+        tmp_path: Path) -> None:
+    from pd_integrator.core.dispatch import StepDispatcher  # noqa: PLC0415
+    from pd_integrator.core.session import TestSession  # noqa: PLC0415
+
+    definition = from_dict(building(experimental=(0, 2)), source='b.yaml', base_dir=tmp_path)
+    session = TestSession(definition)
+    sent: list[tuple[str, Command]] = []
+    dispatcher = StepDispatcher(session, lambda site, command: sent.append((site, command)))
+    dispatcher.start()
+    step0 = dict(sent)
+    sent.clear()
+    dispatcher.on_feedback('lab1', answer(step0['lab1'], (0.0,), status=FeedbackStatus.LIMIT))
+    assert session.state is State.HOLDING
+    assert session.message.endswith('site lab1: stroke')
+    dispatcher.on_feedback('lab3', answer(step0['lab3'], (0.0,)))  # arrives while holding
+    assert sent == []
+    dispatcher.resume()
+    assert sorted(site for site, _ in sent) == ['lab1', 'lab3']
+    for site, command in list(sent):
+        dispatcher.on_feedback(site, answer(command, (0.0,)))
+    assert session.committed_step == 0 and session.state is State.RUNNING
