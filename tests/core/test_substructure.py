@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -436,8 +437,8 @@ def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path)
     np.testing.assert_array_equal(again.loads(), loads)
 
 
-def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites(
-        tmp_path: Path) -> None:
+def two_site_dispatcher(tmp_path: Path) -> tuple[Any, Any, list[tuple[str, Command]]]:
+    """A started session of the two-site building, its dispatcher and the commands it sent."""
     from pd_integrator.core.dispatch import StepDispatcher  # noqa: PLC0415
     from pd_integrator.core.session import TestSession  # noqa: PLC0415
 
@@ -446,6 +447,12 @@ def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites
     sent: list[tuple[str, Command]] = []
     dispatcher = StepDispatcher(session, lambda site, command: sent.append((site, command)))
     dispatcher.start()
+    return session, dispatcher, sent
+
+
+def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites(
+        tmp_path: Path) -> None:
+    session, dispatcher, sent = two_site_dispatcher(tmp_path)
     assert [site for site, _ in sent] == ['lab1', 'lab3']
     session.hold('emergency stop: test')
     assert session.state is State.HOLDING
@@ -469,14 +476,7 @@ def test_an_emergency_hold_ignores_late_feedback_and_resume_resends_to_the_sites
 
 def test_a_site_limit_holds_and_resume_resends_to_the_sites_still_owing(
         tmp_path: Path) -> None:
-    from pd_integrator.core.dispatch import StepDispatcher  # noqa: PLC0415
-    from pd_integrator.core.session import TestSession  # noqa: PLC0415
-
-    definition = from_dict(building(experimental=(0, 2)), source='b.yaml', base_dir=tmp_path)
-    session = TestSession(definition)
-    sent: list[tuple[str, Command]] = []
-    dispatcher = StepDispatcher(session, lambda site, command: sent.append((site, command)))
-    dispatcher.start()
+    session, dispatcher, sent = two_site_dispatcher(tmp_path)
     step0 = dict(sent)
     sent.clear()
     dispatcher.on_feedback('lab1', answer(step0['lab1'], (0.0,), status=FeedbackStatus.LIMIT))
