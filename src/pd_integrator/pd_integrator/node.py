@@ -49,7 +49,6 @@ from .core.dispatch import StepDispatcher
 from .core.errors import PdIntegratorError
 from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
 from .core.progress import ProgressMeter
-from .core.protocol import Verdict
 from .core.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
@@ -253,18 +252,19 @@ class IntegratorNode(Node):
             command, stamp_from_ns(time.time_ns()), self._command_message))
         self._sent_at = time.monotonic()
 
+    def _site_ready(self, site: str) -> bool:
+        """Whether ``site`` listens to its commands and talks back."""
+        return (self._command_pubs[site].get_subscription_count() > 0
+                and self._feedback_subs[site].get_publisher_count() > 0)
+
     def peers_ready(self) -> bool:
         """Whether every site listens to its commands and talks back."""
-        return all(self._command_pubs[site].get_subscription_count() > 0
-                   and self._feedback_subs[site].get_publisher_count() > 0
-                   for site in self.dispatcher.sites)
+        return all(self._site_ready(site) for site in self.dispatcher.sites)
 
     def missing_sites(self) -> list[str]:
         """The command topics nobody answers on yet (for the start-up error)."""
         return [self.resolve_topic_name(site_topic(site, 'step_command'))
-                for site in self.dispatcher.sites
-                if not (self._command_pubs[site].get_subscription_count() > 0
-                        and self._feedback_subs[site].get_publisher_count() > 0)]
+                for site in self.dispatcher.sites if not self._site_ready(site)]
 
     def start(self) -> None:
         """Send the first command."""

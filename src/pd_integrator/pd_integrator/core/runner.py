@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING, Any
 
 from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
 from .config import TestDefinition, from_json
+from .dispatch import StepDispatcher
 from .energy import energy_balance
 from .errors import BagError, ConfigError
 from .messages import Command, Feedback, FeedbackStatus, TestState
 from .outputs import summarize, tracking_history, write_run_outputs
-from .dispatch import StepDispatcher
 from .session import TestSession
 
 if TYPE_CHECKING:
