@@ -135,8 +135,9 @@ def our_history(tmp_path: Path, scheme: str, yield_force: float | None,
                                     'stiffness': STORIES[2]}]},
         'ground_motion': {'inline': {'dt': DT, 'acceleration': record().tolist()},
                           'units': 'm/s2'},
-        'sites': {'lab': {'specimen': {'elements': [story1]}}},
     }
+    if at_site:
+        raw['sites'] = {'lab': {'specimen': {'elements': [story1]}}}
     definition = from_dict(copy.deepcopy(raw), source='vs_opensees.yaml', base_dir=tmp_path)
     name = f'{scheme}-{yield_force}-{at_site}'
     result = run_offline(definition, tmp_path / name, figures=False)
