@@ -11,7 +11,7 @@ or ``./pd bench`` (after the loop benchmark). Figures:
    first story is an experimental element at a site served in-process by a simulated elastic
    specimen (no ROS, no bag): milliseconds per step (session + site coordinator + numerical
    elements + specimen) and steps/s, best of 3, per scheme of ``--large-schemes`` (default
-   Newmark explicit and alpha-OS); plus the one-off set-up (parsing the model, modal/stability
+   Newmark explicit, alpha-OS and KR-alpha); plus the one-off set-up (parsing the model, modal/stability
    analysis, factorisations). Goal: under 1 ms per step.
 2. A two-site test through the node graph (the example
    ``config/three_story_two_sites.yaml``: stories 1 and 3 at sites ``lab1`` and ``lab3``, one
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--domain-id', type=int, default=63,
                         help='ROS domain of the graph runs')
     parser.add_argument('--no-graph', action='store_true', help='skip the node-graph runs')
-    parser.add_argument('--large-schemes', default='newmark_explicit,alpha_os',
+    parser.add_argument('--large-schemes', default='newmark_explicit,alpha_os,kr_alpha',
                         help='schemes of the large-model figure (comma-separated)')
     # (./pd bench passes the loop benchmark's options too: those are not ours)
     args, _ = parser.parse_known_args(argv)

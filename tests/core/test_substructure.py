@@ -489,3 +489,32 @@ def test_a_site_limit_holds_and_resume_resends_to_the_sites_still_owing(
     for site, command in list(sent):
         dispatcher.on_feedback(site, answer(command, (0.0,)))
     assert session.committed_step == 0 and session.state is State.RUNNING
+
+
+@pytest.mark.parametrize('scheme', ['newmark_explicit', 'alpha_os', 'generalized_alpha_os',
+                                    'cr', 'kr_alpha', 'linear_acceleration'])
+def test_sparse_path_of_a_large_model_equals_the_dense_path(tmp_path: Path, monkeypatch,
+                                                            scheme: str) -> None:
+    """An 80-story building (sparse matrices) gives the dense computation's response."""
+    import pd_integrator.core.schemes as schemes  # noqa: PLC0415
+
+    n = 80
+    names = [f'u{i + 1}' for i in range(n)]
+    elements = [{'type': 'experimental', 'site': 'lab', 'dofs': ['u1'],
+                 'initial_stiffness': 2.0e8}]
+    elements += [{'type': 'story', 'dofs': [names[i - 1], names[i]], 'stiffness': 2.0e8}
+                 for i in range(1, n)]
+    raw = {'test': {'id': 'tall', 'scheme': scheme, 'dt': 0.002, 'duration': 0.6},
+           'structure': {'dof_names': names, 'mass': [1.0e4] * n, 'elements': elements,
+                         'damping': {'rayleigh': {'modes': [1, 5], 'ratios': [0.05, 0.05]}}},
+           'ground_motion': smooth_record(duration=0.6),
+           'sites': {'lab': {'specimen': {'elements': [
+               {'model': 'bilinear', 'stiffness': 2.0e8, 'yield_force': 2.0e4,
+                'hardening_ratio': 0.05}]}}}}
+    assert n >= schemes.SPARSE_MIN_DOF
+    sparse = run(raw, tmp_path, 'sparse').session.history.displacement
+    monkeypatch.setattr(schemes, 'SPARSE_MIN_DOF', 10**6)
+    dense = run(raw, tmp_path, 'dense').session.history.displacement
+    scale = float(np.max(np.abs(dense)))
+    assert scale > 1e-4
+    np.testing.assert_allclose(sparse, dense, rtol=0.0, atol=1e-9 * scale)

@@ -36,25 +36,55 @@ from .schemes import (
     ArrayIntegrator,
     Factorization,
     _GeneralizedAlphaFamily,
+    _is_sparse_structure,
     _unit_sdof,
     amplification_from,
+    operator,
 )
 
 __all__ = ['ChenRicles', 'KRAlpha']
 
 
 class _ModelBased(ArrayIntegrator):
-    """The predictor of the module docstring: target ``x_{n+1}``, ``v_{n+1}`` kept."""
+    """The predictor of the module docstring: target ``x_{n+1}``, ``v_{n+1}`` kept.
+
+    ``α₁ = s₁ D⁻¹ M`` and ``α₂ = s₂ D⁻¹ M`` for a model matrix ``D``. Small models keep
+    ``α₁``, ``α₂`` as dense matrices; a large sparse model (see :func:`~.schemes.operator`)
+    applies them as one sparse solve per step instead (the inverse of a sparse matrix is
+    dense: O(n²) per product).
+    """
 
     _alpha1: np.ndarray
     _alpha2: np.ndarray
     _v_next: Any = None
+    _sparse_model: Factorization | None = None
+    _alpha_scales: tuple[float, float] = (1.0, 1.0)
+
+    def _set_alphas(self, model: Factorization, d_matrix: np.ndarray,
+                    scales: tuple[float, float]) -> None:
+        """``α₁ = s₁ D⁻¹ M``, ``α₂ = s₂ D⁻¹ M`` (matrices, or the sparse factor of ``D``)."""
+        if _is_sparse_structure(d_matrix):
+            self._sparse_model = model
+            self._alpha_scales = scales
+            return
+        base = model.solve(self._mass)
+        self._alpha1 = scales[0] * base
+        self._alpha2 = base if scales[1] == 1.0 else scales[1] * base
+        if scales[0] == scales[1]:
+            self._alpha2 = self._alpha1
 
     def _predict(self) -> Any:
         dt = self._dt
         x, v, a = self._committed()
-        self._v_next = self._out(v + dt * (self._alpha1 @ a))
-        return self._out(x + dt * v + dt * dt * (self._alpha2 @ a))
+        if self._sparse_model is not None:
+            base = self._sparse_model.solve(self._mass_product @ a)
+            alpha1_a = self._alpha_scales[0] * base
+            alpha2_a = self._alpha_scales[1] * base
+        else:
+            alpha1_a = self._alpha1 @ a
+            alpha2_a = self._alpha2 @ a
+        self._v_next = self._out(v + dt * alpha1_a)
+        return self._out(x + dt * v + dt * dt * alpha2_a)
 
 
 class ChenRicles(_ModelBased):
@@ -93,11 +123,9 @@ class ChenRicles(_ModelBased):
 
     def _setup_scheme(self) -> None:
         dt = self._dt
-        model = Factorization(
-            4.0 * self._mass + 2.0 * dt * self._damping + dt * dt * self._k_initial,
-            '4M + 2 dt C + dt^2 K_I',
-        )
-        self._alpha1 = self._alpha2 = 4.0 * model.solve(self._mass)
+        d_matrix = 4.0 * self._mass + 2.0 * dt * self._damping + dt * dt * self._k_initial
+        model = Factorization(d_matrix, '4M + 2 dt C + dt^2 K_I')
+        self._set_alphas(model, d_matrix, (4.0, 4.0))
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         rhs = self._motion_rhs(
@@ -183,19 +211,28 @@ class KRAlpha(_ModelBased, _GeneralizedAlphaFamily):
         dt = self._dt
         m, c, k = self._mass, self._damping, self._k_initial
         gamma, beta, alpha_f = self._gamma, self._beta, self._alpha_f
-        model = Factorization(
-            m + gamma * dt * c + beta * dt * dt * k, 'M + gamma dt C + beta dt^2 K_I'
-        )
-        self._alpha1 = model.solve(m)
-        self._alpha2 = (0.5 + gamma) * self._alpha1
-        self._alpha3 = model.solve(
-            self._alpha_m * m + alpha_f * gamma * dt * c + alpha_f * beta * dt * dt * k
-        )
+        d_matrix = m + gamma * dt * c + beta * dt * dt * k
+        model = Factorization(d_matrix, 'M + gamma dt C + beta dt^2 K_I')
+        self._set_alphas(model, d_matrix, (1.0, 0.5 + gamma))
+        b_matrix = self._alpha_m * m + alpha_f * gamma * dt * c + alpha_f * beta * dt * dt * k
+        if self._sparse_model is not None:
+            # α₃ = D⁻¹ B, and M − M α₃ = M D⁻¹ (D − B): both applied by sparse solves.
+            self._b_product = operator(b_matrix)
+            self._d_product = operator(d_matrix)
+            self._d_minus_b = Factorization(d_matrix - b_matrix, 'D - B (M (I - alpha3))')
+            return
+        self._alpha3 = model.solve(b_matrix)
         self._m_alpha3 = m @ self._alpha3
         self._effective_mass = Factorization(m - self._m_alpha3, 'M (I - alpha3)')
 
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         rhs = self._weighted_rhs(
             self._alpha_f, load, self._arr(restoring_force), self._arr(self._v_next)
-        ) - self._m_alpha3 @ self._arr(self._a)
+        )
+        a = self._arr(self._a)
+        if self._sparse_model is not None:
+            rhs = rhs - self._mass_product @ self._sparse_model.solve(self._b_product @ a)
+            a_new = self._d_minus_b.solve(self._d_product @ self._mass_factor.solve(rhs))
+            return self._out(a_new), self._v_next
+        rhs = rhs - self._m_alpha3 @ a
         return self._out(self._effective_mass.solve(rhs)), self._v_next
