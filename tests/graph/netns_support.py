@@ -295,12 +295,6 @@ class NetnsHub:
             raise ValueError('toward must name a site')
         return f'{ADDRESS_PREFIX}.{site}.1'
 
-    def addresses(self, name: str) -> list[str]:
-        """All IPv4 addresses of ``name`` (the hub has one per site)."""
-        if self._index(name) > 0:
-            return [self.address(name)]
-        return [f'{ADDRESS_PREFIX}.{k}.1' for k in range(1, len(self.names))]
-
     def peers_for(self, name: str) -> list[str]:
         """Static DDS peers of ``name``: a site → the hub's end of its link; the hub → every
         site."""
@@ -358,11 +352,6 @@ class NetnsHub:
                 totals['rx'] += int(stats['rx']['bytes'])
                 totals['tx'] += int(stats['tx']['bytes'])
         return totals
-
-    def lo_bytes(self, name: str) -> int:
-        """Bytes sent through ``lo`` inside ``name`` (loopback traffic of that namespace)."""
-        result = _ip('-n', self.namespace(name), '-j', '-s', 'link', 'show', 'dev', 'lo')
-        return int(json.loads(result.stdout)[0]['stats64']['tx']['bytes'])
 
 
 def _signal_group(process: subprocess.Popen[Any], sig: int) -> None:

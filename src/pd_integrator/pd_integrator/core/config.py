@@ -553,7 +553,6 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
             raise ConfigError(msg)
     if model is not None:
         stiffness = model.initial_stiffness()
-        model.raw = dict(structure_raw)
         dof_names = model.dof_names
 
     definition = TestDefinition(

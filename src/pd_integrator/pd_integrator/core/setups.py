@@ -8,8 +8,7 @@ site measures (actuator displacements and forces) back to the element's basic DO
 * :meth:`ExperimentalSetup.actuator_targets` — basic trial displacement → actuator commands;
 * :meth:`ExperimentalSetup.basic_displacement` — measured actuator displacements → basic;
 * :meth:`ExperimentalSetup.basic_force` — measured actuator forces → basic forces
-  (``f_b = Jᵀ f_a`` with ``J = ∂d_a/∂d_b``: exact by virtual work for pinned actuators);
-* :meth:`ExperimentalSetup.basic_stiffness` — an actuator-space stiffness → basic space.
+  (``f_b = Jᵀ f_a`` with ``J = ∂d_a/∂d_b``: exact by virtual work for pinned actuators).
 
 Setups (``setup.type`` in the test file):
 
@@ -70,15 +69,6 @@ class ExperimentalSetup(abc.ABC):
     def basic_force(self, actuator_force: np.ndarray, basic: np.ndarray) -> np.ndarray:
         """Basic forces equivalent to the actuator forces at ``basic`` (``Jᵀ f``)."""
         return self.jacobian(basic).T @ actuator_force
-
-    def basic_stiffness(self, actuator_stiffness: np.ndarray) -> np.ndarray:
-        """An actuator-space stiffness in basic space, at rest (``Jᵀ K J``)."""
-        jac = self.jacobian(np.zeros(self.n_basic))
-        return jac.T @ actuator_stiffness @ jac
-
-    def describe(self) -> dict[str, Any]:
-        """Plain-data form (the test file's ``setup`` mapping)."""
-        return {'type': 'one_to_one'}
 
 
 class OneToOneSetup(ExperimentalSetup):
@@ -174,13 +164,6 @@ class RigidLinkTwoActuators(ExperimentalSetup):
         msg = (f'rigid_link_2 setup: no (u, theta) found for the measured strokes '
                f'{actuator.tolist()!r}')
         raise ConfigError(msg)
-
-    def describe(self) -> dict[str, Any]:
-        data: dict[str, Any] = {'type': 'rigid_link_2', 'offsets': self.offsets.tolist(),
-                                'geometry': self.geometry}
-        if self.actuator_length is not None:
-            data['actuator_length'] = self.actuator_length
-        return data
 
 
 SETUP_TYPES = ('one_to_one', 'rigid_link_2')

@@ -136,7 +136,6 @@ class StructuralModel:
         springs: nonlinear numerical springs.
         experimental: experimental elements.
         condensed_names: DOFs removed by static condensation (massless, linear only).
-        raw: the test file's structure section this model was built from (for the bag).
     """
 
     dof_names: tuple[str, ...]
@@ -144,7 +143,6 @@ class StructuralModel:
     springs: list[NonlinearSpring] = field(default_factory=list)
     experimental: list[ExperimentalElement] = field(default_factory=list)
     condensed_names: tuple[str, ...] = ()
-    raw: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         sites: dict[str, list[ExperimentalElement]] = {}
@@ -262,10 +260,6 @@ class SiteCoordinator:
     def ignored_total(self) -> int:
         """Site feedback ignored (stale, duplicate, foreign, unexpected) over all sites."""
         return sum(protocol.ignored_total for protocol in self.protocols.values())
-
-    def site_dof_names(self, site: str, dof_names: tuple[str, ...]) -> tuple[str, ...]:
-        """The DOF names of ``site``'s commands."""
-        return dof_names if self.model is None else self.model.actuator_names(site)
 
     def dispatch(self, command: Command) -> list[tuple[str, Command]]:
         """The site commands of a new structure-level command (numerical elements evaluated)."""
