@@ -45,10 +45,15 @@ fi
 command -v cmake >/dev/null 2>&1 || need_apt+=(cmake)
 command -v g++ >/dev/null 2>&1 || need_apt+=(g++)
 command -v make >/dev/null 2>&1 || need_apt+=(make)
-# openseespy's bundled libgfortran needs the system's libquadmath (the OpenSees site tests)
-if ! { ldconfig -p 2>/dev/null || /sbin/ldconfig -p 2>/dev/null; } | grep -q 'libquadmath\.so\.0'; then
-    need_apt+=(libquadmath0)
-fi
+# openseespy's bundled libgfortran needs the system's libquadmath (the OpenSees site tests).
+# The cache listing is read whole before it is searched: piping it into `grep -q` would end the
+# listing early by SIGPIPE, which `pipefail` turns into a random "missing" (and an apt run).
+ld_cache="$(ldconfig -p 2>/dev/null || /sbin/ldconfig -p 2>/dev/null || true)"
+case "$ld_cache" in
+    *libquadmath.so.0*) ;;
+    *) need_apt+=(libquadmath0) ;;
+esac
+unset ld_cache
 if [ "${#need_apt[@]}" -gt 0 ]; then
     log "installing system packages: ${need_apt[*]}"
     SUDO=""

@@ -7,6 +7,9 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+TESTS = str(REPO / 'tests')  # the shared helpers: ``support``
+if TESTS not in sys.path:
+    sys.path.insert(0, TESTS)
 for package in ('pd_integrator', 'pd_specimen_sim', 'pd_actuator_bridge'):
     path = str(REPO / 'src' / package)
     if path not in sys.path:
