@@ -267,10 +267,10 @@ def _best(samples: list[float]) -> float:
 def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS."""
     from pd_integrator.core.config import load_test_file
-    from pd_integrator.core.messages import Feedback, FeedbackStatus
+    from pd_common.protocol import Feedback, FeedbackStatus
     from pd_integrator.core.runner import run_offline
     from pd_integrator.core.session import TestSession
-    from pd_specimen_sim.core import SpecimenServer, specimen_from_config
+    from pd_common.specimen import SpecimenServer, specimen_from_config
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     loop_times: list[float] = []
@@ -317,7 +317,7 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
 def _round_trips_from_bag(bag: Path) -> list[float]:
     """Round trips [s]: accepted feedback log time minus its step's last command log time."""
     from pd_integrator.core.bag import read_bag
-    from pd_integrator.core.messages import Command, FeedbackStatus
+    from pd_common.protocol import Command, FeedbackStatus
 
     samples: list[float] = []
     pending: tuple[str, int, int] | None = None  # test_id, step, t_ns of its last send
@@ -334,8 +334,7 @@ def _round_trips_from_bag(bag: Path) -> list[float]:
 def graph_run(site: str, param_args: list[str], domain_id: int, out: Path,
               timeout: float) -> Row:
     """One run of ``run_test --site SITE`` (its own process group); its figures as a row."""
-    launcher = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / \
-        'run_test'
+    launcher = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
     log = out.with_suffix('.log')
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
@@ -651,9 +650,9 @@ def session_loop(definition: Any) -> tuple[float, int]:
     Raises:
         RuntimeError: the session stopped before the last step.
     """
-    from pd_integrator.core.messages import Feedback, FeedbackStatus, TestState
+    from pd_common.protocol import Feedback, FeedbackStatus, TestState
     from pd_integrator.core.session import TestSession
-    from pd_specimen_sim.core import SpecimenServer, specimen_from_config
+    from pd_common.specimen import SpecimenServer, specimen_from_config
 
     specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
                                     source=definition.source, dof_names=definition.dof_names)

@@ -63,7 +63,7 @@ def core_large(n: int, steps: int, scheme: str = 'newmark_explicit') -> dict[str
     """Per-step core time of the large model (best of 3), and the set-up time."""
     from pd_integrator.core.config import from_dict
     from pd_integrator.core.dispatch import StepDispatcher
-    from pd_integrator.core.messages import Feedback
+    from pd_common.protocol import Feedback
     from pd_integrator.core.runner import site_servers
     from pd_integrator.core.session import TestSession
 
@@ -104,7 +104,7 @@ def graph_two_sites(mode: str, duration: float, directory: Path, domain: int
     """One launcher run; figures from its summary."""
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     out = directory / f'{mode}-{time.monotonic_ns()}'
-    command = [sys.executable, '-m', 'pd_integrator.launcher', str(EXAMPLE), '--site', mode,
+    command = [sys.executable, '-m', 'pd_bringup.launcher', str(EXAMPLE), '--site', mode,
                '--out', str(out), '--no-figures', '-p', f'duration:={duration}']
     result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600,
                             check=False)

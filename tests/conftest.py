@@ -10,7 +10,8 @@ REPO = Path(__file__).resolve().parent.parent
 TESTS = str(REPO / 'tests')  # the shared helpers: ``support``
 if TESTS not in sys.path:
     sys.path.insert(0, TESTS)
-for package in ('pd_integrator', 'pd_specimen_sim', 'pd_actuator_bridge'):
+for package in ('pd_common', 'pd_integrator', 'pd_specimen_sim', 'pd_actuator_bridge',
+                'pd_bringup'):
     path = str(REPO / 'src' / package)
     if path not in sys.path:
         sys.path.insert(0, path)

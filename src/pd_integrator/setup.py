@@ -26,7 +26,6 @@ setup(
     entry_points={
         'console_scripts': [
             'main = pd_integrator.node:main',
-            'run_test = pd_integrator.launcher:main',
             'offline = pd_integrator.offline:main',
             'replay = pd_integrator.replay:main',
             'analyze = pd_integrator.analyze:main',

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pd_specimen_sim.core import (Backbone, BackboneError, HysteresisError, bilinear_backbone,
+from pd_common.specimen import (Backbone, BackboneError, HysteresisError, bilinear_backbone,
                                   load_backbone_csv, load_opensees_pushover)
 
 

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
@@ -228,7 +229,7 @@ def test_displacement_limit_each_way(sign: float) -> None:
     assert check_command([at], [at], LIMITS) is None
     violation = check_command([just_above(at)], [at], LIMITS)
     assert violation is not None
-    assert (violation.kind, violation.dof) == ('limit', 0)
+    assert (violation.kind, violation.dof) == (FeedbackStatus.LIMIT, 0)
     assert 'max_displacement 0.25 m' in violation.message
 
 
@@ -239,7 +240,7 @@ def test_increment_limit_each_way(sign: float) -> None:
     assert check_command([0.0, 0.0625 + sign * 0.125], current, LIMITS) is None
     violation = check_command([0.0, 0.0625 + sign * just_above(0.125)], current, LIMITS)
     assert violation is not None
-    assert (violation.kind, violation.dof) == ('limit', 1)
+    assert (violation.kind, violation.dof) == (FeedbackStatus.LIMIT, 1)
     assert 'exceeds max_increment 0.125 m' in violation.message
 
 
@@ -249,7 +250,7 @@ def test_velocity_limit_each_way(sign: float) -> None:
     assert check_command([sign * 0.0625], [0.0], VELOCITY_LIMITS) is None
     violation = check_command([sign * just_above(0.0625)], [0.0], VELOCITY_LIMITS)
     assert violation is not None
-    assert violation.kind == 'limit'
+    assert violation.kind is FeedbackStatus.LIMIT
     assert 'exceeds max_velocity 0.5 m/s' in violation.message
     # Without the velocity limit the same increment is allowed.
     assert check_command([sign * 0.1], [0.0], LIMITS) is None
@@ -258,7 +259,7 @@ def test_velocity_limit_each_way(sign: float) -> None:
 def test_limit_message_names_dof_value_and_limit() -> None:
     violation = check_command([0.31], [0.25], LIMITS, ['top'])
     assert violation == LimitViolation(
-        'limit', 0, 'DOF 0 (top): target displacement 0.31 m exceeds max_displacement 0.25 m'
+        FeedbackStatus.LIMIT, 0, 'DOF 0 (top): target displacement 0.31 m exceeds max_displacement 0.25 m'
     )
     # A value just beyond the limit never prints equal to it.
     violation = check_command([just_above(0.25)], [0.25], LIMITS, ['top'])
@@ -270,10 +271,10 @@ def test_limit_message_names_dof_value_and_limit() -> None:
 def test_non_finite_target_is_a_fault(bad: float) -> None:
     violation = check_command([0.0, bad], [0.0, 0.0], LIMITS)
     assert violation is not None
-    assert (violation.kind, violation.dof) == ('fault', 1)
+    assert (violation.kind, violation.dof) == (FeedbackStatus.FAULT, 1)
     assert violation.message == f'non-finite target displacement for DOF 1: {bad}'
     assert check_command([NAN], [0.0], LIMITS) == LimitViolation(
-        'fault', 0, 'non-finite target displacement for DOF 0: nan'
+        FeedbackStatus.FAULT, 0, 'non-finite target displacement for DOF 0: nan'
     )
 
 
@@ -292,14 +293,14 @@ def test_non_finite_target_is_a_fault(bad: float) -> None:
 def test_malformed_command_is_a_fault(target, current, fragment: str) -> None:
     violation = check_command(target, current, LIMITS)
     assert violation is not None
-    assert violation.kind == 'fault'
+    assert violation.kind is FeedbackStatus.FAULT
     assert fragment in violation.message
 
 
 def test_check_order_fault_then_displacement_then_increment() -> None:
     # DOF 0 beyond every limit, DOF 1 NaN: the fault wins.
     violation = check_command([10.0, NAN], [0.0, 0.0], LIMITS)
-    assert violation is not None and violation.kind == 'fault'
+    assert violation is not None and violation.kind is FeedbackStatus.FAULT
     # DOF 0 beyond the increment only, DOF 1 beyond the displacement: displacement wins.
     violation = check_command([0.2, 0.3], [0.0, 0.25], LIMITS)
     assert violation is not None and violation.dof == 1 and 'max_displacement' in violation.message
@@ -320,7 +321,7 @@ def test_force_limit_each_way(sign: float) -> None:
     assert check_feedback([0.0], [sign * 1000.0], LIMITS) is None
     violation = check_feedback([0.0], [sign * just_above(1000.0)], LIMITS, ['top'])
     assert violation is not None
-    assert (violation.kind, violation.dof) == ('limit', 0)
+    assert (violation.kind, violation.dof) == (FeedbackStatus.LIMIT, 0)
     assert violation.message.startswith('DOF 0 (top): measured force')
     assert violation.message.endswith('exceeds max_force 1000 N')
 
@@ -337,13 +338,13 @@ def test_force_limit_each_way(sign: float) -> None:
 def test_bad_feedback_is_a_fault(displacement, force, fragment: str) -> None:
     violation = check_feedback(displacement, force, LIMITS)
     assert violation is not None
-    assert violation.kind == 'fault'
+    assert violation.kind is FeedbackStatus.FAULT
     assert violation.message == fragment
 
 
 def test_feedback_length_checked_against_n_dof() -> None:
     violation = check_feedback([0.0], [0.0], LIMITS, n_dof=2)
-    assert violation is not None and violation.kind == 'fault'
+    assert violation is not None and violation.kind is FeedbackStatus.FAULT
     assert check_feedback([0.0, 0.0], [0.0, 0.0], LIMITS, n_dof=2) is None
 
 
@@ -382,9 +383,9 @@ def test_ok_step_returns_measurement() -> None:
     published: list[BridgeReply] = []
     bridge.set_reply_callback(published.append)
     reply = bridge.handle_command('t1', 0, [0.0])
-    assert reply == BridgeReply('t1', 0, (0.0,), (0.0,), 'ok', '')
+    assert reply == BridgeReply('t1', 0, (0.0,), (0.0,), FeedbackStatus.OK, '')
     reply = bridge.handle_command('t1', 1, np.array([0.0625]))
-    assert reply == BridgeReply('t1', 1, (0.0625,), (250.0,), 'ok', '')
+    assert reply == BridgeReply('t1', 1, (0.0625,), (250.0,), FeedbackStatus.OK, '')
     assert bridge.state == 'ready'
     assert driver.commands == [(0, (0.0,)), (1, (0.0625,))]
     assert bridge.commands_received == 2
@@ -426,14 +427,14 @@ def test_new_test_id_starts_fresh_but_keeps_position() -> None:
         bridge.handle_command('t1:probe', step, [x])
     # Step 0 of a new test is not stale, and is checked from the actual position (0.2).
     reply = bridge.handle_command('t1', 0, [0.125])
-    assert reply is not None and reply.status == 'ok' and reply.step == 0
+    assert reply is not None and reply.status is FeedbackStatus.OK and reply.step == 0
     assert bridge.ignored_commands == 0
     # Same step number as the last answered one, but under another test id: it moves.
     reply = bridge.handle_command('t2', 0, [0.1])
-    assert reply == BridgeReply('t2', 0, (0.1,), (100.0,), 'ok', '')
+    assert reply == BridgeReply('t2', 0, (0.1,), (100.0,), FeedbackStatus.OK, '')
     assert len(driver.commands) == 5
     reply = bridge.handle_command('t2', 1, [-0.05])
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert 'max_increment' in reply.message
 
 
@@ -443,7 +444,7 @@ def test_non_finite_command_never_reaches_driver(bad: float) -> None:
     bridge.handle_command('t1', 0, [0.0, 0.05])
     reply = bridge.handle_command('t1', 1, [0.01, bad])
     assert reply is not None
-    assert reply.status == 'fault'
+    assert reply.status is FeedbackStatus.FAULT
     assert reply.message == f'non-finite target displacement for DOF 1 (bottom): {bad}'
     assert reply.displacement == (0.0, 0.05)
     assert reply.force == (0.0, 50.0)
@@ -459,14 +460,14 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
     bridge.handle_command('t1', 1, [0.1])
     reply = bridge.handle_command('t1', 2, [0.3])
     expected_reason = 'DOF 0 (top): target displacement 0.3 m exceeds max_displacement 0.25 m'
-    assert reply == BridgeReply('t1', 2, (0.1,), (200.0,), 'limit', expected_reason)
+    assert reply == BridgeReply('t1', 2, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason)
     assert bridge.state == 'holding'
     assert bridge.hold_reason == expected_reason
-    assert bridge.hold_status == 'limit'
+    assert bridge.hold_status is FeedbackStatus.LIMIT
     # Safe commands, repeats and new tests do not move while holding.
     for test_id, step, x in [('t1', 2, [0.15]), ('t1', 3, [0.1]), ('t2', 0, [0.1])]:
         held = bridge.handle_command(test_id, step, x)
-        assert held == BridgeReply(test_id, step, (0.1,), (200.0,), 'limit', expected_reason)
+        assert held == BridgeReply(test_id, step, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason)
     assert len(driver.commands) == 2
     assert driver.position() == [0.1]
     assert driver.hold_count == 1
@@ -478,7 +479,7 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
     # The rejected step is evaluated afresh after the reset; older steps stay stale.
     assert bridge.handle_command('t1', 1, [0.1]) is None
     reply = bridge.handle_command('t1', 2, [0.15])
-    assert reply == BridgeReply('t1', 2, (0.15,), (300.0,), 'ok', '')
+    assert reply == BridgeReply('t1', 2, (0.15,), (300.0,), FeedbackStatus.OK, '')
     assert len(driver.commands) == 3
 
 
@@ -491,16 +492,16 @@ def test_reset_when_not_holding_does_nothing() -> None:
 
 def test_force_limit_on_feedback_triggers_hold() -> None:
     bridge, driver = make_bridge(stiffness=10000.0)  # 1000 N at 0.1 m
-    assert bridge.handle_command('t1', 0, [0.1]).status == 'ok'  # exactly at max_force
+    assert bridge.handle_command('t1', 0, [0.1]).status is FeedbackStatus.OK  # exactly at max_force
     reply = bridge.handle_command('t1', 1, [0.125])
     assert reply is not None
-    assert reply.status == 'limit'
+    assert reply.status is FeedbackStatus.LIMIT
     assert reply.displacement == (0.125,)
     assert reply.force == (1250.0,)
     assert reply.message == 'DOF 0 (top): measured force 1250 N exceeds max_force 1000 N'
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
-    assert bridge.handle_command('t1', 2, [0.0]).status == 'limit'
+    assert bridge.handle_command('t1', 2, [0.0]).status is FeedbackStatus.LIMIT
     assert len(driver.commands) == 2
 
 
@@ -517,7 +518,7 @@ def test_non_finite_feedback_is_a_fault_and_keeps_last_good_values() -> None:
     load_cell['broken'] = True
     reply = bridge.handle_command('t1', 1, [0.1])
     assert reply is not None
-    assert reply.status == 'fault'
+    assert reply.status is FeedbackStatus.FAULT
     assert reply.message == 'non-finite measured force for DOF 0 (top): nan'
     assert reply.force == (50.0,)
     assert bridge.state == 'holding'
@@ -528,7 +529,7 @@ def test_driver_failure_is_a_fault_hold() -> None:
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
     reply = bridge.handle_command('t1', 0, [0.0])
     assert reply is not None
-    assert reply.status == 'fault'
+    assert reply.status is FeedbackStatus.FAULT
     assert reply.message == 'driver command() failed at step 0: DriverError: controller offline'
     assert math.isnan(reply.force[0])  # no measurement yet
     assert bridge.state == 'holding'
@@ -540,7 +541,7 @@ def test_model_failure_in_loopback_is_a_fault_hold() -> None:
     driver.open()
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
     reply = bridge.handle_command('t1', 0, [0.0])
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert 'restoring_force failed at step 0' in reply.message
 
 
@@ -564,7 +565,7 @@ def test_async_driver_in_flight_bookkeeping() -> None:
     driver.answer(7, [0.05], [1.0])
     assert published == [] and bridge.ignored_measurements == 1
     driver.answer(0, [0.05], [12.5])
-    assert published == [BridgeReply('t1', 0, (0.05,), (12.5,), 'ok', '')]
+    assert published == [BridgeReply('t1', 0, (0.05,), (12.5,), FeedbackStatus.OK, '')]
     assert bridge.state == 'ready'
     # Now a repeat of step 0 is answered from the last reply.
     assert bridge.handle_command('t1', 0, [0.05]) is published[0]
@@ -573,7 +574,7 @@ def test_async_driver_in_flight_bookkeeping() -> None:
     assert bridge.handle_command('t1', 1, [0.06]) is None
     reply = bridge.handle_fault('no measurement for step 1 within 2 s')
     assert reply == BridgeReply(
-        't1', 1, (0.05,), (12.5,), 'fault', 'no measurement for step 1 within 2 s'
+        't1', 1, (0.05,), (12.5,), FeedbackStatus.FAULT, 'no measurement for step 1 within 2 s'
     )
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
@@ -587,7 +588,7 @@ def test_async_force_limit_holds() -> None:
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
     bridge.handle_command('t1', 0, [0.05])
     reply = bridge.handle_measurement(0, [0.05], [-1500.0])
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
 
@@ -595,7 +596,7 @@ def test_async_force_limit_holds() -> None:
 def test_hold_before_any_measurement_reports_nan_force() -> None:
     bridge, driver = make_bridge()
     reply = bridge.handle_command('t1', 0, [1.0])
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert reply.displacement == (0.0,)
     assert math.isnan(reply.force[0])
     assert driver.commands == []
@@ -647,7 +648,8 @@ def test_randomised_stream_never_commands_beyond_limits(limits: SafetyLimits) ->
     # 5000 N/m: the force limit (1000 N) is reached at 0.2 m, inside max_displacement.
     bridge, driver = make_bridge(limits, stiffness=5000.0, n_dof=n_dof)
     test_id, step = 'rand', 0
-    statuses = {'ok': 0, 'limit': 0, 'fault': 0, 'none': 0}
+    statuses: dict[object, int] = {FeedbackStatus.OK: 0, FeedbackStatus.LIMIT: 0,
+                                   FeedbackStatus.FAULT: 0, 'none': 0}
     new_holds = force_holds = 0
     for _ in range(6000):
         current = driver.position()
@@ -675,8 +677,8 @@ def test_randomised_stream_never_commands_beyond_limits(limits: SafetyLimits) ->
         moved = len(driver.commands) - n_before
         assert moved in (0, 1)
         if was_holding:
-            assert moved == 0 and reply is not None and reply.status != 'ok'
-        elif reply is not None and reply.status != 'ok':
+            assert moved == 0 and reply is not None and reply.status is not FeedbackStatus.OK
+        elif reply is not None and reply.status is not FeedbackStatus.OK:
             new_holds += 1
             # Only a measured force beyond the limit may follow a motion.
             assert moved == 0 or reply.message.endswith('exceeds max_force 1000 N')
@@ -700,9 +702,9 @@ def test_randomised_stream_never_commands_beyond_limits(limits: SafetyLimits) ->
         previous = list(target)
 
     # The stream exercised both sides of every boundary.
-    assert statuses['ok'] > 1000
-    assert statuses['limit'] > 500
-    assert statuses['fault'] > 500
+    assert statuses[FeedbackStatus.OK] > 1000
+    assert statuses[FeedbackStatus.LIMIT] > 500
+    assert statuses[FeedbackStatus.FAULT] > 500
     assert statuses['none'] > 10
     assert force_holds > 10
     assert at_displacement > 0
@@ -738,7 +740,7 @@ def test_broken_driver_faults_and_reports_last_measurement() -> None:
     driver.broken = True
     reply = bridge.handle_command('t1', 1, [0.06])
     assert reply == BridgeReply(
-        't1', 1, (0.05,), (10.0,), 'fault',
+        't1', 1, (0.05,), (10.0,), FeedbackStatus.FAULT,
         'driver position() failed: DriverError: encoder lost; '
         'driver hold() failed: DriverError: valve stuck',
     )
@@ -753,9 +755,9 @@ def test_fault_while_idle_holds_without_reply() -> None:
     assert bridge.handle_fault('emergency stop pressed') is None
     assert bridge.state == 'holding'
     assert bridge.hold_reason == 'emergency stop pressed'
-    assert bridge.hold_status == 'fault'
+    assert bridge.hold_status is FeedbackStatus.FAULT
     reply = bridge.handle_command('t1', 1, [0.01])
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert reply.message == 'emergency stop pressed'
     assert len(driver.commands) == 1
     # A second fault while already holding changes nothing.
@@ -773,7 +775,7 @@ def test_bridge_accepts_step_iteration_keys() -> None:
                                                  max_force=1.0e4), ['u'])
     first = bridge.handle_command('t', (2, 0), [0.01])
     second = bridge.handle_command('t', (2, 1), [0.02])
-    assert first is not None and first.step == (2, 0) and first.status == 'ok'
+    assert first is not None and first.step == (2, 0) and first.status is FeedbackStatus.OK
     assert second is not None and second.force == (20.0,)
     assert bridge.handle_command('t', (2, 1), [0.09]) is second  # repeat: no motion
     assert bridge.handle_command('t', (2, 0), [0.03]) is None  # stale iteration: ignored

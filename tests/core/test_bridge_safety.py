@@ -17,6 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
@@ -217,16 +218,16 @@ def test_on_limit_option() -> None:
 def test_watchdog_exactly_at_timeout_does_not_hold_just_above_does() -> None:
     clock = Clock(10.0)
     bridge, driver = make_bridge(WATCHDOG_LIMITS, clock=clock)
-    assert bridge.handle_command('t', 0, [0.0]).status == 'ok'
+    assert bridge.handle_command('t', 0, [0.0]).status is FeedbackStatus.OK
     assert bridge.watchdog_armed
     assert bridge.check_watchdog(10.0 + WATCHDOG) is None  # exactly T: still allowed
     assert bridge.state == 'ready'
     reply = bridge.check_watchdog(just_above(10.0 + WATCHDOG))
     assert reply is not None
-    assert reply.status == 'fault'
+    assert reply.status is FeedbackStatus.FAULT
     assert (reply.test_id, reply.step) == ('t', 0)  # reported against the last command
     assert reply.message.startswith('watchdog: no command for more than 0.5 s (last command ')
-    assert bridge.state == 'holding' and bridge.hold_status == 'fault'
+    assert bridge.state == 'holding' and bridge.hold_status is FeedbackStatus.FAULT
     assert bridge.hold_reason == reply.message
     assert driver.hold_count == 1 and bridge.watchdog_trips == 1
     # Idle while holding; a command is answered with the hold.
@@ -250,9 +251,9 @@ def test_watchdog_uses_the_clock_when_no_time_is_given() -> None:
 def test_late_command_trips_the_watchdog_before_moving() -> None:
     bridge, driver = make_bridge(WATCHDOG_LIMITS)
     bridge.handle_command('t', 0, [0.0], now=1.0)
-    assert bridge.handle_command('t', 1, [0.01], now=1.0 + WATCHDOG).status == 'ok'
+    assert bridge.handle_command('t', 1, [0.01], now=1.0 + WATCHDOG).status is FeedbackStatus.OK
     reply = bridge.handle_command('t', 2, [0.02], now=just_above(1.0 + 2 * WATCHDOG))
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert reply.step == 2 and 'watchdog: no command for more than 0.5 s' in reply.message
     assert [target for _, target in driver.commands] == [(0.0,), (0.01,)]
 
@@ -283,7 +284,7 @@ def test_reset_disarms_the_watchdog_until_the_next_command() -> None:
     assert bridge.reset()
     assert not bridge.watchdog_armed
     assert bridge.check_watchdog(100.0) is None
-    assert bridge.handle_command('t', 1, [0.01], now=100.0).status == 'ok'
+    assert bridge.handle_command('t', 1, [0.01], now=100.0).status is FeedbackStatus.OK
     assert bridge.check_watchdog(100.0 + WATCHDOG) is None
     assert bridge.check_watchdog(101.0) is not None
 
@@ -296,7 +297,7 @@ def test_watchdog_answers_the_step_in_flight() -> None:
     assert bridge.handle_command('t', (3, 0), [0.01], now=0.0) is None
     assert bridge.state == 'busy'
     reply = bridge.check_watchdog(1.0)
-    assert reply is not None and reply.step == (3, 0) and reply.status == 'fault'
+    assert reply is not None and reply.step == (3, 0) and reply.status is FeedbackStatus.FAULT
     assert bridge.last_reply == reply  # recorded as the answer of the step in flight
     driver.deliver(0.0, 1.0)  # the late measurement is ignored
     assert published == [] and bridge.ignored_measurements == 1
@@ -307,7 +308,7 @@ def test_watchdog_holds_on_an_invalid_time(bad_time: float) -> None:
     bridge, driver = make_bridge(WATCHDOG_LIMITS)
     bridge.handle_command('t', 0, [0.0], now=0.0)
     reply = bridge.check_watchdog(bad_time)
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert bridge.state == 'holding'
 
 
@@ -334,15 +335,15 @@ def test_check_tracking_just_inside_and_outside() -> None:
     outside = [0.0, just_above(0.0625 + TOLERANCE), 0.0]
     violation = check_tracking(outside, commanded, TRACKING_LIMITS, ['a', 'b', 'c'])
     assert violation is not None
-    assert (violation.kind, violation.dof) == ('fault', 1)
+    assert (violation.kind, violation.dof) == (FeedbackStatus.FAULT, 1)
     assert violation.message.startswith('DOF 1 (b): tracking error ')
     assert 'commanded 0.0625 m' in violation.message
     assert violation.message.endswith('exceeds tracking_tolerance 0.000976562 m')
     assert '0.000976562 m (measured' not in violation.message  # never printed equal to it
     # Off without a tolerance; malformed input is a fault.
     assert check_tracking([1.0], [0.0], LIMITS) is None
-    assert check_tracking([NAN], [0.0], TRACKING_LIMITS).kind == 'fault'
-    assert check_tracking([0.0, 0.0], [0.0], TRACKING_LIMITS).kind == 'fault'
+    assert check_tracking([NAN], [0.0], TRACKING_LIMITS).kind is FeedbackStatus.FAULT
+    assert check_tracking([0.0, 0.0], [0.0], TRACKING_LIMITS).kind is FeedbackStatus.FAULT
 
 
 def test_plausibility_just_inside_tolerance_answers_ok() -> None:
@@ -350,7 +351,7 @@ def test_plausibility_just_inside_tolerance_answers_ok() -> None:
     driver.error = TOLERANCE
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['top'], clock=Clock())
     reply = bridge.handle_command('t', 0, [0.0])
-    assert reply == BridgeReply('t', 0, (TOLERANCE,), (1000.0 * TOLERANCE,), 'ok', '')
+    assert reply == BridgeReply('t', 0, (TOLERANCE,), (1000.0 * TOLERANCE,), FeedbackStatus.OK, '')
     assert bridge.state == 'ready'
 
 
@@ -359,12 +360,12 @@ def test_plausibility_just_outside_tolerance_holds() -> None:
     driver.error = just_above(TOLERANCE)
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['a', 'b', 'c'], clock=Clock())
     reply = bridge.handle_command('t', 0, [0.0, 0.0, 0.0])
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert reply.message.startswith('DOF 0 (a): tracking error ')
     assert 'exceeds tracking_tolerance' in reply.message
     assert reply.displacement == (driver.error,) * 3  # the measured (true) state
     assert bridge.state == 'holding' and driver.hold_count == 1
-    assert bridge.handle_command('t', 1, [0.0, 0.0, 0.0]).status == 'fault'
+    assert bridge.handle_command('t', 1, [0.0, 0.0, 0.0]).status is FeedbackStatus.FAULT
     assert len(driver.sent) == 1
 
 
@@ -372,10 +373,10 @@ def test_plausibility_async_measurement() -> None:
     driver = RecordingDriver(1, 1000.0, synchronous=False)
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['top'], clock=Clock())
     bridge.handle_command('t', 0, [0.0625])
-    assert bridge.handle_measurement(0, [0.0625 - TOLERANCE], [1.0]).status == 'ok'
+    assert bridge.handle_measurement(0, [0.0625 - TOLERANCE], [1.0]).status is FeedbackStatus.OK
     bridge.handle_command('t', 1, [0.0625])
     reply = bridge.handle_measurement(1, [just_above(0.0625 + TOLERANCE)], [1.0])
-    assert reply is not None and reply.status == 'fault' and 'tracking error' in reply.message
+    assert reply is not None and reply.status is FeedbackStatus.FAULT and 'tracking error' in reply.message
 
 
 def test_plausibility_compares_with_the_saturated_target() -> None:
@@ -383,7 +384,7 @@ def test_plausibility_compares_with_the_saturated_target() -> None:
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['top'], on_limit='saturate',
                             clock=Clock())
     reply = bridge.handle_command('t', 0, [0.5])  # clipped to 0.125 (max_increment)
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert reply.message.startswith('saturated: ')
     assert bridge.state == 'ready'
 
@@ -396,14 +397,14 @@ def test_saturate_clips_absolute_displacement() -> None:
                                  initial_position=[0.1875])
     reply = bridge.handle_command('t', 0, [0.3])
     assert reply == BridgeReply(
-        't', 0, (0.25,), (500.0,), 'limit',
+        't', 0, (0.25,), (500.0,), FeedbackStatus.LIMIT,
         'saturated: DOF 0 (top): target 0.3 m clipped to 0.25 m (max_displacement 0.25 m)',
     )
     assert driver.commands == [(0, (0.25,))]
     assert bridge.state == 'ready' and bridge.saturations == 1 and bridge.violations == 0
     # A repeat returns the same answer without moving; the next safe step is normal.
     assert bridge.handle_command('t', 0, [0.3]) is reply
-    assert bridge.handle_command('t', 1, [0.125]).status == 'ok'
+    assert bridge.handle_command('t', 1, [0.125]).status is FeedbackStatus.OK
     # The negative side.
     reply = bridge.handle_command('t', 2, [-0.5])
     assert reply is not None and driver.commands[-1] == (2, (0.0,))
@@ -420,7 +421,7 @@ def test_saturate_clips_increment() -> None:
     )
     reply = bridge.handle_command('t', 1, [-1e300])
     assert driver.commands[-1] == (1, (0.0625,))
-    assert reply.status == 'limit'
+    assert reply.status is FeedbackStatus.LIMIT
 
 
 def test_saturate_clips_velocity() -> None:
@@ -446,7 +447,7 @@ def test_saturate_only_touches_the_offending_dofs() -> None:
 def test_saturate_exactly_at_a_limit_is_not_a_saturation() -> None:
     bridge, driver = make_bridge(on_limit='saturate')
     assert bridge.handle_command('t', 0, [0.125]) == BridgeReply(
-        't', 0, (0.125,), (125.0,), 'ok', ''
+        't', 0, (0.125,), (125.0,), FeedbackStatus.OK, ''
     )
     assert bridge.saturations == 0
 
@@ -455,7 +456,7 @@ def test_saturate_exactly_at_a_limit_is_not_a_saturation() -> None:
 def test_saturate_never_saturates_non_finite_values(bad: float) -> None:
     bridge, driver = make_bridge(n_dof=3, on_limit='saturate')
     reply = bridge.handle_command('t', 0, [0.5, bad, 0.0])
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert reply.message == f'non-finite target displacement for DOF 1 (mid): {bad}'
     assert driver.commands == [] and bridge.state == 'holding'
 
@@ -464,7 +465,7 @@ def test_saturate_never_saturates_non_finite_values(bad: float) -> None:
 def test_saturate_never_saturates_malformed_commands(target: Any) -> None:
     bridge, driver = make_bridge(on_limit='saturate')
     reply = bridge.handle_command('t', 0, target)
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert driver.commands == [] and bridge.state == 'holding'
 
 
@@ -472,19 +473,19 @@ def test_saturate_holds_when_no_allowed_value_is_reachable() -> None:
     # The actuator is 0.25 m beyond max_displacement: one step of 0.125 m cannot get back.
     bridge, driver = make_bridge(on_limit='saturate', initial_position=[0.5])
     reply = bridge.handle_command('t', 0, [0.0])
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert reply.message.startswith('DOF 0 (top): cannot saturate target 0 m')
     assert driver.commands == [] and bridge.state == 'holding'
     # Within one step of the allowed range, it moves back into it.
     bridge, driver = make_bridge(on_limit='saturate', initial_position=[0.3125])
     reply = bridge.handle_command('t', 0, [0.0])
-    assert driver.commands == [(0, (0.1875,))] and reply.status == 'limit'
+    assert driver.commands == [(0, (0.1875,))] and reply.status is FeedbackStatus.LIMIT
 
 
 def test_measurement_violations_still_hold_in_saturate_mode() -> None:
     bridge, driver = make_bridge(on_limit='saturate', stiffness=10000.0)
     reply = bridge.handle_command('t', 0, [0.5])  # clipped to 0.125 m: 1250 N > 1000 N
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert reply.message == 'DOF 0 (top): measured force 1250 N exceeds max_force 1000 N'
     assert bridge.state == 'holding'
 
@@ -498,7 +499,7 @@ def test_saturate_command_returns_nearest_value_even_with_rounding() -> None:
     assert check_command([math.nextafter(value, 5.0)], [0.1], limits) is not None
     assert saturate_command([0.2], [0.1], limits).message == ''
     fault = saturate_command([NAN], [0.0], limits)
-    assert fault.target is None and fault.violation.kind == 'fault'
+    assert fault.target is None and fault.violation.kind is FeedbackStatus.FAULT
 
 
 # ---------------------------------------------------------------------------- emergency stop
@@ -509,7 +510,7 @@ def test_emergency_stop_is_latched_until_explicitly_cleared() -> None:
     bridge.handle_command('t', 0, [0.0], now=0.0)
     reply = bridge.emergency_stop('operator\nbutton')
     assert reply is not None
-    assert (reply.test_id, reply.step, reply.status) == ('t', 0, 'fault')
+    assert (reply.test_id, reply.step, reply.status) == ('t', 0, FeedbackStatus.FAULT)
     assert reply.message == 'emergency stop: operator button'
     assert bridge.state == 'holding' and bridge.emergency_stopped
     assert driver.hold_count == 1
@@ -517,7 +518,7 @@ def test_emergency_stop_is_latched_until_explicitly_cleared() -> None:
     assert bridge.reset() is False
     assert bridge.state == 'holding' and bridge.emergency_stopped
     held = bridge.handle_command('t', 1, [0.01], now=0.1)
-    assert held.status == 'fault' and held.message == 'emergency stop: operator button'
+    assert held.status is FeedbackStatus.FAULT and held.message == 'emergency stop: operator button'
     assert bridge.check_watchdog(100.0) is None
     assert bridge.handle_fault('something else') is None
     assert bridge.hold_reason == 'emergency stop: operator button'
@@ -525,7 +526,7 @@ def test_emergency_stop_is_latched_until_explicitly_cleared() -> None:
     # Explicit clearing.
     assert bridge.reset(clear_emergency=True) is True
     assert bridge.state == 'ready' and not bridge.emergency_stopped
-    assert bridge.handle_command('t', 1, [0.01], now=200.0).status == 'ok'
+    assert bridge.handle_command('t', 1, [0.01], now=200.0).status is FeedbackStatus.OK
     assert len(driver.commands) == 2
 
 
@@ -535,7 +536,7 @@ def test_emergency_stop_while_holding_overrides_the_hold() -> None:
     assert driver.hold_count == 1
     assert bridge.emergency_stop() is None
     assert driver.hold_count == 2  # told to hold again, at once
-    assert bridge.hold_reason == 'emergency stop' and bridge.hold_status == 'fault'
+    assert bridge.hold_reason == 'emergency stop' and bridge.hold_status is FeedbackStatus.FAULT
     assert bridge.reset() is False
     assert bridge.reset(clear_emergency=True) is True and bridge.state == 'ready'
     assert bridge.emergency_stops == 1
@@ -548,7 +549,7 @@ def test_emergency_stop_answers_the_step_in_flight() -> None:
     bridge.set_reply_callback(published.append)
     bridge.handle_command('t', 0, [0.05])
     reply = bridge.emergency_stop('pressure drop')
-    assert reply is not None and reply.step == 0 and reply.status == 'fault'
+    assert reply is not None and reply.step == 0 and reply.status is FeedbackStatus.FAULT
     driver.deliver(0.0, 1.0)
     assert published == []
     assert bridge.handle_command('t', 0, [0.05]).message == 'emergency stop: pressure drop'
@@ -558,7 +559,7 @@ def test_emergency_stop_before_any_command() -> None:
     bridge, driver = make_bridge()
     assert bridge.emergency_stop('startup check') is None
     assert bridge.state == 'holding' and bridge.hold_reason == 'emergency stop: startup check'
-    assert bridge.handle_command('t', 0, [0.0]).status == 'fault'
+    assert bridge.handle_command('t', 0, [0.0]).status is FeedbackStatus.FAULT
     assert driver.commands == []
 
 
@@ -845,7 +846,7 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
             requested = build_target(shape, aux, dofs, driver.position(), limits)
             returned = bridge.handle_command(TEST_IDS[aux % len(TEST_IDS)], key, requested)
             if tripped:
-                assert returned is not None and returned.status == 'fault'
+                assert returned is not None and returned.status is FeedbackStatus.FAULT
                 assert returned.message.startswith('watchdog: ')
                 stats['watchdog'] += 1
             elif not model.holding:
@@ -855,7 +856,7 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
             driver.deliver(errors[aux % len(errors)], FORCE_SCALES[shape % len(FORCE_SCALES)])
             if model.clipped_in_flight:
                 # A clipped move is never answered silently.
-                assert all(reply.status != 'ok' for reply in published)
+                assert all(reply.status is not FeedbackStatus.OK for reply in published)
         elif kind == 'error':
             driver.error = errors[aux % len(errors)]
         elif kind == 'reset':
@@ -898,16 +899,16 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
                 assert not clipped  # 'hold' never alters a command
             model.clipped_in_flight = clipped
             if clipped and driver.synchronous:
-                assert returned is not None and returned.status != 'ok'
+                assert returned is not None and returned.status is not FeedbackStatus.OK
         replies = ([returned] if returned is not None else []) + published
         for reply in replies:
-            assert reply.status in ('ok', 'limit', 'fault')
+            assert reply.status in (FeedbackStatus.OK, FeedbackStatus.LIMIT, FeedbackStatus.FAULT)
             assert '\n' not in reply.message
             assert len(reply.displacement) == n_dof and len(reply.force) == n_dof
             if reply.message.startswith('saturated: '):
-                assert on_limit == 'saturate' and reply.status == 'limit'
+                assert on_limit == 'saturate' and reply.status is FeedbackStatus.LIMIT
                 stats['saturated'] += 1
-            elif reply.status != 'ok':
+            elif reply.status is not FeedbackStatus.OK:
                 model.holding = True  # every other non-'ok' answer is a hold
             else:
                 assert reply.message == ''
@@ -975,10 +976,10 @@ def test_saturate_command_is_safe_and_nearest(
     result = saturate_command(target, current, limits)
     if not all(math.isfinite(x) for x in target):
         assert result.target is None and result.violation is not None
-        assert result.violation.kind == 'fault'
+        assert result.violation.kind is FeedbackStatus.FAULT
         return
     if result.target is None:
-        assert result.violation is not None and result.violation.kind == 'limit'
+        assert result.violation is not None and result.violation.kind is FeedbackStatus.LIMIT
         assert 'cannot saturate' in result.violation.message
         # Only a DOF that starts more than one step beyond max_displacement cannot be clipped.
         dof = result.violation.dof

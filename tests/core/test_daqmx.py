@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverError, SafetyLimits
 from pd_actuator_bridge.core.daqmx import (
     DaqmxChannelConfig,
@@ -674,8 +675,8 @@ def test_driver_under_the_bridge_completes_steps() -> None:
     bridge, _, rig = bridge_setup(limits)
     reply0 = bridge.handle_command('t', 0, [0.0])
     reply1 = bridge.handle_command('t', 1, [0.01])
-    assert reply0 is not None and reply0.status == 'ok'
-    assert reply1 is not None and reply1.status == 'ok'
+    assert reply0 is not None and reply0.status is FeedbackStatus.OK
+    assert reply1 is not None and reply1.status is FeedbackStatus.OK
     assert reply1.displacement == pytest.approx((0.01,))
     assert reply1.force == pytest.approx((500.0,))
     assert rig.task('command').writes == [pytest.approx(0.0), pytest.approx(1.0)]
@@ -685,9 +686,9 @@ def test_bridge_limit_keeps_a_command_from_reaching_the_task() -> None:
     # 0.04 m is 4 V, well inside the DAQ's +-10 V: only the bridge can stop it.
     limits = SafetyLimits(max_displacement=0.035, max_increment=0.05, max_force=5000.0)
     bridge, driver, rig = bridge_setup(limits)
-    assert bridge.handle_command('t', 0, [0.01]).status == 'ok'
+    assert bridge.handle_command('t', 0, [0.01]).status is FeedbackStatus.OK
     reply = bridge.handle_command('t', 1, [0.04])
-    assert reply is not None and reply.status == 'limit'
+    assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert bridge.state == 'holding'
     writes = rig.task('command').writes
     assert pytest.approx(4.0) not in writes
@@ -701,7 +702,7 @@ def test_driver_voltage_limit_backs_up_a_wide_bridge_limit() -> None:
     limits = SafetyLimits(max_displacement=0.2, max_increment=0.2, max_force=1.0e6)
     bridge, _, rig = bridge_setup(limits, command_max_voltage=3.0)
     reply = bridge.handle_command('t', 0, [0.05])
-    assert reply is not None and reply.status == 'fault'
+    assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert 'nothing written' in reply.message
     assert rig.task('command').writes == []  # and hold had nothing to re-write
 

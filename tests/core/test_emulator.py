@@ -13,7 +13,7 @@ from pd_actuator_bridge.core.emulator import (
     ServoHydraulicEmulator,
 )
 from pd_actuator_bridge.core.errors import BridgeConfigError, DriverError
-from pd_specimen_sim.core import Elastic, ElasticPerfectlyPlastic, Specimen
+from pd_common.specimen import Elastic, ElasticPerfectlyPlastic, Specimen
 
 K_COLUMN = 312559.0
 """Initial stiffness of the thesis column, N/m."""

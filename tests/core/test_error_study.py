@@ -21,15 +21,16 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_actuator_bridge.core.error_models import (ErrorInjector, ErrorModel, tracking_error,
-                                                  tracking_indicator)
+from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel
+from pd_common.experimental import tracking_error, tracking_indicator
 from pd_actuator_bridge.core.errors import BridgeConfigError
 from pd_integrator import study_errors
 from pd_integrator.core.config import load_test_file
 from pd_integrator.core.outputs import read_response_csv
 from pd_integrator.core.runner import rebuild_outputs, run_offline
-from pd_specimen_sim.core import Elastic, Specimen, SpecimenConfigError, specimen_from_config
-from pd_specimen_sim.core.server import SimulatedErrors, SpecimenServer, server_from_config
+from pd_common.specimen import Elastic, Specimen, SpecimenConfigError, specimen_from_config
+from pd_common.experimental import ErrorModel as SimulatedErrors
+from pd_common.specimen.server import SpecimenServer, server_from_config
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
@@ -75,14 +76,14 @@ def test_undershoot_measures_target_minus_five_percent_of_the_increment() -> Non
         answer = server.handle('t', step, [target])
         assert answer is not None
         expected = target - 0.05 * (target - previous)
-        assert answer.displacement[0] == pytest.approx(expected, rel=1e-14, abs=1e-18)
-        assert answer.force[0] == pytest.approx(K * expected, rel=1e-12, abs=1e-12)
-        assert server.imposed == answer.displacement  # no noise: measured = reached
-        previous = answer.displacement[0]
+        assert answer.measured_displacement[0] == pytest.approx(expected, rel=1e-14, abs=1e-18)
+        assert answer.restoring_force[0] == pytest.approx(K * expected, rel=1e-12, abs=1e-12)
+        assert server.imposed == answer.measured_displacement  # no noise: measured = reached
+        previous = answer.measured_displacement[0]
     # A re-sent command: the same answer, no motion.
     again = server.handle('t', 5, [-0.0025])
     assert again is not None
-    assert again.displacement[0] == previous
+    assert again.measured_displacement[0] == previous
     assert server.repeated == 1
 
 
@@ -132,9 +133,8 @@ def test_error_free_run_is_unchanged_bit_for_bit(tmp_path: Path) -> None:
 
 def test_simulator_and_bridge_share_one_error_model() -> None:
     """The bridge's ErrorModel/ErrorInjector are the simulator's, with the bridge's checks."""
-    from pd_specimen_sim.core import errors_model  # noqa: PLC0415
+    from pd_common.experimental import error_model as errors_model  # noqa: PLC0415
 
-    assert SimulatedErrors is errors_model.ErrorModel
     assert issubclass(ErrorModel, errors_model.ErrorModel)
     assert issubclass(ErrorInjector, errors_model.ErrorInjector)
     assert fields(ErrorModel) == fields(SimulatedErrors)
@@ -162,8 +162,8 @@ def test_simulator_and_bridge_share_one_error_model() -> None:
         answer = server.handle('t', step, target.tolist())
         expected = injector.apply(target, restoring_force)
         assert answer is not None
-        assert answer.displacement == tuple(expected.displacement.tolist())
-        assert answer.force == tuple(expected.force.tolist())
+        assert answer.measured_displacement == tuple(expected.displacement.tolist())
+        assert answer.restoring_force == tuple(expected.force.tolist())
         assert server.imposed == tuple(expected.imposed.tolist())
 
 
@@ -194,7 +194,7 @@ def test_bad_errors_section_is_refused_before_anything_is_written(tmp_path: Path
 
 
 def test_a_fault_does_not_advance_the_delay_line() -> None:
-    from pd_specimen_sim.core import PushoverHysteresis, bilinear_backbone  # noqa: PLC0415
+    from pd_common.specimen import PushoverHysteresis, bilinear_backbone  # noqa: PLC0415
 
     backbone = bilinear_backbone(1000.0, 10.0, 0.01, max_displacement=0.1)
     element = PushoverHysteresis(backbone, beyond='error')

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.controller_server import (
     EMULATOR_MODULE,
     ControllerServer,
@@ -386,12 +387,12 @@ def test_driver_through_the_bridge_completes_steps(elastic_server) -> None:
     targets = [[0.0, 0.0], [0.01, -0.01], [0.02, 0.005], [0.015, 0.0]]
     for step, target in enumerate(targets):
         reply = bridge.handle_command('t1', step, target)
-        assert reply is not None and reply.status == 'ok', reply
+        assert reply is not None and reply.status is FeedbackStatus.OK, reply
         assert reply.step == step
         assert reply.displacement == pytest.approx(target)
         assert reply.force == pytest.approx([1000.0 * target[0], 3000.0 * target[1]])
     # A repeated step is answered from the bridge's memory without moving.
-    assert bridge.handle_command('t1', 3, targets[3]).status == 'ok'
+    assert bridge.handle_command('t1', 3, targets[3]).status is FeedbackStatus.OK
     assert server.steps == len(targets)
     driver.close()
     assert server.wait(TIMEOUT) and server.ended_by_client, server.error
@@ -408,13 +409,13 @@ def test_dead_controller_makes_the_bridge_hold(elastic_server, mode) -> None:
     bridge, driver = make_bridge(server.port)
     driver.open()
     for step in range(n_ok):
-        assert bridge.handle_command('t1', step, [0.001 * step]).status == 'ok'
+        assert bridge.handle_command('t1', step, [0.001 * step]).status is FeedbackStatus.OK
     if mode == 'server-stopped':
         server.stop()
     start = time.monotonic()
     reply = bridge.handle_command('t1', n_ok, [0.001 * n_ok])  # must not raise
     assert time.monotonic() - start < TIMEOUT + 1.0
-    assert reply.status == 'fault'
+    assert reply.status is FeedbackStatus.FAULT
     assert bridge.state == 'holding'
     assert f'{HOST}:{server.port}' in reply.message
     assert re.search(r'(closed|reset) the connection', reply.message), reply.message
@@ -423,7 +424,7 @@ def test_dead_controller_makes_the_bridge_hold(elastic_server, mode) -> None:
     assert driver.fault and not driver.is_open
     # Later commands are answered with the latched hold, still without exceptions.
     later = bridge.handle_command('t1', n_ok + 1, [0.0])
-    assert later.status == 'fault' and bridge.state == 'holding'
+    assert later.status is FeedbackStatus.FAULT and bridge.state == 'holding'
     assert server.wait(TIMEOUT)
     if mode == 'dies-mid-step':
         assert 'died after 3 steps' in server.error

@@ -9,7 +9,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pytest
 
-from pd_specimen_sim.core import (Backbone, BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
+from pd_common.specimen import (Backbone, BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
                                   HysteresisError, HysteresisModel, PushoverHysteresis,
                                   bilinear_backbone)
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from pd_integrator.core.config import load_test_file
-from pd_integrator.launcher import LaunchError, opensees_command, site_commands
+from pd_bringup.launcher import LaunchError, opensees_command, site_commands
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
            / 'three_story_two_sites.yaml')

@@ -18,8 +18,8 @@ from pd_integrator.core.bag import (TOPIC_COMMAND, TOPIC_DEFINITION, TOPIC_FEEDB
                                     BagRecorder, read_bag, typestore)
 from pd_integrator.core.config import from_dict, from_json, load_test_file
 from pd_integrator.core.errors import BagError, ConfigError, StabilityError
-from pd_integrator.core.messages import Command, Feedback
-from pd_integrator.core.messages import TestState as State
+from pd_common.protocol import Command, Feedback
+from pd_common.protocol import TestState as State
 from pd_integrator.core.runner import rebuild_outputs, replay_bag, run_offline
 
 REPO = Path(__file__).resolve().parents[2]

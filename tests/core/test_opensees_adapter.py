@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge import opensees_site
 from pd_actuator_bridge.core import (
     ActuatorBridge,
@@ -41,7 +42,7 @@ from pd_actuator_bridge.core.opensees_adapter import (
     ACTION_GET_FORCE,
     ACTION_SET_TRIAL_RESPONSE,
 )
-from pd_specimen_sim.core.hysteresis import ElasticPerfectlyPlastic
+from pd_common.specimen.hysteresis import ElasticPerfectlyPlastic
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -452,7 +453,7 @@ def test_real_adapter_through_the_bridge(site) -> None:
     driver.open()
     for step, target in enumerate([0.0, 0.01, -0.02, 0.005]):
         reply = bridge.handle_command('t1', step, [target])
-        assert reply is not None and reply.status == 'ok', reply
+        assert reply is not None and reply.status is FeedbackStatus.OK, reply
         # The node lags the command by f/penalty (penalty 1e6 K): 1e-6 of the target.
         assert reply.displacement == pytest.approx([target], rel=2e-6, abs=1e-12)
         assert reply.force == pytest.approx([stiffness * reply.displacement[0]], rel=1e-9,

@@ -7,16 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, DriverError, SafetyLimits
 from pd_actuator_bridge.core.emulator import EmulatorParameters, ServoHydraulicEmulator
-from pd_actuator_bridge.core.error_models import (
-    ErrorInjector,
-    ErrorModel,
-    TrackingMonitor,
-    apply_error_model,
-    tracking_error,
-    tracking_indicator,
-)
+from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel, apply_error_model
+from pd_common.experimental import TrackingMonitor, tracking_error, tracking_indicator
 from pd_actuator_bridge.core.errors import BridgeConfigError
 from pd_actuator_bridge.core.ramp_hold import (
     DEFAULT_RAMP_TIME,
@@ -29,7 +24,7 @@ from pd_actuator_bridge.core.ramp_hold import (
     SettleTimeoutError,
     StepExecution,
 )
-from pd_specimen_sim.core import Elastic, Specimen
+from pd_common.specimen import Elastic, Specimen
 
 K_COLUMN = 312559.0
 """Initial stiffness of the thesis column, N/m."""
@@ -206,7 +201,7 @@ def test_emulator_driver_completes_steps_through_the_bridge() -> None:
     targets = [0.0, 1.0e-3, 3.5e-3, 2.0e-3, -1.0e-3]
     for step, target in enumerate(targets):
         reply = bridge.handle_command('t1', step, [target])
-        assert reply is not None and reply.status == 'ok', reply
+        assert reply is not None and reply.status is FeedbackStatus.OK, reply
         assert reply.step == step
         assert reply.displacement[0] == pytest.approx(target, abs=1.0e-5)
         assert reply.force[0] == pytest.approx(K_COLUMN * target, abs=K_COLUMN * 1.0e-5)
@@ -215,28 +210,28 @@ def test_emulator_driver_completes_steps_through_the_bridge() -> None:
     assert [step for step, _ in recorded] == list(range(len(targets)))
     # A repeated step is answered without moving.
     ticks = driver.emulator.ticks
-    assert bridge.handle_command('t1', 4, [-1.0e-3]).status == 'ok'
+    assert bridge.handle_command('t1', 4, [-1.0e-3]).status is FeedbackStatus.OK
     assert driver.emulator.ticks == ticks
     assert driver.position() == pytest.approx([-1.0e-3], abs=1.0e-5)
 
 
 def test_bridge_limits_still_apply_to_the_emulator_driver() -> None:
     bridge, driver = make_bridge(max_increment=2.0e-3)
-    assert bridge.handle_command('t1', 0, [1.0e-3]).status == 'ok'
+    assert bridge.handle_command('t1', 0, [1.0e-3]).status is FeedbackStatus.OK
     ticks = driver.emulator.ticks
     reply = bridge.handle_command('t1', 1, [4.0e-3])  # 3 mm increment > 2 mm
-    assert reply.status == 'limit' and 'max_increment' in reply.message
+    assert reply.status is FeedbackStatus.LIMIT and 'max_increment' in reply.message
     assert driver.emulator.ticks == ticks  # nothing reached the emulator
     assert driver.hold_count == 1 and bridge.state == 'holding'
 
     bridge, driver = make_bridge(max_force=200.0)
     reply = bridge.handle_command('t1', 0, [1.0e-3])  # 313 N > 200 N
-    assert reply.status == 'limit' and 'max_force' in reply.message
+    assert reply.status is FeedbackStatus.LIMIT and 'max_force' in reply.message
     assert driver.hold_count == 1
 
     bridge, driver = make_bridge(max_displacement=2.0e-3)
     reply = bridge.handle_command('t1', 0, [2.5e-3])
-    assert reply.status == 'limit' and driver.emulator.ticks == 0
+    assert reply.status is FeedbackStatus.LIMIT and driver.emulator.ticks == 0
 
 
 def test_settling_timeout_through_the_bridge_is_a_fault() -> None:
@@ -246,7 +241,7 @@ def test_settling_timeout_through_the_bridge_is_a_fault() -> None:
     slow.open()
     bridge = ActuatorBridge(slow, SafetyLimits(0.05, 0.05, 1.0e5), ['top'])
     reply = bridge.handle_command('t1', 0, [0.01])
-    assert reply.status == 'fault' and 'did not settle' in reply.message
+    assert reply.status is FeedbackStatus.FAULT and 'did not settle' in reply.message
     assert slow.last_execution is not None and not slow.last_execution.settled
     assert bridge.state == 'holding'
 

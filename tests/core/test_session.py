@@ -12,11 +12,11 @@ import pytest
 
 from pd_integrator.core.config import from_dict, load_test_file
 from pd_integrator.core.errors import ProtocolError, StabilityError
-from pd_integrator.core.messages import Command, Feedback, FeedbackStatus
-from pd_integrator.core.messages import TestState as State
+from pd_common.protocol import Command, Feedback, FeedbackStatus
+from pd_common.protocol import TestState as State
 from pd_integrator.core.protocol import StepProtocol, TimeoutAction, Verdict
 from pd_integrator.core.session import TestSession as Session
-from pd_specimen_sim.core import SpecimenServer, specimen_from_config
+from pd_common.specimen import SpecimenServer, specimen_from_config
 
 if TYPE_CHECKING:
     from pd_integrator.core.config import TestDefinition
@@ -375,11 +375,7 @@ def run_probe(session: Session, server: SpecimenServer) -> list[Command]:
         commands.append(cmd)
         answer = server.handle(cmd.test_id, cmd.step, cmd.target_displacement)
         assert answer is not None
-        session.on_feedback(Feedback(test_id=answer.test_id, step=answer.step,
-                                     measured_displacement=answer.displacement,
-                                     restoring_force=answer.force,
-                                     status=FeedbackStatus(answer.status),
-                                     message=answer.message))
+        session.on_feedback(answer)
     return commands
 
 
@@ -478,7 +474,7 @@ def test_probe_that_finds_an_unstable_stiffness_aborts() -> None:
         commands.append(cmd)
         answer = server.handle(cmd.test_id, cmd.step, cmd.target_displacement)
         assert answer is not None
-        session.on_feedback(ok(cmd, answer.force))
+        session.on_feedback(ok(cmd, answer.restoring_force))
         assert len(commands) <= 3
     assert [cmd.test_id for cmd in commands] == ['sess:probe'] * 3
     assert session.state is State.ABORTED
@@ -516,7 +512,7 @@ def test_stable_limit_dt_is_accepted() -> None:
 
 
 def test_protocol_orders_feedback_by_step_and_iteration() -> None:
-    from pd_integrator.core.messages import Command, Feedback
+    from pd_common.protocol import Command, Feedback
     from pd_integrator.core.protocol import StepProtocol, Verdict
 
     protocol = StepProtocol(max_retries=1)

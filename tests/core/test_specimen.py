@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pd_specimen_sim.core import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
+from pd_common.specimen import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
                                   HysteresisError, PushoverHysteresis, Specimen,
                                   SpecimenConfigError, SpecimenError, specimen_from_config)
 
@@ -73,7 +73,7 @@ def test_restoring_force_validation(x: Any) -> None:
 
 
 def test_element_errors_propagate_as_specimen_errors() -> None:
-    from pd_specimen_sim.core import bilinear_backbone
+    from pd_common.specimen import bilinear_backbone
     spec = Specimen([PushoverHysteresis(bilinear_backbone(1.0, 1.0, 0.0, 2.0), beyond='error')])
     with pytest.raises(HysteresisError):
         spec.restoring_force([3.0])
@@ -229,14 +229,14 @@ def test_config_section_must_be_mapping(tmp_path: Path) -> None:
 
 
 def test_server_keys_commands_by_step_and_iteration() -> None:
-    from pd_specimen_sim.core import Elastic, Specimen, SpecimenServer
+    from pd_common.specimen import Elastic, Specimen, SpecimenServer
 
     server = SpecimenServer(Specimen([Elastic(1000.0)], dof_names=['u']))
     first = server.handle('t', 3, (0.01,), iteration=0)
     second = server.handle('t', 3, (0.02,), iteration=1)
     assert first is not None and second is not None
-    assert first.force == (10.0,)
-    assert second.force == (20.0,)
+    assert first.restoring_force == (10.0,)
+    assert second.restoring_force == (20.0,)
     assert second.iteration == 1
     # The same (step, iteration) again: the same answer, no motion.
     assert server.handle('t', 3, (0.5,), iteration=1) is second

@@ -18,8 +18,8 @@ import pytest
 from pd_integrator.core.config import from_dict
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.exact import modal_superposition
-from pd_integrator.core.messages import Command, Feedback, FeedbackStatus
-from pd_integrator.core.messages import TestState as State
+from pd_common.protocol import Command, Feedback, FeedbackStatus
+from pd_common.protocol import TestState as State
 from pd_integrator.core.protocol import Verdict
 from pd_integrator.core.runner import replay_bag, run_offline
 from pd_integrator.core.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config

@@ -28,7 +28,7 @@ from pd_integrator.core.exact import epp_exact, modal_superposition, nigam_jenni
 from pd_integrator.core.ground_motion import GroundMotion, read_ground_motion
 from pd_integrator.core.schemes import SCHEMES, Integrator, make_integrator
 from pd_integrator.core.structure import damping_from_ratio
-from pd_specimen_sim.core import ElasticPerfectlyPlastic
+from pd_common.specimen import ElasticPerfectlyPlastic
 
 ELCENTRO = (
     Path(__file__).resolve().parents[2]

@@ -26,7 +26,7 @@ from rosbags.highlevel import AnyReader
 
 from pd_integrator.core.bag import read_bag
 from pd_integrator.core.config import load_test_file
-from pd_integrator.core.messages import Command, Feedback, FeedbackStatus
+from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_integrator.core.runner import rebuild_outputs, run_offline
 
 from graph_support import REPO, Processes, executable
@@ -64,7 +64,7 @@ def write_bridge_params(path: Path, **limits: float) -> Path:
 def run_launcher(processes: Processes, name: str, arguments: list[str]
                  ) -> subprocess.Popen[bytes]:
     """Start ``run_test`` (which starts the nodes as its own children)."""
-    return processes.start(name, [executable('pd_integrator', 'run_test'), *arguments])
+    return processes.start(name, [executable('pd_bringup', 'run_test'), *arguments])
 
 
 def wait_exit(process: subprocess.Popen[bytes], timeout: float, log: Callable[[], str]) -> int:

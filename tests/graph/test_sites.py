@@ -175,7 +175,7 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
 
     from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
 
-    from pd_integrator.core.messages import Command, Feedback, FeedbackStatus  # noqa: PLC0415
+    from pd_common.protocol import Command, Feedback, FeedbackStatus  # noqa: PLC0415
 
     limit = 0.004  # m; story 1 reaches ~0.013 m
     raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))

@@ -53,16 +53,24 @@ from typing import Any
 
 import rclpy
 import yaml
-from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
+from pd_common.experimental import TrackingMonitor
+from pd_common.protocol import GLOBAL_EMERGENCY_STOP, Feedback, FeedbackStatus, StepKey
+from pd_common.ros import (
+    CONTROL_DEPTH,
+    LATCHED_QOS,
+    MONITOR_QOS,
+    STEP_QOS,
+    feedback_message,
+    now_stamp,
+)
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
 from .core import (
@@ -73,31 +81,10 @@ from .core import (
     BridgeReply,
     SafetyLimits,
 )
-from .core.error_models import TrackingMonitor
 
-STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
-LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                         reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: The tracking monitor: reliable, the last 100 samples for a slow subscriber.
-MONITOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
-                         reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.VOLATILE)
-
-_STATUS_CODES = {'ok': StepFeedback.STATUS_OK, 'limit': StepFeedback.STATUS_LIMIT,
-                 'fault': StepFeedback.STATUS_FAULT}
-#: Absolute topic every bridge (whatever its site namespace) takes emergency stops from.
-GLOBAL_EMERGENCY_STOP = '/pd/emergency_stop'
 DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'opensees_adapter', 'daqmx')
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
-
-
-def now_stamp() -> Time:
-    """The wall-clock time as a message stamp (cheaper than the node clock)."""
-    t_ns = time.time_ns()
-    return Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
 
 
 class SimServoDriver(ActuatorDriver):
@@ -178,7 +165,7 @@ class SimServoDriver(ActuatorDriver):
             return
         step = self._in_flight[0]
         self._in_flight = None
-        if message.status != StepFeedback.STATUS_OK:
+        if message.status != FeedbackStatus.OK:
             if self.on_fault is not None:
                 self.on_fault(f'specimen fault at step {step}: {message.message}')
             return
@@ -207,8 +194,7 @@ def make_emulator_driver(test_file: str, driver_config: str, n_dof: int) -> Actu
     ``driver_config`` (optional) may hold ``emulator`` (emulator parameters), ``ramp_hold``
     (ramp-and-hold settings) and ``errors`` (injected experimental errors) sections.
     """
-    from pd_specimen_sim.core import specimen_from_config  # noqa: PLC0415
-    from pd_specimen_sim.node import load_specimen_section  # noqa: PLC0415
+    from pd_common.specimen import load_specimen_section, specimen_from_config  # noqa: PLC0415
 
     from .core.emulator import EmulatorParameters, ServoHydraulicEmulator  # noqa: PLC0415
     from .core.error_models import ErrorModel  # noqa: PLC0415
@@ -276,10 +262,10 @@ class ActuatorBridgeNode(LifecycleNode):
         self._monitor_key: tuple[str, int] | None = None  # (test id, DOF count) monitored
         self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
-        self.create_subscription(String, 'bridge/control', self._on_control, 10)
-        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, 10)
+        self.create_subscription(String, 'bridge/control', self._on_control, CONTROL_DEPTH)
+        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, CONTROL_DEPTH)
         # The lab-wide emergency stop: one message holds every site's bridge at once.
-        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic, 10)
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic, CONTROL_DEPTH)
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
@@ -427,18 +413,12 @@ class ActuatorBridgeNode(LifecycleNode):
     def _publish_reply(self, reply: BridgeReply) -> None:
         if self._feedback_pub is None:
             return
-        feedback = self._feedback
-        feedback.header.stamp = now_stamp()
-        feedback.test_id = reply.test_id
         step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
-        feedback.step = step
-        feedback.iteration = iteration
-        feedback.measured_displacement = list(reply.displacement)
-        feedback.restoring_force = list(reply.force)
-        feedback.status = _STATUS_CODES[reply.status]
-        feedback.message = reply.message
-        self._feedback_pub.publish(feedback)
-        if reply.status == 'ok' and self._monitor_pub is not None:
+        self._feedback_pub.publish(feedback_message(Feedback(
+            test_id=reply.test_id, step=step, iteration=iteration,
+            measured_displacement=reply.displacement, restoring_force=reply.force,
+            status=reply.status, message=reply.message), message=self._feedback))
+        if reply.status is FeedbackStatus.OK and self._monitor_pub is not None:
             try:
                 self._publish_monitor(reply)
             except Exception as err:  # noqa: BLE001 - a monitor must never stop the bridge
@@ -447,7 +427,7 @@ class ActuatorBridgeNode(LifecycleNode):
         if reply.message.startswith('saturated'):
             self.get_logger().warning(reply.message)
             self.publish_status(TestStatus.STATE_RUNNING, reply.message)
-        elif reply.status != 'ok':
+        elif reply.status is not FeedbackStatus.OK:
             self.publish_status(TestStatus.STATE_HOLDING, reply.message)
 
     def _publish_monitor(self, reply: BridgeReply) -> None:
@@ -497,17 +477,17 @@ class ActuatorBridgeNode(LifecycleNode):
         if bridge is None:
             return
         self._test_id, self._step = message.test_id, message.step
-        key = (message.step, message.iteration)  # the bridge core orders steps by this key
-        self._target = (message.test_id, key, tuple(message.target_displacement))
+        key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
+        self._target = (message.test_id, key, tuple(message.target_displacement.tolist()))
         was_holding = bridge.state == 'holding'
         reply = bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
-                                      tuple(message.target_displacement))
+                                      tuple(message.target_displacement.tolist()))
         if (reply is None and isinstance(self.driver, SimServoDriver)
                 and bridge.in_flight == (message.test_id, key)):
             self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
         if reply is not None:
             self._publish_reply(reply)
-            if reply.status != 'ok' and not was_holding:
+            if reply.status is not FeedbackStatus.OK and not was_holding:
                 self.get_logger().error(f'holding: {reply.message}')
 
     def _on_driver_fault(self, message: str) -> None:

@@ -36,18 +36,33 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
-from builtin_interfaces.msg import Time
 from std_msgs.msg import String
 
+from pd_common.protocol import (
+    GLOBAL_EMERGENCY_STOP,
+    Command,
+    TestState,
+    feedback_from_message,
+    site_topic,
+    site_topic_name,
+    status_from_message,
+)
+from pd_common.ros import (
+    CONTROL_DEPTH,
+    LATCHED_QOS,
+    STEP_QOS,
+    command_message,
+    now_stamp,
+    stamp_from_ns,
+    status_message,
+)
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
-from .core.bag import BagRecorder, site_topic_name
+from .core.bag import BagRecorder
 from .core.config import PARAMETER_PATHS, load_test_file
 from .core.dispatch import StepDispatcher
 from .core.errors import PdIntegratorError
-from .core.messages import Command, Feedback, FeedbackStatus, Status, TestState
 from .core.progress import ProgressMeter
 from .core.runner import (
     BAG_DIRECTORY,
@@ -57,15 +72,6 @@ from .core.runner import (
     prepare_run_directory,
 )
 from .core.session import TestSession
-from .core.substructure import site_topic
-
-#: Reliable, keep-all: every command and feedback must arrive, in order.
-STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
-#: Latched: a late joiner gets the last status.
-LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                         reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 _OVERRIDE_DESCRIPTIONS = {
     'test_id': 'identifier of the test (letters, digits, _ - .)',
@@ -85,64 +91,6 @@ _OVERRIDE_DESCRIPTIONS = {
     'feedback_timeout': 'seconds without feedback before the command is re-sent',
     'max_retries': 're-sends before the integrator holds',
 }
-
-
-def stamp_from_ns(t_ns: int) -> Time:
-    """``builtin_interfaces/Time`` from nanoseconds since the epoch (cheaper than the clock)."""
-    return Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
-
-
-def command_message(command: Command, stamp: Any, message: StepCommand | None = None
-                    ) -> StepCommand:
-    """``pd_msgs/StepCommand`` from a core command (fills ``message`` if given)."""
-    message = StepCommand() if message is None else message
-    message.header.stamp = stamp
-    message.test_id = command.test_id
-    message.step = command.step
-    message.iteration = command.iteration
-    message.test_time = command.test_time
-    message.dof_names = list(command.dof_names)
-    message.target_displacement = list(command.target_displacement)
-    return message
-
-
-def feedback_data(message: StepFeedback) -> Feedback:
-    """Core feedback from ``pd_msgs/StepFeedback`` (floats unchanged)."""
-    try:
-        status = FeedbackStatus(message.status)
-    except ValueError:
-        status = FeedbackStatus.FAULT
-    return Feedback(test_id=message.test_id, step=message.step,
-                    measured_displacement=tuple(message.measured_displacement),
-                    restoring_force=tuple(message.restoring_force), status=status,
-                    message=message.message, iteration=message.iteration)
-
-
-def status_data(message: TestStatus) -> Status:
-    """Core status from ``pd_msgs/TestStatus``."""
-    try:
-        state = TestState(message.state)
-    except ValueError:
-        state = TestState.IDLE
-    return Status(test_id=message.test_id, state=state, step=message.step,
-                  total_steps=message.total_steps, omega_dt=message.omega_dt,
-                  retries=message.retries, ignored_messages=message.ignored_messages,
-                  message=message.message)
-
-
-def status_message(status: Status, stamp: Any) -> TestStatus:
-    """``pd_msgs/TestStatus`` from a core status."""
-    message = TestStatus()
-    message.header.stamp = stamp
-    message.test_id = status.test_id
-    message.state = int(status.state)
-    message.step = status.step
-    message.total_steps = status.total_steps
-    message.omega_dt = float(status.omega_dt)
-    message.retries = status.retries
-    message.ignored_messages = status.ignored_messages
-    message.message = status.message
-    return message
 
 
 def round_trip_statistics(samples: list[float]) -> dict[str, float]:
@@ -214,9 +162,10 @@ class IntegratorNode(Node):
                 STEP_QOS, raw=True)
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
-        self.create_subscription(String, 'test_control', self._on_control, 10)
+        self.create_subscription(String, 'test_control', self._on_control, CONTROL_DEPTH)
         # The lab-wide emergency stop (every bridge holds on it too): hold at once.
-        self.create_subscription(String, '/pd/emergency_stop', self._on_emergency_stop, 10)
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_stop,
+                                 CONTROL_DEPTH)
 
         text = definition.to_json()
         (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
@@ -230,13 +179,10 @@ class IntegratorNode(Node):
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
-    def _stamp(self) -> Any:
-        return self.get_clock().now().to_msg()
-
     def publish_status(self) -> None:
         """Publish (and record) the session's status."""
         status = self.dispatcher.status()
-        self._status_pub.publish(status_message(status, self._stamp()))
+        self._status_pub.publish(status_message(status, now_stamp()))
         self.bag.write_status(status, time.time_ns())
         if status.state is not self._last_state:
             self._last_state = status.state
@@ -279,7 +225,7 @@ class IntegratorNode(Node):
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        self.dispatcher.on_feedback(site, feedback_data(message))
+        self.dispatcher.on_feedback(site, feedback_from_message(message))
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):
             self._round_trips.append(received - sent_at)
@@ -290,7 +236,7 @@ class IntegratorNode(Node):
             self.publish_status()
 
     def _on_bridge_status(self, message: TestStatus, topic: str) -> None:
-        self.bag.write_status(status_data(message), time.time_ns(), topic=topic)
+        self.bag.write_status(status_from_message(message), time.time_ns(), topic=topic)
 
     def _on_trajectory(self, data: bytes, topic: str) -> None:
         self.bag.write_raw(topic, time.time_ns(), data)

@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from pd_common.resources import ResourceError, share_file
+
 from .core.config import load_test_file
 from .core.errors import PdIntegratorError
 from .core.runner import default_run_directory, run_offline
@@ -19,12 +21,10 @@ from .core.runner import default_run_directory, run_offline
 def default_test_file() -> Path:
     """The shipped default test (installed share, or the source tree)."""
     try:
-        from .launcher import share_file  # noqa: PLC0415
-
         path = share_file('pd_integrator', 'config', 'default_test.yaml')
         if path.is_file():
             return path
-    except PdIntegratorError:
+    except ResourceError:
         pass
     return Path(__file__).resolve().parents[1] / 'config' / 'default_test.yaml'
 

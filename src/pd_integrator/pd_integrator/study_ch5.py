@@ -46,6 +46,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from pd_common.resources import ResourceError, share_file
+
 from .core.config import TestDefinition, from_dict
 from .core.errors import ConfigError, PdIntegratorError
 from .core.runner import BAG_DIRECTORY, run_offline
@@ -161,10 +163,8 @@ def default_study_directory() -> Path:
     if (source / STUDY_FILE).is_file():
         return source
     try:
-        from .launcher import share_file  # noqa: PLC0415
-
         return share_file('pd_integrator', 'config', 'study_ch5')
-    except PdIntegratorError:
+    except ResourceError:
         return source
 
 
@@ -344,7 +344,7 @@ def _placeholder_file(spec: RecordSpec) -> Path:
 
 def _check_runnable(definition: TestDefinition) -> None:
     """Build the specimen and the session once: stability and specimen errors surface here."""
-    from pd_specimen_sim.core import specimen_from_config  # noqa: PLC0415
+    from pd_common.specimen import specimen_from_config  # noqa: PLC0415
 
     if definition.specimen is None:
         msg = f'{definition.source}: specimen: section is required for a simulated run'

@@ -1,6 +1,6 @@
 """The simulated specimen node (``ros2 run pd_specimen_sim main``).
 
-A thin shell around :class:`pd_specimen_sim.core.SpecimenServer`: it answers every
+A thin shell around :class:`pd_common.specimen.SpecimenServer`: it answers every
 ``step_command`` with a ``step_feedback`` holding the restoring force of its hysteresis model.
 It speaks the same step protocol as the actuator bridge, so the integrator cannot tell (and does
 not care) which one answers: swapping them is a launch-time choice (the namespace).
@@ -10,7 +10,7 @@ Topics (relative; namespace ``/pd`` by default, ``/pd/specimen`` behind a bridge
 
 Parameters: ``test_file`` — the YAML test file; its ``specimen`` section and
 ``structure.dof_names`` define the specimen, and the optional ``specimen.errors`` mapping the
-experimental errors injected into every step (see :mod:`pd_specimen_sim.core.server`).
+experimental errors injected into every step (see :mod:`pd_common.specimen.server`).
 ``site`` — in a substructured test, the site this node simulates: the specimen is then
 ``sites.<site>.specimen`` and the node runs in the namespace ``/pd/<site>`` (``-r
 __ns:=/pd/<site>``; ``/pd/<site>/specimen`` behind that site's bridge). ``dof_names`` — the
@@ -21,66 +21,19 @@ names of the specimen's DOFs (the site's actuators; default: ``structure.dof_nam
 from __future__ import annotations
 
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import rclpy
-import yaml
-from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from pd_common.protocol import FeedbackStatus
+from pd_common.ros import STEP_QOS, feedback_message
+from pd_common.specimen import SpecimenError, load_specimen_section, server_from_config
 from pd_msgs.msg import StepCommand, StepFeedback
-
-from .core import SpecimenError
-from .core.config import load_yaml
-from .core.server import server_from_config
-
-STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
-
-
-def load_specimen_section(path: str | Path, site: str = ''
-                          ) -> tuple[dict[str, Any], list[str] | None]:
-    """The specimen section (of the test, or of ``site``) and the test's DOF names.
-
-    The DOF names are ``None`` for a site (they are the site's actuators: the caller knows).
-
-    Raises:
-        SpecimenError: the file cannot be read or has no such section.
-    """
-    path = Path(path)
-    try:
-        raw = load_yaml(path.read_text(encoding='utf-8')) or {}
-    except (OSError, yaml.YAMLError) as err:
-        msg = f'{path}: cannot read the test file ({err})'
-        raise SpecimenError(msg) from err
-    if not isinstance(raw, dict):
-        msg = f'{path.name}: a test file must be a mapping of sections'
-        raise SpecimenError(msg)
-    if site:
-        sites = raw.get('sites')
-        settings = sites.get(site) if isinstance(sites, dict) else None
-        section = settings.get('specimen') if isinstance(settings, dict) else None
-        if not isinstance(section, dict):
-            msg = (f'{path.name}: sites.{site}.specimen: section is required for the '
-                   f'simulated specimen of site {site!r}')
-            raise SpecimenError(msg)
-        return section, None
-    if not isinstance(raw.get('specimen'), dict):
-        msg = f'{path.name}: specimen: section is required for the simulated specimen'
-        raise SpecimenError(msg)
-    structure = raw.get('structure') or {}
-    names = structure.get('dof_names') if isinstance(structure, dict) else None
-    if names is None:
-        mass = structure.get('mass') if isinstance(structure, dict) else None
-        names = [f'u{i + 1}' for i in range(len(mass) if isinstance(mass, list) else 1)]
-    return raw['specimen'], list(names)
-
 
 class SpecimenSimNode(Node):
     """Answers step commands with a simulated specimen."""
@@ -127,23 +80,12 @@ class SpecimenSimNode(Node):
 
     def _on_command(self, message: StepCommand) -> None:
         answer = self.server.handle(message.test_id, message.step,
-                                    tuple(message.target_displacement),
+                                    message.target_displacement.tolist(),
                                     iteration=message.iteration)
         if answer is None:
             return
-        feedback = self._feedback
-        t_ns = time.time_ns()
-        feedback.header.stamp = Time(sec=t_ns // 1_000_000_000,
-                                     nanosec=t_ns % 1_000_000_000)
-        feedback.test_id = answer.test_id
-        feedback.step = answer.step
-        feedback.iteration = answer.iteration
-        feedback.measured_displacement = list(answer.displacement)
-        feedback.restoring_force = list(answer.force)
-        feedback.status = answer.status
-        feedback.message = answer.message
-        self._feedback_pub.publish(feedback)
-        if answer.status != StepFeedback.STATUS_OK:
+        self._feedback_pub.publish(feedback_message(answer, message=self._feedback))
+        if answer.status is not FeedbackStatus.OK:
             self.get_logger().error(f'step {answer.step}: {answer.message}')
 
 

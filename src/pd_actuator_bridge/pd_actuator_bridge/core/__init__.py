@@ -69,11 +69,7 @@ from .error_models import (  # noqa: E402
     ErroneousStep,
     ErrorInjector,
     ErrorModel,
-    TrackingMonitor,
-    TrackingSample,
     apply_error_model,
-    tracking_error,
-    tracking_indicator,
 )
 from .ramp_hold import (  # noqa: E402
     EmulatorDriver,
@@ -95,9 +91,5 @@ __all__ += [
     'ServoHydraulicEmulator',
     'SettleTimeoutError',
     'StepExecution',
-    'TrackingMonitor',
-    'TrackingSample',
     'apply_error_model',
-    'tracking_error',
-    'tracking_indicator',
 ]

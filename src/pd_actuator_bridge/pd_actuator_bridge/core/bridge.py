@@ -57,6 +57,8 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from pd_common.protocol import FeedbackStatus
+
 from .driver import ActuatorDriver
 from .errors import BridgeConfigError
 from .limits import (
@@ -71,9 +73,9 @@ from .limits import (
     saturate_command,
 )
 
-STATUS_OK = 'ok'
-STATUS_LIMIT = KIND_LIMIT
-STATUS_FAULT = KIND_FAULT
+STATUS_OK = FeedbackStatus.OK
+STATUS_LIMIT = FeedbackStatus.LIMIT
+STATUS_FAULT = FeedbackStatus.FAULT
 
 STATE_READY = 'ready'
 STATE_BUSY = 'busy'
@@ -98,7 +100,7 @@ class BridgeReply:
         displacement: Measured (or, when holding, current) displacement per DOF, m.
         force: Measured (or, when holding, last measured) force per DOF, N; NaN before the
             first measurement.
-        status: ``'ok'``, ``'limit'`` or ``'fault'``.
+        status: ``OK``, ``LIMIT`` or ``FAULT`` (:class:`pd_common.protocol.FeedbackStatus`).
         message: Empty for ``'ok'``, else the one-line reason; it starts with ``'saturated: '``
             for a step executed with a clipped target (``on_limit='saturate'``).
     """
@@ -107,7 +109,7 @@ class BridgeReply:
     step: int
     displacement: tuple[float, ...]
     force: tuple[float, ...]
-    status: str
+    status: FeedbackStatus
     message: str
 
 
@@ -190,7 +192,7 @@ class ActuatorBridge:
         self._reply_callback: ReplyCallback | None = None
 
         self._state = STATE_READY
-        self._hold_status = ''
+        self._hold_status: FeedbackStatus | None = None
         self._hold_reason = ''
         self._displacement: tuple[float, ...] | None = None
         self._force: tuple[float, ...] = (math.nan,) * n_dof
@@ -234,8 +236,8 @@ class ActuatorBridge:
         return self._hold_reason
 
     @property
-    def hold_status(self) -> str:
-        """``'limit'`` or ``'fault'``: what caused the hold (empty unless holding)."""
+    def hold_status(self) -> FeedbackStatus | None:
+        """``LIMIT`` or ``FAULT``: what caused the hold (``None`` unless holding)."""
         return self._hold_status
 
     @property
@@ -347,7 +349,8 @@ class ActuatorBridge:
                     self._watchdog_armed = True
                     self._last_command_time = time_now
             if self._state == STATE_HOLDING:
-                return self._reply(test_id, step, self._hold_status, self._hold_reason)
+                return self._reply(test_id, step, self._hold_status or STATUS_FAULT,
+                                   self._hold_reason)
 
             same_test = test_id == self._last_test_id
             if self._in_flight is not None:
@@ -570,7 +573,7 @@ class ActuatorBridge:
             if self._state != STATE_HOLDING:
                 return True
             self._state = STATE_READY
-            self._hold_status = ''
+            self._hold_status = None
             self._hold_reason = ''
             self._in_flight = None
             self._commanded = None
@@ -619,7 +622,7 @@ class ActuatorBridge:
         self._watchdog_trips += 1
         return self._hold_now(STATUS_FAULT, message)
 
-    def _hold_now(self, status: str, message: str) -> BridgeReply | None:
+    def _hold_now(self, status: FeedbackStatus, message: str) -> BridgeReply | None:
         """Hold because of an event outside a command; reply for the step in flight or last."""
         if self._in_flight is not None:
             test_id, step = self._in_flight
@@ -631,7 +634,7 @@ class ActuatorBridge:
         return None
 
     def _enter_hold(
-        self, test_id: str, step: int, status: str, message: str, record: bool
+        self, test_id: str, step: int, status: FeedbackStatus, message: str, record: bool
     ) -> BridgeReply:
         """Hold the actuator, latch the hold and return the reply for ``(test_id, step)``."""
         try:
@@ -655,7 +658,7 @@ class ActuatorBridge:
         self._last_step = reply.step
         self._last_reply = reply
 
-    def _reply(self, test_id: str, step: int, status: str, message: str) -> BridgeReply:
+    def _reply(self, test_id: str, step: int, status: FeedbackStatus, message: str) -> BridgeReply:
         return BridgeReply(
             test_id, step, self._current_displacement(), self._force, status, message
         )

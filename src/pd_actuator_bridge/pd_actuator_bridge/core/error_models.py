@@ -1,4 +1,4 @@
-"""Experimental error models (thesis section 3.4.3) and tracking monitors.
+"""Experimental error models (thesis section 3.4.3) with the bridge's exceptions and checks.
 
 Injection. Shing and Mahin ("Cumulative experimental errors in pseudodynamic tests", Earthquake
 Eng. Struct. Dyn. 15, 1987) split the errors of a pseudo-dynamic test into *systematic* errors,
@@ -18,30 +18,14 @@ cannot be applied exactly, and force feedback affected by the measurement and by
 
 :func:`apply_error_model` applies a model (without delay) to one step; :class:`ErrorInjector`
 keeps the state needed for the delay and a seeded generator. The model and its application are
-implemented once, in :mod:`pd_specimen_sim.core.errors_model` (the bridge depends on
-``pd_specimen_sim``, not the other way round): the specimen simulator uses them directly
+implemented once, in :mod:`pd_common.experimental.error_model` (the shared library): the
+specimen simulator uses them directly
 (wrapping a specimen's ``restoring_force``); :class:`ErrorModel` and :class:`ErrorInjector` here
 are thin subclasses that add the bridge's exceptions (:class:`~.errors.BridgeConfigError`,
 :class:`~.errors.DriverError`) and input checks, for the emulator's ramp-and-hold executor (which
 drives the erroneous target and corrupts the averaged measurement).
 
-Monitors. :func:`tracking_error` is the history of ``measured - command``.
-:func:`tracking_indicator` is the tracking indicator proposed by Mercan and Ricles ("Stability and
-accuracy analysis of outer loop dynamics in real-time pseudodynamic testing of SDOF systems",
-Earthquake Eng. Struct. Dyn. 36, 2007): the area enclosed by the loop of the measured versus the
-commanded displacement. Here it is accumulated with the trapezoidal rule in the symmetric form
-``TI = (int x_m dx_c - int x_c dx_m) / 2``, i.e.
-``TI_{i+1} = TI_i + (x_m,i x_c,i+1 - x_m,i+1 x_c,i) / 2``, which is zero for perfect tracking
-even on an open path and equals ``oint x_m dx_c`` on a closed cycle.
-
-Sign: positive = energy removed, negative = energy added. For a linear specimen of stiffness
-``k`` the integrator pairs the force ``k x_m`` measured at the achieved displacement with its own
-command ``x_c``, so over a cycle it sees the work ``k * TI`` done on the specimen. A measured
-displacement *lagging* the command (the actuator delay analysed by Mercan and Ricles, equivalent
-to negative damping) traverses the (command, measured) loop counter-clockwise and gives
-``TI < 0``: energy added to the test. A *leading* one gives ``TI > 0``: energy removed (extra
-damping). For ``x_c = a sin(w t)`` and ``x_m = a sin(w t - phi)`` one cycle gives
-``TI = -pi a^2 sin(phi)``. Units: m2 (times a stiffness in N/m, J).
+The tracking monitors are in :mod:`pd_common.experimental.tracking`.
 """
 
 from __future__ import annotations
@@ -52,8 +36,8 @@ from numbers import Integral
 from typing import Any, TypeVar
 
 import numpy as np
-from pd_specimen_sim.core import errors_model as _shared
-from pd_specimen_sim.core.errors_model import (
+from pd_common.experimental import error_model as _shared
+from pd_common.experimental.error_model import (
     ErroneousStep,
     RestoringForce,
     systematic_displacement,
@@ -104,7 +88,7 @@ def parameters_from_mapping(
 class ErrorModel(_shared.ErrorModel):
     """Experimental errors injected into each step (the same for every DOF).
 
-    :class:`pd_specimen_sim.core.errors_model.ErrorModel` (the same attributes, validation and
+    :class:`pd_common.experimental.ErrorModel` (the same attributes, validation and
     meaning), raising :class:`~.errors.BridgeConfigError`.
 
     Attributes:
@@ -183,7 +167,7 @@ def apply_error_model(
 class ErrorInjector(_shared.ErrorInjector):
     """Applies an :class:`ErrorModel` step after step (keeps the delay line and the generator).
 
-    :class:`pd_specimen_sim.core.errors_model.ErrorInjector` with the bridge's input checks:
+    :class:`pd_common.experimental.ErrorInjector` with the bridge's input checks:
     the actuator's current position is the displacement imposed at the previous step (or the
     initial position), unless :meth:`impose` is given one explicitly.
     """
@@ -291,180 +275,7 @@ class ErrorInjector(_shared.ErrorInjector):
         return ErroneousStep(x_t, imposed, force, displacement, measured)
 
 
-# ---------------------------------------------------------------------- monitors
-
-
-def tracking_error(
-    command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
-) -> np.ndarray:
-    """History of the tracking error ``measured - command``.
-
-    Args:
-        command: Commanded displacements, shape ``(n,)`` or ``(n, n_dof)``, m.
-        measured: Measured displacements, the same shape, m.
-
-    Returns:
-        ``measured - command``, the same shape (positive: beyond the command), m.
-
-    Raises:
-        ValueError: On different shapes or non-finite values.
-    """
-    c, m = _series(command, measured)
-    return m - c
-
-
-def tracking_indicator(
-    command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
-) -> np.ndarray:
-    """Running tracking indicator (Mercan and Ricles 2007) of a measured-vs-command history.
-
-    ``TI_0 = 0`` and ``TI_{i+1} = TI_i + (x_m,i x_c,i+1 - x_m,i+1 x_c,i) / 2``, the trapezoidal
-    form of ``(int x_m dx_c - int x_c dx_m) / 2``: zero for perfect tracking, ``oint x_m dx_c``
-    over a closed cycle. Positive means energy removed from the test (measured leading the
-    command), negative energy added (measured lagging); see the module docstring. Usable on a
-    whole test's series, at the controller rate or one value per step.
-
-    Args:
-        command: Commanded displacements, shape ``(n,)`` or ``(n, n_dof)``, m.
-        measured: Measured displacements, the same shape, m.
-
-    Returns:
-        The indicator after each sample, the same shape, m2.
-
-    Raises:
-        ValueError: On different shapes or non-finite values.
-    """
-    c, m = _series(command, measured)
-    result = np.zeros_like(c)
-    if c.shape[0] > 1:
-        increments = 0.5 * (m[:-1] * c[1:] - m[1:] * c[:-1])
-        result[1:] = np.cumsum(increments, axis=0)
-    return result
-
-
-@dataclass(frozen=True)
-class TrackingSample:
-    """The monitors after one sample (one value per DOF).
-
-    Attributes:
-        error: ``measured - command``, m.
-        indicator: Tracking indicator so far, m2.
-    """
-
-    error: np.ndarray
-    indicator: np.ndarray
-
-
-class TrackingMonitor:
-    """Incremental tracking error and indicator, for publishing during a test.
-
-    Gives the same values as :func:`tracking_error` and :func:`tracking_indicator` on the whole
-    series.
-    """
-
-    def __init__(self, n_dof: int = 1) -> None:
-        """Create an empty monitor.
-
-        Args:
-            n_dof: Number of DOF.
-
-        Raises:
-            BridgeConfigError: On a bad ``n_dof``.
-        """
-        if isinstance(n_dof, bool) or not isinstance(n_dof, Integral) or n_dof < 1:
-            raise BridgeConfigError(
-                f'TrackingMonitor: n_dof must be a positive integer, got {n_dof!r}'
-            )
-        self._n = int(n_dof)
-        self.reset()
-
-    def reset(self) -> None:
-        """Forget every sample."""
-        self._commands: list[np.ndarray] = []
-        self._measured: list[np.ndarray] = []
-        self._errors: list[np.ndarray] = []
-        self._indicators: list[np.ndarray] = []
-        self._indicator = np.zeros(self._n)
-
-    def update(
-        self, command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
-    ) -> TrackingSample:
-        """Add one (command, measured) pair.
-
-        Args:
-            command: Commanded displacement per DOF, m.
-            measured: Measured displacement per DOF, m.
-
-        Returns:
-            The error of this sample and the indicator so far.
-
-        Raises:
-            ValueError: On a malformed or non-finite value.
-        """
-        try:
-            c = _vector(command, 'command', self._n)
-            m = _vector(measured, 'measured', self._n)
-        except DriverError as exc:
-            raise ValueError(str(exc)) from None
-        if self._commands:
-            c0, m0 = self._commands[-1], self._measured[-1]
-            self._indicator = self._indicator + 0.5 * (m0 * c - m * c0)
-        error = m - c
-        self._commands.append(c)
-        self._measured.append(m)
-        self._errors.append(error)
-        self._indicators.append(self._indicator.copy())
-        return TrackingSample(error.copy(), self._indicator.copy())
-
-    @property
-    def count(self) -> int:
-        """Number of samples."""
-        return len(self._commands)
-
-    @property
-    def indicator(self) -> np.ndarray:
-        """Tracking indicator so far per DOF, m2."""
-        return self._indicator.copy()
-
-    @property
-    def commands(self) -> np.ndarray:
-        """Command history, shape ``(count, n_dof)``, m."""
-        return _stack(self._commands, self._n)
-
-    @property
-    def measured(self) -> np.ndarray:
-        """Measured history, shape ``(count, n_dof)``, m."""
-        return _stack(self._measured, self._n)
-
-    @property
-    def errors(self) -> np.ndarray:
-        """Tracking error history, shape ``(count, n_dof)``, m."""
-        return _stack(self._errors, self._n)
-
-    @property
-    def indicators(self) -> np.ndarray:
-        """Tracking indicator history, shape ``(count, n_dof)``, m2."""
-        return _stack(self._indicators, self._n)
-
-
 # ---------------------------------------------------------------------- helpers
-
-
-def _stack(rows: list[np.ndarray], n: int) -> np.ndarray:
-    return np.array(rows) if rows else np.zeros((0, n))
-
-
-def _series(command: Any, measured: Any) -> tuple[np.ndarray, np.ndarray]:
-    c = np.asarray(command, dtype=float)
-    m = np.asarray(measured, dtype=float)
-    if c.shape != m.shape or c.ndim not in (1, 2):
-        raise ValueError(
-            f'command and measured must have the same shape (n,) or (n, n_dof), got {c.shape} '
-            f'and {m.shape}'
-        )
-    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(m))):
-        raise ValueError('command and measured must be finite')
-    return c, m
 
 
 def _vector(values: Any, what: str, n: int | None) -> np.ndarray:

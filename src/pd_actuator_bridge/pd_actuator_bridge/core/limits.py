@@ -3,8 +3,8 @@
 The limits are the bridge's own: they are enforced whatever the integrator sends. A value exactly
 at a limit is allowed; anything beyond it is rejected. There is deliberately no tolerance.
 
-Two kinds of violation are distinguished: ``'limit'`` (a finite value beyond a safety limit) and
-``'fault'`` (malformed, non-finite or inconsistent data, or an actuator that does not follow its
+Two kinds of violation are distinguished: ``LIMIT`` (a finite value beyond a safety limit) and
+``FAULT`` (malformed, non-finite or inconsistent data, or an actuator that does not follow its
 command: see :func:`check_tracking`). :func:`saturate_command` clips a target to the nearest
 allowed value for the bridge's ``on_limit='saturate'`` mode; a fault is never saturated.
 """
@@ -18,10 +18,12 @@ from fractions import Fraction
 from numbers import Real
 from typing import Any
 
+from pd_common.protocol import FeedbackStatus
+
 from .errors import BridgeConfigError
 
-KIND_LIMIT = 'limit'
-KIND_FAULT = 'fault'
+KIND_LIMIT = FeedbackStatus.LIMIT
+KIND_FAULT = FeedbackStatus.FAULT
 
 _REQUIRED = ('max_displacement', 'max_increment', 'max_force')
 _OPTIONAL = ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout')
@@ -155,7 +157,7 @@ class LimitViolation:
         message: One-line human-readable reason naming the DOF, the value and the limit.
     """
 
-    kind: str
+    kind: FeedbackStatus
     dof: int
     message: str
 

@@ -30,7 +30,7 @@ from .errors import (
 )
 from .ground_motion import GroundMotion, read_ground_motion
 from .history import ResponseHistory
-from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
 from .protocol import StepProtocol, Verdict
 from .schemes import SCHEMES, Integrator, NewmarkExplicit, make_integrator
 from .session import TestSession

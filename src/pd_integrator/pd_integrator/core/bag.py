@@ -40,7 +40,14 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from .errors import BagError
-from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    Status,
+    command_from_message,
+    feedback_from_message,
+    status_from_message,
+)
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -69,11 +76,6 @@ _TOPICS = {
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
     TOPIC_TRAJECTORY: MSG_TRAJECTORY,
 }
-
-
-def site_topic_name(site: str, name: str) -> str:
-    """Absolute topic ``name`` of ``site`` (``/pd/<site>/<name>``; ``/pd/<name>`` for '')."""
-    return f'/pd/{site}/{name}' if site else f'/pd/{name}'
 
 
 def _message_type(topic: str) -> str | None:
@@ -271,28 +273,6 @@ class RecordedRun:
         return [item for _, item in self.events if isinstance(item, Feedback)]
 
 
-def _status(message: Any) -> Status:
-    return Status(test_id=message.test_id, state=TestState(message.state), step=message.step,
-                  total_steps=message.total_steps, omega_dt=message.omega_dt,
-                  retries=message.retries, ignored_messages=message.ignored_messages,
-                  message=message.message)
-
-
-def _command(message: Any) -> Command:
-    return Command(test_id=message.test_id, step=int(message.step),
-                   test_time=float(message.test_time), dof_names=tuple(message.dof_names),
-                   target_displacement=tuple(message.target_displacement.tolist()),
-                   iteration=int(message.iteration))
-
-
-def _feedback(message: Any) -> Feedback:
-    return Feedback(test_id=message.test_id, step=int(message.step),
-                    measured_displacement=tuple(message.measured_displacement.tolist()),
-                    restoring_force=tuple(message.restoring_force.tolist()),
-                    status=FeedbackStatus(message.status), message=message.message,
-                    iteration=int(message.iteration))
-
-
 def read_bag(path: str | Path) -> RecordedRun:
     """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
 
@@ -315,19 +295,19 @@ def read_bag(path: str | Path) -> RecordedRun:
                 if topic == TOPIC_DEFINITION:
                     definition = definition or message.data
                 elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
-                    item = (_command(message) if msgtype == MSG_COMMAND
-                            else _feedback(message))
+                    item = (command_from_message(message) if msgtype == MSG_COMMAND
+                            else feedback_from_message(message))
                     if topic in main_topics:
                         run.events.append((t_ns, item))
                     else:
                         site = topic.removeprefix('/pd/').rsplit('/', 1)[0]
                         run.site_events.setdefault(site, []).append((t_ns, item))
                 elif topic == TOPIC_STATUS:
-                    run.statuses.append((t_ns, _status(message)))
+                    run.statuses.append((t_ns, status_from_message(message)))
                 elif msgtype == MSG_TRAJECTORY:
                     run.trajectories.append((t_ns, message))
                 else:
-                    run.bridge_statuses.append((t_ns, _status(message)))
+                    run.bridge_statuses.append((t_ns, status_from_message(message)))
     except BagError:
         raise
     except Exception as err:

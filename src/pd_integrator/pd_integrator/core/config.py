@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from pd_specimen_sim.core.config import load_yaml
+from pd_common.config import load_yaml
 
 from .errors import ConfigError, GroundMotionError
 from .ground_motion import GroundMotion, read_ground_motion

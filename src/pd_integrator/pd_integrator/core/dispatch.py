@@ -19,8 +19,8 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK, site_topic_name
-from .messages import Command, Feedback, Status, TestState
+from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
+from pd_common.protocol import Command, Feedback, Status, TestState, site_topic_name
 from .protocol import Verdict
 from .substructure import SiteCoordinator
 

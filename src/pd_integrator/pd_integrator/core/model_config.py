@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pd_common.specimen import SpecimenError, hysteresis_from_config
 
 from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
 from .errors import ConfigError
@@ -229,8 +230,6 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
     def remap(indices: list[int | None]) -> tuple[np.ndarray, np.ndarray]:
         return (np.array([position[i] for i in indices if i is not None], dtype=int),
                 np.array([-1 if i is None else position[i] for i in indices], dtype=int))
-
-    from pd_specimen_sim.core import SpecimenError, hysteresis_from_config  # noqa: PLC0415
 
     spring_objects = []
     for dofs, model_raw, name, path in springs:

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from pd_common.experimental import tracking_error, tracking_indicator
 
 if TYPE_CHECKING:
     from .energy import EnergyHistory
@@ -110,11 +111,6 @@ class TrackingHistory:
 
 def tracking_history(history: ResponseHistory) -> TrackingHistory:
     """Tracking error and indicator of the committed rows (command ``x``, measured ``xm``)."""
-    from pd_actuator_bridge.core.error_models import (  # noqa: PLC0415
-        tracking_error,
-        tracking_indicator,
-    )
-
     n = history.n_committed
     command = history.displacement[:n]
     measured = history.measured_displacement[:n]

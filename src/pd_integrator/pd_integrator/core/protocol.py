@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 from .errors import ProtocolError
 
 if TYPE_CHECKING:
-    from .messages import Command, Feedback
+    from pd_common.protocol import Command, Feedback
 
 
 class Verdict(Enum):

@@ -21,14 +21,13 @@ from .config import TestDefinition, from_json
 from .dispatch import StepDispatcher
 from .energy import energy_balance
 from .errors import BagError, ConfigError
-from .messages import Command, Feedback, FeedbackStatus, TestState
+from pd_common.protocol import Command, Feedback, TestState
+from pd_common.specimen import SpecimenError, SpecimenServer, server_from_config
 from .outputs import summarize, tracking_history, write_run_outputs
 from .session import TestSession
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-
-    from pd_specimen_sim.core.server import SpecimenServer
 
 BAG_DIRECTORY = 'bag'
 DEFINITION_JSON = 'test_definition.json'
@@ -123,10 +122,7 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
             if answer is None:  # cannot happen for a fresh command; keep the protocol honest
                 session.abort(f'specimen ignored step {command.step}')
                 break
-            dispatcher.on_feedback(site, Feedback(
-                test_id=answer.test_id, step=answer.step, iteration=answer.iteration,
-                measured_displacement=answer.displacement, restoring_force=answer.force,
-                status=FeedbackStatus(answer.status), message=answer.message))
+            dispatcher.on_feedback(site, answer)
             if progress is not None and (line := meter.update(session.committed_step)):
                 progress(line)
         bag.write_status(dispatcher.status(), time.time_ns())
@@ -142,9 +138,6 @@ def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
     Raises:
         ConfigError: a site has no ``specimen`` to simulate.
     """
-    from pd_specimen_sim.core import SpecimenError  # noqa: PLC0415
-    from pd_specimen_sim.core.server import server_from_config  # noqa: PLC0415
-
     sections: dict[str, tuple[Any, tuple[str, ...], str]] = {}
     if definition.model is None:
         sections[''] = (definition.specimen, definition.dof_names, 'specimen')

@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import ConfigError, PdIntegratorError, ProtocolError
 from .history import ResponseHistory
-from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
 from .protocol import StepProtocol, TimeoutAction, Verdict
 from .schemes import make_integrator
 from .stability import StabilityReport, check_stability, require_stable

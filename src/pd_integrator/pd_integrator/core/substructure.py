@@ -32,13 +32,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import ConfigError, ProtocolError
-from .messages import Command, Feedback, FeedbackStatus
+from pd_common.protocol import DEFAULT_SITE, Command, Feedback, FeedbackStatus
 from .protocol import StepProtocol, Verdict
 
 if TYPE_CHECKING:
     import scipy.sparse
 
-    from pd_specimen_sim.core.hysteresis import HysteresisModel
+    from pd_common.specimen.hysteresis import HysteresisModel
 
     from .setups import ExperimentalSetup
 
@@ -48,17 +48,7 @@ __all__ = [
     'NonlinearSpring',
     'SiteCoordinator',
     'StructuralModel',
-    'site_topic',
 ]
-
-#: The site of a test without substructures: topics ``/pd/step_command`` etc.
-DEFAULT_SITE = ''
-
-
-def site_topic(site: str, name: str) -> str:
-    """Relative topic ``name`` of ``site`` (``step_command`` or ``<site>/step_command``)."""
-    return f'{site}/{name}' if site else name
-
 
 @dataclass
 class _TwoEnded:

@@ -17,10 +17,10 @@ harmful ones. An :class:`ErrorModel` describes, per step and for every DOF:
   ``f_measured = f(x_imposed) + force_bias + force_noise * z_f``;
 * a constant force-measurement bias (N).
 
-This is the one implementation: :class:`pd_specimen_sim.core.server.SpecimenServer` injects it
+This is the one implementation: :class:`pd_common.specimen.server.SpecimenServer` injects it
 into the simulated specimen, and ``pd_actuator_bridge.core.error_models`` re-exports it (with
 the bridge's exception types and input checks) for the emulator's ramp-and-hold executor. It
-lives here because the bridge depends on this package and not the other way round.
+lives in the shared library because both peers use it.
 
 :class:`ErrorInjector` keeps the state a model needs from step to step (the actuator's position,
 the delay line and the seeded noise generator). It does not check its inputs (float arrays of
@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SpecimenConfigError
+from ..errors import SpecimenConfigError
 
 ERRORS_KEY = 'errors'
 """Key of the experimental-error mapping in the ``specimen`` section."""

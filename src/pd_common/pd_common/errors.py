@@ -1,10 +1,10 @@
-"""Exceptions of the specimen simulator core."""
+"""Exception classes of pd_common (specimen models, their configuration, experimental errors)."""
 
 from __future__ import annotations
 
 
 class SpecimenError(ValueError):
-    """Base class of every error raised by the specimen simulator core."""
+    """Base class of the errors of the specimen models and their configuration."""
 
 
 class BackboneError(SpecimenError):

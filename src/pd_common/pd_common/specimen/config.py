@@ -25,16 +25,14 @@ Relative file paths resolve against ``base_dir``. Every error is a one-line
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from ..config.loader import YAMLError, read_yaml_file
 from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_csv,
                        load_opensees_pushover)
-from .errors import SpecimenConfigError, SpecimenError
+from ..errors import SpecimenConfigError, SpecimenError
 from .hysteresis import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic, HysteresisModel,
                          PushoverHysteresis)
 from .specimen import TOPOLOGIES, Specimen
@@ -102,25 +100,6 @@ class _Context:
         if not isinstance(value, str) or not value.strip():
             raise self.error(path, f'must be a non-empty string, got {_show(value)}')
         return value
-
-
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e5`` and ``3.5e7`` as numbers as YAML 1.2 does."""
-
-
-_Loader.add_implicit_resolver(
-    'tag:yaml.org,2002:float',
-    re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
-    list('-+0123456789.'))
-
-
-def load_yaml(text: str) -> Any:
-    """Parse a test file's YAML text (safe; exponent floats without a dot or sign allowed).
-
-    Raises:
-        yaml.YAMLError: the text is not YAML.
-    """
-    return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
 
 
 def _show(value: Any) -> str:
@@ -286,3 +265,41 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
         raise
     except SpecimenError as exc:
         raise ctx.error('specimen', str(exc)) from None
+
+
+def load_specimen_section(path: str | Path, site: str = ''
+                          ) -> tuple[dict[str, Any], list[str] | None]:
+    """The specimen section (of the test, or of ``site``) of a test file and its DOF names.
+
+    The DOF names are ``None`` for a site (they are the site's actuators: the caller knows).
+
+    Raises:
+        SpecimenError: the file cannot be read or has no such section.
+    """
+    path = Path(path)
+    try:
+        raw = read_yaml_file(path) or {}
+    except (OSError, YAMLError) as err:
+        msg = f'{path}: cannot read the test file ({err})'
+        raise SpecimenError(msg) from err
+    if not isinstance(raw, dict):
+        msg = f'{path.name}: a test file must be a mapping of sections'
+        raise SpecimenError(msg)
+    if site:
+        sites = raw.get('sites')
+        settings = sites.get(site) if isinstance(sites, dict) else None
+        section = settings.get('specimen') if isinstance(settings, dict) else None
+        if not isinstance(section, dict):
+            msg = (f'{path.name}: sites.{site}.specimen: section is required for the '
+                   f'simulated specimen of site {site!r}')
+            raise SpecimenError(msg)
+        return section, None
+    if not isinstance(raw.get('specimen'), dict):
+        msg = f'{path.name}: specimen: section is required for the simulated specimen'
+        raise SpecimenError(msg)
+    structure = raw.get('structure') or {}
+    names = structure.get('dof_names') if isinstance(structure, dict) else None
+    if names is None:
+        mass = structure.get('mass') if isinstance(structure, dict) else None
+        names = [f'u{i + 1}' for i in range(len(mass) if isinstance(mass, list) else 1)]
+    return raw['specimen'], list(names)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BackboneError, HysteresisError
+from ..errors import BackboneError, HysteresisError
 
 BEYOND_MODES = ('extrapolate', 'plateau', 'error')
 """Accepted values of ``beyond``: what happens past the last backbone point."""

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .errors import SpecimenError
+from ..errors import SpecimenError
 from .hysteresis import HysteresisModel
 
 TOPOLOGIES = ('independent', 'shear_building')

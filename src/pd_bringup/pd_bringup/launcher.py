@@ -1,4 +1,4 @@
-"""Run a complete test through the node graph: ``ros2 run pd_integrator run_test [TEST_FILE]``.
+"""Run a complete test through the node graph: ``ros2 run pd_bringup run_test [TEST_FILE]``.
 
 Starts each node as its own process, exactly as ``ros2 run`` would (the executable
 ``lib/<package>/main`` of the package's ament prefix):
@@ -38,49 +38,17 @@ from typing import Any
 
 import yaml
 
-from .core.config import TestDefinition, load_test_file
-from .core.errors import PdIntegratorError
-from .core.runner import default_run_directory
-from .core.session import TestSession
+from pd_common.resources import ResourceError, find_executable, share_file
+from pd_integrator.core.config import TestDefinition, load_test_file
+from pd_integrator.core.errors import PdIntegratorError
+from pd_integrator.core.runner import default_run_directory
+from pd_integrator.core.session import TestSession
 
 STOP_TIMEOUT = 10.0
 
 
 class LaunchError(PdIntegratorError):
-    """A node could not be found or started."""
-
-
-def package_prefix(package: str) -> Path:
-    """The install prefix of ``package`` from the ament index (as ``ros2 run`` finds it).
-
-    Raises:
-        LaunchError: the package is not in any prefix of ``AMENT_PREFIX_PATH``.
-    """
-    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-        if prefix and (Path(prefix) / 'share' / 'ament_index' / 'resource_index' / 'packages'
-                       / package).is_file():
-            return Path(prefix)
-    msg = (f'package {package!r} not found in AMENT_PREFIX_PATH (source scripts/env.sh or the '
-           'workspace install/setup.sh)')
-    raise LaunchError(msg)
-
-
-def find_executable(package: str, executable: str = 'main') -> Path:
-    """``<prefix>/lib/<package>/<executable>``, the file ``ros2 run`` would run.
-
-    Raises:
-        LaunchError: it does not exist.
-    """
-    path = package_prefix(package) / 'lib' / package / executable
-    if not path.is_file():
-        msg = f'{path}: executable not found (is {package} built?)'
-        raise LaunchError(msg)
-    return path
-
-
-def share_file(package: str, *parts: str) -> Path:
-    """A file installed in ``share/<package>``."""
-    return package_prefix(package) / 'share' / package / Path(*parts)
+    """A node could not be found or started, or the launch options are wrong."""
 
 
 def _stop(process: subprocess.Popen[bytes], name: str) -> None:
@@ -220,7 +188,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``ros2 run pd_integrator run_test``."""
+    """Entry point of ``ros2 run pd_bringup run_test``."""
     args = parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     try:
@@ -240,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
             integrator += ['-p', item]
         commands = site_commands(definition, test_file.resolve(), args.site,
                                  Path(args.bridge_params) if args.bridge_params else None)
-    except PdIntegratorError as err:
+    except (PdIntegratorError, ResourceError) as err:
         print(f'run_test: error: {err}', file=sys.stderr)
         return 2
 

@@ -1,21 +1,42 @@
-"""Plain-data mirrors of the ``pd_msgs`` interfaces, used by the cores (no ROS types).
+"""The step protocol's data: plain mirrors of the ``pd_msgs`` interfaces (no ROS types).
 
-The node shells convert between these and the ``pd_msgs`` messages; the bag module serializes
-them with the same message definitions, so a run without ROS writes the same bag.
+One definition for every package: the integrator, the bridge and the simulator exchange these;
+the node shells convert them to and from ``pd_msgs`` (:mod:`pd_common.ros.convert`), and the
+integrator's bag module serializes them with the same message definitions, so a run without ROS
+writes the same bag.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
+
+__all__ = ['Command', 'Feedback', 'FeedbackStatus', 'Status', 'StepKey', 'TestState']
 
 
 class FeedbackStatus(IntEnum):
-    """``StepFeedback.status`` codes."""
+    """``StepFeedback.status`` codes: the one encoding of a step's outcome."""
 
     OK = 0
     LIMIT = 1
     FAULT = 2
+
+    @property
+    def label(self) -> str:
+        """``'ok'``, ``'limit'`` or ``'fault'`` (for messages and summaries)."""
+        return self.name.lower()
+
+
+class StepKey(NamedTuple):
+    """``(step, iteration)``: what identifies one command and its answer within a test.
+
+    Ordered like a tuple: a later step, or a later iteration of the same step, is greater.
+    ``iteration`` is 0 for one-command-per-step schemes.
+    """
+
+    step: int
+    iteration: int = 0
 
 
 class TestState(IntEnum):
@@ -45,9 +66,9 @@ class Command:
     iteration: int = 0
 
     @property
-    def key(self) -> tuple[int, int]:
+    def key(self) -> StepKey:
         """``(step, iteration)``: what a feedback must match."""
-        return (self.step, self.iteration)
+        return StepKey(self.step, self.iteration)
 
 
 @dataclass(frozen=True)
@@ -63,9 +84,9 @@ class Feedback:
     iteration: int = 0
 
     @property
-    def key(self) -> tuple[int, int]:
+    def key(self) -> StepKey:
         """``(step, iteration)`` of the command answered."""
-        return (self.step, self.iteration)
+        return StepKey(self.step, self.iteration)
 
 
 @dataclass(frozen=True)

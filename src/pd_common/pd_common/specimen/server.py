@@ -16,10 +16,9 @@ Experimental errors (thesis section 3.4.3). An optional ``errors:`` mapping in t
         force_bias: 0.0           # N, constant load-cell offset
         seed: 1                   # noise generator seed (omit: a different draw every run)
 
-The model is :class:`pd_specimen_sim.core.errors_model.ErrorModel` (here also named
-:data:`SimulatedErrors`), the one the bridge's emulator driver re-exports as
-``pd_actuator_bridge.core.error_models.ErrorModel`` and takes from its ``driver_config``, and
-an :class:`~pd_specimen_sim.core.errors_model.ErrorInjector` applies it. Per new step, with the
+The model is :class:`pd_common.experimental.ErrorModel`, the one the bridge's emulator driver
+also takes from its ``driver_config``, and an :class:`~pd_common.experimental.ErrorInjector`
+applies it. Per new step, with the
 actuator at ``x_current`` (the displacement it reached at the previous step):
 
 * ``x_imposed = x_delayed + systematic * (x_delayed - x_current)``, where ``x_delayed`` is the
@@ -39,43 +38,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
+from ..protocol.messages import Feedback, FeedbackStatus
 from .config import specimen_from_config
-from .errors import SpecimenError
-from .errors_model import ERRORS_KEY, ErrorInjector, ErrorModel
+from ..errors import SpecimenError
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from .specimen import Specimen
 
-SimulatedErrors = ErrorModel
-"""The experimental error model of the simulated actuator and load cell (its former name)."""
-
-STATUS_OK = 0
-STATUS_FAULT = 2
-
-
-@dataclass(frozen=True)
-class Answer:
-    """The specimen's answer to one step command (mirrors ``pd_msgs/StepFeedback``)."""
-
-    test_id: str
-    step: int
-    displacement: tuple[float, ...]
-    force: tuple[float, ...]
-    status: int = STATUS_OK
-    message: str = ''
-    iteration: int = 0
-
-
 def split_errors(section: Mapping[str, Any], source: str = 'test file'
-                 ) -> tuple[Any, SimulatedErrors | None]:
+                 ) -> tuple[Any, ErrorModel | None]:
     """Separate the ``errors`` mapping from the rest of a ``specimen`` section.
 
     Args:
@@ -94,7 +73,7 @@ def split_errors(section: Mapping[str, Any], source: str = 'test file'
     rest = {key: value for key, value in section.items() if key != ERRORS_KEY}
     if ERRORS_KEY not in section:
         return rest, None
-    return rest, SimulatedErrors.from_mapping(section[ERRORS_KEY], source)
+    return rest, ErrorModel.from_mapping(section[ERRORS_KEY], source)
 
 
 def server_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,
@@ -136,7 +115,7 @@ class SpecimenServer:
     physical specimen, e.g. after the stiffness probe).
     """
 
-    def __init__(self, specimen: Specimen, errors: SimulatedErrors | None = None) -> None:
+    def __init__(self, specimen: Specimen, errors: ErrorModel | None = None) -> None:
         """Create the server.
 
         Args:
@@ -148,7 +127,7 @@ class SpecimenServer:
         self.force: tuple[float, ...] = tuple(
             float(f) for f in specimen.restoring_force(np.zeros(specimen.n_dof)))
         specimen.revert_to_last_commit()
-        self._last: Answer | None = None
+        self._last: Feedback | None = None
         self.steps_served = 0
         self.repeated = 0
         self.ignored = 0
@@ -166,7 +145,7 @@ class SpecimenServer:
         return tuple(float(x) for x in self._injector.current)
 
     def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0
-               ) -> Answer | None:
+               ) -> Feedback | None:
         """Answer the command for ``(step, iteration)`` of ``test_id``; ``None`` if ignored."""
         last = self._last
         if last is not None and last.test_id == test_id:
@@ -182,7 +161,7 @@ class SpecimenServer:
         return answer
 
     def _move(self, test_id: str, step: int, iteration: int, target: Sequence[float]
-              ) -> Answer:
+              ) -> Feedback:
         n = self.specimen.n_dof
         values = [float(value) for value in target]
         if len(values) != n or not all(math.isfinite(value) for value in values):
@@ -199,11 +178,11 @@ class SpecimenServer:
         self.position = tuple(values)
         self.force = tuple(float(f) for f in force)
         self.steps_served += 1
-        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
-                      iteration=iteration)
+        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
+                        restoring_force=self.force, iteration=iteration)
 
     def _move_with_errors(self, test_id: str, step: int, iteration: int, target: np.ndarray
-                          ) -> Answer:
+                          ) -> Feedback:
         """A new step through the error model (delay, systematic error, noise, bias)."""
         injector = self._injector
         assert injector is not None
@@ -216,10 +195,11 @@ class SpecimenServer:
         self.position = tuple(float(x) for x in erroneous.displacement)
         self.force = tuple(float(f) for f in erroneous.force)
         self.steps_served += 1
-        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
-                      iteration=iteration)
+        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
+                        restoring_force=self.force, iteration=iteration)
 
-    def _fault(self, test_id: str, step: int, iteration: int, message: str) -> Answer:
+    def _fault(self, test_id: str, step: int, iteration: int, message: str) -> Feedback:
         self.faults += 1
-        return Answer(test_id=test_id, step=step, displacement=self.position, force=self.force,
-                      status=STATUS_FAULT, message=message, iteration=iteration)
+        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
+                        restoring_force=self.force, status=FeedbackStatus.FAULT, message=message,
+                        iteration=iteration)

@@ -15,7 +15,7 @@ from abc import ABC, abstractmethod
 from typing import Any
 
 from .backbone import BEYOND_MODES, Backbone
-from .errors import HysteresisError
+from ..errors import HysteresisError
 
 State = tuple[Any, ...]
 

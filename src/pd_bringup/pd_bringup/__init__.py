@@ -1,0 +1,1 @@
+"""Bring-up of a pseudo-dynamic test: ``run_test`` starts every node as its own process."""

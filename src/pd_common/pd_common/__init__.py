@@ -1,0 +1,14 @@
+"""Shared pure library of the pseudo-dynamic test (numpy/scipy/PyYAML; no rclpy).
+
+Subpackages, one concern each:
+
+* :mod:`pd_common.protocol`: the step protocol's data types (command, feedback, status, key);
+* :mod:`pd_common.specimen`: backbones, hysteresis models, specimens, the step server;
+* :mod:`pd_common.experimental`: experimental-error models and tracking monitors;
+* :mod:`pd_common.config`: the YAML loader;
+* :mod:`pd_common.ros`: the only part that imports rclpy: QoS profiles, message conversion
+  and stamps, used by every node.
+
+The node packages (``pd_integrator``, ``pd_actuator_bridge``, ``pd_specimen_sim``) import this
+package and ``pd_msgs``, never each other.
+"""

@@ -1,0 +1,7 @@
+"""Reading configuration files (one YAML loader for every package)."""
+
+from __future__ import annotations
+
+from .loader import YAMLError, load_yaml, read_yaml_file
+
+__all__ = ['YAMLError', 'load_yaml', 'read_yaml_file']

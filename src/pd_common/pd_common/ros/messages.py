@@ -1,0 +1,68 @@
+"""``pd_msgs`` messages from the step protocol's data, and message stamps."""
+
+from __future__ import annotations
+
+import time
+
+from builtin_interfaces.msg import Time
+
+from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+
+from ..protocol.messages import Command, Feedback, Status
+
+__all__ = ['command_message', 'feedback_message', 'now_stamp', 'stamp_from_ns',
+           'status_message']
+
+
+def stamp_from_ns(t_ns: int) -> Time:
+    """``builtin_interfaces/Time`` from nanoseconds since the epoch."""
+    return Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
+
+
+def now_stamp() -> Time:
+    """The wall-clock time as a message stamp (cheaper than a node clock)."""
+    return stamp_from_ns(time.time_ns())
+
+
+def command_message(command: Command, stamp: Time | None = None,
+                    message: StepCommand | None = None) -> StepCommand:
+    """``pd_msgs/StepCommand`` of ``command`` (fills ``message`` if given; stamp: now)."""
+    message = StepCommand() if message is None else message
+    message.header.stamp = now_stamp() if stamp is None else stamp
+    message.test_id = command.test_id
+    message.step = command.step
+    message.iteration = command.iteration
+    message.test_time = float(command.test_time)
+    message.dof_names = list(command.dof_names)
+    message.target_displacement = list(command.target_displacement)
+    return message
+
+
+def feedback_message(feedback: Feedback, stamp: Time | None = None,
+                     message: StepFeedback | None = None) -> StepFeedback:
+    """``pd_msgs/StepFeedback`` of ``feedback`` (fills ``message`` if given; stamp: now)."""
+    message = StepFeedback() if message is None else message
+    message.header.stamp = now_stamp() if stamp is None else stamp
+    message.test_id = feedback.test_id
+    message.step = feedback.step
+    message.iteration = feedback.iteration
+    message.measured_displacement = list(feedback.measured_displacement)
+    message.restoring_force = list(feedback.restoring_force)
+    message.status = int(feedback.status)
+    message.message = feedback.message
+    return message
+
+
+def status_message(status: Status, stamp: Time | None = None) -> TestStatus:
+    """``pd_msgs/TestStatus`` of ``status`` (stamp: now)."""
+    message = TestStatus()
+    message.header.stamp = now_stamp() if stamp is None else stamp
+    message.test_id = status.test_id
+    message.state = int(status.state)
+    message.step = status.step
+    message.total_steps = status.total_steps
+    message.omega_dt = float(status.omega_dt)
+    message.retries = status.retries
+    message.ignored_messages = status.ignored_messages
+    message.message = status.message
+    return message

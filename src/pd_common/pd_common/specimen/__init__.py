@@ -1,0 +1,51 @@
+"""Specimen models: backbones, hysteresis, specimens, their config schema and the step server.
+
+The simulator node and the ROS-free runner answer step commands with a
+:class:`SpecimenServer`; the integrator's numerical springs and the bridge's emulator use the
+same hysteresis models.
+"""
+
+from __future__ import annotations
+
+from .backbone import (
+    BEYOND_MODES,
+    Backbone,
+    bilinear_backbone,
+    load_backbone_csv,
+    load_opensees_pushover,
+)
+from .config import hysteresis_from_config, load_specimen_section, specimen_from_config
+from ..errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
+from .hysteresis import (
+    BilinearKinematic,
+    Elastic,
+    ElasticPerfectlyPlastic,
+    HysteresisModel,
+    PushoverHysteresis,
+)
+from .server import SpecimenServer, server_from_config
+from .specimen import TOPOLOGIES, Specimen
+
+__all__ = [
+    'BEYOND_MODES',
+    'TOPOLOGIES',
+    'Backbone',
+    'BackboneError',
+    'BilinearKinematic',
+    'Elastic',
+    'ElasticPerfectlyPlastic',
+    'HysteresisError',
+    'HysteresisModel',
+    'PushoverHysteresis',
+    'Specimen',
+    'SpecimenConfigError',
+    'SpecimenError',
+    'SpecimenServer',
+    'bilinear_backbone',
+    'hysteresis_from_config',
+    'load_backbone_csv',
+    'load_opensees_pushover',
+    'load_specimen_section',
+    'server_from_config',
+    'specimen_from_config',
+]
