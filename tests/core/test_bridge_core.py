@@ -1,12 +1,15 @@
-"""Tests of the actuator bridge core: safety limits, the loopback driver and the bridge."""
+"""Tests of the actuator bridge core: safety limits, the loopback driver, the bridge and the
+driver registry."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import (
@@ -17,11 +20,23 @@ from pd_actuator_bridge.core import (
     BridgeReply,
     DriverError,
     LimitViolation,
-    LoopbackDriver,
     SafetyLimits,
+    DriverContext,
+    DriverParameter,
+    DriverSpec,
+    EmulatorDriver,
+    GenericTCPDriver,
+    OpenSeesAdapterDriver,
     check_command,
     check_feedback,
+    driver_names,
+    driver_parameters,
+    driver_spec,
+    make_driver,
+    register_driver,
 )
+from pd_actuator_bridge.core.drivers import registry
+from support.loopback import LoopbackDriver
 
 NAN = math.nan
 INF = math.inf
@@ -767,8 +782,6 @@ def test_fault_while_idle_holds_without_reply() -> None:
 
 
 def test_bridge_accepts_step_iteration_keys() -> None:
-    from pd_actuator_bridge.core import ActuatorBridge, LoopbackDriver, SafetyLimits
-
     driver = LoopbackDriver(lambda x: [1000.0 * v for v in x], n_dof=1)
     driver.open()
     bridge = ActuatorBridge(driver, SafetyLimits(max_displacement=0.1, max_increment=0.05,
@@ -780,3 +793,146 @@ def test_bridge_accepts_step_iteration_keys() -> None:
     assert bridge.handle_command('t', (2, 1), [0.09]) is second  # repeat: no motion
     assert bridge.handle_command('t', (2, 0), [0.03]) is None  # stale iteration: ignored
     assert [target for _, target in driver.commands] == [(0.01,), (0.02,)]
+
+
+# --------------------------------------------------------------------------- driver registry
+
+
+BUILT_IN = ('daqmx', 'emulator', 'generic_tcp', 'opensees_adapter')
+
+
+@pytest.fixture
+def scratch_registry(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A copy of the registry for the test, so that its registrations do not leak."""
+    monkeypatch.setattr(registry, '_REGISTRY', dict(registry._REGISTRY))
+
+
+def loopback_spec(name: str = 'loopback', **parameters: object) -> DriverSpec:
+    declared = tuple(DriverParameter(key, value, f'{key} of the test')
+                     for key, value in parameters.items())
+    return DriverSpec(name, lambda context: LoopbackDriver(linear_spring(1.0), context.n_dof),
+                      declared, 'test driver')
+
+
+def test_importing_the_core_registers_the_built_in_drivers() -> None:
+    names = driver_names()
+    assert set(BUILT_IN) <= set(names)
+    assert list(names) == sorted(names)
+    assert driver_spec('generic_tcp').parameter_names == ('tcp_host', 'tcp_port',
+                                                          'driver_timeout')
+    assert driver_spec('emulator').parameter_names == ('test_file', 'driver_config')
+    assert driver_spec('daqmx').parameter_names == ('driver_config',)
+    for name in BUILT_IN:
+        assert driver_spec(name).description
+
+
+def test_unknown_driver_is_one_line_listing_the_names() -> None:
+    with pytest.raises(BridgeConfigError) as info:
+        driver_spec('moog')
+    message = str(info.value)
+    assert '\n' not in message
+    assert message.startswith("parameter driver: unknown driver 'moog' (available: ")
+    for name in BUILT_IN:
+        assert name in message
+    with pytest.raises(BridgeConfigError, match='unknown driver'):
+        make_driver('moog', DriverContext(1))
+
+
+def test_a_driver_name_is_registered_once(scratch_registry: None) -> None:
+    with pytest.raises(BridgeConfigError, match='generic_tcp: a driver of that name is already'):
+        register_driver(driver_spec('generic_tcp'))
+    spec = register_driver(loopback_spec())
+    assert spec is driver_spec('loopback') and 'loopback' in driver_names()
+    with pytest.raises(BridgeConfigError, match='already registered'):
+        register_driver(loopback_spec())
+    with pytest.raises(BridgeConfigError, match='expected a DriverSpec'):
+        register_driver('loopback')  # type: ignore[arg-type]
+
+
+def test_a_shared_parameter_has_one_default(scratch_registry: None) -> None:
+    with pytest.raises(BridgeConfigError,
+                       match=r"parameter tcp_port: default 44001 differs from 44000 of driver"):
+        register_driver(loopback_spec(tcp_port=44001))
+    with pytest.raises(BridgeConfigError, match='parameter tcp_port: default 44000.0 differs'):
+        register_driver(loopback_spec(tcp_port=44000.0))
+    register_driver(loopback_spec(tcp_port=44000))
+    shared = {parameter.name: drivers for parameter, drivers in driver_parameters()}
+    assert shared['tcp_port'] == ('generic_tcp', 'loopback', 'opensees_adapter')
+    assert shared['driver_config'][:2] == ('daqmx', 'emulator')
+
+
+def test_spec_and_parameter_fields_are_checked() -> None:
+    with pytest.raises(BridgeConfigError, match='name must match'):
+        DriverParameter('Port', 1, 'a port')
+    with pytest.raises(BridgeConfigError, match='parameter port: default must be a bool'):
+        DriverParameter('port', [1], 'a port')  # type: ignore[arg-type]
+    with pytest.raises(BridgeConfigError, match='description must be a non-empty string'):
+        DriverParameter('port', 1, '')
+    with pytest.raises(BridgeConfigError, match='driver x: factory must be callable'):
+        DriverSpec('x', None)  # type: ignore[arg-type]
+    with pytest.raises(BridgeConfigError, match='driver x: parameter port is declared twice'):
+        DriverSpec('x', LoopbackDriver, (DriverParameter('port', 1, 'a'),
+                                         DriverParameter('port', 1, 'b')))
+    with pytest.raises(BridgeConfigError, match='parameters must be a tuple of DriverParameter'):
+        listed: list[DriverParameter] = [DriverParameter('port', 1, 'a')]
+        DriverSpec('x', LoopbackDriver, listed)  # type: ignore[arg-type]
+
+
+def test_make_driver_completes_defaults_and_refuses_unknown_parameters() -> None:
+    driver = make_driver('generic_tcp', DriverContext(2))
+    assert isinstance(driver, GenericTCPDriver)
+    assert driver.n_dof == 2 and driver.address == '127.0.0.1:44000' and not driver.connected
+    driver = make_driver('opensees_adapter', DriverContext(1, {'tcp_port': 45000}))
+    assert isinstance(driver, OpenSeesAdapterDriver) and driver.address == '127.0.0.1:45000'
+    with pytest.raises(BridgeConfigError) as info:
+        make_driver('generic_tcp', DriverContext(1, {'tcp_prot': 45000}))
+    assert str(info.value) == ("driver generic_tcp: unknown parameter 'tcp_prot' "
+                               '(its parameters: tcp_host, tcp_port, driver_timeout)')
+    with pytest.raises(BridgeConfigError, match="driver daqmx: unknown parameter 'test_file'"):
+        make_driver('daqmx', DriverContext(1, {'test_file': 'x.yaml'}))
+
+
+def test_the_factory_gets_the_resolved_parameters(scratch_registry: None) -> None:
+    seen: list[DriverContext] = []
+
+    def factory(context: DriverContext) -> ActuatorDriver:
+        seen.append(context)
+        return LoopbackDriver(linear_spring(1.0), context.n_dof)
+
+    host = object()
+    register_driver(DriverSpec('loopback', factory, (DriverParameter('gain', 1.5, 'gain'),
+                                                     DriverParameter('label', 'a', 'label'))))
+    driver = make_driver('loopback', DriverContext(3, {'label': 'b'}, host=host))
+    assert isinstance(driver, LoopbackDriver) and driver.n_dof == 3
+    assert dict(seen[0].parameters) == {'gain': 1.5, 'label': 'b'}
+    assert seen[0].host is host
+    register_driver(DriverSpec('broken', lambda context: object()))  # type: ignore[arg-type]
+    with pytest.raises(BridgeConfigError, match='driver broken: the factory returned object'):
+        make_driver('broken', DriverContext(1))
+
+
+def test_emulator_factory_builds_the_driver_on_the_test_files_specimen(tmp_path: Path) -> None:
+    test_file = tmp_path / 'test.yaml'
+    test_file.write_text(yaml.safe_dump({
+        'structure': {'dof_names': ['top']},
+        'specimen': {'elements': [{'model': 'elastic', 'stiffness': 312559.0}]},
+    }), encoding='utf-8')
+    config = tmp_path / 'driver.yaml'
+    config.write_text(yaml.safe_dump({'ramp_hold': {'ramp_time': 0.02, 'samples': 5}}),
+                      encoding='utf-8')
+    trajectories: list[tuple[object, object]] = []
+    driver = make_driver('emulator', DriverContext(
+        1, {'test_file': str(test_file), 'driver_config': str(config)},
+        on_trajectory=lambda step, execution: trajectories.append((step, execution))))
+    assert isinstance(driver, EmulatorDriver)
+    assert driver.executor.parameters.ramp_time == 0.02
+    assert driver.executor.parameters.samples == 5
+    driver.open()
+    driver.command(0, [0.001])
+    assert [step for step, _ in trajectories] == [0]
+    with pytest.raises(BridgeConfigError, match='parameter test_file: the emulator needs'):
+        make_driver('emulator', DriverContext(1))
+    with pytest.raises(BridgeConfigError, match='parameter dof_names: 2 DOF but the specimen'):
+        make_driver('emulator', DriverContext(2, {'test_file': str(test_file)}))
+    with pytest.raises(BridgeConfigError, match='parameter driver_config: a YAML file is'):
+        make_driver('daqmx', DriverContext(1))

@@ -23,12 +23,12 @@ from pd_actuator_bridge.core import (
     ActuatorDriver,
     BridgeConfigError,
     BridgeReply,
-    LoopbackDriver,
     SafetyLimits,
     check_command,
     check_tracking,
     saturate_command,
 )
+from support.loopback import LoopbackDriver
 
 NAN = math.nan
 INF = math.inf

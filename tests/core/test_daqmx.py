@@ -15,7 +15,7 @@ import pytest
 
 from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverError, SafetyLimits
-from pd_actuator_bridge.core.daqmx import (
+from pd_actuator_bridge.core.drivers.daqmx import (
     DaqmxChannelConfig,
     DaqmxConfig,
     DaqmxDriver,

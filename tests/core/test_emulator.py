@@ -1,4 +1,4 @@
-"""Tests of the servo-hydraulic actuator emulator (pd_actuator_bridge.core.emulator)."""
+"""Tests of the servo-hydraulic actuator emulator (pd_actuator_bridge.core.drivers.emulator)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pd_actuator_bridge.core.emulator import (
+from pd_actuator_bridge.core.drivers.emulator import (
     EmulatorParameters,
     Measurement,
     ServoHydraulicEmulator,

@@ -15,7 +15,6 @@ import subprocess
 import sys
 import threading
 import time
-import types
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -23,23 +22,20 @@ import pytest
 
 from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.controller_server import (
-    EMULATOR_MODULE,
     ControllerServer,
     ElasticController,
     EmulatorController,
-    TickRampHold,
     load_emulator_controller,
     make_controller,
 )
 from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverError, SafetyLimits
-from pd_actuator_bridge.core.generic_tcp import (
+from pd_actuator_bridge.core.drivers.generic_tcp import GenericTCPClient, GenericTCPDriver
+from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
     ACTION_DIE,
     ACTION_GET_DAQ_RESPONSE,
     ACTION_SET_TRIAL_RESPONSE,
     DEFAULT_DATA_SIZE,
     DaqResponse,
-    GenericTCPClient,
-    GenericTCPDriver,
     GenericTCPError,
     SizeID,
     TrialResponse,
@@ -54,6 +50,7 @@ from pd_actuator_bridge.core.generic_tcp import (
     encode_vector,
     normalize_sizes,
 )
+from pd_actuator_bridge.core.drivers.ramp_hold import RampHoldExecutor
 
 pytestmark = pytest.mark.timeout(30)
 
@@ -492,16 +489,15 @@ def test_server_stop_without_client_is_prompt() -> None:
 # --------------------------------------------------------------------------- emulator hook
 
 
-def test_emulator_missing_falls_back_with_a_message(monkeypatch) -> None:
-    monkeypatch.setitem(sys.modules, EMULATOR_MODULE, None)  # import fails
+def test_emulator_that_cannot_be_built_falls_back_with_a_message() -> None:
     messages: list[str] = []
-    controller = make_controller(1, 500.0, emulator=True, warn=messages.append)
+    controller = make_controller(1, -500.0, emulator=True, warn=messages.append)
     assert isinstance(controller, ElasticController)
     assert len(messages) == 1
     assert 'not available' in messages[0] and 'falling back' in messages[0]
 
 
-def test_emulator_backend_is_served_over_tcp(monkeypatch, elastic_server) -> None:
+def test_emulator_backend_is_served_over_tcp(elastic_server) -> None:
     class Backend:
         def __init__(self, n_dof: int, stiffness: float) -> None:
             self.stiffness = stiffness
@@ -512,10 +508,7 @@ def test_emulator_backend_is_served_over_tcp(monkeypatch, elastic_server) -> Non
             measured = [0.9 * x for x in target]  # a 10 % undershoot
             return measured, [self.stiffness * x for x in measured]
 
-    module = types.ModuleType(EMULATOR_MODULE)
-    module.generic_tcp_backend = Backend
-    monkeypatch.setitem(sys.modules, EMULATOR_MODULE, module)
-    controller = make_controller(1, 400.0, emulator=True, warn=pytest.fail)
+    controller = EmulatorController(Backend(1, 400.0), 1)
     assert isinstance(controller, EmulatorController)
     server = ControllerServer(controller, HOST, 0, idle_timeout=5.0)
     server.start()
@@ -532,10 +525,9 @@ def test_emulator_backend_is_served_over_tcp(monkeypatch, elastic_server) -> Non
 
 
 def test_real_emulator_backend_tracks_the_command() -> None:
-    pytest.importorskip(EMULATOR_MODULE)
     k = 312559.0
     controller = load_emulator_controller(1, k, ramp_time=0.1, hold_time=0.3)
-    assert isinstance(controller.backend, TickRampHold)
+    assert isinstance(controller.backend, RampHoldExecutor)
     server = ControllerServer(controller, HOST, 0, idle_timeout=5.0)
     server.start()
     try:

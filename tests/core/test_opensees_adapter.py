@@ -36,8 +36,8 @@ from pd_actuator_bridge.core import (
     OpenSeesAdapterError,
     SafetyLimits,
 )
-from pd_actuator_bridge.core.generic_tcp import DEFAULT_DATA_SIZE, encode_vector
-from pd_actuator_bridge.core.opensees_adapter import (
+from pd_actuator_bridge.core.drivers.generic_tcp_protocol import DEFAULT_DATA_SIZE, encode_vector
+from pd_actuator_bridge.core.drivers.opensees_adapter import (
     ACTION_DIE,
     ACTION_GET_FORCE,
     ACTION_SET_TRIAL_RESPONSE,

@@ -9,11 +9,11 @@ import pytest
 
 from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, DriverError, SafetyLimits
-from pd_actuator_bridge.core.emulator import EmulatorParameters, ServoHydraulicEmulator
+from pd_actuator_bridge.core.drivers.emulator import EmulatorParameters, ServoHydraulicEmulator
 from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel, apply_error_model
 from pd_common.experimental import TrackingMonitor, tracking_error, tracking_indicator
 from pd_actuator_bridge.core.errors import BridgeConfigError
-from pd_actuator_bridge.core.ramp_hold import (
+from pd_actuator_bridge.core.drivers.ramp_hold import (
     DEFAULT_RAMP_TIME,
     PHASE_HOLD,
     PHASE_RAMP,

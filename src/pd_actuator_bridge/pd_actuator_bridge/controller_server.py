@@ -4,18 +4,20 @@ It plays the role of a server written for OpenFresco's ``expControl GenericTCP``
 to the actuator controller (e.g. a MOOG controller): it accepts **one** client, reads the
 11-integer size ID, then answers ``setTrialResponse`` (3), ``getDaqResponse`` (6) and
 ``commitState`` (5, accepted and ignored as a no-op) until the client sends ``99`` (or ``98``)
-or disconnects. The wire format is documented in :mod:`pd_actuator_bridge.core.generic_tcp`.
+or disconnects. The wire format is documented in
+:mod:`pd_actuator_bridge.core.drivers.generic_tcp_protocol`.
 OpenFresco's optional ``-initFile`` parameter messages are not supported.
 
 The "controller" behind the server is pluggable (:class:`Controller`):
 
 * :class:`ElasticController` (default): an ideal actuator that reaches every trial
   displacement exactly, on an elastic specimen ``f = k x`` (``--stiffness``).
-* ``--emulator``: the servo-hydraulic emulator of :mod:`pd_actuator_bridge.core.emulator`
-  (1 kHz closed-loop actuator model) on the same elastic specimen, each step executed as a
-  ramp (``--ramp-time``) and hold (``--hold-time``); imported lazily through
-  :func:`load_emulator_controller`. If it is not available the server says so on stderr and
-  falls back to the elastic controller.
+* ``--emulator``: the servo-hydraulic emulator of :mod:`pd_actuator_bridge.core.drivers.emulator`
+  (1 kHz closed-loop actuator model) on the same elastic specimen, each step executed by the
+  core's ramp-and-hold executor (:class:`~pd_actuator_bridge.core.RampHoldExecutor`: a ramp of
+  ``--ramp-time``, a hold of at least ``--hold-time``, until the measurement has settled), see
+  :func:`load_emulator_controller`. If the emulator cannot be built the server says so on
+  stderr and falls back to the elastic controller.
 
 Usage::
 
@@ -32,7 +34,6 @@ as the tests do, and as a plain executable.
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import math
 import signal
@@ -43,8 +44,10 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from pd_actuator_bridge.core.errors import BridgeConfigError, BridgeError
-from pd_actuator_bridge.core.generic_tcp import (
+from pd_common.specimen import Elastic, Specimen
+
+from pd_actuator_bridge.core.drivers.emulator import ServoHydraulicEmulator
+from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
     ACTION_COMMIT_STATE,
     ACTION_DIE,
     ACTION_GET_DAQ_RESPONSE,
@@ -63,11 +66,10 @@ from pd_actuator_bridge.core.generic_tcp import (
     encode_daq,
     first_non_finite,
 )
+from pd_actuator_bridge.core.drivers.ramp_hold import RampHoldExecutor, RampHoldParameters
+from pd_actuator_bridge.core.errors import BridgeConfigError, BridgeError
 
 LOGGER = logging.getLogger('pd_actuator_bridge.controller_server')
-
-EMULATOR_MODULE = 'pd_actuator_bridge.core.emulator'
-EMULATOR_FACTORY = 'generic_tcp_backend'
 
 _POLL = 0.1
 """Seconds between checks of the stop request while waiting on a socket."""
@@ -78,7 +80,7 @@ class ControllerError(BridgeError):
 
 
 class EmulatorUnavailable(BridgeError):
-    """The servo-hydraulic emulator cannot be imported or built."""
+    """The servo-hydraulic emulator cannot be built."""
 
 
 class Controller(Protocol):
@@ -298,114 +300,33 @@ class EmulatorController(_MeasuredController):
         return values
 
 
-class _ElasticSpecimen:
-    """Linear elastic specimen for the emulator (``r_i = k_i x_i``; no state to commit)."""
-
-    def __init__(self, stiffness: Sequence[float]) -> None:
-        self.stiffness = [float(k) for k in stiffness]
-        self.n_dof = len(self.stiffness)
-
-    def restoring_force(self, x: Sequence[float]) -> list[float]:
-        return [k * float(xi) for k, xi in zip(self.stiffness, x, strict=True)]
-
-    def commit(self) -> None:
-        pass
-
-    def revert_to_last_commit(self) -> None:
-        pass
-
-    def initial_stiffness_matrix(self) -> list[list[float]]:
-        n = self.n_dof
-        return [[self.stiffness[i] if i == j else 0.0 for j in range(n)] for i in range(n)]
-
-
-class TickRampHold:
-    """Minimal ramp-and-hold over an emulator's ``tick(command)`` (one controller period).
-
-    Each :meth:`execute` ramps the command linearly from the previous target to the new one
-    over ``ramp_time``, holds it for ``hold_time`` and returns the mean of the last ``samples``
-    measured displacements and forces. It is the server's stand-in when
-    :mod:`pd_actuator_bridge.core.emulator` offers no ``generic_tcp_backend`` factory.
-    """
-
-    def __init__(self, emulator: Any, ramp_time: float = 0.2, hold_time: float = 0.3,
-                 samples: int = 10) -> None:
-        """Wrap ``emulator`` (needs ``tick(command)``, ``rate`` and ``n_dof``)."""
-        if not (ramp_time >= 0.0 and hold_time > 0.0 and samples >= 1):
-            raise BridgeConfigError(
-                f'TickRampHold: need ramp_time >= 0, hold_time > 0 and samples >= 1, got '
-                f'{ramp_time!r}, {hold_time!r}, {samples!r}'
-            )
-        self.emulator = emulator
-        rate = float(emulator.rate)
-        self._ramp_ticks = max(1, round(ramp_time * rate))
-        self._hold_ticks = max(samples, round(hold_time * rate))
-        self._samples = samples
-        self._command = [0.0] * int(emulator.n_dof)
-
-    def execute(self, target: Sequence[float]) -> tuple[list[float], list[float]]:
-        """Ramp to ``target``, hold, and return the averaged ``(displacement, force)``."""
-        start, end = list(self._command), [float(x) for x in target]
-        n = len(end)
-        for i in range(1, self._ramp_ticks + 1):
-            a = i / self._ramp_ticks
-            self.emulator.tick([s + a * (e - s) for s, e in zip(start, end, strict=True)])
-        self._command = end
-        disp = [0.0] * n
-        force = [0.0] * n
-        for i in range(self._hold_ticks):
-            measurement = self.emulator.tick(end)
-            if i >= self._hold_ticks - self._samples:
-                for j in range(n):
-                    disp[j] += float(measurement.displacement[j]) / self._samples
-                    force[j] += float(measurement.force[j]) / self._samples
-        return disp, force
-
-
 def load_emulator_controller(
     n_dof: int, stiffness: float, ramp_time: float = 0.2, hold_time: float = 0.3
 ) -> EmulatorController:
-    """Build an :class:`EmulatorController` from :mod:`pd_actuator_bridge.core.emulator`.
+    """An :class:`EmulatorController` on the servo-hydraulic emulator.
 
-    The module is imported lazily and used through, in order of preference:
-
-    1. a factory ``generic_tcp_backend(n_dof=..., stiffness=...)`` returning a backend with
-       ``execute(target)`` (see :class:`EmulatorController`), e.g. the emulator's own
-       ramp-and-hold executor;
-    2. ``ServoHydraulicEmulator(specimen, stiffness=K)`` on a linear elastic specimen, driven by
-       :class:`TickRampHold` (``ramp_time``, ``hold_time``).
+    The emulator drives a linear elastic specimen (one :class:`pd_common.specimen.Elastic` of
+    ``stiffness`` per DOF); each trial is executed by the core's
+    :class:`~pd_actuator_bridge.core.RampHoldExecutor`: a ramp of ``ramp_time``, a hold of at
+    least ``hold_time`` until the measurement has settled (default tolerance), then the
+    average of the last samples. The settling may take up to ``hold_time`` plus the
+    executor's default timeout; beyond it the trial fails and the session ends.
 
     Raises:
-        EmulatorUnavailable: If the module is missing or the backend cannot be built.
+        EmulatorUnavailable: If the emulator cannot be built (e.g. a stiffness that is not
+            positive).
     """
     try:
-        module = importlib.import_module(EMULATOR_MODULE)
-    except ImportError as exc:
-        raise EmulatorUnavailable(
-            f'the servo-hydraulic emulator ({EMULATOR_MODULE}) is not available: '
-            f'{type(exc).__name__}: {exc}'
-        ) from None
-    factory = getattr(module, EMULATOR_FACTORY, None)
-    try:
-        if factory is not None:
-            backend = factory(n_dof=n_dof, stiffness=stiffness)
-            how = f'{EMULATOR_FACTORY}()'
-        else:
-            specimen = _ElasticSpecimen([stiffness] * n_dof)
-            emulator = module.ServoHydraulicEmulator(
-                specimen, stiffness=specimen.initial_stiffness_matrix()
-            )
-            backend = TickRampHold(emulator, ramp_time, hold_time)
-            how = (f'ServoHydraulicEmulator, ramp {ramp_time:g} s + hold {hold_time:g} s, '
-                   f'k = {stiffness:g} N/m')
-        return EmulatorController(backend, n_dof, f'servo-hydraulic emulator ({how})')
+        specimen = Specimen([Elastic(stiffness) for _ in range(n_dof)])
+        emulator = ServoHydraulicEmulator(specimen)
+        backend = RampHoldExecutor(emulator, ramp_time=ramp_time, hold_time=hold_time,
+                                   timeout=hold_time + RampHoldParameters.timeout)
     except Exception as exc:  # noqa: BLE001 - any failure means the emulator is unusable
-        raise EmulatorUnavailable(
-            f'could not build the servo-hydraulic emulator from {EMULATOR_MODULE} '
-            f'(expected {EMULATOR_FACTORY}(n_dof, stiffness) or '
-            f'ServoHydraulicEmulator(specimen, stiffness=K) with tick(command)): '
-            f'{type(exc).__name__}: {exc}'
-        ) from None
+        msg = f'the servo-hydraulic emulator is not available: {type(exc).__name__}: {exc}'
+        raise EmulatorUnavailable(msg) from None
+    how = (f'ServoHydraulicEmulator, ramp {ramp_time:g} s + hold {hold_time:g} s, '
+           f'k = {stiffness:g} N/m')
+    return EmulatorController(backend, n_dof, f'servo-hydraulic emulator ({how})')
 
 
 def make_controller(
@@ -424,8 +345,8 @@ def make_controller(
         emulator: Use the servo-hydraulic emulator; falls back to the elastic controller
             (with a message through ``warn``) if it is not available.
         warn: Receives the fall-back message; logged as a warning if omitted.
-        ramp_time: Emulator ramp duration per step, s (see :class:`TickRampHold`).
-        hold_time: Emulator hold duration per step, s.
+        ramp_time: Emulator ramp duration per step, s (see :func:`load_emulator_controller`).
+        hold_time: Emulator minimum hold per step, s.
     """
     if emulator:
         try:
@@ -739,11 +660,11 @@ def _parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--stiffness', type=float, default=1.0e6,
                         help='elastic specimen stiffness per DOF, N/m (1e6)')
     parser.add_argument('--emulator', action='store_true',
-                        help='use the servo-hydraulic emulator (core.emulator) if available')
+                        help='use the servo-hydraulic emulator (ramp-and-hold) if it can be built')
     parser.add_argument('--ramp-time', type=float, default=0.2,
                         help='emulator: ramp duration per step, s (0.2)')
     parser.add_argument('--hold-time', type=float, default=0.3,
-                        help='emulator: hold duration per step before sampling, s (0.3)')
+                        help='emulator: minimum hold per step before sampling, s (0.3)')
     parser.add_argument('--idle-timeout', type=float, default=None,
                         help='end the session after this many seconds without data (never)')
     parser.add_argument('--byte-order', choices=('little', 'big'), default='little',

@@ -20,8 +20,8 @@ With ``autostart: true`` (the simulated set-up) the node configures and activate
 Tracking monitor: for every step answered OK, ``monitor/tracking`` (``/pd/monitor/tracking``,
 ``std_msgs/Float64MultiArray``) carries the tracking error ``measured - commanded`` [m] of each
 DOF followed by the running tracking indicator [m²] of each DOF (positive = energy removed,
-negative = energy added; :class:`~pd_actuator_bridge.core.error_models.TrackingMonitor`, restarted
-for each test id). The integrator's outputs rebuild the same values from the bag
+negative = energy added; :class:`pd_common.experimental.TrackingMonitor`, restarted for each
+test id). The integrator's outputs rebuild the same values from the bag
 (``tracking.csv``); this topic is for watching a test while it runs.
 
 Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
@@ -29,35 +29,25 @@ Emergency stop, from any state, latched until ``reset_emergency_stop``: a messag
 ``/pd/emergency_stop`` topic (every bridge of every site listens to it), or a call of the
 ``bridge/emergency_stop`` service (``std_srvs/Trigger``).
 
-Drivers (parameter ``driver``):
-
-* ``sim_servo``: a simulated servo that forwards each checked move to a specimen node
-  (``<specimen_namespace>/step_command``) and returns its measured displacement and force;
-* ``emulator``: an in-process servo-hydraulic actuator emulator (PID loop, valve and oil
-  dynamics, delay, noise) driving the specimen of ``test_file`` by ramp-and-hold; its sub-step
-  trajectory is published on ``bridge/trajectory``;
-* ``generic_tcp``: a client of OpenFresco's GenericTCP controller protocol (``tcp_host``,
-  ``tcp_port``), e.g. the ``controller_server`` next to a MOOG controller;
-* ``daqmx``: analog command out / feedback in through NI DAQ hardware (``driver_config``: a
-  YAML file with a ``daqmx`` section; untested on hardware).
+Drivers (parameter ``driver``): any name registered in
+:mod:`pd_actuator_bridge.core.drivers.registry`. ``driver_names()`` lists them and
+``driver_spec(name)`` gives each one's description and parameters, which the node declares after
+its own. :mod:`pd_actuator_bridge.core.drivers` registers the pure drivers (one module each),
+:mod:`pd_actuator_bridge.sim_servo` the ``sim_servo`` driver; ``docs/actuator_bridge.md``
+explains how to connect each.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 import time
-from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import rclpy
-import yaml
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
-from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
@@ -76,146 +66,19 @@ from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatu
 from .core import (
     ActuatorBridge,
     ActuatorDriver,
-    BridgeConfigError,
     BridgeError,
     BridgeReply,
+    DriverContext,
     SafetyLimits,
+    driver_names,
+    driver_parameters,
+    driver_spec,
+    make_driver,
 )
+from .sim_servo import SimServoDriver
 
-DRIVERS = ('sim_servo', 'emulator', 'generic_tcp', 'opensees_adapter', 'daqmx')
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
-
-
-class SimServoDriver(ActuatorDriver):
-    """A simulated servo actuator: forwards each move to a specimen node over ROS 2.
-
-    Each move goes out as a ``StepCommand`` of the driver's own session (test id
-    ``bridge-<pid>``, a step counter of its own), so the specimen's repeat handling applies:
-    :meth:`repeat` re-sends the move in flight and the specimen answers it without moving.
-    """
-
-    def __init__(self, node: Node, n_dof: int, namespace: str) -> None:
-        super().__init__()
-        self._node = node
-        self._n_dof = n_dof
-        self._session = f'bridge-{os.getpid()}'
-        self._publisher = node.create_publisher(StepCommand, f'{namespace}/step_command',
-                                                STEP_QOS)
-        self._subscription = node.create_subscription(
-            StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS)
-        self._position = [0.0] * n_dof
-        self._sequence = 0
-        self._in_flight: tuple[Any, int] | None = None  # (bridge step, driver sequence)
-        self._message: StepCommand | None = None
-        self.sent_at = 0.0
-        self.on_fault: Any = None  # callable(message) set by the node
-
-    @property
-    def n_dof(self) -> int:
-        """Number of actuated DOF."""
-        return self._n_dof
-
-    def ready(self) -> bool:
-        """Whether a specimen node listens and talks back."""
-        return (self._publisher.get_subscription_count() > 0
-                and self._subscription.get_publisher_count() > 0)
-
-    @property
-    def in_flight(self) -> bool:
-        """Whether a move is waiting for the specimen's answer."""
-        return self._in_flight is not None
-
-    def command(self, step: Any, target: Sequence[float]) -> None:
-        """Forward a checked move to the specimen."""
-        self._sequence += 1
-        message = StepCommand()
-        message.header.stamp = now_stamp()
-        message.test_id = self._session
-        message.step = self._sequence
-        message.dof_names = [f'dof{i}' for i in range(self._n_dof)]
-        message.target_displacement = [float(value) for value in target]
-        self._in_flight = (step, self._sequence)
-        self._message = message
-        self.repeat()
-
-    def repeat(self) -> None:
-        """Re-send the move in flight (the specimen answers it again without moving)."""
-        if self._message is not None and self._in_flight is not None:
-            self.sent_at = time.monotonic()
-            self._publisher.publish(self._message)
-
-    def hold(self) -> None:
-        """Stop: forget the move in flight; the specimen stays where it is."""
-        self._in_flight = None
-
-    def position(self) -> list[float]:
-        """Last measured displacement."""
-        return list(self._position)
-
-    def close(self) -> None:
-        """Release the topics."""
-        self._in_flight = None
-        self._node.destroy_publisher(self._publisher)
-        self._node.destroy_subscription(self._subscription)
-
-    def _on_feedback(self, message: StepFeedback) -> None:
-        if (self._in_flight is None or message.test_id != self._session
-                or message.step != self._in_flight[1]):
-            return
-        step = self._in_flight[0]
-        self._in_flight = None
-        if message.status != FeedbackStatus.OK:
-            if self.on_fault is not None:
-                self.on_fault(f'specimen fault at step {step}: {message.message}')
-            return
-        self._position = list(message.measured_displacement)
-        self._emit(step, list(message.measured_displacement), list(message.restoring_force))
-
-
-def _read_yaml(path: str, what: str) -> dict[str, Any]:
-    if not path:
-        msg = f'parameter {what}: a YAML file is required for this driver'
-        raise BridgeConfigError(msg)
-    try:
-        raw = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
-    except (OSError, yaml.YAMLError) as err:
-        msg = f'{path}: cannot read ({err})'
-        raise BridgeConfigError(msg) from err
-    if not isinstance(raw, dict):
-        msg = f'{path}: must be a YAML mapping'
-        raise BridgeConfigError(msg)
-    return raw
-
-
-def make_emulator_driver(test_file: str, driver_config: str, n_dof: int) -> ActuatorDriver:
-    """The emulator driver on the specimen of ``test_file`` (settings from ``driver_config``).
-
-    ``driver_config`` (optional) may hold ``emulator`` (emulator parameters), ``ramp_hold``
-    (ramp-and-hold settings) and ``errors`` (injected experimental errors) sections.
-    """
-    from pd_common.specimen import load_specimen_section, specimen_from_config  # noqa: PLC0415
-
-    from .core.emulator import EmulatorParameters, ServoHydraulicEmulator  # noqa: PLC0415
-    from .core.error_models import ErrorModel  # noqa: PLC0415
-    from .core.ramp_hold import EmulatorDriver  # noqa: PLC0415
-
-    if not test_file:
-        msg = 'parameter test_file: the emulator needs a test file with a specimen section'
-        raise BridgeConfigError(msg)
-    section, dof_names = load_specimen_section(test_file)
-    specimen = specimen_from_config(section, base_dir=Path(test_file).resolve().parent,
-                                    source=Path(test_file).name, dof_names=dof_names)
-    if specimen.n_dof != n_dof:
-        msg = (f'parameter dof_names: {n_dof} DOF but the specimen of {test_file} has '
-               f'{specimen.n_dof}')
-        raise BridgeConfigError(msg)
-    settings = _read_yaml(driver_config, 'driver_config') if driver_config else {}
-    parameters = (EmulatorParameters.from_mapping(settings['emulator'])
-                  if 'emulator' in settings else None)
-    errors = ErrorModel.from_mapping(settings['errors']) if 'errors' in settings else None
-    emulator = ServoHydraulicEmulator(specimen, parameters)
-    return EmulatorDriver(emulator, settings.get('ramp_hold'), errors=errors)
 
 
 class ActuatorBridgeNode(LifecycleNode):
@@ -225,15 +88,9 @@ class ActuatorBridgeNode(LifecycleNode):
         super().__init__('pd_actuator_bridge', namespace='pd', **kwargs)
         describe = ParameterDescriptor
         for name, default, description in (
-            ('driver', 'sim_servo', f'actuator driver: {", ".join(DRIVERS)}'),
+            ('driver', 'sim_servo', f'actuator driver: {", ".join(driver_names())}'),
             ('dof_names', ['top'], 'one name per actuator DOF'),
             ('autostart', False, 'configure and activate at start (simulated set-ups)'),
-            ('specimen_namespace', 'specimen', 'sim_servo: namespace of the specimen node'),
-            ('driver_timeout', 5.0, 'seconds one move may take before the bridge holds'),
-            ('test_file', '', 'emulator: YAML test file whose specimen section is driven'),
-            ('driver_config', '', 'emulator/daqmx: YAML file with the driver settings'),
-            ('tcp_host', '127.0.0.1', 'generic_tcp: controller server host'),
-            ('tcp_port', 44000, 'generic_tcp: controller server port'),
             ('max_displacement', 0.25, 'absolute displacement limit of every DOF [m]'),
             ('max_increment', 0.02, 'largest displacement change in one step [m]'),
             ('max_force', 1.0e5, 'absolute measured force limit [N]'),
@@ -244,6 +101,11 @@ class ActuatorBridgeNode(LifecycleNode):
             ('on_limit', 'hold', "'hold' (default) or 'saturate' (quasi-static moves only)"),
         ):
             self.declare_parameter(name, default, describe(description=description))
+        # Then the parameters of every registered driver (one ROS parameter per name, whichever
+        # drivers share it).
+        for parameter, drivers in driver_parameters():
+            self.declare_parameter(parameter.name, parameter.default, describe(
+                description=f'{"/".join(drivers)}: {parameter.description}'))
         self.bridge: ActuatorBridge | None = None
         self.driver: ActuatorDriver | None = None
         self.limits: SafetyLimits | None = None
@@ -263,9 +125,11 @@ class ActuatorBridgeNode(LifecycleNode):
         self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
         self.create_subscription(String, 'bridge/control', self._on_control, CONTROL_DEPTH)
-        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic, CONTROL_DEPTH)
+        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic,
+                                 CONTROL_DEPTH)
         # The lab-wide emergency stop: one message holds every site's bridge at once.
-        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic, CONTROL_DEPTH)
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic,
+                                 CONTROL_DEPTH)
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
@@ -345,35 +209,12 @@ class ActuatorBridgeNode(LifecycleNode):
         self.publish_status(TestStatus.STATE_IDLE, f'configured: position [{position}] m')
 
     def _make_driver(self, name: str, n_dof: int) -> ActuatorDriver:
-        value = self.get_parameter
-        if name == 'sim_servo':
-            driver = SimServoDriver(self, n_dof, value('specimen_namespace').value)
-            driver.on_fault = self._on_driver_fault
-            return driver
-        if name == 'emulator':
-            emulator = make_emulator_driver(value('test_file').value,
-                                            value('driver_config').value, n_dof)
-            emulator.set_trajectory_callback(self._publish_trajectory)  # type: ignore[attr-defined]
-            return emulator
-        if name == 'generic_tcp':
-            from .core.generic_tcp import GenericTCPDriver  # noqa: PLC0415
-
-            return GenericTCPDriver(value('tcp_host').value, int(value('tcp_port').value),
-                                    n_dof=n_dof, timeout=float(value('driver_timeout').value))
-        if name == 'opensees_adapter':
-            from .core.opensees_adapter import OpenSeesAdapterDriver  # noqa: PLC0415
-
-            return OpenSeesAdapterDriver(value('tcp_host').value, int(value('tcp_port').value),
-                                         n_dof=n_dof,
-                                         timeout=float(value('driver_timeout').value))
-        if name == 'daqmx':
-            from .core.daqmx import DaqmxConfig, DaqmxDriver  # noqa: PLC0415
-
-            path = value('driver_config').value
-            return DaqmxDriver(DaqmxConfig.from_mapping(
-                _read_yaml(path, 'driver_config').get('daqmx', {}), source=path))
-        msg = f'parameter driver: unknown driver {name!r} (available: {", ".join(DRIVERS)})'
-        raise BridgeConfigError(msg)
+        """Build the registered driver ``name`` with its declared parameters' values."""
+        parameters = {key: self.get_parameter(key).value
+                      for key in driver_spec(name).parameter_names}
+        return make_driver(name, DriverContext(
+            n_dof, parameters, on_trajectory=self._publish_trajectory,
+            on_fault=self._on_driver_fault, host=self))
 
     def _hold_driver(self) -> None:
         if self.driver is not None:

@@ -1,6 +1,6 @@
 """Run an OpenSees substructure behind an ``adapter`` element: the ``opensees_site`` executable.
 
-The bridge's ``opensees_adapter`` driver (:mod:`pd_actuator_bridge.core.opensees_adapter`) is
+The bridge's ``opensees_adapter`` driver (:mod:`pd_actuator_bridge.core.drivers.opensees_adapter`) is
 the client; this executable is the OpenSees side. It builds a model with openseespy, puts an
 ``adapter`` element on the DOF the test drives and runs a static analysis one step at a time
 for as long as the client sends trial displacements::
@@ -49,6 +49,7 @@ behind the lab's firewall. No ``rclpy`` here.
 from __future__ import annotations
 
 import argparse
+import ctypes
 import importlib.util
 import os
 import signal
@@ -209,8 +210,11 @@ def _build_model(ops: Any, args: argparse.Namespace) -> None:
 
 def run_worker(args: argparse.Namespace) -> int:
     """Build the model and analyse until the adapter ends the process (client sent 99)."""
+    # Imported here, in the worker process only: openseespy is optional (exit 2 without it),
+    # needs the LD_LIBRARY_PATH the supervisor gives the worker, and the adapter element exits
+    # the process that runs the analysis, so the supervisor must never import it.
     try:
-        import openseespy.opensees as ops  # noqa: PLC0415
+        import openseespy.opensees as ops  # noqa: PLC0415 - optional, worker only (see above)
     except Exception as exc:  # noqa: BLE001 - any import failure is reported the same way
         print(f'{PROG}: cannot import openseespy: {type(exc).__name__}: {exc}',
               file=sys.stderr, flush=True)
@@ -236,8 +240,6 @@ def run_worker(args: argparse.Namespace) -> int:
 
 def _die_with_parent() -> None:  # pragma: no cover - runs in the child before exec
     try:
-        import ctypes  # noqa: PLC0415
-
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except Exception:  # noqa: BLE001, S110 - best effort (not Linux)
         pass

@@ -1,12 +1,37 @@
 """Pure core of the actuator bridge: safety limits, actuator drivers and the bridge state machine.
 
 Pure Python (no ``rclpy``): the node shell wires it to the step command and feedback topics.
+The drivers, one module per controller family, and their registry are in :mod:`.drivers`;
+importing this package registers the built-in ones.
 """
 
 from __future__ import annotations
 
 from .bridge import ActuatorBridge, BridgeReply
-from .driver import ActuatorDriver, LoopbackDriver, MeasurementCallback, RemoteDriver
+from .drivers.base import ActuatorDriver, MeasurementCallback, RemoteDriver
+from .drivers.daqmx import DaqmxChannelConfig, DaqmxConfig, DaqmxDriver
+from .drivers.emulator import EmulatorParameters, Measurement, ServoHydraulicEmulator
+from .drivers.generic_tcp import GenericTCPClient, GenericTCPDriver
+from .drivers.generic_tcp_protocol import DaqResponse, GenericTCPError, SizeID, TrialResponse
+from .drivers.opensees_adapter import OpenSeesAdapterDriver, OpenSeesAdapterError
+from .drivers.ramp_hold import (
+    EmulatorDriver,
+    RampHoldExecutor,
+    RampHoldParameters,
+    SettleTimeoutError,
+    StepExecution,
+)
+from .drivers.registry import (
+    DriverContext,
+    DriverParameter,
+    DriverSpec,
+    driver_names,
+    driver_parameters,
+    driver_spec,
+    make_driver,
+    register_driver,
+)
+from .error_models import ErroneousStep, ErrorInjector, ErrorModel, apply_error_model
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
 from .limits import (
     LimitViolation,
@@ -24,72 +49,46 @@ __all__ = [
     'BridgeConfigError',
     'BridgeError',
     'BridgeReply',
-    'DriverError',
-    'LimitError',
-    'LimitViolation',
-    'LoopbackDriver',
-    'MeasurementCallback',
-    'RemoteDriver',
-    'SafetyLimits',
-    'Saturation',
-    'check_command',
-    'check_feedback',
-    'check_tracking',
-    'saturate_command',
-]
-
-from .daqmx import DaqmxChannelConfig, DaqmxConfig, DaqmxDriver  # noqa: E402
-
-__all__ += ['DaqmxChannelConfig', 'DaqmxConfig', 'DaqmxDriver']
-
-from .generic_tcp import (  # noqa: E402
-    DaqResponse,
-    GenericTCPClient,
-    GenericTCPDriver,
-    GenericTCPError,
-    SizeID,
-    TrialResponse,
-)
-
-__all__ += [
     'DaqResponse',
-    'GenericTCPClient',
-    'GenericTCPDriver',
-    'GenericTCPError',
-    'SizeID',
-    'TrialResponse',
-]
-
-from .opensees_adapter import OpenSeesAdapterDriver, OpenSeesAdapterError  # noqa: E402
-
-__all__ += ['OpenSeesAdapterDriver', 'OpenSeesAdapterError']
-
-from .emulator import EmulatorParameters, Measurement, ServoHydraulicEmulator  # noqa: E402
-from .error_models import (  # noqa: E402
-    ErroneousStep,
-    ErrorInjector,
-    ErrorModel,
-    apply_error_model,
-)
-from .ramp_hold import (  # noqa: E402
-    EmulatorDriver,
-    RampHoldExecutor,
-    RampHoldParameters,
-    SettleTimeoutError,
-    StepExecution,
-)
-
-__all__ += [
+    'DaqmxChannelConfig',
+    'DaqmxConfig',
+    'DaqmxDriver',
+    'DriverContext',
+    'DriverError',
+    'DriverParameter',
+    'DriverSpec',
     'EmulatorDriver',
     'EmulatorParameters',
     'ErroneousStep',
     'ErrorInjector',
     'ErrorModel',
+    'GenericTCPClient',
+    'GenericTCPDriver',
+    'GenericTCPError',
+    'LimitError',
+    'LimitViolation',
     'Measurement',
+    'MeasurementCallback',
+    'OpenSeesAdapterDriver',
+    'OpenSeesAdapterError',
     'RampHoldExecutor',
     'RampHoldParameters',
+    'RemoteDriver',
+    'SafetyLimits',
+    'Saturation',
     'ServoHydraulicEmulator',
     'SettleTimeoutError',
+    'SizeID',
     'StepExecution',
+    'TrialResponse',
     'apply_error_model',
+    'check_command',
+    'check_feedback',
+    'check_tracking',
+    'driver_names',
+    'driver_parameters',
+    'driver_spec',
+    'make_driver',
+    'register_driver',
+    'saturate_command',
 ]

@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 from pd_common.protocol import FeedbackStatus
 
-from .driver import ActuatorDriver
+from .drivers.base import ActuatorDriver
 from .errors import BridgeConfigError
 from .limits import (
     KIND_FAULT,

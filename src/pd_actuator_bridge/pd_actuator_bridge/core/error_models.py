@@ -31,7 +31,7 @@ The tracking monitors are in :mod:`pd_common.experimental.tracking`.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from numbers import Integral
 from typing import Any, TypeVar
 

@@ -1,11 +1,13 @@
-"""Actuator drivers: one per controller family (like OpenFresco's ExperimentalControl).
+"""The actuator driver interface: one driver per controller family (OpenFresco's expControl).
 
 A driver moves the actuator and reports what it measured. It is asynchronous-friendly: a real
 controller (or the simulated servo) answers later through the measurement callback, while a
 synchronous driver calls the callback before :meth:`ActuatorDriver.command` returns.
 
-Drivers perform no safety checks of their own: the :class:`~.bridge.ActuatorBridge` calls
-:meth:`ActuatorDriver.command` only with targets that passed its limits.
+Drivers perform no safety checks of their own: the :class:`~..bridge.ActuatorBridge` calls
+:meth:`ActuatorDriver.command` only with targets that passed its limits. A new driver is one
+module with its class and one :class:`~.registry.DriverSpec` registered with
+:func:`~.registry.register_driver` (see :mod:`.registry`).
 """
 
 from __future__ import annotations
@@ -14,14 +16,27 @@ import abc
 import math
 from collections.abc import Callable, Sequence
 
-from .errors import BridgeConfigError, DriverError
+from ..errors import BridgeConfigError, DriverError
 
 MeasurementCallback = Callable[[int, list[float], list[float]], None]
 """``cb(step, displacement, force)``: displacement in m and force in N, one value per DOF."""
 
 
 class ActuatorDriver(abc.ABC):
-    """Interface between the bridge and one actuator controller."""
+    """Interface between the bridge and one actuator controller.
+
+    The operations, with the names OpenFresco's ``ExperimentalControl`` gives them:
+
+    * :meth:`open` — ``setup()``: connect and learn the current state; never moves anything.
+    * :meth:`command` — ``setTrialResponse()`` followed by ``getDaqResponse()``: move to the
+      trial displacement and report the measured displacement and force through the
+      measurement callback (before returning, or later for an asynchronous driver).
+    * :meth:`position` — the displacement part of the last ``getDaqResponse()``.
+    * :meth:`hold` — no OpenFresco counterpart: stop and keep the current position.
+    * :meth:`close` — the destructor (GenericTCP's ``DIE``, 99).
+    * ``commitState()`` has no counterpart: the bridge keeps no committed state in the driver
+      (OpenFresco's GenericTCP client sends nothing on commit either).
+    """
 
     def __init__(self) -> None:
         """Create the driver with no measurement callback."""
@@ -33,7 +48,7 @@ class ActuatorDriver(abc.ABC):
         """Number of actuated DOF."""
 
     def open(self) -> None:  # noqa: B027 - optional hook
-        """Connect to the controller. The default does nothing."""
+        """Connect to the controller (OpenFresco ``setup``). The default does nothing."""
 
     def close(self) -> None:  # noqa: B027 - optional hook
         """Disconnect from the controller. The default does nothing."""
@@ -42,8 +57,9 @@ class ActuatorDriver(abc.ABC):
     def command(self, step: int, target: Sequence[float]) -> None:
         """Start moving to ``target`` (m, one value per DOF) for ``step``.
 
-        The measurement is reported through the callback, later or (synchronous drivers) before
-        this method returns.
+        OpenFresco's ``setTrialResponse`` and ``getDaqResponse`` in one call: the measurement is
+        reported through the callback, later or (synchronous drivers) before this method
+        returns.
 
         Raises:
             DriverError: If the command cannot be executed.
@@ -163,102 +179,6 @@ class RemoteDriver(ActuatorDriver):
         return list(self._position)
 
     def _store(self, displacement: Sequence[float], force: Sequence[float]) -> None:
+        """Keep a measurement as the last position and force."""
         self._position = [float(x) for x in displacement]
         self._force = [float(f) for f in force]
-
-
-class LoopbackDriver(ActuatorDriver):
-    """Synchronous in-process driver for tests and ROS-free use.
-
-    It moves exactly to the target and answers inside :meth:`command` with the force returned by
-    ``restoring_force`` (e.g. a specimen model).
-
-    Attributes:
-        commands: Every ``(step, target)`` received by :meth:`command`, in order.
-        hold_count: Number of :meth:`hold` calls.
-        is_open: Whether :meth:`open` was called (and :meth:`close` not since).
-    """
-
-    def __init__(
-        self,
-        restoring_force: Callable[[list[float]], Sequence[float]],
-        n_dof: int = 1,
-        initial_position: Sequence[float] | None = None,
-    ) -> None:
-        """Create the driver.
-
-        Args:
-            restoring_force: Maps a displacement per DOF (m) to a force per DOF (N).
-            n_dof: Number of DOF.
-            initial_position: Starting displacement per DOF, m; zeros if omitted.
-
-        Raises:
-            BridgeConfigError: On a bad ``n_dof`` or ``initial_position``.
-        """
-        super().__init__()
-        if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
-            raise BridgeConfigError(
-                f'LoopbackDriver: n_dof must be a positive integer, got {n_dof!r}'
-            )
-        if not callable(restoring_force):
-            raise BridgeConfigError('LoopbackDriver: restoring_force must be callable')
-        if initial_position is None:
-            position = [0.0] * n_dof
-        else:
-            position = [float(x) for x in initial_position]
-        if len(position) != n_dof:
-            raise BridgeConfigError(
-                f'LoopbackDriver: initial_position has {len(position)} values, expected {n_dof}'
-            )
-        self._restoring_force = restoring_force
-        self._n_dof = n_dof
-        self._position = position
-        self.commands: list[tuple[int, tuple[float, ...]]] = []
-        self.hold_count = 0
-        self.is_open = False
-
-    @property
-    def n_dof(self) -> int:
-        """Number of DOF."""
-        return self._n_dof
-
-    def open(self) -> None:
-        """Mark the driver open."""
-        self.is_open = True
-
-    def close(self) -> None:
-        """Mark the driver closed."""
-        self.is_open = False
-
-    def command(self, step: int, target: Sequence[float]) -> None:
-        """Move exactly to ``target`` and report the restoring force immediately.
-
-        Raises:
-            DriverError: If the driver is not open, the target has the wrong length or the
-                restoring force cannot be computed.
-        """
-        values = tuple(float(x) for x in target)
-        self.commands.append((step, values))
-        if not self.is_open:
-            raise DriverError('LoopbackDriver: command() called before open()')
-        if len(values) != self._n_dof:
-            raise DriverError(
-                f'LoopbackDriver: target has {len(values)} values, expected {self._n_dof}'
-            )
-        self._position = list(values)
-        try:
-            force = [float(f) for f in self._restoring_force(list(values))]
-        except Exception as exc:  # noqa: BLE001 - any model failure is a driver failure
-            raise DriverError(
-                f'LoopbackDriver: restoring_force failed at step {step}: '
-                f'{type(exc).__name__}: {exc}'
-            ) from exc
-        self._emit(step, list(self._position), force)
-
-    def hold(self) -> None:
-        """Hold position (a loopback actuator is always at rest between commands)."""
-        self.hold_count += 1
-
-    def position(self) -> list[float]:
-        """Return the current displacement per DOF, m."""
-        return list(self._position)

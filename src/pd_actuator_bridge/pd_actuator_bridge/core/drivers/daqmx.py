@@ -19,7 +19,9 @@ and N and reports the measurement before it returns. All calibrations are linear
 
 The ``nidaqmx`` package is imported only inside :meth:`DaqmxDriver.open` and only when no task
 factory is injected, so it is not a dependency of the rest of the package; tests inject a fake
-task. **This driver has not been run on hardware.**
+task. **This driver has not been run on hardware.** Registered as the ``daqmx`` driver
+(:data:`DAQMX`): the ``driver_config`` parameter names a YAML file with a ``daqmx`` section
+(``config/daqmx_example.yaml``).
 
 nidaqmx API used (checked against NI's sources and documentation):
 
@@ -56,9 +58,17 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+import yaml
 
-from .driver import ActuatorDriver
-from .errors import BridgeConfigError, DriverError
+from ..errors import BridgeConfigError, DriverError
+from .base import ActuatorDriver
+from .registry import (
+    DriverContext,
+    DriverParameter,
+    DriverSpec,
+    read_yaml_parameter,
+    register_driver,
+)
 
 TaskFactory = Callable[[str], Any]
 """``factory(role)``: a new task with the ``nidaqmx.Task`` interface; ``role`` is ``'command'``
@@ -100,8 +110,6 @@ _CHANNEL_OPTIONAL = (
     'force_offset', 'force_min_voltage', 'force_max_voltage',
 )
 _SIGNALS = ('command', 'displacement', 'force')
-_SCALE_UNITS = {'command': 'm/V', 'displacement': 'm/V', 'force': 'N/V'}
-_OFFSET_UNITS = {'command': 'm', 'displacement': 'm', 'force': 'N'}
 
 _CONFIG_REQUIRED = ('channels',)
 _CONFIG_OPTIONAL = (
@@ -272,8 +280,6 @@ class DaqmxConfig:
             BridgeConfigError: If the file cannot be read or parsed, the section is missing, or
                 a value is invalid.
         """
-        import yaml  # local: only this loader needs PyYAML
-
         path = Path(path)
         source = path.name
         try:
@@ -612,8 +618,11 @@ class DaqmxDriver(ActuatorDriver):
         if self._task_factory is not None:
             constants = self._constants if self._constants is not None else SYMBOLIC_CONSTANTS
             return self._task_factory, constants
+        # nidaqmx is imported here, not at the top: it is an optional hardware package (NI's
+        # driver must be installed too) that nothing but a real DAQ needs, so the module, its
+        # tests (which inject a fake task) and every other driver work without it.
         try:
-            import nidaqmx  # noqa: PLC0415 - optional dependency, imported on demand
+            import nidaqmx  # noqa: PLC0415 - optional hardware package, see above
             import nidaqmx.constants  # noqa: PLC0415
         except ImportError as exc:
             raise DriverError(
@@ -850,3 +859,20 @@ def _check_config(values: Mapping[str, Any], source: str) -> dict[str, Any]:
         'settle_time': settle_time,
         'timeout': timeout,
     }
+
+
+def make_daqmx_driver(context: DriverContext) -> DaqmxDriver:
+    """The ``daqmx`` driver configured by the ``daqmx`` section of the ``driver_config`` file."""
+    path = context.parameters['driver_config']
+    settings = read_yaml_parameter(path, 'driver_config')
+    return DaqmxDriver(DaqmxConfig.from_mapping(settings.get('daqmx', {}), source=path))
+
+
+DAQMX = DriverSpec(
+    name='daqmx',
+    factory=make_daqmx_driver,
+    parameters=(DriverParameter('driver_config', '', 'YAML file with the driver settings'),),
+    description='analog command out / conditioned feedback in through NI DAQ hardware '
+                '(untested on hardware)',
+)
+register_driver(DAQMX)

@@ -62,17 +62,19 @@ import time
 
 import numpy as np
 
-from .driver import RemoteDriver
-from .errors import BridgeConfigError, DriverError
-from .generic_tcp import (
+from ..errors import BridgeConfigError, DriverError
+from .base import RemoteDriver
+from .generic_tcp_protocol import (
     DEFAULT_DATA_SIZE,
     SizeID,
     decode_vector,
+    describe_error,
     encode_action,
     encode_size_id,
     pending_bytes,
     recv_exact,
 )
+from .registry import DriverContext, DriverParameter, DriverSpec, register_driver
 
 ACTION_SET_TRIAL_RESPONSE = 3
 """``RemoteTest_setTrialResponse``: ``[3, ctrl disp…]``, no reply."""
@@ -229,7 +231,7 @@ class OpenSeesAdapterDriver(RemoteDriver):
             except TimeoutError:
                 last = 'connection attempt timed out'
             except OSError as exc:
-                raise self._error('connect', _describe(exc)) from None
+                raise self._error('connect', describe_error(exc)) from None
             else:
                 sock.settimeout(self._timeout)
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -270,7 +272,7 @@ class OpenSeesAdapterDriver(RemoteDriver):
             raise self._error(action, f'send timed out after {self._timeout:g} s') from None
         except OSError as exc:
             self._drop()
-            raise self._error(action, f'OpenSees closed the connection ({_describe(exc)})') \
+            raise self._error(action, f'OpenSees closed the connection ({describe_error(exc)})') \
                 from None
 
     def _acquire(self, action: str) -> np.ndarray:
@@ -317,6 +319,24 @@ class OpenSeesAdapterDriver(RemoteDriver):
         return daq[:n].tolist(), daq[n:2 * n].tolist()
 
 
-def _describe(exc: BaseException) -> str:
-    text = str(exc)
-    return f'{type(exc).__name__}: {text}' if text else type(exc).__name__
+def make_opensees_adapter_driver(context: DriverContext) -> OpenSeesAdapterDriver:
+    """The ``opensees_adapter`` driver for the adapter element at ``tcp_host:tcp_port``."""
+    parameters = context.parameters
+    return OpenSeesAdapterDriver(parameters['tcp_host'], int(parameters['tcp_port']),
+                                 n_dof=context.n_dof,
+                                 timeout=float(parameters['driver_timeout']))
+
+
+OPENSEES_ADAPTER = DriverSpec(
+    name='opensees_adapter',
+    factory=make_opensees_adapter_driver,
+    parameters=(
+        DriverParameter('tcp_host', '127.0.0.1', 'host running the OpenSees adapter element'),
+        DriverParameter('tcp_port', 44000, "the adapter element's port"),
+        DriverParameter('driver_timeout', 5.0,
+                        'seconds one move (one OpenSees analysis step) may take'),
+    ),
+    description="client of OpenSees's adapter element: an OpenSees substructure as a site "
+                '(run opensees_site)',
+)
+register_driver(OPENSEES_ADAPTER)

@@ -96,9 +96,10 @@ from numbers import Integral, Real
 from typing import Any, Protocol
 
 import numpy as np
+from scipy.linalg import expm
 
-from .error_models import parameters_from_mapping
-from .errors import BridgeConfigError, DriverError
+from ..error_models import parameters_from_mapping
+from ..errors import BridgeConfigError, DriverError
 
 MIN_RATE = 1000.0
 """Lowest accepted controller rate, Hz."""
@@ -108,7 +109,7 @@ MAX_FRICTION_STIFFNESS_NUMBER = 0.5
 
 
 class SpecimenModel(Protocol):
-    """What the emulator needs from a specimen (e.g. :class:`pd_specimen_sim.core.Specimen`)."""
+    """What the emulator needs from a specimen (e.g. :class:`pd_common.specimen.Specimen`)."""
 
     @property
     def n_dof(self) -> int:
@@ -471,8 +472,6 @@ class ServoHydraulicEmulator:
 
     def _build_discretisation(self) -> None:
         """Exact zero-order-hold discretisation of the linear plant at the sub-step."""
-        from scipy.linalg import expm  # noqa: PLC0415 - keeps importing the core light
-
         p, n = self._p, self._n
         eye = np.eye(n)
         k_h = p.hydraulic_stiffness

@@ -13,8 +13,9 @@ noise.
 
 :class:`RampHoldExecutor` runs it on a :class:`~.emulator.ServoHydraulicEmulator` and returns a
 :class:`StepExecution` with the sub-step trajectory at the controller rate. :class:`EmulatorDriver`
-is the synchronous :class:`~.driver.ActuatorDriver` through which the
-:class:`~.bridge.ActuatorBridge` drives the emulator.
+is the synchronous :class:`~.base.ActuatorDriver` through which the
+:class:`~..bridge.ActuatorBridge` drives the emulator: the ``emulator`` driver (:data:`EMULATOR`,
+built by :func:`make_emulator_driver` on the specimen of a test file).
 """
 
 from __future__ import annotations
@@ -24,14 +25,23 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from numbers import Integral, Real
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pd_common.specimen import load_specimen_section, specimen_from_config
 
-from .driver import ActuatorDriver
-from .emulator import ServoHydraulicEmulator
-from .error_models import ErrorInjector, ErrorModel
-from .errors import BridgeConfigError, DriverError
+from ..error_models import ErrorInjector, ErrorModel
+from ..errors import BridgeConfigError, DriverError
+from .base import ActuatorDriver
+from .emulator import EmulatorParameters, ServoHydraulicEmulator
+from .registry import (
+    DriverContext,
+    DriverParameter,
+    DriverSpec,
+    read_yaml_parameter,
+    register_driver,
+)
 
 DEFAULT_RAMP_TIME = 0.1
 """Ramp duration used when neither ``ramp_time`` nor ``ramp_velocity`` is set, s."""
@@ -436,7 +446,7 @@ class EmulatorDriver(ActuatorDriver):
     It answers inside :meth:`command` through the measurement callback, with the averaged
     measurement. It keeps the last :class:`StepExecution` (its trajectory is what the node
     records at the controller rate) and passes every execution to an optional trajectory
-    callback. A settling timeout, or any emulator failure, raises :class:`~.errors.DriverError`
+    callback. A settling timeout, or any emulator failure, raises :class:`~..errors.DriverError`
     (the bridge then holds with a fault).
 
     Attributes:
@@ -518,3 +528,50 @@ class EmulatorDriver(ActuatorDriver):
         self.last_execution = execution
         if self._trajectory_callback is not None:
             self._trajectory_callback(step, execution)
+
+
+def make_emulator_driver(context: DriverContext) -> EmulatorDriver:
+    """The emulator driver on the specimen of ``test_file`` (settings from ``driver_config``).
+
+    ``driver_config`` (optional) may hold ``emulator`` (emulator parameters), ``ramp_hold``
+    (ramp-and-hold settings) and ``errors`` (injected experimental errors) sections. Every step's
+    execution goes to ``context.on_trajectory``.
+
+    Raises:
+        BridgeConfigError: Without a test file, on a specimen with another number of DOF or on
+            bad settings.
+    """
+    test_file = context.parameters['test_file']
+    driver_config = context.parameters['driver_config']
+    n_dof = context.n_dof
+    if not test_file:
+        msg = 'parameter test_file: the emulator needs a test file with a specimen section'
+        raise BridgeConfigError(msg)
+    section, dof_names = load_specimen_section(test_file)
+    specimen = specimen_from_config(section, base_dir=Path(test_file).resolve().parent,
+                                    source=Path(test_file).name, dof_names=dof_names)
+    if specimen.n_dof != n_dof:
+        msg = (f'parameter dof_names: {n_dof} DOF but the specimen of {test_file} has '
+               f'{specimen.n_dof}')
+        raise BridgeConfigError(msg)
+    settings = read_yaml_parameter(driver_config, 'driver_config') if driver_config else {}
+    parameters = (EmulatorParameters.from_mapping(settings['emulator'])
+                  if 'emulator' in settings else None)
+    errors = ErrorModel.from_mapping(settings['errors']) if 'errors' in settings else None
+    emulator = ServoHydraulicEmulator(specimen, parameters)
+    driver = EmulatorDriver(emulator, settings.get('ramp_hold'), errors=errors)
+    driver.set_trajectory_callback(context.on_trajectory)
+    return driver
+
+
+EMULATOR = DriverSpec(
+    name='emulator',
+    factory=make_emulator_driver,
+    parameters=(
+        DriverParameter('test_file', '', 'YAML test file whose specimen section is driven'),
+        DriverParameter('driver_config', '', 'YAML file with the driver settings'),
+    ),
+    description='in-process servo-hydraulic actuator emulator driving the specimen of '
+                'test_file by ramp-and-hold; sub-step trajectories on bridge/trajectory',
+)
+register_driver(EMULATOR)

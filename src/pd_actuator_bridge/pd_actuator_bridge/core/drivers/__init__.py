@@ -1,0 +1,20 @@
+"""Actuator drivers: the interface, the registry and one module per controller family.
+
+* :mod:`.base`: :class:`~.base.ActuatorDriver` (the interface), :class:`~.base.RemoteDriver`.
+* :mod:`.registry`: name -> :class:`~.registry.DriverSpec` (factory, parameters).
+* ``emulator``: :mod:`.emulator` (the servo-hydraulic actuator emulator) and :mod:`.ramp_hold`
+  (its ramp-and-hold executor and :class:`~.ramp_hold.EmulatorDriver`).
+* ``generic_tcp``: :mod:`.generic_tcp` (OpenFresco GenericTCP client), wire format in
+  :mod:`.generic_tcp_protocol`.
+* ``opensees_adapter``: :mod:`.opensees_adapter` (client of OpenSees's adapter element).
+* ``daqmx``: :mod:`.daqmx` (NI DAQ analog I/O).
+
+Importing this package registers those four drivers; the node shell adds ``sim_servo``.
+"""
+
+from __future__ import annotations
+
+# Importing the driver modules registers their drivers.
+from . import daqmx, generic_tcp, opensees_adapter, ramp_hold
+
+__all__ = ['daqmx', 'generic_tcp', 'opensees_adapter', 'ramp_hold']

@@ -1,0 +1,277 @@
+"""The driver registry: the name of every actuator driver and how to build it.
+
+Adding a controller family is one module plus one registration. Next to its driver class the
+module declares a :class:`DriverSpec` (the name, a factory, the parameters the driver needs with
+their defaults and descriptions, a one-line description) and registers it::
+
+    GENERIC_TCP = DriverSpec(
+        name='generic_tcp',
+        factory=make_generic_tcp_driver,
+        parameters=(DriverParameter('tcp_host', '127.0.0.1', 'controller server host'), ...),
+        description='client of an OpenFresco GenericTCP controller-side server',
+    )
+    register_driver(GENERIC_TCP)
+
+Importing :mod:`pd_actuator_bridge.core.drivers` registers the built-in pure drivers
+(``emulator``, ``generic_tcp``, ``opensees_adapter``, ``daqmx``); the node shell registers
+``sim_servo`` (:mod:`pd_actuator_bridge.sim_servo`, which needs ``rclpy``). The node declares
+every registered driver's parameters as ROS parameters and builds the selected driver with
+:func:`make_driver`. A parameter several drivers declare (``tcp_host``, ``driver_config``, ...)
+is one ROS parameter, so every declaration of it must have the same default.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import yaml
+
+from ..errors import BridgeConfigError
+from .base import ActuatorDriver
+
+ParameterValue = bool | int | float | str
+"""Types a driver parameter (a ROS parameter) may have."""
+
+FaultCallback = Callable[[str], None]
+"""``cb(message)``: an asynchronous driver reports a fault found outside :meth:`command`."""
+
+TrajectoryCallback = Callable[[Any, Any], None]
+"""``cb(step, execution)``: a driver reports the sub-step trajectory of a step (the emulator's
+:class:`~.ramp_hold.StepExecution`)."""
+
+_NAME = re.compile(r'[a-z][a-z0-9_]*')
+
+_REGISTRY: dict[str, DriverSpec] = {}
+
+
+@dataclass(frozen=True)
+class DriverParameter:
+    """One parameter a driver needs (declared by the node as a ROS parameter).
+
+    Attributes:
+        name: Parameter name (lower case, digits and underscores), e.g. ``'tcp_port'``.
+        default: Default value; its type is the parameter's type.
+        description: One line for the parameter's ROS descriptor.
+
+    Raises:
+        BridgeConfigError: On a bad name, default or description.
+    """
+
+    name: str
+    default: ParameterValue
+    description: str
+
+    def __post_init__(self) -> None:
+        """Check the fields."""
+        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
+            msg = f'driver parameter {self.name!r}: name must match {_NAME.pattern}'
+            raise BridgeConfigError(msg)
+        if not isinstance(self.default, ParameterValue):
+            msg = (f'driver parameter {self.name}: default must be a bool, int, float or str, '
+                   f'got {type(self.default).__name__}')
+            raise BridgeConfigError(msg)
+        if not isinstance(self.description, str) or not self.description:
+            msg = f'driver parameter {self.name}: description must be a non-empty string'
+            raise BridgeConfigError(msg)
+
+
+@dataclass(frozen=True)
+class DriverContext:
+    """Everything a driver factory gets.
+
+    Attributes:
+        n_dof: Number of actuated DOF (one per name of the node's ``dof_names``).
+        parameters: Values of the driver's declared parameters, by name (:func:`make_driver`
+            completes the missing ones with their defaults).
+        on_trajectory: Receives ``(step, execution)`` from a driver that records sub-step
+            trajectories (the emulator); ``None``: not recorded.
+        on_fault: Receives the message of a fault an asynchronous driver finds outside
+            :meth:`~.base.ActuatorDriver.command` (``sim_servo``: a specimen fault).
+        host: Whatever a shell-side driver needs from its host, e.g. the ``rclpy`` node that
+            ``sim_servo`` publishes from; ``None`` for the pure drivers.
+    """
+
+    n_dof: int
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+    on_trajectory: TrajectoryCallback | None = None
+    on_fault: FaultCallback | None = None
+    host: Any = None
+
+
+DriverFactory = Callable[[DriverContext], ActuatorDriver]
+"""``factory(context)``: builds the driver (not opened yet)."""
+
+
+@dataclass(frozen=True)
+class DriverSpec:
+    """The registration of one driver.
+
+    Attributes:
+        name: The value of the node's ``driver`` parameter that selects it.
+        factory: Builds the driver from a :class:`DriverContext`.
+        parameters: The parameters the driver needs, with defaults and descriptions.
+        description: One line saying what answers (for listings and documentation).
+
+    Raises:
+        BridgeConfigError: On a bad field or a parameter declared twice.
+    """
+
+    name: str
+    factory: DriverFactory
+    parameters: tuple[DriverParameter, ...] = ()
+    description: str = ''
+
+    def __post_init__(self) -> None:
+        """Check the fields."""
+        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
+            msg = f'driver {self.name!r}: name must match {_NAME.pattern}'
+            raise BridgeConfigError(msg)
+        if not callable(self.factory):
+            msg = f'driver {self.name}: factory must be callable'
+            raise BridgeConfigError(msg)
+        if not isinstance(self.parameters, tuple) or not all(
+                isinstance(parameter, DriverParameter) for parameter in self.parameters):
+            msg = f'driver {self.name}: parameters must be a tuple of DriverParameter'
+            raise BridgeConfigError(msg)
+        names = [parameter.name for parameter in self.parameters]
+        for name in names:
+            if names.count(name) > 1:
+                msg = f'driver {self.name}: parameter {name} is declared twice'
+                raise BridgeConfigError(msg)
+        if not isinstance(self.description, str):
+            msg = f'driver {self.name}: description must be a string'
+            raise BridgeConfigError(msg)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the declared parameters, in declaration order."""
+        return tuple(parameter.name for parameter in self.parameters)
+
+    def parameter(self, name: str) -> DriverParameter | None:
+        """The declared parameter ``name``, or ``None``."""
+        for parameter in self.parameters:
+            if parameter.name == name:
+                return parameter
+        return None
+
+    def resolve(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """The declared parameters' defaults, updated with ``values``.
+
+        Raises:
+            BridgeConfigError: If ``values`` has a key the driver does not declare.
+        """
+        resolved = {parameter.name: parameter.default for parameter in self.parameters}
+        for name in values:
+            if name not in resolved:
+                expected = ', '.join(self.parameter_names) or 'none'
+                msg = (f'driver {self.name}: unknown parameter {name!r} '
+                       f'(its parameters: {expected})')
+                raise BridgeConfigError(msg)
+        resolved.update(values)
+        return resolved
+
+
+def register_driver(spec: DriverSpec) -> DriverSpec:
+    """Register ``spec`` under its name and return it.
+
+    Raises:
+        BridgeConfigError: If ``spec`` is not a :class:`DriverSpec`, its name is taken, or it
+            declares a parameter that another driver declares with a different default (both
+            are one ROS parameter).
+    """
+    if not isinstance(spec, DriverSpec):
+        msg = f'register_driver: expected a DriverSpec, got {type(spec).__name__}'
+        raise BridgeConfigError(msg)
+    if spec.name in _REGISTRY:
+        msg = f'driver {spec.name}: a driver of that name is already registered'
+        raise BridgeConfigError(msg)
+    for parameter in spec.parameters:
+        for other in _REGISTRY.values():
+            theirs = other.parameter(parameter.name)
+            if theirs is not None and (type(theirs.default), theirs.default) != (
+                    type(parameter.default), parameter.default):
+                msg = (f'driver {spec.name}: parameter {parameter.name}: default '
+                       f'{parameter.default!r} differs from {theirs.default!r} of driver '
+                       f'{other.name}')
+                raise BridgeConfigError(msg)
+    _REGISTRY[spec.name] = spec
+    return spec
+
+
+def driver_names() -> tuple[str, ...]:
+    """Names of the registered drivers, sorted."""
+    return tuple(sorted(_REGISTRY))
+
+
+def driver_spec(name: str) -> DriverSpec:
+    """The registration of driver ``name``.
+
+    Raises:
+        BridgeConfigError: If no driver of that name is registered (the message lists them).
+    """
+    spec = _REGISTRY.get(name)
+    if spec is None:
+        msg = f'parameter driver: unknown driver {name!r} (available: {", ".join(driver_names())})'
+        raise BridgeConfigError(msg)
+    return spec
+
+
+def driver_parameters() -> tuple[tuple[DriverParameter, tuple[str, ...]], ...]:
+    """Every distinct driver parameter, sorted by name, with the drivers that declare it.
+
+    The parameter is the declaration of the first of those drivers (in name order); all of
+    them have its default (:func:`register_driver` checks that).
+    """
+    users: dict[str, list[str]] = {}
+    first: dict[str, DriverParameter] = {}
+    for name in driver_names():
+        for parameter in _REGISTRY[name].parameters:
+            first.setdefault(parameter.name, parameter)
+            users.setdefault(parameter.name, []).append(name)
+    return tuple((first[key], tuple(users[key])) for key in sorted(first))
+
+
+def make_driver(name: str, context: DriverContext) -> ActuatorDriver:
+    """Build driver ``name`` (not opened yet).
+
+    The factory gets ``context`` with every declared parameter: the given values, the defaults
+    for the others.
+
+    Raises:
+        BridgeConfigError: On an unknown driver, an unknown parameter, a factory that returns
+            no :class:`~.base.ActuatorDriver`, or whatever the factory refuses.
+    """
+    spec = driver_spec(name)
+    parameters = MappingProxyType(spec.resolve(context.parameters))
+    driver = spec.factory(replace(context, parameters=parameters))
+    if not isinstance(driver, ActuatorDriver):
+        msg = f'driver {name}: the factory returned {type(driver).__name__}, not an ActuatorDriver'
+        raise BridgeConfigError(msg)
+    return driver
+
+
+def read_yaml_parameter(path: str, parameter: str) -> dict[str, Any]:
+    """Read the YAML mapping in file ``path``, the value of parameter ``parameter``.
+
+    For factories whose settings are in a file named by a parameter (``driver_config``).
+
+    Raises:
+        BridgeConfigError: If ``path`` is empty, cannot be read or parsed, or is not a mapping.
+    """
+    if not path:
+        msg = f'parameter {parameter}: a YAML file is required for this driver'
+        raise BridgeConfigError(msg)
+    try:
+        raw = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
+    except (OSError, yaml.YAMLError) as err:
+        msg = f'{path}: cannot read ({err})'
+        raise BridgeConfigError(msg) from err
+    if not isinstance(raw, dict):
+        msg = f'{path}: must be a YAML mapping'
+        raise BridgeConfigError(msg)
+    return raw
