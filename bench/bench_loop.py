@@ -7,7 +7,7 @@ Run inside the sourced workspace (``. scripts/env.sh``)::
 or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
 
 1. ROS-free core, default test (``config/default_test.yaml``): steps/s of
-   ``pd_integrator.core.runner.run_offline`` (session + simulated specimen + MCAP bag), and of
+   ``pd_integrator.core.run.runner.run_offline`` (session + simulated specimen + MCAP bag), and of
    the session loop alone (``TestSession`` + ``SpecimenServer``, no bag); best of 3.
 2. The node graph, one process per node, started by the launcher (``run_test``) for
    ``--site bridge`` and ``--site direct``, best of 2 runs (concurrent load on the machine
@@ -266,10 +266,10 @@ def _best(samples: list[float]) -> float:
 
 def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS."""
-    from pd_integrator.core.config import load_test_file
+    from pd_integrator.core.run.test_file import load_test_file
     from pd_common.protocol import Feedback, FeedbackStatus
-    from pd_integrator.core.runner import run_offline
-    from pd_integrator.core.session import TestSession
+    from pd_integrator.core.run.runner import run_offline
+    from pd_integrator.core.run.session import TestSession
     from pd_common.specimen import SpecimenServer, specimen_from_config
 
     definition = load_test_file(DEFAULT_TEST, overrides)
@@ -316,7 +316,7 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
 # -- 2. node graph --------------------------------------------------------------------------
 def _round_trips_from_bag(bag: Path) -> list[float]:
     """Round trips [s]: accepted feedback log time minus its step's last command log time."""
-    from pd_integrator.core.bag import read_bag
+    from pd_integrator.core.run.bag import read_bag
     from pd_common.protocol import Command, FeedbackStatus
 
     samples: list[float] = []
@@ -651,7 +651,7 @@ def session_loop(definition: Any) -> tuple[float, int]:
         RuntimeError: the session stopped before the last step.
     """
     from pd_common.protocol import Feedback, FeedbackStatus, TestState
-    from pd_integrator.core.session import TestSession
+    from pd_integrator.core.run.session import TestSession
     from pd_common.specimen import SpecimenServer, specimen_from_config
 
     specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
@@ -685,7 +685,7 @@ def shear_building_definition() -> tuple[Any, float, float, float]:
     """
     import numpy as np
     import scipy.linalg
-    from pd_integrator.core.config import from_dict
+    from pd_integrator.core.run.test_file import from_dict
     from pd_integrator.core.schemes import SCHEMES
 
     n = SHEAR_STORIES
@@ -733,7 +733,7 @@ def _best_rate(definition: Any, repeats: int) -> tuple[float, int]:
 
 def bench_schemes(schemes: list[str], overrides: dict[str, Any], verbose: bool) -> SchemeBench:
     """Section 5: per scheme, steps/s of the ROS-free core for the SDOF and the 200-DOF test."""
-    from pd_integrator.core.config import load_test_file
+    from pd_integrator.core.run.test_file import load_test_file
 
     result = SchemeBench()
     if not schemes:
@@ -912,7 +912,7 @@ def main(argv: list[str] | None = None) -> int:
     overrides: dict[str, Any] = {'duration': QUICK_DURATION} if args.quick else {}
     param_args = ['-p', f'duration:={QUICK_DURATION}'] if args.quick else []
 
-    from pd_integrator.core.config import load_test_file
+    from pd_integrator.core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     try:

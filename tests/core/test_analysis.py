@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,26 +13,28 @@ import pytest
 import scipy.linalg
 
 from pd_integrator import analyze
-from pd_integrator.core import analysis
-from pd_integrator.core.analysis import (
+from pd_integrator.core.dynamics import analysis
+from pd_integrator.core.dynamics.analysis import (
     SWEEP_COLUMNS,
     SpectralProperties,
     expected_period_error,
     has_amplification_matrix,
     spectral_properties,
     sweep,
-    write_sweep_csv,
 )
+from pd_integrator.core.dynamics.analysis_figures import write_sweep_csv
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.schemes import SCHEMES, Integrator, NewmarkExplicit, make_integrator
-from support.spectra import assert_same_spectrum
-from pd_integrator.core.stability import (
+from pd_integrator.core.schemes import (
+    SCHEMES,
+    Integrator,
+    NewmarkExplicit,
+    SchemeParameter,
     amplification_matrix_newmark_explicit,
-    check_stability,
+    make_integrator,
     newmark_explicit_numerical_frequency,
-    period_distortion,
-    period_shrinkage,
 )
+from pd_integrator.core.dynamics.stability import check_stability, period_distortion, period_shrinkage
+from support.spectra import assert_same_spectrum
 
 OMEGA = 3.0  # rad/s of the free-vibration SDOF (m = 1, k = OMEGA**2)
 NE_GRID = [1e-3, 0.01, 0.1, 0.3, 0.7, 1.0, 1.2, math.sqrt(2.0), 1.5, 1.8, 1.95, 1.999]
@@ -59,14 +62,17 @@ class _Synthetic(Integrator):
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         return self._a, self._v
 
+    PARAMETERS = (SchemeParameter('scale', 1.0, 0.0, 2.0),
+                  SchemeParameter('spurious', None, -2.0, 2.0))
+
     @classmethod
-    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0, scale: float = 1.0,
-                             spurious: float | None = None) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         exact = scipy.linalg.expm(np.array([[0.0, 1.0],
                                             [-omega_dt**2, -2.0 * xi * omega_dt]]))
-        matrix = scale * exact
-        if spurious is not None:
-            matrix = scipy.linalg.block_diag(matrix, [[spurious]])
+        matrix = parameters['scale'] * exact
+        if parameters['spurious'] is not None:
+            matrix = scipy.linalg.block_diag(matrix, [[parameters['spurious']]])
         return matrix
 
 
@@ -91,10 +97,13 @@ class _Diagonal(_Synthetic):
 
     name = 'diagonal'
 
+    PARAMETERS = (SchemeParameter('first', 0.5, -2.0, 2.0),
+                  SchemeParameter('second', 0.3, -2.0, 2.0))
+
     @classmethod
-    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0, first: float = 0.5,
-                             second: float = 0.3) -> np.ndarray:
-        return np.diag([first, second, 0.0])
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
+        return np.diag([parameters['first'], parameters['second'], 0.0])
 
 
 class _Opaque(_Synthetic):
@@ -102,8 +111,11 @@ class _Opaque(_Synthetic):
 
     name = 'opaque'
 
+    PARAMETERS = ()
+
     @classmethod
-    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         raise NotImplementedError('opaque')
 
 

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_integrator.core.config import from_json, load_test_file
+from pd_integrator.core.run.test_file import from_json, load_test_file
 from pd_integrator.core.errors import ConfigError
 
 if TYPE_CHECKING:
-    from pd_integrator.core.config import TestDefinition
+    from pd_integrator.core.run.definition import TestDefinition
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'

@@ -14,19 +14,16 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from pd_integrator import core
-from pd_integrator.core.elements import (
+from pd_integrator.core import model
+from pd_integrator.core.model.damping import modal_damping, rayleigh_coefficients, rayleigh_damping
+from pd_integrator.core.model.elements import (
     Condensation,
-    ModalProperties,
     assemble,
     beam_column_2d_stiffness,
-    modal_damping,
-    modal_properties,
-    rayleigh_coefficients,
-    rayleigh_damping,
     spring_stiffness,
     static_condensation,
 )
+from pd_integrator.core.model.modes import ModalProperties, modal_properties
 from pd_integrator.core.errors import ConfigError
 
 E = 200.0e9  # Pa (steel)
@@ -616,8 +613,8 @@ def test_modal_properties_rejects_bad_influences(influences: np.ndarray, match: 
         modal_properties(mass, stiffness, influences)
 
 
-def test_public_names_are_exported_from_core() -> None:
+def test_public_names_are_exported_from_the_model_package() -> None:
     names = ('assemble', 'beam_column_2d_stiffness', 'modal_properties', 'Condensation')
     for name in names:
-        assert name in core.__all__
-        assert getattr(core, name) is not None
+        assert name in model.__all__
+        assert getattr(model, name) is not None

@@ -13,9 +13,8 @@ import scipy.integrate
 import scipy.linalg
 
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.exact import (
+from pd_integrator.core.verification import (
     EPPResponse,
-    _transition_scalar,
     epp_exact,
     free_vibration,
     harmonic_response,
@@ -23,8 +22,9 @@ from pd_integrator.core.exact import (
     nigam_jennings,
     nigam_jennings_coefficients,
 )
-from pd_integrator.core.ground_motion import read_ground_motion
-from pd_integrator.core.structure import damping_from_ratio
+from pd_integrator.core.verification.nigam_jennings import transition_scalar
+from pd_integrator.core.dynamics.record_readers import read_ground_motion
+from pd_integrator.core.dynamics.structure import damping_from_ratio
 
 ELCENTRO = (
     Path(__file__).resolve().parents[2]
@@ -114,7 +114,7 @@ def test_coefficients_equal_the_exact_matrix_exponential(omega_dt: float, zeta: 
         scale = np.max(np.abs(b_ref[row]))
         assert np.allclose(b[row], b_ref[row], rtol=1e-13, atol=1e-14 * scale)
     # The scalar transition used inside epp_exact: x(τ) = A y0 + p1 f0 + p2 s.
-    scalar = _transition_scalar(omega, zeta, dt)
+    scalar = transition_scalar(omega, zeta, dt)
     reference = [e[0][0], e[0][1], e[1][0], e[1][1], e[0][2], e[1][2], e[0][3], e[1][3]]
     for value, ref in zip(scalar, reference):
         assert value == pytest.approx(ref, rel=1e-13, abs=1e-16)

@@ -1,4 +1,4 @@
-"""Tests of pd_integrator.core.ground_motion: the record, its transforms and the file readers."""
+"""Tests of pd_integrator.core.dynamics.ground_motion: the record, its transforms and the file readers."""
 
 from __future__ import annotations
 
@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from pd_integrator.core.errors import GroundMotionError, PdIntegratorError
-from pd_integrator.core.ground_motion import (
-    G_STANDARD,
-    GroundMotion,
+from pd_integrator.core.dynamics.ground_motion import G_STANDARD, GroundMotion
+from pd_integrator.core.dynamics.record_readers import (
     read_at2,
     read_ground_motion,
     read_multi_column,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pd_integrator.core.config import load_test_file
+from pd_integrator.core.run.test_file import load_test_file
 from pd_bringup.launcher import LaunchError, opensees_command, site_commands
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'

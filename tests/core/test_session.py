@@ -10,16 +10,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pytest
 
-from pd_integrator.core.config import from_dict, load_test_file
+from pd_integrator.core.run.test_file import from_dict, load_test_file
 from pd_integrator.core.errors import ProtocolError, StabilityError
 from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
-from pd_integrator.core.protocol import StepProtocol, TimeoutAction, Verdict
-from pd_integrator.core.session import TestSession as Session
+from pd_integrator.core.run.protocol import StepProtocol, TimeoutAction, Verdict
+from pd_integrator.core.run.session import TestSession as Session
 from pd_common.specimen import SpecimenServer, specimen_from_config
 
 if TYPE_CHECKING:
-    from pd_integrator.core.config import TestDefinition
+    from pd_integrator.core.run.definition import TestDefinition
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
@@ -513,7 +513,7 @@ def test_stable_limit_dt_is_accepted() -> None:
 
 def test_protocol_orders_feedback_by_step_and_iteration() -> None:
     from pd_common.protocol import Command, Feedback
-    from pd_integrator.core.protocol import StepProtocol, Verdict
+    from pd_integrator.core.run.protocol import StepProtocol, Verdict
 
     protocol = StepProtocol(max_retries=1)
     command = Command(test_id='t', step=5, test_time=0.05, dof_names=('u',),
@@ -530,3 +530,40 @@ def test_protocol_orders_feedback_by_step_and_iteration() -> None:
     assert protocol.verdict(answer(5, 0)) is Verdict.STALE
     assert protocol.classify(answer(5, 2)) is Verdict.ACCEPTED
     assert protocol.classify(answer(5, 2)) is Verdict.DUPLICATE
+
+
+# -- numerical failure: the session reverts and holds ----------------------------------------
+def test_a_non_finite_trial_reverts_to_the_last_step_and_holds() -> None:
+    # A light structure (1e-10 kg, 1e-9 N/m: omega = 3.2 rad/s): a finite force of 1e300 N
+    # gives an infinite trial acceleration.
+    session = Session(definition(structure={'dof_names': ['top'], 'mass': 1.0e-10,
+                                            'damping': {'coefficient': 0.0},
+                                            'initial_stiffness': 1.0e-9}))
+    for _ in range(3):  # step 0 and two integration steps, elastic
+        command = session.next_command()
+        assert command is not None
+        session.on_feedback(elastic(command, k=1.0e-9))
+    committed = session.committed_step
+    x_committed = session.history.displacement[committed].copy()
+    command = session.next_command()
+    assert command is not None and command.step == committed + 1
+    # A finite but absurd force: the trial acceleration overflows to infinity.
+    verdict = session.on_feedback(ok(command, 1.0e300))
+    assert verdict is Verdict.ACCEPTED
+    assert session.state is State.HOLDING
+    assert f'step {command.step}: numerical failure' in session.message
+    assert f'reverted to step {committed}' in session.message
+    assert session.failure is not None
+    assert session.committed_step == committed
+    np.testing.assert_array_equal(session.history.displacement[committed], x_committed)
+    integrator = session._integrator  # noqa: SLF001 - the reverted integrator itself
+    assert integrator is not None
+    assert integrator.phase == 'committed' and integrator.status == 'running'
+    assert integrator.step == committed
+    # Nothing more is commanded, and resume cannot undo a divergence: abort.
+    assert session.next_command() is None
+    assert session.resume() is None
+    assert session.state is State.HOLDING and 'cannot resume' in session.message
+    session.abort('operator')
+    assert session.state is State.ABORTED
+    assert session.summary_info()['failure'] == session.failure

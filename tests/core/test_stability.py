@@ -9,12 +9,14 @@ import pytest
 import scipy.linalg
 
 from pd_integrator.core.errors import ConfigError, StabilityError
-from pd_integrator.core.schemes import NewmarkExplicit
-from pd_integrator.core.stability import (
-    StabilityReport,
+from pd_integrator.core.schemes import (
+    NewmarkExplicit,
     amplification_matrix_newmark_explicit,
-    check_stability,
     newmark_explicit_numerical_frequency,
+)
+from pd_integrator.core.dynamics.stability import (
+    StabilityReport,
+    check_stability,
     period_distortion,
     period_error,
     period_shrinkage,

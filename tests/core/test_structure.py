@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.structure import (
+from pd_integrator.core.dynamics.structure import (
     Structure,
     as_matrix,
     as_vector,

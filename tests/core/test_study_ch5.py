@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from pd_integrator import study_ch5
+from pd_integrator import study_ch5, study_ch5_figures, study_ch5_records
 
 DURATION = '3'
 SCHEMES = ('newmark_explicit', 'linear_acceleration')
@@ -84,7 +84,7 @@ def test_runs_figures_and_tables_exist(study: tuple[Path, int, str]) -> None:
 def test_table_peaks_equal_the_run_summaries(study: tuple[Path, int, str]) -> None:
     out, _, _ = study
     rows = read_table(out)
-    assert len(rows) == 3 * len(study_ch5.QUANTITIES)
+    assert len(rows) == 3 * len(study_ch5_figures.QUANTITIES)
     for row in rows:
         reference = json.loads((out / row['record'] / row['reference_scheme']
                                 / 'summary.json').read_text())
@@ -114,8 +114,8 @@ def test_schemes_agree_for_small_omega_dt(study: tuple[Path, int, str]) -> None:
 def test_bare_path_matching_a_record_name_uses_its_test_file(tmp_path: Path) -> None:
     kobe = write_at2(tmp_path / 'RSN1106_KOBE_KJM000.AT2')
     other = write_at2(tmp_path / 'my record.AT2')
-    study = study_ch5.load_study(study_ch5.default_study_directory())
-    resolved = study_ch5.resolve_records(study, [str(kobe), str(other), 'elcentro'])
+    study = study_ch5_records.load_study(study_ch5_records.default_study_directory())
+    resolved = study_ch5_records.resolve_records(study, [str(kobe), str(other), 'elcentro'])
     assert [(label, spec.name) for label, spec, _ in resolved] == [
         ('kobe', 'kobe'), ('my_record', 'elcentro'), ('elcentro', 'elcentro')]
 

@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pd_integrator.core.config import from_dict
+from pd_integrator.core.run.test_file import from_dict
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.exact import modal_superposition
+from pd_integrator.core.verification import modal_superposition
 from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
-from pd_integrator.core.protocol import Verdict
-from pd_integrator.core.runner import replay_bag, run_offline
-from pd_integrator.core.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
-from pd_integrator.core.substructure import SiteCoordinator
+from pd_integrator.core.run.protocol import Verdict
+from pd_integrator.core.run.runner import replay_bag, run_offline
+from pd_integrator.core.model.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
+from pd_integrator.core.run.coordinator import SiteCoordinator
 
 MASSES = [2.0e4, 2.0e4, 1.5e4]
 STORIES = [4.0e7, 3.5e7, 3.0e7]
@@ -365,7 +365,7 @@ def test_coordinator_passes_a_site_limit_on_and_resends_to_that_site_only() -> N
 
 
 def test_shipped_two_site_example_runs_and_yields(tmp_path: Path) -> None:
-    from pd_integrator.core.config import load_test_file  # noqa: PLC0415
+    from pd_integrator.core.run.test_file import load_test_file  # noqa: PLC0415
 
     example = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
                / 'three_story_two_sites.yaml')
@@ -431,7 +431,7 @@ def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path)
     report = definition.modal_report()
     assert 'H1' in report and 'H2' in report
     # Resolved (bag) form reads back to the same loads.
-    from pd_integrator.core.config import from_json  # noqa: PLC0415
+    from pd_integrator.core.run.test_file import from_json  # noqa: PLC0415
 
     again = from_json(definition.to_json())
     np.testing.assert_array_equal(again.loads(), loads)
@@ -439,8 +439,8 @@ def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path)
 
 def two_site_dispatcher(tmp_path: Path) -> tuple[Any, Any, list[tuple[str, Command]]]:
     """A started session of the two-site building, its dispatcher and the commands it sent."""
-    from pd_integrator.core.dispatch import StepDispatcher  # noqa: PLC0415
-    from pd_integrator.core.session import TestSession  # noqa: PLC0415
+    from pd_integrator.core.run.dispatch import StepDispatcher  # noqa: PLC0415
+    from pd_integrator.core.run.session import TestSession  # noqa: PLC0415
 
     definition = from_dict(building(experimental=(0, 2)), source='b.yaml', base_dir=tmp_path)
     session = TestSession(definition)
@@ -496,7 +496,7 @@ def test_a_site_limit_holds_and_resume_resends_to_the_sites_still_owing(
 def test_sparse_path_of_a_large_model_equals_the_dense_path(tmp_path: Path, monkeypatch,
                                                             scheme: str) -> None:
     """An 80-story building (sparse matrices) gives the dense computation's response."""
-    import pd_integrator.core.schemes as schemes  # noqa: PLC0415
+    import pd_integrator.core.schemes.linalg as schemes  # noqa: PLC0415
 
     n = 80
     names = [f'u{i + 1}' for i in range(n)]
@@ -518,3 +518,37 @@ def test_sparse_path_of_a_large_model_equals_the_dense_path(tmp_path: Path, monk
     scale = float(np.max(np.abs(dense)))
     assert scale > 1e-4
     np.testing.assert_allclose(sparse, dense, rtol=0.0, atol=1e-9 * scale)
+
+
+def test_numerical_springs_trial_from_the_committed_state_and_commit_with_the_step() -> None:
+    """An iterating scheme's trials do not accumulate plastic deformation in a numerical
+    spring: each trial starts from the committed state (as an OpenSees element does), and
+    only the committed step's last trial is kept."""
+    raw = {
+        'test': {'id': 'spring', 'scheme': 'average_acceleration', 'dt': 0.01},
+        'structure': {'dof_names': ['u1'], 'mass': 1.0, 'damping': {'ratio': 0.0},
+                      'elements': [{'type': 'nonlinear_spring', 'dofs': ['u1'],
+                                    'model': {'model': 'epp', 'stiffness': 1.0,
+                                              'yield_force': 1.0}}]},
+        'ground_motion': {'inline': {'dt': 0.01, 'acceleration': [0.0, 0.0]}, 'units': 'm/s2'},
+    }
+    definition = from_dict(raw, source='spring.yaml', base_dir=Path('.'))
+    sites = SiteCoordinator(definition.model)
+
+    def force(step: int, iteration: int, x: float) -> float:
+        command = Command(test_id='t', step=step, test_time=0.0, dof_names=('u1',),
+                          target_displacement=(x,), iteration=iteration)
+        assert sites.dispatch(command) == []  # no site: fully numerical
+        return float(sites.complete().restoring_force[0])
+
+    assert force(0, 0, 0.0) == 0.0
+    sites.commit()
+    assert force(1, 0, 3.0) == 1.0  # a trial beyond yield
+    # The next iteration starts again from the committed (virgin) state: elastic, 0.5.
+    # (Committing every trial would have left 2.0 of plastic deformation: force -1.0.)
+    assert force(1, 1, 0.5) == 0.5
+    sites.commit()  # the integrator committed step 1 at its last trial, 0.5
+    assert force(2, 0, 0.25) == 0.25
+    assert force(2, 1, 2.5) == 1.0
+    sites.commit()  # committed at 2.5: 1.5 of plastic deformation
+    assert force(3, 0, 1.5) == 0.0

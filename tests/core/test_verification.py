@@ -24,10 +24,11 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 
-from pd_integrator.core.exact import epp_exact, modal_superposition, nigam_jennings
-from pd_integrator.core.ground_motion import GroundMotion, read_ground_motion
+from pd_integrator.core.verification import epp_exact, modal_superposition, nigam_jennings
+from pd_integrator.core.dynamics.ground_motion import GroundMotion
+from pd_integrator.core.dynamics.record_readers import read_ground_motion
 from pd_integrator.core.schemes import SCHEMES, Integrator, make_integrator
-from pd_integrator.core.structure import damping_from_ratio
+from pd_integrator.core.dynamics.structure import damping_from_ratio
 from pd_common.specimen import ElasticPerfectlyPlastic
 
 ELCENTRO = (

@@ -12,25 +12,21 @@ Example::
 from __future__ import annotations
 
 import argparse
-import inspect
 import itertools
 import sys
 from pathlib import Path
 from typing import Any
 
-from .core.analysis import (
+from .core.dynamics.analysis import (
     default_parameters,
     has_amplification_matrix,
     omega_grid,
-    plot_figure_3_2,
-    plot_sweeps,
-    scheme_class,
     spectral_properties,
     sweep,
-    write_sweep_csv,
 )
+from .core.dynamics.analysis_figures import plot_figure_3_2, plot_sweeps, write_sweep_csv
 from .core.errors import ConfigError, PdIntegratorError
-from .core.schemes import SCHEMES
+from .core.schemes import SCHEMES, scheme_class
 
 DEFAULT_OUT = 'spectral_analysis'
 FIGURE_3_2 = 'figure_3_2_newmark_explicit.png'
@@ -79,7 +75,7 @@ def parameter_sets(values: dict[str, list[Any]]) -> list[dict[str, Any]]:
 def _with_defaults(scheme: str, parameters: dict[str, Any]) -> dict[str, Any]:
     """The given parameters completed with the scheme's defaults (for the CSV columns)."""
     defaults = {name: value for name, value in default_parameters(scheme).items()
-                if value is not inspect.Parameter.empty}
+                if value is not None}
     return {**defaults, **parameters}
 
 

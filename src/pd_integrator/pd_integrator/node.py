@@ -16,7 +16,7 @@ Parameters: ``test_file`` (YAML test file), ``output_dir`` (run folder; default
 ``runs/<test_id>-<UTC time>``), ``figures``, ``progress_interval``, and overrides of the test
 file (``mass``, ``damping_ratio``, ``damping_coefficient``, ``initial_stiffness`` (a value or
 ``'probe'``), ``ground_motion_file``, ``scale_factor``, ``direction``, ``dt``, ``scheme``, ...;
-see ``pd_integrator.core.config.PARAMETER_PATHS``).
+see ``pd_integrator.core.run.definition.PARAMETER_PATHS``).
 
 Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing was moved).
 """
@@ -59,19 +59,19 @@ from pd_common.ros import (
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
-from .core.bag import BagRecorder
-from .core.config import PARAMETER_PATHS, load_test_file
-from .core.dispatch import StepDispatcher
+from .core.run.bag import BagRecorder
+from .core.run.test_file import PARAMETER_PATHS, load_test_file
+from .core.run.dispatch import StepDispatcher
 from .core.errors import PdIntegratorError
-from .core.progress import ProgressMeter
-from .core.runner import (
+from .core.run.progress import ProgressMeter
+from .core.run.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
     default_run_directory,
     finish_outputs,
     prepare_run_directory,
 )
-from .core.session import TestSession
+from .core.run.session import TestSession
 
 _OVERRIDE_DESCRIPTIONS = {
     'test_id': 'identifier of the test (letters, digits, _ - .)',

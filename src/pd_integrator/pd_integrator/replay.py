@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from .core.errors import PdIntegratorError
-from .core.runner import rebuild_outputs
+from .core.run.runner import rebuild_outputs
 
 
 def main(argv: list[str] | None = None) -> int:

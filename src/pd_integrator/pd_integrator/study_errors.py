@@ -6,7 +6,7 @@ step-by-step integration, and that *systematic* errors (an actuator that consist
 undershoots or overshoots the commanded increment) are the harmful ones, while *random* errors
 of comparable size (noise) largely average out. This command reproduces that finding on the
 default test (thesis section 5.1: the SDOF column under El Centro, Newmark explicit), run
-without ROS (:func:`~pd_integrator.core.runner.run_offline`, the same session and simulated
+without ROS (:func:`~pd_integrator.core.run.runner.run_offline`, the same session and simulated
 specimen as the node graph) with errors injected by the simulated specimen
 (``specimen.errors``, see :mod:`pd_specimen_sim.core.server`):
 
@@ -67,13 +67,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .core.config import load_test_file
+from .core.run.test_file import load_test_file
 from .core.errors import ConfigError, PdIntegratorError
-from .core.runner import default_run_directory, run_offline
+from .core.run.runner import default_run_directory, run_offline
 
 if TYPE_CHECKING:
-    from .core.config import TestDefinition
-    from .core.runner import RunResult
+    from .core.run.definition import TestDefinition
+    from .core.run.runner import RunResult
 
 PROG = 'study_errors'
 TABLE_CSV = 'errors_table.csv'

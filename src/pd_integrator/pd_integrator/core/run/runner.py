@@ -17,12 +17,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
-from .config import TestDefinition, from_json
+from .definition import TestDefinition
+from .test_file import from_json
 from .dispatch import StepDispatcher
 from .energy import energy_balance
-from .errors import BagError, ConfigError
+from ..errors import BagError, ConfigError
 from pd_common.protocol import Command, Feedback, TestState
 from pd_common.specimen import SpecimenError, SpecimenServer, server_from_config
+from .progress import ProgressMeter
 from .outputs import summarize, tracking_history, write_run_outputs
 from .session import TestSession
 
@@ -99,8 +101,6 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         ConfigError: the definition has no usable ``specimen`` section.
         StabilityError: ω_max·Δt is above the scheme's limit (nothing is commanded).
     """
-    from .progress import ProgressMeter  # noqa: PLC0415
-
     servers = site_servers(definition)
     session = TestSession(definition)  # checks stability before anything moves
     directory = prepare_run_directory(directory)

@@ -16,16 +16,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import ConfigError, PdIntegratorError, ProtocolError
+from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
 from .history import ResponseHistory
 from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
 from .protocol import StepProtocol, TimeoutAction, Verdict
-from .schemes import make_integrator
-from .stability import StabilityReport, check_stability, require_stable
+from ..schemes import SchemeParameterError, make_integrator
+from ..dynamics.stability import StabilityReport, check_stability, require_stable
 
 if TYPE_CHECKING:
-    from .config import TestDefinition
-    from .schemes import Integrator
+    from .definition import TestDefinition
+    from ..schemes import Integrator
 
 PROBE_SUFFIX = ':probe'
 
@@ -67,6 +67,7 @@ class TestSession:
         self._probe_plan: list[tuple[float, ...]] = []
         self._probe_forces: list[tuple[float, ...]] = []
         self._last_command: Command | None = None
+        self._failure: str | None = None  # a numerical failure: the test cannot go on
         # p_k = -M ι a_g(t_k) for every step, computed once.
         self._loads = definition.loads()
         if definition.needs_probe:
@@ -112,7 +113,11 @@ class TestSession:
                               test_time=0.0, dof_names=self.definition.dof_names,
                               target_displacement=self._probe_plan[index])
         else:
-            command = self._integration_command()
+            try:
+                command = self._integration_command()
+            except IntegratorError as err:  # a non-finite target: the response diverged
+                self._fail(self._step, err)
+                return None
         self.state = TestState.RUNNING
         self.message = ('probing the initial stiffness' if self.probing
                         else f'step {command.step} of {self.total_steps}')
@@ -181,8 +186,15 @@ class TestSession:
             self.message = 'pausing'
 
     def resume(self) -> Command | None:
-        """Leave HOLDING/PAUSED; returns the pending command to re-send, if any."""
+        """Leave HOLDING/PAUSED; returns the pending command to re-send, if any.
+
+        After a numerical failure (see :attr:`failure`) the test cannot go on: it stays on hold
+        (abort it); the record up to the last committed step is intact.
+        """
         if self.state not in (TestState.HOLDING, TestState.PAUSED):
+            return None
+        if self._failure is not None:
+            self.message = f'cannot resume: {self._failure}; abort the test'
             return None
         self.state = TestState.RUNNING
         self.message = 'resumed'
@@ -202,10 +214,27 @@ class TestSession:
                       omega_dt=self.omega_dt, retries=self.protocol.retries,
                       ignored_messages=self.protocol.ignored_total, message=self.message)
 
+    @property
+    def failure(self) -> str | None:
+        """Why the integration failed (a non-finite trial state), or ``None``."""
+        return self._failure
+
     # -- internals ----------------------------------------------------------------------------
     def _hold(self, reason: str) -> None:
         self.state = TestState.HOLDING
         self.message = reason
+
+    def _fail(self, step: int, error: IntegratorError) -> None:
+        """A numerical failure: revert to the last committed step and hold with the reason.
+
+        Nothing more is commanded; the committed history stays as it is (OpenSees's
+        ``revertToLastStep`` on a failed step). The failure is final: :meth:`resume` refuses.
+        """
+        if self._integrator is not None:
+            self._integrator.revert_to_last_step()
+        self._failure = (f'step {step}: numerical failure ({error}); reverted to step '
+                         f'{self.committed_step}')
+        self._hold(self._failure)
 
     def _plan_probe(self) -> None:
         """Step 0 at rest, then push each DOF by +amplitude and bring it back."""
@@ -245,9 +274,9 @@ class TestSession:
                 definition.scheme, mass=structure.mass, damping=structure.damping,
                 dt=definition.dt, initial_stiffness=structure.initial_stiffness,
                 **definition.scheme_parameters)
-        except TypeError as err:  # an unknown scheme parameter
+        except SchemeParameterError as err:  # unknown or out of range
             msg = f'{definition.source}: test.scheme_parameters: {err}'
-            raise ConfigError(msg) from err
+            raise ConfigError(msg) from None
         self.stability = check_stability(self._integrator, structure.mass,
                                          structure.initial_stiffness, definition.dt)
         require_stable(self.stability)
@@ -274,14 +303,18 @@ class TestSession:
         definition = self.definition
         step = command.step
         force = np.array(feedback.restoring_force, dtype=float)
-        if step == 0:
-            x0 = np.array(command.target_displacement)
-            integrator.initialize(x0, np.zeros(definition.n_dof), self._loads[0], force)
-        else:
-            integrator.correct(force, self._loads[step])
-            if integrator.phase != 'corrected':
-                return  # an implicit scheme iterates: the next command is (step, iteration + 1)
-            integrator.commit()
+        try:
+            if step == 0:
+                x0 = np.array(command.target_displacement)
+                integrator.initialize(x0, np.zeros(definition.n_dof), self._loads[0], force)
+            else:
+                integrator.correct(force, self._loads[step])
+                if integrator.phase != 'corrected':
+                    return  # an implicit scheme iterates: next command (step, iteration + 1)
+                integrator.commit()
+        except IntegratorError as err:
+            self._fail(step, err)
+            return
         self.history.record(step, integrator.x, integrator.v, integrator.a,
                             feedback.restoring_force, feedback.measured_displacement)
         self._step = step + 1
@@ -301,6 +334,7 @@ class TestSession:
             'numerical_damping': stability.numerical_damping if stability else math.nan,
             'state': self.state.name.lower(),
             'message': self.message,
+            'failure': self._failure,
             'total_steps': definition.n_steps,
             'omega_max': stability.omega_max if stability else math.nan,
             'omega_max_dt': self.omega_dt,

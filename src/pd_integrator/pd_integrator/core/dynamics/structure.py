@@ -20,12 +20,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from .errors import ConfigError
+from ..errors import ConfigError
+from ..matrices import as_float_array, as_matrix, as_vector, readonly_copy, square_matrix
 
 __all__ = [
     'Structure',
-    'as_matrix',
-    'as_vector',
     'damping_from_ratio',
     'effective_load',
     'modal_analysis',
@@ -34,90 +33,6 @@ __all__ = [
 
 #: Relative tolerance used for the symmetry checks of the mass and stiffness matrices.
 SYMMETRY_RTOL = 1e-10
-
-
-def _as_float_array(value: Any, name: str) -> np.ndarray:
-    """Convert ``value`` to a float array, raising ConfigError naming ``name`` on failure."""
-    if value is None:
-        raise ConfigError(f'{name}: a value is required')
-    if isinstance(value, (str, bytes)):
-        raise ConfigError(f'{name}: expected a number or an array of numbers, got {value!r}')
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f'{name}: expected a number or an array of numbers ({exc})') from None
-    if array.dtype == object:
-        raise ConfigError(f'{name}: expected a number or an array of numbers')
-    bad = ~np.isfinite(array)
-    if np.any(bad):
-        index = tuple(int(i) for i in np.argwhere(bad)[0]) if array.ndim else ()
-        where = f' at index {index[0] if len(index) == 1 else index}' if index else ''
-        raise ConfigError(
-            f'{name}: all values must be finite, got {float(array[bad].flat[0])}{where}'
-        )
-    return array
-
-
-def as_matrix(value: Any, n: int, name: str) -> np.ndarray:
-    """Build an ``n``×``n`` matrix from a scalar, a diagonal or a full matrix.
-
-    Args:
-        value: A scalar (gives ``value·I``), a 1-D sequence of length ``n`` (gives
-            ``diag(value)``) or an ``n``×``n`` nested sequence / array (used as is).
-        n: Number of degrees of freedom.
-        name: Parameter name used in error messages.
-
-    Returns:
-        A new float array of shape ``(n, n)``.
-
-    Raises:
-        ConfigError: If the value is not numeric, not finite or has an incompatible shape.
-    """
-    array = _as_float_array(value, name)
-    if array.ndim == 0:
-        return float(array) * np.eye(n)
-    if array.ndim == 1 and array.shape == (n,):
-        return np.diag(array)
-    if array.ndim == 2 and array.shape == (n, n):
-        return array
-    raise ConfigError(
-        f'{name}: expected a scalar, a list of {n} diagonal values or a {n}x{n} matrix, '
-        f'got shape {array.shape}'
-    )
-
-
-def as_vector(value: Any, n: int, name: str) -> np.ndarray:
-    """Build a length-``n`` vector from a scalar (broadcast) or a sequence of length ``n``.
-
-    Args:
-        value: A scalar or a 1-D sequence of length ``n``.
-        n: Number of degrees of freedom.
-        name: Parameter name used in error messages.
-
-    Returns:
-        A new float array of shape ``(n,)``.
-
-    Raises:
-        ConfigError: If the value is not numeric, not finite or has an incompatible shape.
-    """
-    array = _as_float_array(value, name)
-    if array.ndim == 0:
-        return np.full(n, float(array))
-    if array.shape == (n,):
-        return array
-    raise ConfigError(
-        f'{name}: expected a scalar or a list of {n} values, got shape {array.shape}'
-    )
-
-
-def _square(value: Any, name: str) -> np.ndarray:
-    """Coerce a scalar or a square matrix to a 2-D float array."""
-    array = _as_float_array(value, name)
-    if array.ndim == 0:
-        return array.reshape(1, 1)
-    if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
-        raise ConfigError(f'{name}: expected a square matrix, got shape {array.shape}')
-    return array
 
 
 def _is_symmetric(matrix: np.ndarray) -> bool:
@@ -148,8 +63,8 @@ def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
         ConfigError: If the matrices are malformed, ``M`` is not positive definite or ``K``
             has a clearly negative eigenvalue.
     """
-    m = _square(mass, 'mass')
-    k = _square(stiffness, 'stiffness')
+    m = square_matrix(mass, 'mass')
+    k = square_matrix(stiffness, 'stiffness')
     if m.shape != k.shape:
         raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
     _check_positive_definite(m, 'mass')
@@ -178,8 +93,8 @@ def omega_max(mass: Any, stiffness: Any) -> float:
     Returns:
         ``ω_max`` (``√(k/m)`` for an SDOF).
     """
-    m = _square(mass, 'mass')
-    k = _square(stiffness, 'stiffness')
+    m = square_matrix(mass, 'mass')
+    k = square_matrix(stiffness, 'stiffness')
     if m.shape == (1, 1) and k.shape == (1, 1):
         if m[0, 0] <= 0.0:
             raise ConfigError('mass: must be positive')
@@ -213,11 +128,11 @@ def damping_from_ratio(
         ConfigError: On a negative or non-finite ratio, invalid mode numbers or modes with
             equal or zero frequencies.
     """
-    m = _square(mass, 'mass')
-    k = _square(stiffness, 'stiffness')
+    m = square_matrix(mass, 'mass')
+    k = square_matrix(stiffness, 'stiffness')
     if m.shape != k.shape:
         raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
-    ratios = _as_float_array(ratio, 'damping_ratio').reshape(-1)
+    ratios = as_float_array(ratio, 'damping_ratio').reshape(-1)
     if ratios.size not in (1, 2) or np.any(ratios < 0.0):
         raise ConfigError(
             f'damping_ratio: expected one non-negative ratio or a pair, got {ratio!r}'
@@ -267,22 +182,16 @@ def effective_load(mass: Any, influence: Any, ground_acceleration: Any) -> np.nd
     Returns:
         Shape ``(n,)`` for a scalar acceleration, ``(n_steps, n)`` for a history.
     """
-    m = _square(mass, 'mass')
+    m = square_matrix(mass, 'mass')
     n = m.shape[0]
     iota = as_vector(influence, n, 'influence')
-    a_g = _as_float_array(ground_acceleration, 'ground_acceleration')
+    a_g = as_float_array(ground_acceleration, 'ground_acceleration')
     if a_g.ndim > 1:
         raise ConfigError(f'ground_acceleration: expected a 1-D history, got shape {a_g.shape}')
     m_iota = m @ iota
     if a_g.ndim == 0:
         return -(m_iota * float(a_g))
     return -(a_g[:, None] * m_iota[None, :])
-
-
-def _readonly(array: np.ndarray) -> np.ndarray:
-    array = np.array(array, dtype=float)
-    array.setflags(write=False)
-    return array
 
 
 @dataclass(frozen=True)
@@ -323,13 +232,13 @@ class Structure:
         n = len(names)
         fields: dict[str, np.ndarray] = {}
         for field in ('mass', 'damping', 'initial_stiffness'):
-            array = _as_float_array(getattr(self, field), field)
+            array = as_float_array(getattr(self, field), field)
             if array.shape != (n, n):
                 raise ConfigError(
                     f'{field}: expected shape ({n}, {n}) for {n} DOF, got {array.shape}'
                 )
             fields[field] = array
-        influence = _as_float_array(self.influence, 'influence')
+        influence = as_float_array(self.influence, 'influence')
         if influence.shape != (n,):
             raise ConfigError(
                 f'influence: expected shape ({n},) for {n} DOF, got {influence.shape}'
@@ -340,8 +249,8 @@ class Structure:
         _check_positive_definite(fields['mass'], 'mass')
         object.__setattr__(self, 'dof_names', names)
         for field, array in fields.items():
-            object.__setattr__(self, field, _readonly(array))
-        object.__setattr__(self, 'influence', _readonly(influence))
+            object.__setattr__(self, field, readonly_copy(array))
+        object.__setattr__(self, 'influence', readonly_copy(influence))
 
     @property
     def n_dof(self) -> int:

@@ -4,8 +4,8 @@ For a linear SDOF in free vibration (``m = 1``, ``c = 2ξω``, ``k = ω²``) eve
 recursion ``x̂_{n+1} = A x̂_n`` (thesis eqs. 3.4–3.5) whose amplification matrix ``A`` depends
 on ``Ω = ωΔt``, on the viscous damping ratio ``ξ`` and on the scheme's parameters only. Each
 registered scheme provides it as the classmethod
-``amplification_matrix(omega_dt, xi=0.0, **parameters)``; for Newmark explicit without that
-classmethod :func:`~pd_integrator.core.stability.amplification_matrix_newmark_explicit` is used.
+``amplification_matrix(omega_dt, xi=0.0, **parameters)``, whose parameters are the scheme's
+declared :attr:`~.schemes.Integrator.PARAMETERS`.
 
 From the eigenvalues of ``A`` (eqs. 3.8–3.9):
 
@@ -41,19 +41,15 @@ as the limiting oscillation of period two steps, ``Ω̄ = π``.
 
 from __future__ import annotations
 
-import csv
-import inspect
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError
-from .schemes import SCHEMES, Integrator
-from .stability import amplification_matrix_newmark_explicit
+from ..errors import ConfigError
+from ..schemes import Integrator, scheme_class
 
 __all__ = [
     'STABILITY_TOLERANCE',
@@ -64,12 +60,8 @@ __all__ = [
     'expected_period_error',
     'has_amplification_matrix',
     'omega_grid',
-    'plot_figure_3_2',
-    'plot_sweeps',
-    'scheme_class',
     'spectral_properties',
     'sweep',
-    'write_sweep_csv',
 ]
 
 #: A spectral radius up to ``1 + STABILITY_TOLERANCE`` counts as stable. It absorbs the
@@ -77,7 +69,8 @@ __all__ = [
 #: explicit at ``Ω = 2``, which eq. 3.14 counts as stable).
 STABILITY_TOLERANCE = 1e-6
 
-#: Columns of a sweep written by :func:`write_sweep_csv` (more columns follow them).
+#: Leading columns of a :func:`sweep`, as written by
+#: :func:`~.analysis_figures.write_sweep_csv` (more columns follow them).
 SWEEP_COLUMNS = ('omega_dt', 'dt_over_T', 'spectral_radius', 'numerical_damping',
                  'period_error', 'period_shrinkage')
 
@@ -85,49 +78,9 @@ SWEEP_COLUMNS = ('omega_dt', 'dt_over_T', 'spectral_radius', 'numerical_damping'
 _IMAG_TOLERANCE = 1e-12
 # Two real roots this close (relative) are a double root at the bifurcation.
 _COINCIDENT_TOLERANCE = 1e-6
-# Arguments of amplification_matrix and of the constructors that are not scheme parameters.
-_NOT_PARAMETERS = frozenset({'self', 'cls', 'omega_dt', 'xi', 'mass', 'damping', 'dt',
-                             'initial_stiffness'})
 
 
 # ----------------------------------------------------------------------------- schemes
-
-
-def scheme_class(scheme: str | type[Integrator] | Integrator) -> type[Integrator]:
-    """Resolve a scheme name, integrator class or instance to its class.
-
-    Raises:
-        ConfigError: On an unknown scheme name (the message lists the valid names).
-    """
-    if isinstance(scheme, Integrator):
-        return type(scheme)
-    if isinstance(scheme, type) and issubclass(scheme, Integrator):
-        return scheme
-    try:
-        return SCHEMES[scheme]  # type: ignore[index]
-    except (KeyError, TypeError):
-        valid = ', '.join(sorted(SCHEMES))
-        raise ConfigError(
-            f'scheme: unknown integration scheme {scheme!r}; valid: {valid}'
-        ) from None
-
-
-def _matrix_function(cls: type[Integrator]) -> Callable[..., Any] | None:
-    """The scheme's ``amplification_matrix`` (eq. 3.7 for Newmark explicit without one)."""
-    method = getattr(cls, 'amplification_matrix', None)
-    base = getattr(Integrator, 'amplification_matrix', None)
-    inherited = method is not None and base is not None and (
-        getattr(method, '__func__', method) is getattr(base, '__func__', base))
-    if callable(method) and not inherited:
-        return method
-    if cls.name == 'newmark_explicit':
-        return _newmark_explicit_matrix
-    return method if callable(method) else None
-
-
-def _newmark_explicit_matrix(omega_dt: float, xi: float = 0.0) -> np.ndarray:
-    """Δt-normalised eq. 3.7, extended with viscous damping."""
-    return amplification_matrix_newmark_explicit(omega_dt, xi=xi)
 
 
 def has_amplification_matrix(scheme: str | type[Integrator] | Integrator) -> bool:
@@ -136,11 +89,9 @@ def has_amplification_matrix(scheme: str | type[Integrator] | Integrator) -> boo
     Raises:
         ConfigError: On an unknown scheme name.
     """
-    function = _matrix_function(scheme_class(scheme))
-    if function is None:
-        return False
+    cls = scheme_class(scheme)
     try:
-        function(0.1, xi=0.0)
+        cls.amplification_matrix(0.1, 0.0)
     except NotImplementedError:
         return False
     except Exception:  # noqa: BLE001 - e.g. a required parameter: the matrix exists
@@ -148,49 +99,13 @@ def has_amplification_matrix(scheme: str | type[Integrator] | Integrator) -> boo
     return True
 
 
-def _signature(function: Callable[..., Any]) -> tuple[dict[str, Any], bool]:
-    """Named scheme parameters with their defaults, and whether ``**kwargs`` is accepted."""
-    try:
-        signature = inspect.signature(function)
-    except (TypeError, ValueError):
-        return {}, True
-    named = {name: p.default for name, p in signature.parameters.items()
-             if name not in _NOT_PARAMETERS and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
-    var_keyword = any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values())
-    return named, var_keyword
-
-
 def default_parameters(scheme: str | type[Integrator] | Integrator) -> dict[str, Any]:
-    """The scheme's parameters and their defaults, as the analysis can pass them.
-
-    Read from the signature of ``amplification_matrix`` and, if that takes ``**parameters``,
-    from the constructor's. A parameter without a default maps to ``inspect.Parameter.empty``.
+    """The scheme's declared parameters and their defaults (``PARAMETERS``).
 
     Raises:
         ConfigError: On an unknown scheme name.
     """
-    cls = scheme_class(scheme)
-    function = _matrix_function(cls)
-    if function is None or function is _newmark_explicit_matrix:
-        return {}
-    named, var_keyword = _signature(function)
-    if var_keyword:
-        named = {**_signature(cls.__init__)[0], **named}
-    return named
-
-
-def _accepts(cls: type[Integrator], name: str) -> bool:
-    """Whether ``name`` is a parameter of the scheme's amplification matrix."""
-    function = _matrix_function(cls)
-    if function is None or function is _newmark_explicit_matrix:
-        return False
-    named, var_keyword = _signature(function)
-    if name in named:
-        return True
-    if not var_keyword:
-        return False
-    constructor = _signature(cls.__init__)[0]
-    return name in constructor or not constructor  # no names to check against: let it try
+    return scheme_class(scheme).parameter_defaults()
 
 
 def amplification_matrix(
@@ -215,23 +130,20 @@ def amplification_matrix(
     cls = scheme_class(scheme)
     omega = _check_omega(omega_dt)
     damping = _check_xi(xi)
-    function = _matrix_function(cls)
-    if function is None:
-        raise ConfigError(f'scheme {cls.name!r}: no amplification_matrix, cannot be analysed')
+    declared = cls.parameter_defaults()
     for name in parameters:
-        if not _accepts(cls, name):
-            known = ', '.join(sorted(default_parameters(cls))) or 'none'
-            raise ConfigError(
-                f'scheme {cls.name!r}: unknown parameter {name!r}; parameters: {known}'
-            )
+        if name not in declared:
+            known = ', '.join(sorted(declared)) or 'none'
+            msg = f'scheme {cls.name!r}: unknown parameter {name!r}; parameters: {known}'
+            raise ConfigError(msg)
     try:
-        matrix = function(omega, xi=damping, **parameters)
+        matrix = cls.amplification_matrix(omega, damping, **parameters)
     except NotImplementedError:
-        raise ConfigError(
-            f'scheme {cls.name!r}: no amplification_matrix, cannot be analysed'
-        ) from None
+        msg = f'scheme {cls.name!r}: no amplification_matrix, cannot be analysed'
+        raise ConfigError(msg) from None
     except (TypeError, ConfigError) as err:  # e.g. a parameter out of its range
-        raise ConfigError(f'scheme {cls.name!r}: {err}') from None
+        msg = f'scheme {cls.name!r}: {err}'
+        raise ConfigError(msg) from None
     array = np.asarray(matrix)
     if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
         raise ConfigError(
@@ -481,198 +393,3 @@ def sweep(
     result['stable'] = np.array([row.stable for row in rows], dtype=bool)
     result['xi'] = np.full(values.shape, float(xi))
     return result
-
-
-def _format(value: Any) -> str:
-    if isinstance(value, (bool, np.bool_)):
-        return '1' if value else '0'
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    return str(value)
-
-
-def write_sweep_csv(
-    sweeps: Mapping[str, np.ndarray] | Sequence[Mapping[str, np.ndarray]], path: str | Path,
-    *, parameters: Sequence[Mapping[str, Any]] | None = None,
-) -> Path:
-    """Write one or more sweeps as one CSV table, one row per ``Ω``.
-
-    The columns are the :data:`SWEEP_COLUMNS`, then ``algorithmic_damping``, ``stable``
-    (0/1), ``xi`` and one column per scheme parameter; floats are written exactly (``repr``),
-    NaN as ``nan``.
-
-    Args:
-        sweeps: A result of :func:`sweep`, or a sequence of them stacked in order.
-        path: The CSV file.
-        parameters: The scheme parameters of each sweep (same length as ``sweeps``).
-
-    Returns:
-        ``path``.
-    """
-    items = [sweeps] if isinstance(sweeps, Mapping) else list(sweeps)
-    tags = [dict(p) for p in parameters] if parameters is not None else [{} for _ in items]
-    if len(tags) != len(items):
-        raise ValueError(f'parameters: {len(tags)} sets for {len(items)} sweeps')
-    parameter_names: list[str] = []
-    for tag in tags:
-        parameter_names += [name for name in tag if name not in parameter_names]
-    columns = [*SWEEP_COLUMNS, 'algorithmic_damping', 'stable', 'xi']
-    n_columns = len(columns)
-    names = [*columns, *parameter_names]
-    path = Path(path)
-    with path.open('w', newline='', encoding='utf-8') as stream:
-        writer = csv.writer(stream)
-        writer.writerow(names)
-        for item, tag in zip(items, tags):
-            n = len(item['omega_dt'])
-            for i in range(n):
-                row = [_format(item[name][i]) for name in names[:n_columns]]
-                row += [_format(tag.get(name, '')) for name in parameter_names]
-                writer.writerow(row)
-    return path
-
-
-def _pyplot() -> Any:
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed for the figures
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    return plt
-
-
-def _add_dt_over_t_axis(axes: Any) -> None:
-    top = axes.secondary_xaxis('top', functions=(lambda o: o / (2.0 * math.pi),
-                                                 lambda r: r * 2.0 * math.pi))
-    top.set_xlabel('Δt/T')
-
-
-_LINESTYLES = ('-', '--', ':', '-.')
-
-
-def plot_sweeps(
-    curves: Sequence[tuple[str, Mapping[str, np.ndarray]]], directory: str | Path,
-    *, title: str = '',
-) -> list[Path]:
-    """Plot spectral radius, numerical damping ratio and period error against ``Ω``.
-
-    Writes ``spectral_radius.png``, ``numerical_damping.png`` and ``period_error.png``: one
-    colour per label (scheme and parameters), one line style per viscous damping ratio. The
-    damping and period plots show the stable range only.
-
-    Args:
-        curves: ``(label, sweep)`` pairs; the same label with several ``ξ`` shares a colour.
-        directory: Folder for the PNG files (must exist).
-        title: Optional suffix of the figure titles.
-
-    Returns:
-        The written paths.
-    """
-    plt = _pyplot()
-    from matplotlib.lines import Line2D  # noqa: PLC0415
-
-    directory = Path(directory)
-    labels = list(dict.fromkeys(label for label, _ in curves))
-    xis = sorted({float(item['xi'][0]) for _, item in curves if len(item['xi'])})
-    colours = plt.get_cmap('tab10' if len(labels) <= 10 else 'tab20')
-    omega_max = max((float(np.max(item['omega_dt'])) for _, item in curves), default=1.0)
-    specs = (
-        ('spectral_radius.png', 'spectral_radius', 1.0, 'Spectral radius ρ',
-         'Spectral radius'),
-        ('numerical_damping.png', 'numerical_damping', 100.0,
-         'Numerical damping ratio ξ̄ [%] (viscous + algorithmic)', 'Numerical damping ratio'),
-        ('period_error.png', 'period_error', 100.0, 'Relative period error (T̄ − T)/T [%]',
-         'Relative period error'),
-    )
-    written: list[Path] = []
-    for filename, key, factor, ylabel, heading in specs:
-        figure, axes = plt.subplots(figsize=(9, 5.5), layout='constrained')
-        for label, item in curves:
-            colour = colours(labels.index(label) % colours.N)
-            xi = float(item['xi'][0])
-            style = _LINESTYLES[xis.index(xi) % len(_LINESTYLES)]
-            values = factor * np.asarray(item[key], dtype=float)
-            if key != 'spectral_radius':
-                values = np.where(item['stable'], values, np.nan)
-            axes.plot(item['omega_dt'], values, color=colour, linestyle=style, linewidth=1.3)
-        if key == 'spectral_radius':
-            axes.axhline(1.0, color='k', linewidth=0.6)
-            axes.set_ylim(0.0, 1.5)
-        else:
-            axes.axhline(0.0, color='k', linewidth=0.6)
-            _robust_ylim(axes, [factor * np.where(item['stable'], item[key], np.nan)
-                                for _, item in curves])
-        axes.set_xlim(0.0, omega_max)
-        axes.set_xlabel('Ω = ωΔt')
-        axes.set_ylabel(ylabel)
-        _add_dt_over_t_axis(axes)
-        suffix = '' if key == 'spectral_radius' else ' (stable range)'
-        axes.set_title(f'{heading}{suffix} — {title}' if title else f'{heading}{suffix}')
-        axes.grid(visible=True, alpha=0.4)
-        handles = [Line2D([], [], color=colours(i % colours.N), linewidth=1.5, label=label)
-                   for i, label in enumerate(labels)]
-        handles += [Line2D([], [], color='0.3', linestyle=_LINESTYLES[i % len(_LINESTYLES)],
-                           label=f'ξ = {xi:g}') for i, xi in enumerate(xis)]
-        axes.legend(handles=handles, fontsize='small', loc='best')
-        path = directory / filename
-        figure.savefig(path, dpi=110)
-        plt.close(figure)
-        written.append(path)
-    return written
-
-
-def _robust_ylim(axes: Any, series: list[np.ndarray]) -> None:
-    finite = np.concatenate([np.asarray(s, dtype=float).reshape(-1) for s in series])
-    finite = finite[np.isfinite(finite)]
-    if finite.size == 0:
-        return
-    low = min(0.0, float(np.min(finite)))
-    high = max(0.0, float(np.max(finite)))
-    margin = 0.05 * (high - low) or 1.0
-    axes.set_ylim(low - margin, high + margin)
-
-
-def plot_figure_3_2(path: str | Path, *, dt_over_t_max: float = 0.3, points: int = 300) -> Path:
-    """Thesis Figure 3.2: period shrinkage ``(T − T̄)/T`` of Newmark explicit vs ``Δt/T``.
-
-    The line comes from the eigenvalues of the amplification matrix (this module); the
-    markers are the closed form of eq. 3.19. The abscissa ends at ``dt_over_t_max`` or at the
-    stability limit ``Δt/T = 1/π``, whichever is smaller.
-
-    Args:
-        path: The PNG file.
-        dt_over_t_max: Largest ``Δt/T``.
-        points: Number of points of the line.
-
-    Returns:
-        ``path``.
-    """
-    from .stability import newmark_explicit_numerical_frequency  # noqa: PLC0415
-
-    plt = _pyplot()
-    limit = scheme_class('newmark_explicit').stability_limit / (2.0 * math.pi)
-    upper = min(float(dt_over_t_max), limit)
-    ratios = upper * np.arange(1, points + 1) / points
-    shrinkage = sweep('newmark_explicit', 2.0 * math.pi * ratios)['period_shrinkage']
-    marks = ratios[points // 30 - 1::points // 30]
-    closed = [1.0 - 2.0 * math.pi * r / newmark_explicit_numerical_frequency(2.0 * math.pi * r)
-              for r in marks]
-    figure, axes = plt.subplots(figsize=(7, 5), layout='constrained')
-    axes.plot(np.concatenate(([0.0], ratios)), 100.0 * np.concatenate(([0.0], shrinkage)),
-              color='tab:blue', linewidth=1.5, label='eigenvalues of A (eq. 3.7)')
-    axes.plot(marks, 100.0 * np.asarray(closed), 'o', color='tab:red', markersize=4,
-              markerfacecolor='none', label='closed form (eq. 3.19)')
-    axes.axvline(0.05, color='0.4', linestyle='--', linewidth=0.8)
-    axes.annotate('Δt/T = 0.05', (0.05, 0.9), xycoords=('data', 'axes fraction'),
-                  xytext=(4, 0), textcoords='offset points', fontsize='small', color='0.3')
-    axes.set_xlim(0.0, upper)
-    axes.set_ylim(bottom=0.0)
-    axes.set_xlabel('Δt/T')
-    axes.set_ylabel('Period shrinkage (T − T̄)/T [%]')
-    axes.set_title('Period shrinkage by the Newmark explicit method (thesis Figure 3.2)')
-    axes.grid(visible=True, alpha=0.4)
-    axes.legend()
-    path = Path(path)
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path

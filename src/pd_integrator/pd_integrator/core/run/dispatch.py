@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from pd_common.protocol import Command, Feedback, Status, TestState, site_topic_name
 from .protocol import Verdict
-from .substructure import SiteCoordinator
+from .coordinator import SiteCoordinator
 
 if TYPE_CHECKING:
     from .bag import BagRecorder
@@ -90,7 +90,7 @@ class StepDispatcher:
             return Verdict.UNEXPECTED
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
-            session_verdict = self.session.on_feedback(assembled)
+            session_verdict = self._deliver(assembled)
             if self.coordinator.passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
@@ -122,6 +122,14 @@ class StepDispatcher:
             self.start()
 
     # -- internals ----------------------------------------------------------------------------
+    def _deliver(self, feedback: Feedback) -> Verdict:
+        """Hand structure feedback to the session; commit the numerical model with it."""
+        committed = self.session.history.n_committed
+        verdict = self.session.on_feedback(feedback)
+        if self.session.history.n_committed != committed:
+            self.coordinator.commit()
+        return verdict
+
     def _next_batch(self) -> list[tuple[Command, list[tuple[str, Command]]]]:
         """The next command(s); steps without any site are completed at once."""
         batch: list[tuple[Command, list[tuple[str, Command]]]] = []
@@ -134,7 +142,7 @@ class StepDispatcher:
             # A fully numerical model: nothing to wait for.
             feedback = self.coordinator.complete()
             batch.append((feedback, []))  # type: ignore[arg-type]
-            session.on_feedback(feedback)
+            self._deliver(feedback)
             if session.state is not TestState.RUNNING:
                 break
         return batch

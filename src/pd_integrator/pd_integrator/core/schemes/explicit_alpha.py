@@ -5,7 +5,7 @@
   parameter ``alpha``.
 
 Both use only the mass and damping matrices and the measured restoring forces, like the
-thesis's Newmark explicit scheme (:class:`~pd_integrator.core.schemes.NewmarkExplicit`), and
+thesis's Newmark explicit scheme (:class:`~.newmark_explicit.NewmarkExplicit`), and
 are conditionally stable; their committed restoring force :attr:`r` is the measured one.
 
 In the amplification matrices (``m = 1``, ``Δt = 1``, ``k = Ω²``, ``c = 2ξΩ``) the state is
@@ -15,19 +15,17 @@ In the amplification matrices (``m = 1``, ``Δt = 1``, ``k = Ω²``, ``c = 2ξΩ
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 import scipy.linalg
 
-from .errors import ConfigError
-from .schemes import (
-    ArrayIntegrator,
-    Factorization,
-    _newmark_amplification,
-    _unit_sdof,
-    amplification_from,
-)
+from ..errors import ConfigError
+from .amplification import amplification_from, newmark_amplification, unit_sdof
+from .array import ArrayIntegrator
+from .linalg import Factorization
+from .parameters import SchemeParameter
 
 __all__ = ['ExplicitGeneralizedAlpha', 'ModifiedNewmark']
 
@@ -89,39 +87,23 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
     stability_limit: float = 2.0
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = 'rho_b'
-    _PARAMETER_RANGES = {'rho_b': (0.0, 1.0), 'xi': (0.0, 1.0)}
+    PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
+        SchemeParameter('rho_b', 1.0, 0.0, 1.0, description=(
+            'spectral radius at the bifurcation frequency (1: no dissipation; < 1 with '
+            'viscous damping)')),
+    )
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        rho_b: float = 1.0,
-    ) -> None:
-        """Create the scheme.
-
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Not used by the scheme (validated if given).
-            rho_b: Spectral radius at the bifurcation frequency, in ``[0, 1]``; 1 gives no
-                numerical dissipation.
-
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._rho_b = self._check('rho_b', rho_b)
+    def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
+        self._rho_b = float(parameters['rho_b'])
         self._alpha_m, self._beta, self._gamma = self.coefficients(self._rho_b)
-        super().__init__(mass, damping, dt, initial_stiffness)
+
+    def _check_damping(self) -> None:
+        """Declare the limit of the most damped mode; refuse ``ρ_b = 1`` with damping."""
         xi_max = self._max_damping_ratio()
         if self._rho_b == 1.0 and (xi_max > 0.0 or np.any(self._damping != 0.0)):
-            raise ConfigError(
-                'rho_b: 1 is unstable with viscous damping (the spurious root -1 leaves the '
-                'unit circle); use rho_b < 1 (e.g. 0.9) or no damping'
-            )
+            msg = ('rho_b: 1 is unstable with viscous damping (the spurious root -1 leaves the '
+                   'unit circle); use rho_b < 1 (e.g. 0.9) or no damping')
+            raise ConfigError(msg)
         self.stability_limit = self.stability_limit_for(rho_b=self._rho_b, xi=xi_max)
 
     def _max_damping_ratio(self) -> float:
@@ -148,7 +130,7 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
         return alpha_m, beta, gamma
 
     @classmethod
-    def stability_limit_for(cls, *, rho_b: float = 1.0, xi: float = 0.0) -> float:
+    def _stability_limit(cls, parameters: Mapping[str, Any], xi: float) -> float:
         """Stability limit ``Ω_s(ρ_b, ξ)``.
 
         Undamped (``ξ = 0``): ``Ω_s = √(12 (1 + ρ_b)(2 − ρ_b)/(10 − 5ρ_b + ρ_b²))`` (see the
@@ -156,8 +138,8 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
         :meth:`amplification_matrix` stays ≤ 1 on ``(0, Ω]``, found by a scan and bisection;
         0 for ``ρ_b = 1`` (unstable at any ``Ω > 0``).
         """
-        rho = cls._check('rho_b', rho_b)
-        damping = cls._check('xi', xi)
+        rho = float(parameters['rho_b'])
+        damping = xi
         undamped = math.sqrt(12.0 * (1.0 + rho) * (2.0 - rho) / (10.0 - 5.0 * rho + rho * rho))
         if damping == 0.0:
             return undamped
@@ -188,24 +170,19 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
     @classmethod
     def bifurcation_limit(cls, rho_b: float = 1.0) -> float:
         """``Ω_b = (1 + ρ_b) √(2 − ρ_b)``, where the spectral radius is ``ρ_b``."""
-        rho = cls._check('rho_b', rho_b)
+        rho = float(cls.resolve_parameters(rho_b=rho_b)['rho_b'])
         return (1.0 + rho) * math.sqrt(2.0 - rho)
 
     @classmethod
-    def amplification_matrix(
-        cls, omega_dt: float, xi: float = 0.0, *, rho_b: float = 1.0
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring on ``(x, Δt·v, Δt²·a)``."""
-        alpha_m, beta, gamma = cls.coefficients(cls._check('rho_b', rho_b))
-        k, c = _unit_sdof(omega_dt, xi)
-        return _newmark_amplification(beta, gamma, [0.0, 0.0, 1.0 - alpha_m], [-k, -c, -alpha_m])
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``{'rho_b': ρ_b}``."""
-        return {'rho_b': self._rho_b}
+        alpha_m, beta, gamma = cls.coefficients(float(parameters['rho_b']))
+        k, c = unit_sdof(omega_dt, xi)
+        return newmark_amplification(beta, gamma, [0.0, 0.0, 1.0 - alpha_m], [-k, -c, -alpha_m])
 
     def _setup_scheme(self) -> None:
+        self._check_damping()
         self._a_next: Any = None
         self._v_next: Any = None
 
@@ -275,55 +252,29 @@ class ModifiedNewmark(ArrayIntegrator):
 
     #: Largest accepted ``α`` (``Ω_s = √2`` there).
     ALPHA_MAX: ClassVar[float] = 0.5
-    _PARAMETER_RANGES = {'alpha': (0.0, ALPHA_MAX)}
+    PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
+        SchemeParameter('alpha', 0.05, 0.0, ALPHA_MAX,
+                        description='dissipation parameter (0: Newmark explicit)'),
+    )
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        alpha: float = 0.05,
-    ) -> None:
-        """Create the scheme.
-
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Not used by the scheme (validated if given).
-            alpha: Dissipation parameter ``α`` in ``[0, 0.5]``; 0 is Newmark explicit.
-
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._alpha = self._check('alpha', alpha)
-        self.stability_limit = self.stability_limit_for(alpha=self._alpha)
-        super().__init__(mass, damping, dt, initial_stiffness)
+    def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
+        self._alpha = float(parameters['alpha'])
 
     @classmethod
-    def stability_limit_for(cls, *, alpha: float = 0.05) -> float:
+    def _stability_limit(cls, parameters: Mapping[str, Any], xi: float) -> float:
         """``Ω_s = 2/√(1 + 2α)``."""
-        value = cls._check('alpha', alpha)
-        return 2.0 / math.sqrt(1.0 + 2.0 * value)
+        return 2.0 / math.sqrt(1.0 + 2.0 * float(parameters['alpha']))
 
     @classmethod
-    def amplification_matrix(
-        cls, omega_dt: float, xi: float = 0.0, *, alpha: float = 0.05
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring on ``(x, Δt·v, Δt²·a)``."""
-        value = cls._check('alpha', alpha)
-        k, c = _unit_sdof(omega_dt, xi)
+        value = float(parameters['alpha'])
+        k, c = unit_sdof(omega_dt, xi)
         w = 1.0 + value
         lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, -0.5], [w * k, w * c, 1.0]]
         rhs = [[1.0, 1.0, 0.5], [0.0, 1.0, 0.5], [value * k, value * c, 0.0]]
         return amplification_from(lhs, rhs)
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``{'alpha': α}``."""
-        return {'alpha': self._alpha}
 
     def _setup_scheme(self) -> None:
         w = 1.0 + self._alpha

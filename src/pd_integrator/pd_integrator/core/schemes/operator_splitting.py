@@ -12,8 +12,8 @@ initial stiffness ``K_I`` (Nakashima et al. 1990; Combescure & Pegon 1997)::
 
 and ``a_{n+1}`` solves the (weighted) equation of motion, a linear system with the constant
 matrix ``(1 − α_m) M + (1 − α_f)(γ Δt C + β Δt² K_I)`` factorised once. The committed
-displacement :attr:`~pd_integrator.core.schemes.Integrator.x` is the corrected ``x_{n+1}``
-and the committed :attr:`~pd_integrator.core.schemes.Integrator.r` the corrected force,
+displacement :attr:`~.base.Integrator.x` is the corrected ``x_{n+1}``
+and the committed :attr:`~.base.Integrator.r` the corrected force,
 which enters the next step's equation of motion.
 
 For a linear specimen with stiffness ``K_I`` the correction is exact and the scheme is the
@@ -29,17 +29,15 @@ stiffness ``K_I``) the state is ``(x, Δt·v, Δt²·a)``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .schemes import (
-    ArrayIntegrator,
-    Factorization,
-    _GeneralizedAlphaFamily,
-    _newmark_amplification,
-    _unit_sdof,
-)
+from .amplification import newmark_amplification, unit_sdof
+from .array import ArrayIntegrator, GeneralizedAlphaFamily
+from .linalg import Factorization
+from .parameters import SchemeParameter
 
 __all__ = ['AlphaOS', 'GeneralizedAlphaOS']
 
@@ -94,9 +92,9 @@ class _OperatorSplitting(ArrayIntegrator):
     def _generalized_matrix(
         omega_dt: float, xi: float, alpha_m: float, alpha_f: float, beta: float, gamma: float
     ) -> np.ndarray:
-        k, c = _unit_sdof(omega_dt, xi)
+        k, c = unit_sdof(omega_dt, xi)
         w = 1.0 - alpha_f
-        return _newmark_amplification(
+        return newmark_amplification(
             beta, gamma, [w * k, w * c, 1.0 - alpha_m], [-alpha_f * k, -alpha_f * c, -alpha_m]
         )
 
@@ -133,35 +131,16 @@ class AlphaOS(_OperatorSplitting):
 
     name: ClassVar[str] = 'alpha_os'
     numerical_damping_parameter: ClassVar[str | None] = 'alpha'
-    _PARAMETER_RANGES = {'alpha': (-1.0 / 3.0, 0.0)}
+    PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
+        SchemeParameter('alpha', -0.05, -1.0 / 3.0, 0.0, description=(
+            'HHT alpha in [-1/3, 0] (OpenSees AlphaOS: 1 + alpha); 0: no dissipation')),
+    )
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        alpha: float = -0.05,
-    ) -> None:
-        """Create the scheme.
-
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Initial stiffness ``K_I`` (required).
-            alpha: HHT ``α`` in ``[−1/3, 0]`` (``α_OpenSees − 1``); 0 is the undamped
-                average-acceleration OS scheme.
-
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._alpha = self._check('alpha', alpha)
+    def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
+        self._alpha = float(parameters['alpha'])
         self._alpha_m = 0.0
         self._alpha_f = -self._alpha
         self._beta, self._gamma = self.newmark_parameters(self._alpha)
-        super().__init__(mass, damping, dt, initial_stiffness)
 
     @staticmethod
     def newmark_parameters(alpha: float) -> tuple[float, float]:
@@ -179,27 +158,15 @@ class AlphaOS(_OperatorSplitting):
         return float(alpha_opensees) - 1.0
 
     @classmethod
-    def stability_limit_for(cls, *, alpha: float = -0.05) -> float:
-        """``inf`` (for specimens not stiffer than ``K_I``)."""
-        cls._check('alpha', alpha)
-        return math.inf
-
-    @classmethod
-    def amplification_matrix(
-        cls, omega_dt: float, xi: float = 0.0, *, alpha: float = -0.05
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """HHT-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        value = cls._check('alpha', alpha)
+        value = float(parameters['alpha'])
         beta, gamma = cls.newmark_parameters(value)
         return cls._generalized_matrix(omega_dt, xi, 0.0, -value, beta, gamma)
 
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``{'alpha': α}`` (HHT convention)."""
-        return {'alpha': self._alpha}
 
-
-class GeneralizedAlphaOS(_OperatorSplitting, _GeneralizedAlphaFamily):
+class GeneralizedAlphaOS(_OperatorSplitting, GeneralizedAlphaFamily):
     """Generalized-α operator-splitting scheme, parameter ``rho_inf``.
 
     Sources: J. Chung and G. M. Hulbert, "A time integration algorithm for structural
@@ -223,40 +190,9 @@ class GeneralizedAlphaOS(_OperatorSplitting, _GeneralizedAlphaFamily):
 
     name: ClassVar[str] = 'generalized_alpha_os'
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        rho_inf: float = 0.5,
-    ) -> None:
-        """Create the scheme.
-
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Initial stiffness ``K_I`` (required).
-            rho_inf: Spectral radius at infinite frequency, in ``[0, 1]``.
-
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._set_rho_inf(rho_inf)
-        super().__init__(mass, damping, dt, initial_stiffness)
-
     @classmethod
-    def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
-        """``inf`` (for specimens not stiffer than ``K_I``)."""
-        cls._check('rho_inf', rho_inf)
-        return math.inf
-
-    @classmethod
-    def amplification_matrix(
-        cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Generalized-α with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        coefficients = cls.coefficients(cls._check('rho_inf', rho_inf))
+        coefficients = cls.coefficients(float(parameters['rho_inf']))
         return cls._generalized_matrix(omega_dt, xi, *coefficients)

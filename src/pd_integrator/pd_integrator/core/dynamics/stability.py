@@ -18,20 +18,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError, PdIntegratorError, StabilityError
-from .schemes import SCHEMES, Integrator
+from . import analysis
+from ..errors import ConfigError, PdIntegratorError, StabilityError
+from ..schemes import (
+    Integrator,
+    newmark_explicit_numerical_frequency,
+    scheme_class,
+)
 from .structure import omega_max as structure_omega_max
 
 __all__ = [
     'NUMERICAL_FREQUENCY',
     'StabilityReport',
-    'amplification_matrix_newmark_explicit',
     'check_stability',
-    'newmark_explicit_numerical_frequency',
     'period_distortion',
     'period_error',
     'period_shrinkage',
@@ -40,73 +44,9 @@ __all__ = [
 ]
 
 
-def amplification_matrix_newmark_explicit(
-    omega_dt: float, dt: float = 1.0, xi: float = 0.0
-) -> np.ndarray:
-    """Amplification matrix ``A`` of the Newmark explicit scheme (thesis eq. 3.7).
-
-    With ``ω = omega_dt/dt`` the matrix acts on ``x̂ = (x, v, a)``. The default ``dt = 1``
-    gives the Δt-normalised form, which acts on ``(x, Δt·v, Δt²·a)``; all choices of ``dt``
-    give similar matrices (``D A D⁻¹`` with ``D = diag(1, Δt, Δt²)``), so the eigenvalues and
-    the spectral radius depend on ``Ω = ωΔt`` (and ``ξ``) only.
-
-    With viscous damping (``m = 1``, ``c = 2ξω``) the step of eqs. 3.20–3.22 reads, with
-    ``d = 1 + ξΩ``: ``a_{i+1} = −(ω² x_{i+1} + c v_i + c Δt/2 a_i)/d``; ``ξ = 0`` gives eq. 3.7
-    exactly.
-
-    Args:
-        omega_dt: ``Ω = ωΔt`` (≥ 0).
-        dt: Time step in s used to dimension the matrix (positive).
-        xi: Viscous damping ratio ``ξ`` (≥ 0).
-
-    Returns:
-        The 3×3 amplification matrix.
-    """
-    if not (dt > 0.0 and math.isfinite(dt)):
-        raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
-    w = float(omega_dt) / dt
-    w2 = w * w
-    c = 2.0 * float(xi) * w
-    d = 1.0 + c * dt / 2.0
-    return np.array(
-        [
-            [1.0, dt, dt**2 / 2.0],
-            [
-                -w2 * dt / 2.0 / d,
-                1.0 - (w2 * dt**2 + c * dt) / (2.0 * d),
-                dt / 2.0 - (w2 * dt**3 / 2.0 + c * dt**2 / 2.0) / (2.0 * d),
-            ],
-            [-w2 / d, -(w2 * dt + c) / d, -(w2 * dt**2 / 2.0 + c * dt / 2.0) / d],
-        ]
-    )
-
-
 def spectral_radius(matrix: Any) -> float:
     """Largest eigenvalue modulus ``ρ(A) = max |λ_k|`` of a square matrix."""
     return float(np.max(np.abs(np.linalg.eigvals(np.asarray(matrix, dtype=float)))))
-
-
-def newmark_explicit_numerical_frequency(omega_dt: float) -> float:
-    """Numerical frequency ``Ω̄ = ω̄Δt`` of the Newmark explicit scheme (thesis eq. 3.19).
-
-    ``Ω̄ = atan2(B, A)`` with ``A = 1 − Ω²/2`` (eq. 3.11) and
-    ``B = √(4 − (Ω² − 2)²)/2 = Ω √(4 − Ω²)/2`` (eq. 3.12, factored to avoid cancellation).
-    The two-argument arctangent keeps the right branch for ``√2 < Ω ≤ 2``, where ``A < 0``
-    and ``Ω̄`` lies in ``(π/2, π]``.
-
-    Args:
-        omega_dt: ``Ω = ωΔt`` (≥ 0).
-
-    Returns:
-        ``Ω̄`` in rad per step, or NaN above the stability limit ``Ω > 2`` (no oscillatory
-        solution exists there).
-    """
-    omega = float(omega_dt)
-    if not (omega >= 0.0) or omega > 2.0:
-        return math.nan
-    a = 1.0 - omega * omega / 2.0
-    b = omega * math.sqrt(4.0 - omega * omega) / 2.0
-    return math.atan2(b, a)
 
 
 #: Numerical frequency ``Ω̄(Ω)`` per scheme name, for the period distortion.
@@ -120,7 +60,7 @@ def period_distortion(omega_dt: float, scheme: str = 'newmark_explicit') -> floa
 
     Newmark explicit uses the closed form of eq. 3.19; any other registered scheme with an
     ``amplification_matrix`` (default parameters, no viscous damping) uses the spectral
-    analysis of :mod:`pd_integrator.core.analysis`.
+    analysis of :mod:`pd_integrator.core.dynamics.analysis`.
 
     Args:
         omega_dt: ``Ω = ωΔt``.
@@ -194,20 +134,6 @@ class StabilityReport:
         return self.limit / self.omega_max
 
 
-def _resolve_scheme(scheme: str | type[Integrator] | Integrator) -> type[Integrator]:
-    if isinstance(scheme, Integrator):
-        return type(scheme)
-    if isinstance(scheme, type) and issubclass(scheme, Integrator):
-        return scheme
-    try:
-        return SCHEMES[scheme]  # type: ignore[index]
-    except (KeyError, TypeError):
-        valid = ', '.join(sorted(SCHEMES))
-        raise ConfigError(
-            f'scheme: unknown integration scheme {scheme!r}; valid: {valid}'
-        ) from None
-
-
 def _expected_accuracy(
     scheme: str | type[Integrator], omega_dt: float, parameters: dict[str, Any]
 ) -> tuple[float, float, float]:
@@ -217,8 +143,6 @@ def _expected_accuracy(
     unknown scheme, one without ``amplification_matrix``, or parameters the analysis rejects;
     NaN distortion and damping where the spectrum is unstable.
     """
-    from . import analysis  # noqa: PLC0415 - analysis imports this module
-
     nan = (math.nan, math.nan, math.nan)
     try:
         if not analysis.has_amplification_matrix(scheme):
@@ -253,7 +177,7 @@ def check_stability(
     Raises:
         ConfigError: On an unknown scheme, a non-positive ``dt`` or malformed matrices.
     """
-    cls = _resolve_scheme(scheme)
+    cls = scheme_class(scheme)
     try:
         dt_value = float(dt)
     except (TypeError, ValueError):

@@ -8,7 +8,7 @@ once from ``M``, ``C`` and the initial stiffness ``K_I``::
 
 so the target needs no restoring force; the measured ``r_{n+1}`` then gives ``a_{n+1}``
 from the equation of motion. No correction is applied to the measured force: the committed
-:attr:`~pd_integrator.core.schemes.Integrator.r` is the measured one.
+:attr:`~.base.Integrator.r` is the measured one.
 
 For a linear specimen with stiffness ``K_I`` the schemes are unconditionally stable and
 second-order accurate; they stay unconditionally stable for softening specimens, while a
@@ -28,19 +28,14 @@ stiffness ``K_I``) the state is ``(x, Δt·v, Δt²·a)``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .schemes import (
-    ArrayIntegrator,
-    Factorization,
-    _GeneralizedAlphaFamily,
-    _is_sparse_structure,
-    _unit_sdof,
-    amplification_from,
-    operator,
-)
+from .amplification import amplification_from, unit_sdof
+from .array import ArrayIntegrator, GeneralizedAlphaFamily
+from .linalg import Factorization, is_sparse_structure, operator
 
 __all__ = ['ChenRicles', 'KRAlpha']
 
@@ -49,7 +44,7 @@ class _ModelBased(ArrayIntegrator):
     """The predictor of the module docstring: target ``x_{n+1}``, ``v_{n+1}`` kept.
 
     ``α₁ = s₁ D⁻¹ M`` and ``α₂ = s₂ D⁻¹ M`` for a model matrix ``D``. Small models keep
-    ``α₁``, ``α₂`` as dense matrices; a large sparse model (see :func:`~.schemes.operator`)
+    ``α₁``, ``α₂`` as dense matrices; a large sparse model (see :func:`~.linalg.operator`)
     applies them as one sparse solve per step instead (the inverse of a sparse matrix is
     dense: O(n²) per product).
     """
@@ -63,7 +58,7 @@ class _ModelBased(ArrayIntegrator):
     def _set_alphas(self, model: Factorization, d_matrix: np.ndarray,
                     scales: tuple[float, float]) -> None:
         """``α₁ = s₁ D⁻¹ M``, ``α₂ = s₂ D⁻¹ M`` (matrices, or the sparse factor of ``D``)."""
-        if _is_sparse_structure(d_matrix):
+        if is_sparse_structure(d_matrix):
             self._sparse_model = model
             self._alpha_scales = scales
             return
@@ -113,9 +108,10 @@ class ChenRicles(_ModelBased):
     numerical_damping_parameter: ClassVar[str | None] = None
 
     @classmethod
-    def amplification_matrix(cls, omega_dt: float, xi: float = 0.0) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        k, c = _unit_sdof(omega_dt, xi)
+        k, c = unit_sdof(omega_dt, xi)
         alpha = 4.0 / (4.0 + 2.0 * c + k)
         lhs = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [k, c, 1.0]]
         rhs = [[1.0, 1.0, alpha], [0.0, 1.0, alpha], [0.0, 0.0, 0.0]]
@@ -134,7 +130,7 @@ class ChenRicles(_ModelBased):
         return self._out(self._mass_factor.solve(rhs)), self._v_next
 
 
-class KRAlpha(_ModelBased, _GeneralizedAlphaFamily):
+class KRAlpha(_ModelBased, GeneralizedAlphaFamily):
     """KR-α explicit model-based scheme (Kolay & Ricles 2014), parameter ``rho_inf``.
 
     Source: C. Kolay and J. M. Ricles, "Development of a family of unconditionally stable
@@ -161,43 +157,12 @@ class KRAlpha(_ModelBased, _GeneralizedAlphaFamily):
 
     name: ClassVar[str] = 'kr_alpha'
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        rho_inf: float = 0.5,
-    ) -> None:
-        """Create the scheme.
-
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Initial stiffness ``K_I`` (required).
-            rho_inf: Spectral radius at infinite frequency, in ``[0, 1]``.
-
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._set_rho_inf(rho_inf)
-        super().__init__(mass, damping, dt, initial_stiffness)
-
     @classmethod
-    def stability_limit_for(cls, *, rho_inf: float = 0.5) -> float:
-        """``inf`` (for specimens not stiffer than ``K_I``)."""
-        cls._check('rho_inf', rho_inf)
-        return math.inf
-
-    @classmethod
-    def amplification_matrix(
-        cls, omega_dt: float, xi: float = 0.0, *, rho_inf: float = 0.5
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Eqs. (1)–(3) of the class docstring with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        alpha_m, alpha_f, beta, gamma = cls.coefficients(cls._check('rho_inf', rho_inf))
-        k, c = _unit_sdof(omega_dt, xi)
+        alpha_m, alpha_f, beta, gamma = cls.coefficients(float(parameters['rho_inf']))
+        k, c = unit_sdof(omega_dt, xi)
         d = 1.0 + gamma * c + beta * k
         alpha1 = 1.0 / d
         alpha2 = (0.5 + gamma) * alpha1

@@ -8,28 +8,26 @@ Registry names: ``newmark_implicit`` (parameters ``beta``, ``gamma``, ``iteratio
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import ConfigError
-from .schemes import ArrayIntegrator, Factorization, _newmark_amplification, _unit_sdof
+from .amplification import newmark_amplification, unit_sdof
+from .array import ArrayIntegrator
+from .linalg import Factorization
+from .parameters import SchemeParameter
 
 __all__ = ['AverageAcceleration', 'LinearAcceleration', 'NewmarkImplicit']
 
 #: Most iterations per step accepted (each one is a command to the specimen).
 MAX_ITERATIONS = 50
 
-
-def _check_iterations(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ConfigError(f'iterations: expected an integer, got {value!r}')
-    number = float(value)
-    if not (math.isfinite(number) and number == int(number) and 1 <= number <= MAX_ITERATIONS):
-        raise ConfigError(
-            f'iterations: must be an integer in [1, {MAX_ITERATIONS}], got {value!r}'
-        )
-    return int(number)
+_ITERATIONS = SchemeParameter('iterations', 3, 1, MAX_ITERATIONS, integer=True,
+                              description='trials (commands to the specimen) per step')
+_INCREMENT_REDUCTION = SchemeParameter(
+    'increment_reduction', 0.9, 0.0, 1.0, low_open=True,
+    description='factor s on the imposed increments (1: plain modified Newton)')
 
 
 class NewmarkImplicit(ArrayIntegrator):
@@ -108,96 +106,40 @@ class NewmarkImplicit(ArrayIntegrator):
 
     #: ``β`` of the aliases (``None``: free parameter).
     FIXED_BETA: ClassVar[float | None] = None
-    _PARAMETER_RANGES = {
-        'beta': (0.0, 0.5, True), 'gamma': (0.5, 1.0), 'increment_reduction': (0.0, 1.0, True),
-    }
+    PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
+        SchemeParameter('beta', 0.25, 0.0, 0.5, low_open=True,
+                        description='Newmark beta (1/4 average, 1/6 linear acceleration)'),
+        SchemeParameter('gamma', 0.5, 0.5, 1.0,
+                        description='Newmark gamma (1/2: no numerical damping, second order)'),
+        _ITERATIONS,
+        _INCREMENT_REDUCTION,
+    )
 
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        beta: float = 0.25,
-        gamma: float = 0.5,
-        iterations: int = 3,
-        increment_reduction: float = 0.9,
-    ) -> None:
-        """Create the scheme.
+    def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
+        self._beta, self._gamma = self._newmark_coefficients(parameters)
+        self.iterations_per_step = int(parameters['iterations'])
+        self._reduction = float(parameters['increment_reduction'])
 
-        Args:
-            mass: Mass matrix (see :class:`~pd_integrator.core.schemes.Integrator`).
-            damping: Damping matrix.
-            dt: Time step in s.
-            initial_stiffness: Initial stiffness ``K_I`` (required).
-            beta: Newmark ``β`` in ``(0, 1/2]`` (1/4 average, 1/6 linear acceleration).
-            gamma: Newmark ``γ`` in ``[1/2, 1]`` (1/2: no numerical damping, second order).
-            iterations: Trials (commands) per step, an integer in ``[1, 50]``.
-            increment_reduction: Factor ``s ∈ (0, 1]`` on the imposed increments (default 0.9).
+    @classmethod
+    def _newmark_coefficients(cls, parameters: Mapping[str, Any]) -> tuple[float, float]:
+        """``(β, γ)``: the given ones (the aliases fix them)."""
+        return float(parameters['beta']), float(parameters['gamma'])
 
-        Raises:
-            ConfigError: On invalid input (the message names the parameter).
-        """
-        self._beta = self._check('beta', beta)
-        self._gamma = self._check('gamma', gamma)
-        self.iterations_per_step = _check_iterations(iterations)
-        self._reduction = self._check('increment_reduction', increment_reduction)
-        self.stability_limit = self._limit(self._beta, self._gamma)
-        super().__init__(mass, damping, dt, initial_stiffness)
-
-    @staticmethod
-    def _limit(beta: float, gamma: float) -> float:
+    @classmethod
+    def _stability_limit(cls, parameters: Mapping[str, Any], xi: float) -> float:
+        """``inf`` if ``2β ≥ γ``, else ``1/√(γ/2 − β)`` (``√12`` for ``β = 1/6``)."""
+        beta, gamma = cls._newmark_coefficients(parameters)
         if 2.0 * beta >= gamma:
             return math.inf
         return 1.0 / math.sqrt(gamma / 2.0 - beta)
 
     @classmethod
-    def stability_limit_for(
-        cls,
-        *,
-        beta: float = 0.25,
-        gamma: float = 0.5,
-        iterations: int = 3,
-        increment_reduction: float = 0.9,
-    ) -> float:
-        """``inf`` if ``2β ≥ γ``, else ``1/√(γ/2 − β)`` (``√12`` for ``β = 1/6``)."""
-        _check_iterations(iterations)
-        cls._check('increment_reduction', increment_reduction)
-        return cls._limit(cls._check('beta', beta), cls._check('gamma', gamma))
-
-    @classmethod
-    def amplification_matrix(
-        cls,
-        omega_dt: float,
-        xi: float = 0.0,
-        *,
-        beta: float = 0.25,
-        gamma: float = 0.5,
-        iterations: int = 3,
-        increment_reduction: float = 0.9,
-    ) -> np.ndarray:
+    def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
+                       ) -> np.ndarray:
         """Newmark's scheme (1)–(3) with ``K = K_I`` on ``(x, Δt·v, Δt²·a)``."""
-        cls.stability_limit_for(
-            beta=beta, gamma=gamma, iterations=iterations,
-            increment_reduction=increment_reduction,
-        )
-        return cls._newmark_matrix(omega_dt, xi, float(beta), float(gamma))
-
-    @staticmethod
-    def _newmark_matrix(omega_dt: float, xi: float, beta: float, gamma: float) -> np.ndarray:
-        k, c = _unit_sdof(omega_dt, xi)
-        return _newmark_amplification(beta, gamma, [k, c, 1.0], [0.0, 0.0, 0.0])
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``beta``, ``gamma``, ``iterations`` and ``increment_reduction``."""
-        return {
-            'beta': self._beta,
-            'gamma': self._gamma,
-            'iterations': self.iterations_per_step,
-            'increment_reduction': self._reduction,
-        }
+        beta, gamma = cls._newmark_coefficients(parameters)
+        k, c = unit_sdof(omega_dt, xi)
+        return newmark_amplification(beta, gamma, [k, c, 1.0], [0.0, 0.0, 0.0])
 
     # ----------------------------------------------------------------- stepping
 
@@ -295,52 +237,13 @@ class AverageAcceleration(NewmarkImplicit):
     name: ClassVar[str] = 'average_acceleration'
     stability_limit: float = math.inf
     FIXED_BETA: ClassVar[float | None] = 0.25
-
-    def __init__(
-        self,
-        mass: Any,
-        damping: Any,
-        dt: float,
-        initial_stiffness: Any = None,
-        *,
-        iterations: int = 3,
-        increment_reduction: float = 0.9,
-    ) -> None:
-        """Create the scheme (see :class:`NewmarkImplicit`; ``beta`` and ``gamma`` fixed)."""
-        super().__init__(
-            mass, damping, dt, initial_stiffness, beta=self.FIXED_BETA or 0.25, gamma=0.5,
-            iterations=iterations, increment_reduction=increment_reduction,
-        )
+    #: ``β`` and ``γ = 1/2`` are fixed by the name.
+    PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (_ITERATIONS, _INCREMENT_REDUCTION)
 
     @classmethod
-    def stability_limit_for(  # type: ignore[override]
-        cls, *, iterations: int = 3, increment_reduction: float = 0.9
-    ) -> float:
-        """The limit for the alias's fixed ``β`` (see :class:`NewmarkImplicit`)."""
-        return NewmarkImplicit.stability_limit_for(
-            beta=cls.FIXED_BETA or 0.25, iterations=iterations,
-            increment_reduction=increment_reduction,
-        )
-
-    @classmethod
-    def amplification_matrix(  # type: ignore[override]
-        cls,
-        omega_dt: float,
-        xi: float = 0.0,
-        *,
-        iterations: int = 3,
-        increment_reduction: float = 0.9,
-    ) -> np.ndarray:
-        """Newmark's amplification matrix for the alias's fixed ``β`` and ``γ = 1/2``."""
-        return NewmarkImplicit.amplification_matrix(
-            omega_dt, xi, beta=cls.FIXED_BETA or 0.25, iterations=iterations,
-            increment_reduction=increment_reduction,
-        )
-
-    @property
-    def parameters(self) -> dict[str, Any]:
-        """``iterations`` and ``increment_reduction`` (``β``, ``γ`` are fixed by the name)."""
-        return {'iterations': self.iterations_per_step, 'increment_reduction': self._reduction}
+    def _newmark_coefficients(cls, parameters: Mapping[str, Any]) -> tuple[float, float]:
+        """The alias's fixed ``β`` and ``γ = 1/2``."""
+        return cls.FIXED_BETA or 0.25, 0.5
 
 
 class LinearAcceleration(AverageAcceleration):

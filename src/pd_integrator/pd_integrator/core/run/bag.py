@@ -39,7 +39,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from .errors import BagError
+from ..errors import BagError
 from pd_common.protocol import (
     Command,
     Feedback,

@@ -1,0 +1,335 @@
+"""Structural elements: element stiffness, assembly and static condensation.
+
+Pure numerical building blocks for describing the numerical part of a hybrid test as a set
+of elements instead of hand-written matrices:
+
+* element stiffness matrices (:func:`spring_stiffness`, :func:`beam_column_2d_stiffness`);
+* assembly into a global matrix with fixed (ground) DOFs removed (:func:`assemble`);
+* static condensation of massless DOFs, e.g. joint rotations (:func:`static_condensation`).
+
+Damping matrices are built by :mod:`.damping`, modal properties by :mod:`.modes`.
+
+Sign conventions: 2-D frames lie in the global x–y plane, rotations are counter-clockwise
+positive. All quantities are SI (N, m, kg, s). Only numpy/scipy are used.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse
+
+from ..errors import ConfigError
+from ..matrices import readonly_copy
+from .checks import dense_square, positive
+
+__all__ = [
+    'SPARSE_THRESHOLD',
+    'Condensation',
+    'assemble',
+    'beam_column_2d_stiffness',
+    'spring_stiffness',
+    'static_condensation',
+]
+
+#: :func:`assemble` returns a scipy.sparse CSR matrix by default from this many DOFs on.
+SPARSE_THRESHOLD = 200
+
+
+# --------------------------------------------------------------------------- elements
+
+
+def spring_stiffness(k: float, *, name: str = 'spring') -> np.ndarray:
+    """Stiffness of a linear spring (or a shear storey) between two DOFs.
+
+    Args:
+        k: Spring stiffness in N/m (or N·m/rad for a rotational spring), positive.
+        name: Element name used in error messages.
+
+    Returns:
+        ``[[k, -k], [-k, k]]`` for the DOF order ``[i, j]``. Ground one end by giving it the
+        index ``None`` in :func:`assemble`.
+
+    Raises:
+        ConfigError: If ``k`` is not a positive finite number.
+    """
+    value = positive(k, name, 'stiffness k')
+    return np.array([[value, -value], [-value, value]])
+
+
+def beam_column_2d_stiffness(
+    xi: tuple[float, float],
+    xj: tuple[float, float],
+    E: float,
+    A: float,
+    I: float,  # noqa: E741 - the engineering symbol
+    *,
+    name: str = 'beam_column_2d',
+) -> np.ndarray:
+    """Global stiffness of a linear elastic 2-D Euler–Bernoulli frame element.
+
+    The local matrix (axis from node ``i`` to node ``j``, length ``L``) couples the axial
+    stiffness ``EA/L`` with the flexural terms ``12EI/L³, 6EI/L², 4EI/L, 2EI/L``; it is
+    rotated to global axes by ``K = Tᵀ k T`` with the direction cosines of the element.
+
+    Args:
+        xi: Global coordinates ``(x, y)`` of node ``i`` in m.
+        xj: Global coordinates ``(x, y)`` of node ``j`` in m.
+        E: Young's modulus in Pa, positive.
+        A: Cross-section area in m², positive.
+        I: Second moment of area about the bending axis in m⁴, positive.
+        name: Element name used in error messages.
+
+    Returns:
+        The symmetric 6×6 stiffness for the end DOFs ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]``
+        in global axes (rotations counter-clockwise positive). A free element has exactly
+        three rigid-body modes.
+
+    Raises:
+        ConfigError: On malformed coordinates, a zero length or non-positive ``E``, ``A``
+            or ``I``.
+    """
+    points = []
+    for label, point in (('xi', xi), ('xj', xj)):
+        try:
+            coords = np.array(point, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ConfigError(f'{name}: {label} must be a pair (x, y), got {point!r}') from None
+        if coords.shape != (2,) or not np.all(np.isfinite(coords)):
+            raise ConfigError(f'{name}: {label} must be a finite pair (x, y), got {point!r}')
+        points.append(coords)
+    e = positive(E, name, 'E')
+    a = positive(A, name, 'A')
+    inertia = positive(I, name, 'I')
+    dx, dy = points[1] - points[0]
+    length = math.hypot(dx, dy)
+    scale = max(float(np.max(np.abs(points[0]))), float(np.max(np.abs(points[1]))), 1.0)
+    if length <= 1e-12 * scale:
+        raise ConfigError(f'{name}: nodes xi and xj coincide (zero length)')
+    c, s = dx / length, dy / length
+    ea = e * a / length
+    k1 = 12.0 * e * inertia / length**3
+    k2 = 6.0 * e * inertia / length**2
+    k3 = 4.0 * e * inertia / length
+    k4 = 2.0 * e * inertia / length
+    local = np.array(
+        [
+            [ea, 0.0, 0.0, -ea, 0.0, 0.0],
+            [0.0, k1, k2, 0.0, -k1, k2],
+            [0.0, k2, k3, 0.0, -k2, k4],
+            [-ea, 0.0, 0.0, ea, 0.0, 0.0],
+            [0.0, -k1, -k2, 0.0, k1, -k2],
+            [0.0, k2, k4, 0.0, -k2, k3],
+        ]
+    )
+    # Local (axial, transverse, rotation) = R · global (ux, uy, rz) at each node.
+    rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    transform = np.zeros((6, 6))
+    transform[:3, :3] = rotation
+    transform[3:, 3:] = rotation
+    stiffness = transform.T @ local @ transform
+    return 0.5 * (stiffness + stiffness.T)
+
+
+# --------------------------------------------------------------------------- assembly
+
+
+def assemble(
+    n: int,
+    element_matrices: Sequence[tuple[Sequence[int | None], np.ndarray]],
+    *,
+    sparse: bool | None = None,
+) -> np.ndarray | scipy.sparse.csr_matrix:
+    """Assemble element matrices into an ``n``×``n`` global matrix (direct stiffness).
+
+    Each element contributes ``K[g_a, g_b] += k_e[a, b]`` where ``g`` is its list of global
+    DOF indices. An index ``None`` marks a fixed (ground) DOF: its rows and columns of the
+    element matrix are dropped. Two local DOFs may map onto the same global index (a rigid
+    tie); their contributions are summed. The build is a single vectorised COO sum.
+
+    Args:
+        n: Number of global (free) DOFs, ``>= 1``.
+        element_matrices: ``(indices, matrix)`` pairs; ``matrix`` is ``m``×``m`` with
+            ``m = len(indices)``. Works for stiffness, mass or damping matrices alike.
+        sparse: ``True`` returns a scipy.sparse CSR matrix, ``False`` a dense ndarray;
+            ``None`` (default) chooses sparse when ``n >= SPARSE_THRESHOLD``.
+
+    Returns:
+        The assembled global matrix.
+
+    Raises:
+        ConfigError: On a bad ``n``, an index out of ``0..n-1``, a non-square matrix or a
+            matrix whose size does not match its index list (naming the element by position).
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ConfigError(f'assemble: n must be a positive integer, got {n!r}')
+    n = int(n)
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    values: list[np.ndarray] = []
+    for number, entry in enumerate(element_matrices):
+        label = f'element {number}'
+        try:
+            indices, matrix = entry
+        except (TypeError, ValueError):
+            raise ConfigError(f'{label}: expected a pair (indices, matrix)') from None
+        if isinstance(indices, (str, bytes)) or not isinstance(indices, Sequence | np.ndarray):
+            raise ConfigError(f'{label}: indices must be a sequence, got {indices!r}')
+        local: list[int] = []
+        glob: list[int] = []
+        for position, index in enumerate(indices):
+            if index is None:
+                continue
+            if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+                raise ConfigError(f'{label}: DOF index must be an integer or None, got {index!r}')
+            if not 0 <= int(index) < n:
+                raise ConfigError(f'{label}: DOF index {int(index)} is out of range 0..{n - 1}')
+            local.append(position)
+            glob.append(int(index))
+        dense = _element_matrix(matrix, len(indices), label)
+        if not glob:
+            continue
+        lidx = np.asarray(local)
+        gidx = np.asarray(glob)
+        block = dense[np.ix_(lidx, lidx)]
+        size = gidx.size
+        rows.append(np.repeat(gidx, size))
+        cols.append(np.tile(gidx, size))
+        values.append(block.reshape(-1))
+    row = np.concatenate(rows) if rows else np.zeros(0, dtype=np.intp)
+    col = np.concatenate(cols) if cols else np.zeros(0, dtype=np.intp)
+    val = np.concatenate(values) if values else np.zeros(0)
+    use_sparse = n >= SPARSE_THRESHOLD if sparse is None else bool(sparse)
+    if use_sparse:
+        return scipy.sparse.coo_matrix((val, (row, col)), shape=(n, n)).tocsr()
+    flat = np.bincount(row * n + col, weights=val, minlength=n * n)
+    return flat.reshape(n, n)
+
+
+def _element_matrix(matrix: Any, size: int, label: str) -> np.ndarray:
+    if scipy.sparse.issparse(matrix):
+        matrix = matrix.toarray()
+    try:
+        dense = np.array(matrix, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f'{label}: matrix must contain numbers') from None
+    if dense.ndim == 0 and size == 1:
+        dense = dense.reshape(1, 1)
+    if dense.ndim != 2 or dense.shape[0] != dense.shape[1]:
+        raise ConfigError(f'{label}: matrix must be square, got shape {dense.shape}')
+    if dense.shape[0] != size:
+        raise ConfigError(
+            f'{label}: matrix is {dense.shape[0]}x{dense.shape[1]} but {size} DOF indices '
+            'were given'
+        )
+    if not np.all(np.isfinite(dense)):
+        raise ConfigError(f'{label}: matrix values must be finite')
+    return dense
+
+
+# --------------------------------------------------------------------------- condensation
+
+
+@dataclass(frozen=True, eq=False)
+class Condensation:
+    """Result of :func:`static_condensation`.
+
+    Attributes:
+        retained: Indices ``r`` of the retained DOFs in the original matrix, ascending.
+        condensed: Indices ``c`` of the condensed (eliminated) DOFs, in the given order.
+        stiffness: Condensed stiffness ``K_rr − K_rc K_cc⁻¹ K_cr`` (dense, ``len(r)`` square).
+        recovery: ``R = −K_cc⁻¹ K_cr`` so that the condensed DOFs follow ``x_c = R x_r``
+            (shape ``len(c)`` × ``len(r)``).
+    """
+
+    retained: tuple[int, ...]
+    condensed: tuple[int, ...]
+    stiffness: np.ndarray
+    recovery: np.ndarray
+
+    def expand(self, retained_values: Any) -> np.ndarray:
+        """Full DOF vector (original ordering) from the retained DOF values."""
+        x_r = np.asarray(retained_values, dtype=float)
+        full = np.zeros(len(self.retained) + len(self.condensed))
+        full[list(self.retained)] = x_r
+        full[list(self.condensed)] = self.recovery @ x_r
+        return full
+
+
+def static_condensation(K: Any, condensed: Sequence[int]) -> Condensation:
+    """Statically condense DOFs that carry no mass or external load (e.g. joint rotations).
+
+    With the DOFs split into retained ``r`` and condensed ``c`` and ``f_c = 0``,
+    ``K_cc x_c + K_cr x_r = 0`` gives ``x_c = −K_cc⁻¹ K_cr x_r`` and the retained stiffness
+    ``K_rr − K_rc K_cc⁻¹ K_cr``.
+
+    Args:
+        K: Stiffness matrix (dense array-like or scipy.sparse), ``n``×``n``.
+        condensed: Indices of the DOFs to eliminate (unique, in ``0..n-1``); may be empty.
+
+    Returns:
+        A :class:`Condensation`.
+
+    Raises:
+        ConfigError: On bad indices, when every DOF would be condensed, or when ``K_cc`` is
+            singular (the message names the condensed DOFs without stiffness of their own).
+    """
+    k = dense_square(K, 'stiffness')
+    n = k.shape[0]
+    if isinstance(condensed, (str, bytes)):
+        raise ConfigError(f'condensed: expected a sequence of DOF indices, got {condensed!r}')
+    cond: list[int] = []
+    for index in condensed:
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise ConfigError(f'condensed: DOF index must be an integer, got {index!r}')
+        if not 0 <= int(index) < n:
+            raise ConfigError(f'condensed: DOF index {int(index)} is out of range 0..{n - 1}')
+        cond.append(int(index))
+    if len(set(cond)) != len(cond):
+        raise ConfigError(f'condensed: DOF indices must be unique, got {cond}')
+    chosen = set(cond)
+    retained = [i for i in range(n) if i not in chosen]
+    if not retained:
+        raise ConfigError('condensed: at least one DOF must be retained')
+    r = np.asarray(retained, dtype=np.intp)
+    c = np.asarray(cond, dtype=np.intp)
+    k_rr = k[np.ix_(r, r)]
+    if c.size == 0:
+        return Condensation(
+            tuple(retained), (), readonly_copy(k_rr), readonly_copy(np.zeros((0, r.size)))
+        )
+    k_cc = k[np.ix_(c, c)]
+    k_cr = k[np.ix_(c, r)]
+    k_rc = k[np.ix_(r, c)]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter('error', scipy.linalg.LinAlgWarning)
+            recovery = -scipy.linalg.solve(k_cc, k_cr)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
+        raise ConfigError(
+            f'condensed: K_cc is singular; condensed DOFs {_null_dofs(k_cc, cond)} have no '
+            'stiffness of their own (retain them or add stiffness)'
+        ) from None
+    stiffness = k_rr + k_rc @ recovery
+    if np.allclose(k, k.T, rtol=1e-10, atol=1e-12 * float(np.max(np.abs(k)))):
+        stiffness = 0.5 * (stiffness + stiffness.T)
+    return Condensation(
+        tuple(retained), tuple(cond), readonly_copy(stiffness), readonly_copy(recovery)
+    )
+
+
+def _null_dofs(k_cc: np.ndarray, cond: list[int]) -> list[int]:
+    """Condensed DOFs taking part in the (near) null space of ``K_cc``."""
+    _, singular, vt = np.linalg.svd(k_cc)
+    top = float(singular[0]) if singular.size else 0.0
+    null = vt[singular <= max(top, 1e-300) * k_cc.shape[0] * np.finfo(float).eps * 10.0]
+    if null.size == 0:  # ill-conditioned rather than exactly singular: the weakest direction
+        null = vt[-1:]
+    weight = np.max(np.abs(null), axis=0)
+    return [cond[i] for i in np.flatnonzero(weight > 1e-6 * float(np.max(weight)))]

@@ -1,0 +1,119 @@
+"""Linear algebra of the schemes: matrices factorised once, sparse when large and sparse.
+
+Every scheme factorises its constant effective matrices (``M``, ``M + Δt/2·C``,
+``M + γΔt C + βΔt² K_I``, ...) once per test: Cholesky when symmetric positive definite, LU
+otherwise, a sparse LU for large sparse models (:data:`SPARSE_MIN_DOF`,
+:data:`SPARSE_MAX_DENSITY`), a division for an SDOF.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
+
+from ..errors import ConfigError
+
+__all__ = [
+    'SPARSE_MAX_DENSITY',
+    'SPARSE_MIN_DOF',
+    'Factorization',
+    'cholesky_or_lu',
+    'is_sparse_structure',
+    'operator',
+    'solve_factored',
+]
+
+
+class Factorization:
+    """A matrix factorised once for repeated solves (Cholesky if SPD, else LU).
+
+    Used by the schemes for their constant effective matrices (``M``, ``M + Δt/2·C``,
+    ``M + γΔt C + βΔt² K_I``, ...), computed once per test.
+    """
+
+    def __init__(self, matrix: np.ndarray, name: str) -> None:
+        """Factorise ``matrix``.
+
+        Args:
+            matrix: Square matrix.
+            name: Description used in the error message.
+
+        Raises:
+            ConfigError: If the matrix is singular.
+        """
+        matrix = np.array(matrix, dtype=float)
+        if matrix.shape == (1, 1):  # an SDOF: a division (fast and exact)
+            value = float(matrix[0, 0])
+            if value == 0.0 or not math.isfinite(value):
+                raise ConfigError(f'{name} is singular')
+            self._factor: tuple[str, Any] = ('scalar', value)
+            return
+        self._factor = cholesky_or_lu(
+            matrix, bool(np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0))
+        )
+        if self._factor[0] == 'lu':
+            diagonal = np.abs(np.diag(self._factor[1][0]))
+            if not np.all(diagonal > 1e-13 * max(float(np.max(diagonal)), 1e-300)):
+                raise ConfigError(f'{name} is singular')
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve ``matrix · x = rhs`` (``rhs`` a vector or a matrix of columns)."""
+        return solve_factored(self._factor, rhs)
+
+
+#: Matrices of at least this many DOFs that are mostly zeros (a shear building, a frame) are
+#: factorised and multiplied as sparse matrices: a step then costs O(nnz) instead of O(n²).
+SPARSE_MIN_DOF = 64
+SPARSE_MAX_DENSITY = 0.1
+
+
+def is_sparse_structure(matrix: np.ndarray) -> bool:
+    """Whether ``matrix`` is large and mostly zeros (handled as a sparse matrix)."""
+    n = matrix.shape[0]
+    return n >= SPARSE_MIN_DOF and np.count_nonzero(matrix) <= SPARSE_MAX_DENSITY * n * n
+
+
+def operator(matrix: np.ndarray) -> Any:
+    """``matrix`` for repeated products: CSR when it is large and sparse, else itself."""
+    if matrix.ndim == 2 and is_sparse_structure(matrix):
+        return scipy.sparse.csr_matrix(matrix)
+    return matrix
+
+
+def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
+    """``('cholesky', …)`` if ``symmetric`` and positive definite, else ``('lu', …)``.
+
+    Large sparse matrices get a sparse LU (``('sparse', splu)``), which raises ``ConfigError``
+    when singular. The dense LU factors are not checked for singularity: the caller does that.
+    """
+    if is_sparse_structure(matrix):
+        try:
+            return ('sparse', scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(matrix)))
+        except RuntimeError as err:  # "Factor is exactly singular"
+            raise ConfigError(f'matrix of {matrix.shape[0]} DOFs is singular ({err})') from None
+    if symmetric:
+        try:
+            return ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))
+        except np.linalg.LinAlgError:
+            pass  # not positive definite: fall back to LU
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', scipy.linalg.LinAlgWarning)
+        return ('lu', scipy.linalg.lu_factor(matrix, check_finite=False))
+
+
+def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
+    """Solve with a ``(kind, factor)`` of :class:`Factorization` or :func:`cholesky_or_lu`."""
+    kind, value = factor
+    if kind == 'scalar':
+        return np.asarray(rhs, dtype=float) / value
+    if kind == 'cholesky':
+        return scipy.linalg.cho_solve(value, rhs, check_finite=False)
+    if kind == 'sparse':
+        return value.solve(np.asarray(rhs, dtype=float))
+    return scipy.linalg.lu_solve(value, rhs, check_finite=False)
