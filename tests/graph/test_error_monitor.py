@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_integrator.core.config import load_test_file
-from pd_integrator.core.outputs import read_response_csv
-from pd_integrator.core.runner import run_offline
+from pd_integrator.core.run.test_file import load_test_file
+from pd_integrator.core.run.outputs import read_response_csv
+from pd_integrator.core.run.runner import run_offline
 
 from graph_support import REPO, Processes, executable
 

@@ -24,10 +24,10 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from pd_integrator.core.bag import read_bag
-from pd_integrator.core.config import load_test_file
+from pd_integrator.core.run.bag import read_bag
+from pd_integrator.core.run.test_file import load_test_file
 from pd_common.protocol import Command, Feedback, FeedbackStatus
-from pd_integrator.core.runner import rebuild_outputs, run_offline
+from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 
 from graph_support import REPO, Processes, executable
 
