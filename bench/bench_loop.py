@@ -49,7 +49,7 @@ import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -266,11 +266,11 @@ def _best(samples: list[float]) -> float:
 
 def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS."""
-    from pd_integrator.core.run.test_file import load_test_file
     from pd_common.protocol import Feedback, FeedbackStatus
+    from pd_common.specimen import SpecimenServer, specimen_from_config
     from pd_integrator.core.run.runner import run_offline
     from pd_integrator.core.run.session import TestSession
-    from pd_common.specimen import SpecimenServer, specimen_from_config
+    from pd_integrator.core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     loop_times: list[float] = []
@@ -316,8 +316,8 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
 # -- 2. node graph --------------------------------------------------------------------------
 def _round_trips_from_bag(bag: Path) -> list[float]:
     """Round trips [s]: accepted feedback log time minus its step's last command log time."""
-    from pd_integrator.core.run.bag import read_bag
     from pd_common.protocol import Command, FeedbackStatus
+    from pd_integrator.core.run.bag import read_bag
 
     samples: list[float] = []
     pending: tuple[str, int, int] | None = None  # test_id, step, t_ns of its last send
@@ -651,8 +651,8 @@ def session_loop(definition: Any) -> tuple[float, int]:
         RuntimeError: the session stopped before the last step.
     """
     from pd_common.protocol import Feedback, FeedbackStatus, TestState
-    from pd_integrator.core.run.session import TestSession
     from pd_common.specimen import SpecimenServer, specimen_from_config
+    from pd_integrator.core.run.session import TestSession
 
     specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
                                     source=definition.source, dof_names=definition.dof_names)
@@ -685,6 +685,7 @@ def shear_building_definition() -> tuple[Any, float, float, float]:
     """
     import numpy as np
     import scipy.linalg
+
     from pd_integrator.core.run.test_file import from_dict
     from pd_integrator.core.schemes import SCHEMES
 
@@ -823,7 +824,7 @@ def machine_header(domain_id: int) -> str:
         rclpy_version = version('ros-rclpy')
     except Exception:  # noqa: BLE001
         rclpy_version = 'unknown'
-    now = datetime.now(tz=timezone.utc).strftime('%Y-%m-%d %H:%M:%S UTC')
+    now = datetime.now(tz=UTC).strftime('%Y-%m-%d %H:%M:%S UTC')
     cpu = ''
     with contextlib.suppress(OSError):
         for line in Path('/proc/cpuinfo').read_text().splitlines():

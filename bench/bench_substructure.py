@@ -61,11 +61,11 @@ def large_model(n: int, steps: int, scheme: str = 'newmark_explicit') -> dict[st
 
 def core_large(n: int, steps: int, scheme: str = 'newmark_explicit') -> dict[str, float]:
     """Per-step core time of the large model (best of 3), and the set-up time."""
-    from pd_integrator.core.run.test_file import from_dict
-    from pd_integrator.core.run.dispatch import StepDispatcher
     from pd_common.protocol import Feedback
+    from pd_integrator.core.run.dispatch import StepDispatcher
     from pd_integrator.core.run.runner import site_servers
     from pd_integrator.core.run.session import TestSession
+    from pd_integrator.core.run.test_file import from_dict
 
     raw = large_model(n, steps, scheme)
     best = float('inf')

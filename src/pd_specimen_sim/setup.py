@@ -1,6 +1,5 @@
 """Build script of the pd_specimen_sim ament_python package."""
 
-from glob import glob
 
 from setuptools import find_packages, setup
 

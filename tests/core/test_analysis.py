@@ -23,6 +23,11 @@ from pd_integrator.core.dynamics.analysis import (
     sweep,
 )
 from pd_integrator.core.dynamics.analysis_figures import write_sweep_csv
+from pd_integrator.core.dynamics.stability import (
+    check_stability,
+    period_distortion,
+    period_shrinkage,
+)
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.schemes import (
     SCHEMES,
@@ -33,7 +38,6 @@ from pd_integrator.core.schemes import (
     make_integrator,
     newmark_explicit_numerical_frequency,
 )
-from pd_integrator.core.dynamics.stability import check_stability, period_distortion, period_shrinkage
 from support.spectra import assert_same_spectrum
 
 OMEGA = 3.0  # rad/s of the free-vibration SDOF (m = 1, k = OMEGA**2)

@@ -7,8 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pd_common.specimen import (Backbone, BackboneError, HysteresisError, bilinear_backbone,
-                                  load_backbone_csv, load_opensees_pushover)
+from pd_common.specimen import (
+    Backbone,
+    BackboneError,
+    HysteresisError,
+    bilinear_backbone,
+    load_backbone_csv,
+    load_opensees_pushover,
+)
 
 
 @pytest.fixture

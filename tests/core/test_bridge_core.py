@@ -11,22 +11,21 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
     BridgeConfigError,
     BridgeError,
     BridgeReply,
-    DriverError,
-    LimitViolation,
-    SafetyLimits,
     DriverContext,
+    DriverError,
     DriverParameter,
     DriverSpec,
     EmulatorDriver,
     GenericTCPDriver,
+    LimitViolation,
     OpenSeesAdapterDriver,
+    SafetyLimits,
     check_command,
     check_feedback,
     driver_names,
@@ -36,6 +35,7 @@ from pd_actuator_bridge.core import (
     register_driver,
 )
 from pd_actuator_bridge.core.drivers import registry
+from pd_common.protocol import FeedbackStatus
 from support.loopback import LoopbackDriver
 
 NAN = math.nan

@@ -17,7 +17,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
@@ -28,6 +27,7 @@ from pd_actuator_bridge.core import (
     check_tracking,
     saturate_command,
 )
+from pd_common.protocol import FeedbackStatus
 from support.loopback import LoopbackDriver
 
 NAN = math.nan

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_integrator.core.run.test_file import from_json, load_test_file
 from pd_integrator.core.errors import ConfigError
+from pd_integrator.core.run.test_file import from_json, load_test_file
 
 if TYPE_CHECKING:
     from pd_integrator.core.run.definition import TestDefinition

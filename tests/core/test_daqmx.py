@@ -13,13 +13,13 @@ from typing import Any
 
 import pytest
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverError, SafetyLimits
 from pd_actuator_bridge.core.drivers.daqmx import (
     DaqmxChannelConfig,
     DaqmxConfig,
     DaqmxDriver,
 )
+from pd_common.protocol import FeedbackStatus
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / 'src' / 'pd_actuator_bridge' / 'config' / 'daqmx_example.yaml'
@@ -462,7 +462,7 @@ class _BlockNidaqmx(importlib.abc.MetaPathFinder):
     def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> None:
         if fullname == 'nidaqmx' or fullname.startswith('nidaqmx.'):
             raise ModuleNotFoundError(f'No module named {fullname!r}', name=fullname)
-        return None
+        return
 
 
 def _forget_nidaqmx(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse
 
 from pd_integrator.core import model
+from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.model.damping import modal_damping, rayleigh_coefficients, rayleigh_damping
 from pd_integrator.core.model.elements import (
     Condensation,
@@ -24,7 +25,6 @@ from pd_integrator.core.model.elements import (
     static_condensation,
 )
 from pd_integrator.core.model.modes import ModalProperties, modal_properties
-from pd_integrator.core.errors import ConfigError
 
 E = 200.0e9  # Pa (steel)
 A = 8.0e-3  # m²

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_integrator.core.run.test_file import load_test_file
 from pd_integrator.core.run.energy import energy_balance
 from pd_integrator.core.run.history import ResponseHistory
 from pd_integrator.core.run.runner import run_offline
+from pd_integrator.core.run.test_file import load_test_file
 
 REPO = Path(__file__).resolve().parents[2]
 RECORD = REPO / 'src/pd_integrator/data/ground_motions/elcentro_1940_ns_chopra.csv'

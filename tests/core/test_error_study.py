@@ -22,15 +22,15 @@ import pytest
 import yaml
 
 from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel
-from pd_common.experimental import tracking_error, tracking_indicator
 from pd_actuator_bridge.core.errors import BridgeConfigError
+from pd_common.experimental import ErrorModel as SimulatedErrors
+from pd_common.experimental import tracking_error, tracking_indicator
+from pd_common.specimen import Elastic, Specimen, SpecimenConfigError, specimen_from_config
+from pd_common.specimen.server import SpecimenServer, server_from_config
 from pd_integrator import study_errors
-from pd_integrator.core.run.test_file import load_test_file
 from pd_integrator.core.run.outputs import read_response_csv
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
-from pd_common.specimen import Elastic, Specimen, SpecimenConfigError, specimen_from_config
-from pd_common.experimental import ErrorModel as SimulatedErrors
-from pd_common.specimen.server import SpecimenServer, server_from_config
+from pd_integrator.core.run.test_file import load_test_file
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'

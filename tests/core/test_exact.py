@@ -12,6 +12,8 @@ import pytest
 import scipy.integrate
 import scipy.linalg
 
+from pd_integrator.core.dynamics.record_readers import read_ground_motion
+from pd_integrator.core.dynamics.structure import damping_from_ratio
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.verification import (
     EPPResponse,
@@ -23,8 +25,6 @@ from pd_integrator.core.verification import (
     nigam_jennings_coefficients,
 )
 from pd_integrator.core.verification.nigam_jennings import transition_scalar
-from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.dynamics.structure import damping_from_ratio
 
 ELCENTRO = (
     Path(__file__).resolve().parents[2]

@@ -20,7 +20,6 @@ from pathlib import Path
 
 import pytest
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.controller_server import (
     ControllerServer,
     ElasticController,
@@ -51,6 +50,7 @@ from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
     normalize_sizes,
 )
 from pd_actuator_bridge.core.drivers.ramp_hold import RampHoldExecutor
+from pd_common.protocol import FeedbackStatus
 
 pytestmark = pytest.mark.timeout(30)
 

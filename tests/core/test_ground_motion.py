@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pd_integrator.core.errors import GroundMotionError, PdIntegratorError
 from pd_integrator.core.dynamics.ground_motion import G_STANDARD, GroundMotion
 from pd_integrator.core.dynamics.record_readers import (
     read_at2,
@@ -18,6 +17,7 @@ from pd_integrator.core.dynamics.record_readers import (
     read_single_column,
     read_two_column,
 )
+from pd_integrator.core.errors import GroundMotionError, PdIntegratorError
 
 REPO = Path(__file__).resolve().parents[2]
 ELCENTRO_NAME = 'elcentro_1940_ns_chopra.csv'

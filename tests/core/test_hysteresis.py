@@ -9,9 +9,16 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pytest
 
-from pd_common.specimen import (Backbone, BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
-                                  HysteresisError, HysteresisModel, PushoverHysteresis,
-                                  bilinear_backbone)
+from pd_common.specimen import (
+    Backbone,
+    BilinearKinematic,
+    Elastic,
+    ElasticPerfectlyPlastic,
+    HysteresisError,
+    HysteresisModel,
+    PushoverHysteresis,
+    bilinear_backbone,
+)
 
 K = 1.0e5      # N/m
 FY = 2.0e3     # N, so d_y = 0.02 m

@@ -14,13 +14,19 @@ import scipy.signal
 import yaml
 from rosbags.highlevel import AnyReader
 
-from pd_integrator.core.run.bag import (TOPIC_COMMAND, TOPIC_DEFINITION, TOPIC_FEEDBACK,
-                                    BagRecorder, read_bag, typestore)
-from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
-from pd_integrator.core.errors import BagError, ConfigError, StabilityError
 from pd_common.protocol import Command, Feedback
 from pd_common.protocol import TestState as State
+from pd_integrator.core.errors import BagError, ConfigError, StabilityError
+from pd_integrator.core.run.bag import (
+    TOPIC_COMMAND,
+    TOPIC_DEFINITION,
+    TOPIC_FEEDBACK,
+    BagRecorder,
+    read_bag,
+    typestore,
+)
 from pd_integrator.core.run.runner import rebuild_outputs, replay_bag, run_offline
+from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'

@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge import opensees_site
 from pd_actuator_bridge.core import (
     ActuatorBridge,
@@ -42,6 +41,7 @@ from pd_actuator_bridge.core.drivers.opensees_adapter import (
     ACTION_GET_FORCE,
     ACTION_SET_TRIAL_RESPONSE,
 )
+from pd_common.protocol import FeedbackStatus
 from pd_common.specimen.hysteresis import ElasticPerfectlyPlastic
 
 pytestmark = pytest.mark.timeout(60)

@@ -21,11 +21,10 @@ import numpy as np
 import pytest
 
 from pd_actuator_bridge.opensees_site import opensees_environment
-
-from pd_integrator.core.run.test_file import from_dict
+from pd_integrator.core.dynamics.structure import modal_analysis
 from pd_integrator.core.model.damping import rayleigh_coefficients
 from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.dynamics.structure import modal_analysis
+from pd_integrator.core.run.test_file import from_dict
 
 MASSES = [2.0e4, 2.0e4, 1.5e4]
 STORIES = [4.0e7, 3.5e7, 3.0e7]

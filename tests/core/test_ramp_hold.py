@@ -7,12 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from pd_common.protocol import FeedbackStatus
 from pd_actuator_bridge.core import ActuatorBridge, DriverError, SafetyLimits
 from pd_actuator_bridge.core.drivers.emulator import EmulatorParameters, ServoHydraulicEmulator
-from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel, apply_error_model
-from pd_common.experimental import TrackingMonitor, tracking_error, tracking_indicator
-from pd_actuator_bridge.core.errors import BridgeConfigError
 from pd_actuator_bridge.core.drivers.ramp_hold import (
     DEFAULT_RAMP_TIME,
     PHASE_HOLD,
@@ -24,6 +20,10 @@ from pd_actuator_bridge.core.drivers.ramp_hold import (
     SettleTimeoutError,
     StepExecution,
 )
+from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel, apply_error_model
+from pd_actuator_bridge.core.errors import BridgeConfigError
+from pd_common.experimental import TrackingMonitor, tracking_error, tracking_indicator
+from pd_common.protocol import FeedbackStatus
 from pd_common.specimen import Elastic, Specimen
 
 K_COLUMN = 312559.0

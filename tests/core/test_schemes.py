@@ -818,7 +818,7 @@ def plain_modified_newton_paths(
 
         def increment(trial: float, r: float, p: float) -> float:
             offset = trial - x_pred  # noqa: B023 - used within the step only
-            return (p - m * offset / (beta * dt * dt)  # noqa: B023
+            return (p - m * offset / (beta * dt * dt)
                     - c * (v_pred + gamma * offset / (beta * dt)) - r) / k_hat  # noqa: B023
 
         path = [position]

@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pytest
 
-from pd_integrator.core.run.test_file import from_dict, load_test_file
-from pd_integrator.core.errors import ProtocolError, StabilityError
 from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
+from pd_common.specimen import SpecimenServer, specimen_from_config
+from pd_integrator.core.errors import ProtocolError, StabilityError
 from pd_integrator.core.run.protocol import StepProtocol, TimeoutAction, Verdict
 from pd_integrator.core.run.session import TestSession as Session
-from pd_common.specimen import SpecimenServer, specimen_from_config
+from pd_integrator.core.run.test_file import from_dict, load_test_file
 
 if TYPE_CHECKING:
     from pd_integrator.core.run.definition import TestDefinition
@@ -556,7 +556,7 @@ def test_a_non_finite_trial_reverts_to_the_last_step_and_holds() -> None:
     assert session.failure is not None
     assert session.committed_step == committed
     np.testing.assert_array_equal(session.history.displacement[committed], x_committed)
-    integrator = session._integrator  # noqa: SLF001 - the reverted integrator itself
+    integrator = session._integrator
     assert integrator is not None
     assert integrator.phase == 'committed' and integrator.status == 'running'
     assert integrator.step == committed

@@ -9,9 +9,17 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pd_common.specimen import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic,
-                                  HysteresisError, PushoverHysteresis, Specimen,
-                                  SpecimenConfigError, SpecimenError, specimen_from_config)
+from pd_common.specimen import (
+    BilinearKinematic,
+    Elastic,
+    ElasticPerfectlyPlastic,
+    HysteresisError,
+    PushoverHysteresis,
+    Specimen,
+    SpecimenConfigError,
+    SpecimenError,
+    specimen_from_config,
+)
 
 # --- Specimen ---------------------------------------------------------------------------------
 

@@ -8,12 +8,6 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from pd_integrator.core.errors import ConfigError, StabilityError
-from pd_integrator.core.schemes import (
-    NewmarkExplicit,
-    amplification_matrix_newmark_explicit,
-    newmark_explicit_numerical_frequency,
-)
 from pd_integrator.core.dynamics.stability import (
     StabilityReport,
     check_stability,
@@ -22,6 +16,12 @@ from pd_integrator.core.dynamics.stability import (
     period_shrinkage,
     require_stable,
     spectral_radius,
+)
+from pd_integrator.core.errors import ConfigError, StabilityError
+from pd_integrator.core.schemes import (
+    NewmarkExplicit,
+    amplification_matrix_newmark_explicit,
+    newmark_explicit_numerical_frequency,
 )
 
 M_THESIS = 2543.4

@@ -7,16 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.dynamics.structure import (
     Structure,
-    as_matrix,
-    as_vector,
     damping_from_ratio,
     effective_load,
     modal_analysis,
     omega_max,
 )
+from pd_integrator.core.errors import ConfigError
+from pd_integrator.core.matrices import as_matrix, as_vector
 
 M_THESIS = 2543.4
 K_THESIS = 312559.0

@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pd_integrator.core.run.test_file import from_dict
-from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.verification import modal_superposition
 from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
-from pd_integrator.core.run.protocol import Verdict
-from pd_integrator.core.run.runner import replay_bag, run_offline
+from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.model.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
 from pd_integrator.core.run.coordinator import SiteCoordinator
+from pd_integrator.core.run.protocol import Verdict
+from pd_integrator.core.run.runner import replay_bag, run_offline
+from pd_integrator.core.run.test_file import from_dict
+from pd_integrator.core.verification import modal_superposition
 
 MASSES = [2.0e4, 2.0e4, 1.5e4]
 STORIES = [4.0e7, 3.5e7, 3.0e7]

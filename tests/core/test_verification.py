@@ -18,18 +18,19 @@ load function unchanged:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pytest
 
-from pd_integrator.core.verification import epp_exact, modal_superposition, nigam_jennings
+from pd_common.specimen import ElasticPerfectlyPlastic
 from pd_integrator.core.dynamics.ground_motion import GroundMotion
 from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.schemes import SCHEMES, Integrator, make_integrator
 from pd_integrator.core.dynamics.structure import damping_from_ratio
-from pd_common.specimen import ElasticPerfectlyPlastic
+from pd_integrator.core.schemes import SCHEMES, Integrator, make_integrator
+from pd_integrator.core.verification import epp_exact, modal_superposition, nigam_jennings
 
 ELCENTRO = (
     Path(__file__).resolve().parents[2]

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'scripts'))
-import clean_shm  # noqa: E402 - scripts/ holds the one implementation
+import clean_shm
 
 REPO = Path(__file__).resolve().parents[2]
 DOMAINS = itertools.count()

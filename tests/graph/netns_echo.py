@@ -31,7 +31,7 @@ from std_msgs.msg import Float64MultiArray
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-def make_executor(context: rclpy.Context):  # noqa: ANN201 - either executor
+def make_executor(context: rclpy.Context):
     """EventsExecutor if available (driven by spin_once only), else SingleThreadedExecutor."""
     try:
         from rclpy.experimental import EventsExecutor  # noqa: PLC0415
@@ -67,7 +67,7 @@ def ping(sites: list[str], count: int, size: int, timeout: float,
     publisher = node.create_publisher(Float64MultiArray, '/pd_netns/ping', QOS)
     answers: dict[str, set[int]] = {site: set() for site in sites}
 
-    def on_pong(site: str):  # noqa: ANN202
+    def on_pong(site: str):
         def callback(msg: Float64MultiArray) -> None:
             answers[site].add(int(msg.data[0]))
         return callback

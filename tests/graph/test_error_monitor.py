@@ -13,12 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from graph_support import REPO, Processes, executable
 
-from pd_integrator.core.run.test_file import load_test_file
 from pd_integrator.core.run.outputs import read_response_csv
 from pd_integrator.core.run.runner import run_offline
-
-from graph_support import REPO, Processes, executable
+from pd_integrator.core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

@@ -22,14 +22,13 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from graph_support import REPO, Processes, executable
 from rosbags.highlevel import AnyReader
 
-from pd_integrator.core.run.bag import read_bag
-from pd_integrator.core.run.test_file import load_test_file
 from pd_common.protocol import Command, Feedback, FeedbackStatus
+from pd_integrator.core.run.bag import read_bag
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
-
-from graph_support import REPO, Processes, executable
+from pd_integrator.core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

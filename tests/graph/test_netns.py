@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-
 from netns_support import (
     NAME_PATTERN,
     NetnsHub,
@@ -122,17 +121,16 @@ def test_harness_cleans_up() -> None:
     stale = f'pdt{dead.pid}x0-stale'
     subprocess.run(['ip', 'netns', 'add', stale], check=True)
 
-    with pytest.raises(RuntimeError, match='boom'):
-        with NetnsHub(['hub', 'site']) as ns:
-            assert stale not in list_namespaces()          # cleaned at start
-            names = [ns.namespace(name) for name in ns.names]
-            assert set(names) <= set(list_namespaces())
-            assert all(NAME_PATTERN.match(name) for name in names)
-            assert ns.address('site') == '10.251.1.2'
-            assert ns.peers_for('site') == ['10.251.1.1']
-            assert ns.peers_for('hub') == ['10.251.1.2']
-            sleeper = ns.popen('site', ['sleep', '60'], dict(os.environ))
-            raise RuntimeError('boom')
+    with pytest.raises(RuntimeError, match='boom'), NetnsHub(['hub', 'site']) as ns:
+        assert stale not in list_namespaces()          # cleaned at start
+        names = [ns.namespace(name) for name in ns.names]
+        assert set(names) <= set(list_namespaces())
+        assert all(NAME_PATTERN.match(name) for name in names)
+        assert ns.address('site') == '10.251.1.2'
+        assert ns.peers_for('site') == ['10.251.1.1']
+        assert ns.peers_for('hub') == ['10.251.1.2']
+        sleeper = ns.popen('site', ['sleep', '60'], dict(os.environ))
+        raise RuntimeError('boom')
     assert sleeper.poll() is not None
     assert not set(names) & set(list_namespaces())
     assert host_links() == links, 'the harness touched the host namespace'

@@ -16,14 +16,13 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from graph_support import REPO, Processes, executable
 from rosbags.highlevel import AnyReader
+from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
 from pd_integrator.core.run.bag import read_bag
-from pd_integrator.core.run.test_file import load_test_file
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
-
-from graph_support import REPO, Processes, executable
-from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
+from pd_integrator.core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 
@@ -173,9 +172,8 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
     other site is not driven further, and an abort ends the test with its outputs."""
     from std_msgs.msg import String  # noqa: PLC0415
 
-    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
-
     from pd_common.protocol import Command, Feedback, FeedbackStatus  # noqa: PLC0415
+    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
 
     limit = 0.004  # m; story 1 reaches ~0.013 m
     raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))

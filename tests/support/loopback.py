@@ -88,7 +88,7 @@ class LoopbackDriver(ActuatorDriver):
         self._position = list(values)
         try:
             force = [float(f) for f in self._restoring_force(list(values))]
-        except Exception as exc:  # noqa: BLE001 - any model failure is a driver failure
+        except Exception as exc:
             msg = (f'LoopbackDriver: restoring_force failed at step {step}: '
                    f'{type(exc).__name__}: {exc}')
             raise DriverError(msg) from exc

@@ -44,8 +44,6 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from pd_common.specimen import Elastic, Specimen
-
 from pd_actuator_bridge.core.drivers.emulator import ServoHydraulicEmulator
 from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
     ACTION_COMMIT_STATE,
@@ -68,6 +66,7 @@ from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
 )
 from pd_actuator_bridge.core.drivers.ramp_hold import RampHoldExecutor, RampHoldParameters
 from pd_actuator_bridge.core.errors import BridgeConfigError, BridgeError
+from pd_common.specimen import Elastic, Specimen
 
 LOGGER = logging.getLogger('pd_actuator_bridge.controller_server')
 
@@ -109,9 +108,8 @@ class _MeasuredController:
 
     def __init__(self, n_dof: int) -> None:
         if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
-            raise BridgeConfigError(
-                f'{type(self).__name__}: n_dof must be a positive integer, got {n_dof!r}'
-            )
+            msg = f'{type(self).__name__}: n_dof must be a positive integer, got {n_dof!r}'
+            raise BridgeConfigError(msg)
         self.n_dof = n_dof
         self.size_id: SizeID | None = None
         self.trials = 0
@@ -131,21 +129,22 @@ class _MeasuredController:
         ctrl = dict(zip(RESPONSE_KINDS, size_id.ctrl, strict=True))
         daq = dict(zip(RESPONSE_KINDS, size_id.daq, strict=True))
         if ctrl['disp'] != self.n_dof:
-            raise ControllerError(
+            msg = (
                 f'{self.name}: {self.n_dof} DOF need {self.n_dof} controlled displacement(s), '
                 f'the size ID has {ctrl["disp"]}'
             )
+            raise ControllerError(msg)
         for kind in ('vel', 'accel', 'force'):
             if ctrl[kind] not in (0, self.n_dof):
-                raise ControllerError(
+                msg = (
                     f'{self.name}: controlled {kind} size must be 0 or {self.n_dof}, '
                     f'got {ctrl[kind]}'
                 )
+                raise ControllerError(msg)
         for kind in ('disp', 'vel', 'accel', 'force'):
             if daq[kind] not in (0, self.n_dof):
-                raise ControllerError(
-                    f'{self.name}: daq {kind} size must be 0 or {self.n_dof}, got {daq[kind]}'
-                )
+                msg = f'{self.name}: daq {kind} size must be 0 or {self.n_dof}, got {daq[kind]}'
+                raise ControllerError(msg)
         self.size_id = size_id
         self._t0 = time.monotonic()
 
@@ -217,17 +216,19 @@ class ElasticController(_MeasuredController):
             isinstance(k, int | float) and not isinstance(k, bool) and math.isfinite(k)
             for k in values
         ):
-            raise BridgeConfigError(
+            msg = (
                 f'ElasticController: stiffness must be a finite number or {n_dof} of them, '
                 f'got {stiffness!r}'
             )
+            raise BridgeConfigError(msg)
         self.stiffness = [float(k) for k in values]
         position = [0.0] * n_dof if initial_position is None else list(initial_position)
         if len(position) != n_dof:
-            raise BridgeConfigError(
+            msg = (
                 f'ElasticController: initial_position has {len(position)} values, '
                 f'expected {n_dof}'
             )
+            raise BridgeConfigError(msg)
         self.position = [float(x) for x in position]
 
     def describe(self) -> str:
@@ -261,9 +262,8 @@ class EmulatorController(_MeasuredController):
         """
         super().__init__(n_dof)
         if not callable(getattr(backend, 'execute', None)):
-            raise BridgeConfigError(
-                f'EmulatorController: backend {type(backend).__name__} has no execute(target)'
-            )
+            msg = f'EmulatorController: backend {type(backend).__name__} has no execute(target)'
+            raise BridgeConfigError(msg)
         self.backend = backend
         self._description = description or f'emulator backend {type(backend).__name__}'
         self._disp = [0.0] * n_dof
@@ -294,9 +294,8 @@ class EmulatorController(_MeasuredController):
         except TypeError:
             values = []
         if len(values) != self.n_dof:
-            raise ControllerError(
-                f'{self.name}: backend returned {what} {value!r}, expected {self.n_dof} values'
-            )
+            msg = f'{self.name}: backend returned {what} {value!r}, expected {self.n_dof} values'
+            raise ControllerError(msg)
         return values
 
 
@@ -442,7 +441,8 @@ class ControllerServer:
             OSError: If the address cannot be bound.
         """
         if self._thread is not None:
-            raise RuntimeError('ControllerServer: start() called twice')
+            msg = 'ControllerServer: start() called twice'
+            raise RuntimeError(msg)
         family = socket.AF_INET6 if ':' in self._host else socket.AF_INET
         listener = socket.create_server((self._host, self._requested_port), family=family,
                                         backlog=1)

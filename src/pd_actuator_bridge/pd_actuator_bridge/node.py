@@ -447,8 +447,8 @@ def main(args: list[str] | None = None) -> int:
         pass
     finally:
         if node is not None:
-            node._hold_driver()  # noqa: SLF001 - hold before anything else goes away
-            node._release()  # noqa: SLF001
+            node._hold_driver()
+            node._release()
         if executor is not None:
             executor.shutdown()
         if node is not None:

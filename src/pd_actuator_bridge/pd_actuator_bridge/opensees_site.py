@@ -103,22 +103,29 @@ def _parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def _check_args(args: argparse.Namespace) -> None:
     if not 0 < args.port < 65536:
-        raise SiteError(f'--port must be in 1..65535, got {args.port}')
+        msg = f'--port must be in 1..65535, got {args.port}'
+        raise SiteError(msg)
     if args.model in ('epp', 'elastic'):
         if args.stiffness is None or not args.stiffness > 0:
-            raise SiteError(f'--model {args.model} needs --stiffness > 0')
+            msg = f'--model {args.model} needs --stiffness > 0'
+            raise SiteError(msg)
         if args.model == 'epp' and (args.yield_force is None or not args.yield_force > 0):
-            raise SiteError('--model epp needs --yield-force > 0')
+            msg = '--model epp needs --yield-force > 0'
+            raise SiteError(msg)
         if args.penalty is None:
             args.penalty = 1.0e6 * args.stiffness
         if not args.penalty > 0:
-            raise SiteError(f'--penalty must be > 0, got {args.penalty}')
+            msg = f'--penalty must be > 0, got {args.penalty}'
+            raise SiteError(msg)
     elif not args.script:
-        raise SiteError('--model script needs --script FILE')
+        msg = '--model script needs --script FILE'
+        raise SiteError(msg)
     elif not Path(args.script).is_file():
-        raise SiteError(f'--script {args.script}: no such file')
+        msg = f'--script {args.script}: no such file'
+        raise SiteError(msg)
     if not args.tolerance > 0:
-        raise SiteError(f'--tolerance must be > 0, got {args.tolerance}')
+        msg = f'--tolerance must be > 0, got {args.tolerance}'
+        raise SiteError(msg)
 
 
 def _worker_argv(args: argparse.Namespace) -> list[str]:
@@ -175,7 +182,8 @@ def opensees_environment(base: dict[str, str] | None = None) -> dict[str, str]:
 def require_openseespy() -> None:
     """Raise :class:`SiteError` if openseespy is not installed (checked without importing)."""
     if importlib.util.find_spec('openseespy') is None:
-        raise SiteError('openseespy is not installed (pinned in requirements.txt; run ./pd setup)')
+        msg = 'openseespy is not installed (pinned in requirements.txt; run ./pd setup)'
+        raise SiteError(msg)
 
 
 # --------------------------------------------------------------------------- worker (OpenSees)
@@ -185,7 +193,7 @@ def _build_model(ops: Any, args: argparse.Namespace) -> None:
     ops.wipe()
     if args.model == 'script':
         source = Path(args.script).read_text()
-        exec(compile(source, args.script, 'exec'), {'ops': ops, 'port': args.port,  # noqa: S102
+        exec(compile(source, args.script, 'exec'), {'ops': ops, 'port': args.port,
                                                     '__name__': '__opensees_site__'})
     else:
         ops.model('basic', '-ndm', 1, '-ndf', 1)
@@ -241,7 +249,7 @@ def run_worker(args: argparse.Namespace) -> int:
 def _die_with_parent() -> None:  # pragma: no cover - runs in the child before exec
     try:
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except Exception:  # noqa: BLE001, S110 - best effort (not Linux)
+    except Exception:  # noqa: BLE001 - best effort (not Linux)
         pass
 
 
@@ -281,7 +289,7 @@ def client_gone(pid: int, port: int) -> bool:
 class _OutputForwarder(threading.Thread):
     """Forward the child's output to stderr and notice the adapter's completion message."""
 
-    def __init__(self, stream, quiet: bool) -> None:  # noqa: ANN001 - a text pipe
+    def __init__(self, stream, quiet: bool) -> None:
         super().__init__(daemon=True)
         self._stream = stream
         self._quiet = quiet
@@ -307,7 +315,7 @@ def run_supervisor(args: argparse.Namespace) -> int:
         print(f'{PROG}: {exc}', file=sys.stderr, flush=True)
         return 2
     command = [sys.executable, str(Path(__file__).resolve()), *_worker_argv(args)]
-    child = subprocess.Popen(  # noqa: PLW1509 - preexec_fn only sets the parent-death signal
+    child = subprocess.Popen(
         command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
         text=True, env=opensees_environment(), preexec_fn=_die_with_parent)
     forwarder = _OutputForwarder(child.stdout, args.quiet)

@@ -39,11 +39,11 @@ from typing import Any
 import yaml
 
 from pd_common.resources import ResourceError, find_executable, share_file
-from pd_integrator.core.run.definition import TestDefinition
-from pd_integrator.core.run.test_file import load_test_file
 from pd_integrator.core.errors import PdIntegratorError
+from pd_integrator.core.run.definition import TestDefinition
 from pd_integrator.core.run.runner import default_run_directory
 from pd_integrator.core.run.session import TestSession
+from pd_integrator.core.run.test_file import load_test_file
 
 STOP_TIMEOUT = 10.0
 

@@ -59,7 +59,8 @@ def parse_parameters(items: list[str]) -> dict[str, dict[str, list[Any]]]:
         head, equals, values = item.partition('=')
         scheme, colon, name = head.partition(':')
         if not (equals and colon and scheme.strip() and name.strip() and values.strip()):
-            raise ConfigError(f'--param {item!r}: expected scheme:name=value[,value...]')
+            msg = f'--param {item!r}: expected scheme:name=value[,value...]'
+            raise ConfigError(msg)
         parsed.setdefault(scheme.strip(), {}).setdefault(name.strip(), []).extend(
             _value(text) for text in values.split(',') if text.strip())
     return parsed
@@ -96,17 +97,21 @@ def _select_schemes(text: str | None, params: dict[str, dict[str, list[Any]]]) -
     else:
         names = [name.strip() for name in text.split(',') if name.strip()]
         if not names:
-            raise ConfigError('--schemes: no scheme given')
+            msg = '--schemes: no scheme given'
+            raise ConfigError(msg)
         for name in names:
             scheme_class(name)  # unknown: ConfigError naming it
             if not has_amplification_matrix(name):
-                raise ConfigError(f'--schemes: scheme {name!r} has no amplification matrix')
+                msg = f'--schemes: scheme {name!r} has no amplification matrix'
+                raise ConfigError(msg)
     for name in params:
         scheme_class(name)
         if name not in names:
-            raise ConfigError(f'--param: scheme {name!r} is not among the analysed schemes')
+            msg = f'--param: scheme {name!r} is not among the analysed schemes'
+            raise ConfigError(msg)
     if not names:
-        raise ConfigError('no registered scheme has an amplification matrix')
+        msg = 'no registered scheme has an amplification matrix'
+        raise ConfigError(msg)
     return list(dict.fromkeys(names))
 
 
@@ -132,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
         omegas = omega_grid(args.omega_max, args.points)
         for xi in args.xi:
             if not 0.0 <= xi < 1.0:
-                raise ConfigError(f'--xi: viscous damping ratio must be in [0, 1), got {xi:g}')
+                msg = f'--xi: viscous damping ratio must be in [0, 1), got {xi:g}'
+                raise ConfigError(msg)
         params = parse_parameters(args.param)
         schemes = _select_schemes(args.schemes, params)
         plan: list[tuple[str, dict[str, Any]]] = []

@@ -59,10 +59,9 @@ from pd_common.ros import (
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 
-from .core.run.bag import BagRecorder
-from .core.run.test_file import PARAMETER_PATHS, load_test_file
-from .core.run.dispatch import StepDispatcher
 from .core.errors import PdIntegratorError
+from .core.run.bag import BagRecorder
+from .core.run.dispatch import StepDispatcher
 from .core.run.progress import ProgressMeter
 from .core.run.runner import (
     BAG_DIRECTORY,
@@ -72,6 +71,7 @@ from .core.run.runner import (
     prepare_run_directory,
 )
 from .core.run.session import TestSession
+from .core.run.test_file import PARAMETER_PATHS, load_test_file
 
 _OVERRIDE_DESCRIPTIONS = {
     'test_id': 'identifier of the test (letters, digits, _ - .)',

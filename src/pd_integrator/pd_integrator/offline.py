@@ -13,9 +13,9 @@ from pathlib import Path
 
 from pd_common.resources import ResourceError, share_file
 
-from .core.run.test_file import load_test_file
 from .core.errors import PdIntegratorError
 from .core.run.runner import default_run_directory, run_offline
+from .core.run.test_file import load_test_file
 
 
 def default_test_file() -> Path:

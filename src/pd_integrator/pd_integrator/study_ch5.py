@@ -39,7 +39,7 @@ import argparse
 import json
 import math
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -120,7 +120,7 @@ def run_record(record: StudyRecord, out: Path, *, run_figures: bool = True,
 # -- the command --------------------------------------------------------------------------------
 def default_output_directory() -> Path:
     """``runs/study_ch5-<UTC timestamp>``."""
-    stamp = datetime.now(tz=timezone.utc).strftime('%Y%m%d-%H%M%S')
+    stamp = datetime.now(tz=UTC).strftime('%Y%m%d-%H%M%S')
     return Path('runs') / f'study_ch5-{stamp}'
 
 

@@ -231,7 +231,7 @@ def comparison_figures(result: RecordResult, directory: Path) -> list[Path]:
         axes.plot(history.measured_displacement[:n, j], history.restoring_force[:n, j] / 1e3,
                   label=_scheme_label(scheme), color=f'C{number}',
                   **styles[number % len(styles)])
-    figure_number = f' (cf. thesis Fig. {numbers[3]})' if len(numbers) > 3 else ''  # noqa: PLR2004
+    figure_number = f' (cf. thesis Fig. {numbers[3]})' if len(numbers) > 3 else ''
     axes.set_title(f'Force–deformation — {record.title}{figure_number}\n{subtitle}')
     axes.set_xlabel(f'Measured displacement [m] ({first_dof})')
     axes.set_ylabel('Restoring force [kN]')

@@ -217,7 +217,7 @@ def parse_schemes(value: str | list[str], what: str = '--schemes') -> list[str]:
     if len(set(names)) != len(names):
         msg = f'{what}: a scheme is repeated in {",".join(names)}'
         raise StudyError(msg)
-    if len(names) < 2:  # noqa: PLR2004 - a comparison needs two
+    if len(names) < 2:
         msg = f'{what}: give at least two schemes to compare, got {",".join(names) or "none"}'
         raise StudyError(msg)
     return names

@@ -67,9 +67,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .core.run.test_file import load_test_file
 from .core.errors import ConfigError, PdIntegratorError
 from .core.run.runner import default_run_directory, run_offline
+from .core.run.test_file import load_test_file
 
 if TYPE_CHECKING:
     from .core.run.definition import TestDefinition
@@ -297,7 +297,7 @@ def plot_response(histories: dict[str, tuple[np.ndarray, np.ndarray]], path: Pat
     for label, (t, x) in histories.items():
         if label == 'clean':
             continue
-        color = colors.get(label.split()[0], None)
+        color = colors.get(label.split()[0])
         top.plot(t, 1e3 * x, linewidth=0.8, color=color, label=label)
         rows = min(len(x), len(clean))
         bottom.plot(t[:rows], 1e3 * (x[:rows] - clean[:rows]), linewidth=0.8, color=color,

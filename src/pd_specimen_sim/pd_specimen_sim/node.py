@@ -35,6 +35,7 @@ from pd_common.ros import STEP_QOS, feedback_message
 from pd_common.specimen import SpecimenError, load_specimen_section, server_from_config
 from pd_msgs.msg import StepCommand, StepFeedback
 
+
 class SpecimenSimNode(Node):
     """Answers step commands with a simulated specimen."""
 

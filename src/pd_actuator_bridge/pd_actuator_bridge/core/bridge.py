@@ -151,36 +151,38 @@ class ActuatorBridge:
             BridgeConfigError: On an invalid argument.
         """
         if not isinstance(driver, ActuatorDriver):
-            raise BridgeConfigError(
-                f'ActuatorBridge: driver must be an ActuatorDriver, got {type(driver).__name__}'
-            )
+            msg = f'ActuatorBridge: driver must be an ActuatorDriver, got {type(driver).__name__}'
+            raise BridgeConfigError(msg)
         if not isinstance(limits, SafetyLimits):
-            raise BridgeConfigError(
-                f'ActuatorBridge: limits must be SafetyLimits, got {type(limits).__name__}'
-            )
+            msg = f'ActuatorBridge: limits must be SafetyLimits, got {type(limits).__name__}'
+            raise BridgeConfigError(msg)
         if on_limit not in ON_LIMIT_OPTIONS:
-            raise BridgeConfigError(
+            msg = (
                 f'ActuatorBridge: on_limit must be one of {ON_LIMIT_HOLD}, got {on_limit!r} '
                 f'(or {ON_LIMIT_SATURATE!r}, for quasi-static and manual moves only)'
             )
+            raise BridgeConfigError(msg)
         if not callable(clock):
-            raise BridgeConfigError('ActuatorBridge: clock must be callable')
+            msg = 'ActuatorBridge: clock must be callable'
+            raise BridgeConfigError(msg)
         if isinstance(dof_names, str):
-            raise BridgeConfigError('ActuatorBridge: dof_names must be a list of names, got str')
+            msg = 'ActuatorBridge: dof_names must be a list of names, got str'
+            raise BridgeConfigError(msg)
         names = list(dof_names)
         n_dof = driver.n_dof
         if len(names) != n_dof:
-            raise BridgeConfigError(
+            msg = (
                 f'ActuatorBridge: dof_names has {len(names)} names but the driver has '
                 f'{n_dof} DOF'
             )
+            raise BridgeConfigError(msg)
         for name in names:
             if not isinstance(name, str) or not name:
-                raise BridgeConfigError(
-                    f'ActuatorBridge: dof_names must be non-empty strings, got {name!r}'
-                )
+                msg = f'ActuatorBridge: dof_names must be non-empty strings, got {name!r}'
+                raise BridgeConfigError(msg)
         if len(set(names)) != len(names):
-            raise BridgeConfigError(f'ActuatorBridge: dof_names must be unique, got {names}')
+            msg = f'ActuatorBridge: dof_names must be unique, got {names}'
+            raise BridgeConfigError(msg)
 
         self._driver = driver
         self._limits = limits

@@ -36,6 +36,7 @@ from numbers import Integral
 from typing import Any, TypeVar
 
 import numpy as np
+
 from pd_common.experimental import error_model as _shared
 from pd_common.experimental.error_model import (
     ErroneousStep,
@@ -69,20 +70,21 @@ def parameters_from_mapping(
         BridgeConfigError: On a non-mapping, an unknown key or a bad value.
     """
     if not isinstance(mapping, Mapping):
-        raise BridgeConfigError(
-            f'{source}: {what} must be a mapping, got {type(mapping).__name__}'
-        )
+        msg = f'{source}: {what} must be a mapping, got {type(mapping).__name__}'
+        raise BridgeConfigError(msg)
     known = [f.name for f in fields(cls)]  # type: ignore[arg-type]
     for key in mapping:
         if key not in known:
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: unknown {item} {key!r} '
                 f'(expected one of: {", ".join(sorted(known))})'
             )
+            raise BridgeConfigError(msg)
     try:
         return cls(**dict(mapping))
     except BridgeConfigError as exc:
-        raise BridgeConfigError(f'{source}: {exc}') from None
+        msg = f'{source}: {exc}'
+        raise BridgeConfigError(msg) from None
 
 
 class ErrorModel(_shared.ErrorModel):
@@ -151,10 +153,11 @@ def apply_error_model(
         DriverError: On malformed or non-finite displacements or forces.
     """
     if model.delay_steps:
-        raise BridgeConfigError(
+        msg = (
             'apply_error_model: delay_steps must be 0 (a delay needs the step history: use '
             'ErrorInjector)'
         )
+        raise BridgeConfigError(msg)
     x_t = _vector(target, 'target', None)
     x_c = _vector(current, 'current', x_t.size)
     imposed = systematic_displacement(x_t, x_c, model.systematic)
@@ -189,13 +192,11 @@ class ErrorInjector(_shared.ErrorInjector):
             BridgeConfigError: On a bad model, ``n_dof`` or ``initial_position``.
         """
         if not isinstance(model, _shared.ErrorModel):
-            raise BridgeConfigError(
-                f'ErrorInjector: model must be an ErrorModel, got {type(model).__name__}'
-            )
+            msg = f'ErrorInjector: model must be an ErrorModel, got {type(model).__name__}'
+            raise BridgeConfigError(msg)
         if isinstance(n_dof, bool) or not isinstance(n_dof, Integral) or n_dof < 1:
-            raise BridgeConfigError(
-                f'ErrorInjector: n_dof must be a positive integer, got {n_dof!r}'
-            )
+            msg = f'ErrorInjector: n_dof must be a positive integer, got {n_dof!r}'
+            raise BridgeConfigError(msg)
         self._n = int(n_dof)
         try:
             super().__init__(model, self._start(initial_position))
@@ -282,10 +283,13 @@ def _vector(values: Any, what: str, n: int | None) -> np.ndarray:
     try:
         vector = np.array(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise DriverError(f'{what} must be a sequence of numbers, got {values!r}') from None
+        msg = f'{what} must be a sequence of numbers, got {values!r}'
+        raise DriverError(msg) from None
     if n is not None and vector.size != n:
-        raise DriverError(f'{what} has {vector.size} values, expected {n}')
+        msg = f'{what} has {vector.size} values, expected {n}'
+        raise DriverError(msg)
     if not np.all(np.isfinite(vector)):
-        raise DriverError(f'non-finite {what}: {vector.tolist()}')
+        msg = f'non-finite {what}: {vector.tolist()}'
+        raise DriverError(msg)
     return vector
 

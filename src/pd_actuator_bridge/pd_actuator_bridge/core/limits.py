@@ -102,19 +102,20 @@ class SafetyLimits:
             BridgeConfigError: On a non-mapping, an unknown or missing key, or a bad value.
         """
         if not isinstance(mapping, Mapping):
-            raise BridgeConfigError(
-                f'{source}: safety limits must be a mapping, got {type(mapping).__name__}'
-            )
+            msg = f'{source}: safety limits must be a mapping, got {type(mapping).__name__}'
+            raise BridgeConfigError(msg)
         known = _REQUIRED + _OPTIONAL
         for key in mapping:
             if key not in known:
-                raise BridgeConfigError(
+                msg = (
                     f'{source}: unknown safety limit {key!r} '
                     f'(expected one of: {", ".join(sorted(known))})'
                 )
+                raise BridgeConfigError(msg)
         for key in _REQUIRED:
             if key not in mapping:
-                raise BridgeConfigError(f'{source}: missing required safety limit {key!r}')
+                msg = f'{source}: missing required safety limit {key!r}'
+                raise BridgeConfigError(msg)
         values = {key: mapping.get(key) for key in known}
         _validate_values(values, source)
         return cls(**values)
@@ -130,19 +131,20 @@ def _validate_values(values: Mapping[str, Any], source: str) -> None:
         if value is None and name in _OPTIONAL:
             continue
         if isinstance(value, bool) or not isinstance(value, Real):
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: {name} must be a positive finite number, '
                 f'got {type(value).__name__} {value!r}'
             )
+            raise BridgeConfigError(msg)
         if not math.isfinite(float(value)) or float(value) <= 0.0:
-            raise BridgeConfigError(
-                f'{source}: {name} must be a positive finite number, got {value!r}'
-            )
+            msg = f'{source}: {name} must be a positive finite number, got {value!r}'
+            raise BridgeConfigError(msg)
     if values['max_velocity'] is not None and values['step_duration'] is None:
-        raise BridgeConfigError(
+        msg = (
             f'{source}: max_velocity requires step_duration (the velocity limit would not be '
             'enforced)'
         )
+        raise BridgeConfigError(msg)
 
 
 @dataclass(frozen=True)

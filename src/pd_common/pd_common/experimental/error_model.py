@@ -133,7 +133,8 @@ class ErrorModel:
         try:
             return cls(**dict(mapping))
         except SpecimenConfigError as exc:
-            raise SpecimenConfigError(f'{where}.{exc}') from None
+            msg_0 = f'{where}.{exc}'
+            raise SpecimenConfigError(msg_0) from None
 
     @property
     def is_ideal(self) -> bool:

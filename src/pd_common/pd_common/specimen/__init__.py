@@ -7,6 +7,7 @@ same hysteresis models.
 
 from __future__ import annotations
 
+from ..errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
 from .backbone import (
     BEYOND_MODES,
     Backbone,
@@ -15,7 +16,6 @@ from .backbone import (
     load_opensees_pushover,
 )
 from .config import hysteresis_from_config, load_specimen_section, specimen_from_config
-from ..errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
 from .hysteresis import (
     BilinearKinematic,
     Elastic,

@@ -51,27 +51,35 @@ class Backbone:
             d = np.array(self.displacement, dtype=float)
             f = np.array(self.force, dtype=float)
         except (TypeError, ValueError) as exc:
-            raise BackboneError(f'{name}: points are not numbers ({exc})') from None
+            msg = f'{name}: points are not numbers ({exc})'
+            raise BackboneError(msg) from None
         if d.ndim != 1 or f.ndim != 1 or d.shape != f.shape:
-            raise BackboneError(
+            msg = (
                 f'{name}: displacement and force must be 1-D arrays of equal length, got shapes '
-                f'{d.shape} and {f.shape}')
+                f'{d.shape} and {f.shape}'
+            )
+            raise BackboneError(msg)
         if d.size < 2:
-            raise BackboneError(f'{name}: needs at least 2 points, got {d.size}')
+            msg = f'{name}: needs at least 2 points, got {d.size}'
+            raise BackboneError(msg)
         for label, values in (('displacement', d), ('force', f)):
             bad = np.flatnonzero(~np.isfinite(values))
             if bad.size:
                 i = int(bad[0])
-                raise BackboneError(f'{name}: point {i}: {label} is not finite ({values[i]})')
+                msg = f'{name}: point {i}: {label} is not finite ({values[i]})'
+                raise BackboneError(msg)
         if d[0] != 0.0 or f[0] != 0.0:
-            raise BackboneError(f'{name}: point 0 must be (0, 0), got ({d[0]:g}, {f[0]:g})')
+            msg = f'{name}: point 0 must be (0, 0), got ({d[0]:g}, {f[0]:g})'
+            raise BackboneError(msg)
         steps = np.diff(d)
         bad = np.flatnonzero(steps <= 0.0)
         if bad.size:
             i = int(bad[0]) + 1
-            raise BackboneError(
+            msg = (
                 f'{name}: point {i}: displacement {d[i]:g} m is not greater than the previous '
-                f'{d[i - 1]:g} m')
+                f'{d[i - 1]:g} m'
+            )
+            raise BackboneError(msg)
         d.setflags(write=False)
         f.setflags(write=False)
         object.__setattr__(self, 'displacement', d)
@@ -117,21 +125,25 @@ class Backbone:
                 return self._f[-1]
             if beyond == 'extrapolate':
                 if math.isinf(d):
-                    raise HysteresisError(
-                        f"backbone '{self.source}': displacement must be finite, got {d}")
+                    msg = f"backbone '{self.source}': displacement must be finite, got {d}"
+                    raise HysteresisError(msg)
                 return self._f[-1] + self._slope[-1] * (d - ds[-1])
             if beyond == 'plateau':
                 return self._f[-1]
             if beyond == 'error':
-                raise HysteresisError(
+                msg = (
                     f"backbone '{self.source}': displacement {d:g} m is beyond the last backbone "
-                    f'point {ds[-1]:g} m')
-            raise BackboneError(
+                    f'point {ds[-1]:g} m'
+                )
+                raise HysteresisError(msg)
+            msg = (
                 f"backbone '{self.source}': beyond must be one of {', '.join(BEYOND_MODES)}, "
-                f'got {beyond!r}')
+                f'got {beyond!r}'
+            )
+            raise BackboneError(msg)
         if not d >= 0.0:
-            raise HysteresisError(
-                f"backbone '{self.source}': displacement must be >= 0, got {d}")
+            msg = f"backbone '{self.source}': displacement must be >= 0, got {d}"
+            raise HysteresisError(msg)
         i = bisect_right(ds, d) - 1
         return self._f[i] + self._slope[i] * (d - ds[i])
 
@@ -141,10 +153,14 @@ def _positive(value: float, name: str, where: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise BackboneError(f'{where}: {name} must be a positive finite number, got '
-                            f'{value!r}') from None
+        msg = (
+            f'{where}: {name} must be a positive finite number, got '
+                            f'{value!r}'
+        )
+        raise BackboneError(msg) from None
     if not (math.isfinite(number) and number > 0.0):
-        raise BackboneError(f'{where}: {name} must be a positive finite number, got {value!r}')
+        msg = f'{where}: {name} must be a positive finite number, got {value!r}'
+        raise BackboneError(msg)
     return number
 
 
@@ -173,13 +189,14 @@ def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: flo
     except (TypeError, ValueError):
         b = math.nan
     if not 0.0 <= b < 1.0:
-        raise BackboneError(f'{where}: hardening_ratio must be in [0, 1), got {hardening_ratio!r}')
+        msg = f'{where}: hardening_ratio must be in [0, 1), got {hardening_ratio!r}'
+        raise BackboneError(msg)
     dy = fy / k
     d_max = 100.0 * dy if max_displacement is None else _positive(
         max_displacement, 'max_displacement', where)
     if not d_max > dy:
-        raise BackboneError(
-            f'{where}: max_displacement {d_max:g} m must exceed the yield displacement {dy:g} m')
+        msg = f'{where}: max_displacement {d_max:g} m must exceed the yield displacement {dy:g} m'
+        raise BackboneError(msg)
     return Backbone(np.array([0.0, dy, d_max]), np.array([0.0, fy, fy + b * k * (d_max - dy)]),
                     source=f'bilinear k={k:g} N/m, F_y={fy:g} N, b={b:g}')
 
@@ -189,7 +206,8 @@ def _read_lines(path: Path, name: str) -> list[str]:
     try:
         return path.read_text(encoding='utf-8').splitlines()
     except (OSError, UnicodeDecodeError) as exc:
-        raise BackboneError(f'{name}: cannot read file ({exc})') from None
+        msg = f'{name}: cannot read file ({exc})'
+        raise BackboneError(msg) from None
 
 
 def _parse_number(text: str) -> float | None:
@@ -204,12 +222,17 @@ def _check_points(d: list[float], f: list[float], lines: list[int], name: str) -
     """Check finiteness and increasing displacement, naming the file line on failure."""
     for i, (di, fi) in enumerate(zip(d, f)):
         if not (math.isfinite(di) and math.isfinite(fi)):
-            raise BackboneError(f'{name}: line {lines[i]}: values must be finite, got '
-                                f'({di}, {fi})')
+            msg = (
+                f'{name}: line {lines[i]}: values must be finite, got '
+                                f'({di}, {fi})'
+            )
+            raise BackboneError(msg)
         if i and di <= d[i - 1]:
-            raise BackboneError(
+            msg = (
                 f'{name}: line {lines[i]}: displacement {di:g} m is not greater than the '
-                f'previous {d[i - 1]:g} m')
+                f'previous {d[i - 1]:g} m'
+            )
+            raise BackboneError(msg)
 
 
 def _with_origin(d: list[float], f: list[float], name: str, first_line: int
@@ -218,9 +241,11 @@ def _with_origin(d: list[float], f: list[float], name: str, first_line: int
     if d[0] == 0.0 and f[0] == 0.0:
         return d, f
     if d[0] <= 0.0:
-        raise BackboneError(
+        msg = (
             f'{name}: line {first_line}: first point ({d[0]:g}, {f[0]:g}) must be (0, 0) or at a '
-            f'positive displacement')
+            f'positive displacement'
+        )
+        raise BackboneError(msg)
     return [0.0, *d], [0.0, *f]
 
 
@@ -259,17 +284,21 @@ def load_backbone_csv(path: str | Path) -> Backbone:
             continue
         header_allowed = False
         if len(fields) != 2:
-            raise BackboneError(
+            msg = (
                 f'{name}: line {number}: expected 2 columns (displacement, force), got '
-                f'{len(fields)}')
+                f'{len(fields)}'
+            )
+            raise BackboneError(msg)
         for item, value in zip(fields, values):
             if value is None:
-                raise BackboneError(f'{name}: line {number}: {item!r} is not a number')
+                msg = f'{name}: line {number}: {item!r} is not a number'
+                raise BackboneError(msg)
         d.append(values[0])  # type: ignore[arg-type]
         f.append(values[1])  # type: ignore[arg-type]
         lines.append(number)
     if not d:
-        raise BackboneError(f'{name}: no data rows')
+        msg = f'{name}: no data rows'
+        raise BackboneError(msg)
     _check_points(d, f, lines, name)
     d, f = _with_origin(d, f, name, lines[0])
     return Backbone(np.array(d), np.array(f), source=str(path))
@@ -286,11 +315,14 @@ def _read_recorder(path: Path, column: int) -> tuple[list[float], list[int]]:
             continue
         for item in fields:
             if _parse_number(item) is None:
-                raise BackboneError(f'{name}: line {number}: {item!r} is not a number')
+                msg = f'{name}: line {number}: {item!r} is not a number'
+                raise BackboneError(msg)
         if column >= len(fields):
-            raise BackboneError(
+            msg = (
                 f'{name}: line {number}: has {len(fields)} columns, column {column} '
-                f'(0-based) requested')
+                f'(0-based) requested'
+            )
+            raise BackboneError(msg)
         values.append(float(fields[column]))
         lines.append(number)
     return values, lines
@@ -328,27 +360,36 @@ def load_opensees_pushover(displacement_file: str | Path, reaction_file: str | P
     source = f'{disp_path} + {react_path}'
     name = f"OpenSees pushover '{source}'"
     if isinstance(skip_rows, bool) or not isinstance(skip_rows, int) or skip_rows < 0:
-        raise BackboneError(f'{name}: skip_rows must be an integer >= 0, got {skip_rows!r}')
+        msg = f'{name}: skip_rows must be an integer >= 0, got {skip_rows!r}'
+        raise BackboneError(msg)
     if isinstance(column, bool) or not isinstance(column, int) or column < 0:
-        raise BackboneError(f'{name}: column must be an integer >= 0, got {column!r}')
+        msg = f'{name}: column must be an integer >= 0, got {column!r}'
+        raise BackboneError(msg)
     scale = _positive(force_scale, 'force_scale', name)
     try:
         sign = float(force_sign)
     except (TypeError, ValueError):
         sign = math.nan
     if not (math.isfinite(sign) and sign != 0.0):
-        raise BackboneError(f'{name}: force_sign must be a non-zero finite number, got '
-                            f'{force_sign!r}')
+        msg = (
+            f'{name}: force_sign must be a non-zero finite number, got '
+                            f'{force_sign!r}'
+        )
+        raise BackboneError(msg)
     d, lines = _read_recorder(disp_path, column)
     r, _ = _read_recorder(react_path, column)
     if len(d) != len(r):
-        raise BackboneError(
+        msg = (
             f"OpenSees pushover: '{disp_path}' has {len(d)} rows but '{react_path}' has "
-            f'{len(r)}')
+            f'{len(r)}'
+        )
+        raise BackboneError(msg)
     if len(d) <= skip_rows:
-        raise BackboneError(
+        msg = (
             f"OpenSees pushover: '{disp_path}' has {len(d)} rows, none left after skipping "
-            f'{skip_rows}')
+            f'{skip_rows}'
+        )
+        raise BackboneError(msg)
     d, lines = d[skip_rows:], lines[skip_rows:]
     f = [sign * scale * value for value in r[skip_rows:]]
     _check_points(d, f, lines, name)

@@ -30,11 +30,21 @@ from pathlib import Path
 from typing import Any
 
 from ..config.loader import YAMLError, read_yaml_file
-from .backbone import (BEYOND_MODES, Backbone, bilinear_backbone, load_backbone_csv,
-                       load_opensees_pushover)
 from ..errors import SpecimenConfigError, SpecimenError
-from .hysteresis import (BilinearKinematic, Elastic, ElasticPerfectlyPlastic, HysteresisModel,
-                         PushoverHysteresis)
+from .backbone import (
+    BEYOND_MODES,
+    Backbone,
+    bilinear_backbone,
+    load_backbone_csv,
+    load_opensees_pushover,
+)
+from .hysteresis import (
+    BilinearKinematic,
+    Elastic,
+    ElasticPerfectlyPlastic,
+    HysteresisModel,
+    PushoverHysteresis,
+)
 from .specimen import TOPOLOGIES, Specimen
 
 _MODEL_KEYS: dict[str, tuple[set[str], set[str]]] = {

@@ -14,8 +14,8 @@ import math
 from abc import ABC, abstractmethod
 from typing import Any
 
-from .backbone import BEYOND_MODES, Backbone
 from ..errors import HysteresisError
+from .backbone import BEYOND_MODES, Backbone
 
 State = tuple[Any, ...]
 
@@ -27,7 +27,8 @@ def _positive(value: float, name: str, where: str) -> float:
     except (TypeError, ValueError):
         number = math.nan
     if not (math.isfinite(number) and number > 0.0):
-        raise HysteresisError(f'{where}: {name} must be a positive finite number, got {value!r}')
+        msg = f'{where}: {name} must be a positive finite number, got {value!r}'
+        raise HysteresisError(msg)
     return number
 
 
@@ -38,7 +39,8 @@ def _ratio(value: float, where: str) -> float:
     except (TypeError, ValueError):
         number = math.nan
     if not 0.0 <= number < 1.0:
-        raise HysteresisError(f'{where}: hardening_ratio must be in [0, 1), got {value!r}')
+        msg = f'{where}: hardening_ratio must be in [0, 1), got {value!r}'
+        raise HysteresisError(msg)
     return number
 
 
@@ -92,8 +94,8 @@ class HysteresisModel(ABC):
         except (TypeError, ValueError):
             x = math.nan
         if not math.isfinite(x):
-            raise HysteresisError(
-                f'{type(self).__name__}: trial displacement must be a finite number, got {x}')
+            msg = f'{type(self).__name__}: trial displacement must be a finite number, got {x}'
+            raise HysteresisError(msg)
         f, state = self._evaluate(x)
         self._x_t = x
         self._f_t = f
@@ -318,17 +320,21 @@ class PushoverHysteresis(HysteresisModel):
     def __init__(self, backbone: Backbone, unloading_stiffness: float | None = None,
                  beyond: str = 'extrapolate') -> None:
         if not isinstance(backbone, Backbone):
-            raise HysteresisError(
-                f'PushoverHysteresis: backbone must be a Backbone, got {type(backbone).__name__}')
+            msg = f'PushoverHysteresis: backbone must be a Backbone, got {type(backbone).__name__}'
+            raise HysteresisError(msg)
         if beyond not in BEYOND_MODES:
-            raise HysteresisError(
+            msg = (
                 f"PushoverHysteresis: beyond must be one of {', '.join(BEYOND_MODES)}, got "
-                f'{beyond!r}')
+                f'{beyond!r}'
+            )
+            raise HysteresisError(msg)
         k_ini = backbone.initial_stiffness
         if not k_ini > 0.0:
-            raise HysteresisError(
+            msg = (
                 f"PushoverHysteresis: backbone '{backbone.source}' has a non-positive initial "
-                f'stiffness {k_ini:g} N/m')
+                f'stiffness {k_ini:g} N/m'
+            )
+            raise HysteresisError(msg)
         self._backbone = backbone
         self._beyond = beyond
         self._k_ini = k_ini

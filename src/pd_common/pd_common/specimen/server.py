@@ -43,10 +43,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..protocol.messages import Feedback, FeedbackStatus
 from .config import specimen_from_config
-from ..errors import SpecimenError
 
 if TYPE_CHECKING:
     from collections.abc import Sequence

@@ -39,23 +39,29 @@ class Specimen:
                  dof_names: Sequence[str] | None = None) -> None:
         elements = list(elements)
         if not elements:
-            raise SpecimenError('specimen: needs at least one element')
+            msg = 'specimen: needs at least one element'
+            raise SpecimenError(msg)
         for i, element in enumerate(elements):
             if not isinstance(element, HysteresisModel):
-                raise SpecimenError(
+                msg = (
                     f'specimen: elements[{i}] must be a HysteresisModel, got '
-                    f'{type(element).__name__}')
+                    f'{type(element).__name__}'
+                )
+                raise SpecimenError(msg)
         if len({id(element) for element in elements}) != len(elements):
-            raise SpecimenError('specimen: the same element object is used more than once')
+            msg = 'specimen: the same element object is used more than once'
+            raise SpecimenError(msg)
         if topology not in TOPOLOGIES:
-            raise SpecimenError(
-                f"specimen: topology must be one of {', '.join(TOPOLOGIES)}, got {topology!r}")
+            msg = f"specimen: topology must be one of {', '.join(TOPOLOGIES)}, got {topology!r}"
+            raise SpecimenError(msg)
         n = len(elements)
         names = [f'dof{i}' for i in range(n)] if dof_names is None else list(dof_names)
         if len(names) != n:
-            raise SpecimenError(f'specimen: {n} elements but {len(names)} DOF names {names}')
+            msg = f'specimen: {n} elements but {len(names)} DOF names {names}'
+            raise SpecimenError(msg)
         if len(set(names)) != n:
-            raise SpecimenError(f'specimen: DOF names must be unique, got {names}')
+            msg = f'specimen: DOF names must be unique, got {names}'
+            raise SpecimenError(msg)
         self._elements = elements
         self._topology = topology
         self._dof_names = tuple(names)
@@ -86,15 +92,16 @@ class Specimen:
         try:
             values = np.asarray(x, dtype=float)
         except (TypeError, ValueError):
-            raise SpecimenError(
-                f'specimen: displacement must be {self.n_dof} numbers, got {x!r}') from None
+            msg = f'specimen: displacement must be {self.n_dof} numbers, got {x!r}'
+            raise SpecimenError(msg) from None
         if values.shape != (self.n_dof,):
-            raise SpecimenError(
-                f'specimen: displacement must have shape ({self.n_dof},), got {values.shape}')
+            msg = f'specimen: displacement must have shape ({self.n_dof},), got {values.shape}'
+            raise SpecimenError(msg)
         out = values.tolist()
         for name, value in zip(self._dof_names, out):
             if not math.isfinite(value):
-                raise SpecimenError(f'specimen: displacement of {name} is not finite ({value})')
+                msg = f'specimen: displacement of {name} is not finite ({value})'
+                raise SpecimenError(msg)
         return out
 
     def restoring_force(self, x: np.ndarray | Sequence[float]) -> np.ndarray:

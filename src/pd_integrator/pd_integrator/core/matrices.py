@@ -47,9 +47,8 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
     if np.any(bad):
         index = tuple(int(i) for i in np.argwhere(bad)[0]) if array.ndim else ()
         where = f' at index {index[0] if len(index) == 1 else index}' if index else ''
-        raise ConfigError(
-            f'{name}: all values must be finite, got {float(array[bad].flat[0])}{where}'
-        )
+        msg_0 = f'{name}: all values must be finite, got {float(array[bad].flat[0])}{where}'
+        raise ConfigError(msg_0)
     return array
 
 
@@ -75,10 +74,11 @@ def as_matrix(value: Any, n: int, name: str) -> np.ndarray:
         return np.diag(array)
     if array.ndim == 2 and array.shape == (n, n):
         return array
-    raise ConfigError(
+    msg = (
         f'{name}: expected a scalar, a list of {n} diagonal values or a {n}x{n} matrix, '
         f'got shape {array.shape}'
     )
+    raise ConfigError(msg)
 
 
 def as_vector(value: Any, n: int, name: str) -> np.ndarray:
@@ -100,9 +100,8 @@ def as_vector(value: Any, n: int, name: str) -> np.ndarray:
         return np.full(n, float(array))
     if array.shape == (n,):
         return array
-    raise ConfigError(
-        f'{name}: expected a scalar or a list of {n} values, got shape {array.shape}'
-    )
+    msg = f'{name}: expected a scalar or a list of {n} values, got shape {array.shape}'
+    raise ConfigError(msg)
 
 
 def square_matrix(value: Any, name: str) -> np.ndarray:

@@ -107,7 +107,8 @@ class RemoteDriver(ActuatorDriver):
         """
         super().__init__()
         if isinstance(n_dof, bool) or not isinstance(n_dof, int) or n_dof < 1:
-            raise BridgeConfigError(f'{name}: n_dof must be a positive integer, got {n_dof!r}')
+            msg = f'{name}: n_dof must be a positive integer, got {n_dof!r}'
+            raise BridgeConfigError(msg)
         self._n_dof = n_dof
         self._name = name
         self._position: list[float] = [math.nan] * n_dof
@@ -153,11 +154,17 @@ class RemoteDriver(ActuatorDriver):
         """
         values = [float(x) for x in target]
         if len(values) != self._n_dof:
-            raise DriverError(f'{self._name} {self.address}: target has {len(values)} values, '
-                              f'expected {self._n_dof}')
+            msg = (
+                f'{self._name} {self.address}: target has {len(values)} values, '
+                              f'expected {self._n_dof}'
+            )
+            raise DriverError(msg)
         if not all(math.isfinite(value) for value in values):
-            raise DriverError(f'{self._name} {self.address}: refusing a non-finite target '
-                              f'{values} at step {step}')
+            msg = (
+                f'{self._name} {self.address}: refusing a non-finite target '
+                              f'{values} at step {step}'
+            )
+            raise DriverError(msg)
         if not self.connected:
             raise DriverError(
                 f'{self._name} {self.address}: command() at step {step} while not connected'

@@ -251,10 +251,11 @@ class DaqmxConfig:
         if isinstance(raw_channels, (str, bytes, Mapping)) or not isinstance(
             raw_channels, Sequence
         ):
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: channels: must be a list of channel mappings, '
                 f'got {type(raw_channels).__name__}'
             )
+            raise BridgeConfigError(msg)
         channels = tuple(
             _channel_from_mapping(item, source, f'channels[{index}].')
             for index, item in enumerate(raw_channels)
@@ -285,18 +286,19 @@ class DaqmxConfig:
         try:
             text = path.read_text(encoding='utf-8')
         except OSError as exc:
-            raise BridgeConfigError(
-                f'{path}: cannot read the daqmx configuration ({exc.strerror})'
-            ) from exc
+            msg = f'{path}: cannot read the daqmx configuration ({exc.strerror})'
+            raise BridgeConfigError(msg) from exc
         try:
             raw = yaml.safe_load(text)
         except yaml.YAMLError as exc:
             mark = getattr(exc, 'problem_mark', None)
             where = f'line {mark.line + 1}: ' if mark is not None else ''
             problem = getattr(exc, 'problem', None) or 'invalid YAML'
-            raise BridgeConfigError(f'{source}: {where}{problem}') from exc
+            msg = f'{source}: {where}{problem}'
+            raise BridgeConfigError(msg) from exc
         if not isinstance(raw, Mapping) or section not in raw:
-            raise BridgeConfigError(f"{source}: missing top-level section '{section}'")
+            msg = f"{source}: missing top-level section '{section}'"
+            raise BridgeConfigError(msg)
         return cls.from_mapping(raw[section], source=f'{source}: {section}')
 
 
@@ -336,13 +338,14 @@ class DaqmxDriver(ActuatorDriver):
         """
         super().__init__()
         if not isinstance(config, DaqmxConfig):
-            raise BridgeConfigError(
-                f'DaqmxDriver: config must be a DaqmxConfig, got {type(config).__name__}'
-            )
+            msg = f'DaqmxDriver: config must be a DaqmxConfig, got {type(config).__name__}'
+            raise BridgeConfigError(msg)
         if task_factory is not None and not callable(task_factory):
-            raise BridgeConfigError('DaqmxDriver: task_factory must be callable')
+            msg = 'DaqmxDriver: task_factory must be callable'
+            raise BridgeConfigError(msg)
         if not callable(sleep):
-            raise BridgeConfigError('DaqmxDriver: sleep must be callable')
+            msg = 'DaqmxDriver: sleep must be callable'
+            raise BridgeConfigError(msg)
         self.config = config
         self._task_factory = task_factory
         self._constants = constants
@@ -401,9 +404,8 @@ class DaqmxDriver(ActuatorDriver):
         try:
             finite = constants.AcquisitionType.FINITE
         except AttributeError as exc:
-            raise DriverError(
-                'DaqmxDriver: the constants have no AcquisitionType.FINITE'
-            ) from exc
+            msg = 'DaqmxDriver: the constants have no AcquisitionType.FINITE'
+            raise DriverError(msg) from exc
 
         command_task: Any = None
         feedback_task: Any = None
@@ -434,7 +436,7 @@ class DaqmxDriver(ActuatorDriver):
                 sample_mode=finite,
                 samps_per_chan=self.config.samples_per_read,
             )
-        except Exception as exc:  # noqa: BLE001 - any failure: roll back and report
+        except Exception as exc:
             message = f'DaqmxDriver: open() failed: {_describe(exc)}'
             message += _close_all((feedback_task, command_task))
             raise DriverError(message) from exc
@@ -460,7 +462,8 @@ class DaqmxDriver(ActuatorDriver):
         """
         problems = self._drop_tasks()
         if problems:
-            raise DriverError(f'DaqmxDriver: close() failed{problems}')
+            msg = f'DaqmxDriver: close() failed{problems}'
+            raise DriverError(msg)
 
     # ------------------------------------------------------------------ motion
 
@@ -475,7 +478,8 @@ class DaqmxDriver(ActuatorDriver):
                 measurement fails.
         """
         if not self.is_open:
-            raise DriverError('DaqmxDriver: command() called while closed')
+            msg = 'DaqmxDriver: command() called while closed'
+            raise DriverError(msg)
         volts = self.command_voltages(target)
         self._write(volts)
         self._last_voltage = volts
@@ -492,34 +496,37 @@ class DaqmxDriver(ActuatorDriver):
                 channel's command range.
         """
         if isinstance(target, (str, bytes, Mapping)):
-            raise DriverError(
-                f'DaqmxDriver: target must be a sequence of numbers, got {type(target).__name__}'
-            )
+            msg = f'DaqmxDriver: target must be a sequence of numbers, got {type(target).__name__}'
+            raise DriverError(msg)
         try:
             values = [float(x) for x in target]
         except (TypeError, ValueError) as exc:
-            raise DriverError(f'DaqmxDriver: target is not a sequence of numbers: {exc}') from exc
+            msg = f'DaqmxDriver: target is not a sequence of numbers: {exc}'
+            raise DriverError(msg) from exc
         if len(values) != self.n_dof:
-            raise DriverError(
+            msg = (
                 f'DaqmxDriver: target has {len(values)} values, expected {self.n_dof}; '
                 'nothing written'
             )
+            raise DriverError(msg)
         volts = []
         for dof, (value, channel) in enumerate(zip(values, self.config.channels)):
             label = channel.label(dof)
             if not math.isfinite(value):
-                raise DriverError(
+                msg = (
                     f'DaqmxDriver: {label}: non-finite target displacement {value}; '
                     'nothing written'
                 )
+                raise DriverError(msg)
             voltage = (value - channel.command_offset) / channel.command_scale
             low, high = channel.command_min_voltage, channel.command_max_voltage
             if not math.isfinite(voltage) or voltage < low or voltage > high:
-                raise DriverError(
+                msg = (
                     f'DaqmxDriver: {label}: target {value:.6g} m needs {voltage:.6g} V on '
                     f'{channel.command_channel}, outside the command range [{low:g}, {high:g}] V;'
                     ' nothing written'
                 )
+                raise DriverError(msg)
             volts.append(voltage)
         return tuple(volts)
 
@@ -534,7 +541,8 @@ class DaqmxDriver(ActuatorDriver):
         """
         self._hold_count += 1
         if not self.is_open:
-            raise DriverError('DaqmxDriver: hold() called while closed; nothing written')
+            msg = 'DaqmxDriver: hold() called while closed; nothing written'
+            raise DriverError(msg)
         if self._last_voltage is not None:
             self._write(self._last_voltage)
 
@@ -545,7 +553,8 @@ class DaqmxDriver(ActuatorDriver):
             DriverError: Before the first measurement (the driver was never opened).
         """
         if self._position is None:
-            raise DriverError('DaqmxDriver: position unknown: open() the driver first')
+            msg = 'DaqmxDriver: position unknown: open() the driver first'
+            raise DriverError(msg)
         return list(self._position)
 
     def measure(self) -> tuple[list[float], list[float]]:
@@ -560,7 +569,8 @@ class DaqmxDriver(ActuatorDriver):
                 non-finite sample, or a sample is outside its channel's input range (clipped).
         """
         if not self.is_open:
-            raise DriverError('DaqmxDriver: measure() called while closed')
+            msg = 'DaqmxDriver: measure() called while closed'
+            raise DriverError(msg)
         config = self.config
         n_signals = 2 * config.n_dof
         n_samples = config.samples_per_read
@@ -568,36 +578,37 @@ class DaqmxDriver(ActuatorDriver):
             raw = self._feedback_task.read(
                 number_of_samples_per_channel=n_samples, timeout=config.timeout
             )
-        except Exception as exc:  # noqa: BLE001 - any DAQmx failure is a driver failure
-            raise DriverError(
-                f'DaqmxDriver: reading the feedback failed: {_describe(exc)}'
-            ) from exc
+        except Exception as exc:
+            msg = f'DaqmxDriver: reading the feedback failed: {_describe(exc)}'
+            raise DriverError(msg) from exc
         try:
             samples = np.asarray(raw, dtype=float)
         except (TypeError, ValueError) as exc:
-            raise DriverError(f'DaqmxDriver: feedback samples are not numbers: {exc}') from exc
+            msg = f'DaqmxDriver: feedback samples are not numbers: {exc}'
+            raise DriverError(msg) from exc
         if samples.shape != (n_signals, n_samples):
-            raise DriverError(
+            msg = (
                 f'DaqmxDriver: read returned samples of shape {samples.shape}, expected '
                 f'({n_signals}, {n_samples}) (input channels, samples per channel)'
             )
+            raise DriverError(msg)
         for row, values in enumerate(samples):
             dof, is_force = divmod(row, 2)
             channel = config.channels[dof]
             signal = 'force' if is_force else 'displacement'
             physical = channel.force_channel if is_force else channel.displacement_channel
             if not np.all(np.isfinite(values)):
-                raise DriverError(
-                    f'DaqmxDriver: {channel.label(dof)}: non-finite {signal} sample on {physical}'
-                )
+                msg = f'DaqmxDriver: {channel.label(dof)}: non-finite {signal} sample on {physical}'
+                raise DriverError(msg)
             low = getattr(channel, f'{signal}_min_voltage')
             high = getattr(channel, f'{signal}_max_voltage')
             if values.min() < low or values.max() > high:
                 worst = values.min() if values.min() < low else values.max()
-                raise DriverError(
+                msg = (
                     f'DaqmxDriver: {channel.label(dof)}: {signal} sample {worst:.6g} V on '
                     f'{physical} is outside the input range [{low:g}, {high:g}] V (clipped)'
                 )
+                raise DriverError(msg)
         means = samples.mean(axis=1)
         displacement = [
             channel.displacement_scale * float(means[2 * dof]) + channel.displacement_offset
@@ -625,10 +636,11 @@ class DaqmxDriver(ActuatorDriver):
             import nidaqmx  # noqa: PLC0415 - optional hardware package, see above
             import nidaqmx.constants  # noqa: PLC0415
         except ImportError as exc:
-            raise DriverError(
+            msg = (
                 f'DaqmxDriver: cannot import nidaqmx ({exc}): install nidaqmx '
                 '(python -m pip install nidaqmx) and the NI-DAQmx driver to use the daqmx driver'
-            ) from exc
+            )
+            raise DriverError(msg) from exc
 
         def factory(role: str) -> Any:
             return nidaqmx.Task()
@@ -641,10 +653,9 @@ class DaqmxDriver(ActuatorDriver):
         data: float | list[float] = float(volts[0]) if len(volts) == 1 else list(volts)
         try:
             self._command_task.write(data, auto_start=True, timeout=self.config.timeout)
-        except Exception as exc:  # noqa: BLE001 - any DAQmx failure is a driver failure
-            raise DriverError(
-                f'DaqmxDriver: writing the command failed: {_describe(exc)}'
-            ) from exc
+        except Exception as exc:
+            msg = f'DaqmxDriver: writing the command failed: {_describe(exc)}'
+            raise DriverError(msg) from exc
 
     def _drop_tasks(self) -> str:
         """Close and forget both tasks; return ``''`` or a suffix describing close failures."""
@@ -676,10 +687,11 @@ def _terminal_constant(constants: Any, name: str) -> Any:
     for member in _TERMINAL_MEMBERS[name]:
         if enum is not None and hasattr(enum, member):
             return getattr(enum, member)
-    raise DriverError(
+    msg = (
         f'DaqmxDriver: terminal_configuration {name!r} is not available in this nidaqmx '
         f'(looked for TerminalConfiguration.{" or .".join(_TERMINAL_MEMBERS[name])})'
     )
+    raise DriverError(msg)
 
 
 def _describe(exc: BaseException) -> str:
@@ -700,18 +712,17 @@ def _check_keys(
 ) -> None:
     where = prefix.rstrip('.') or what
     if not isinstance(mapping, Mapping):
-        raise BridgeConfigError(
-            f'{source}: {where}: must be a mapping, got {type(mapping).__name__}'
-        )
+        msg = f'{source}: {where}: must be a mapping, got {type(mapping).__name__}'
+        raise BridgeConfigError(msg)
     allowed = tuple(required) + tuple(optional)
     for key in mapping:
         if key not in allowed:
-            raise BridgeConfigError(
-                f'{source}: {prefix}{key}: unknown key (allowed: {", ".join(sorted(allowed))})'
-            )
+            msg = f'{source}: {prefix}{key}: unknown key (allowed: {", ".join(sorted(allowed))})'
+            raise BridgeConfigError(msg)
     for key in required:
         if key not in mapping:
-            raise BridgeConfigError(f"{source}: {where}: missing required key '{key}'")
+            msg = f"{source}: {where}: missing required key '{key}'"
+            raise BridgeConfigError(msg)
 
 
 def _channel_from_mapping(mapping: Any, source: str, prefix: str) -> DaqmxChannelConfig:
@@ -730,9 +741,8 @@ def _number(value: Any, source: str, key: str, *, rule: str = 'finite') -> float
         'nonnegative': 'a finite number >= 0',
     }[rule]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise BridgeConfigError(
-            f'{source}: {key}: must be {what}, got {type(value).__name__} {value!r}'
-        )
+        msg = f'{source}: {key}: must be {what}, got {type(value).__name__} {value!r}'
+        raise BridgeConfigError(msg)
     number = float(value)
     bad = (
         not math.isfinite(number)
@@ -741,19 +751,18 @@ def _number(value: Any, source: str, key: str, *, rule: str = 'finite') -> float
         or (rule == 'nonnegative' and number < 0.0)
     )
     if bad:
-        raise BridgeConfigError(f'{source}: {key}: must be {what}, got {value!r}')
+        msg = f'{source}: {key}: must be {what}, got {value!r}'
+        raise BridgeConfigError(msg)
     return number
 
 
 def _physical_channel(value: Any, source: str, key: str) -> str:
     if not isinstance(value, str) or not value.strip():
-        raise BridgeConfigError(
-            f'{source}: {key}: must be a physical channel name such as Dev1/ao0, got {value!r}'
-        )
+        msg = f'{source}: {key}: must be a physical channel name such as Dev1/ao0, got {value!r}'
+        raise BridgeConfigError(msg)
     if any(sep in value for sep in ',:'):
-        raise BridgeConfigError(
-            f'{source}: {key}: must name one physical channel (no list or range), got {value!r}'
-        )
+        msg = f'{source}: {key}: must name one physical channel (no list or range), got {value!r}'
+        raise BridgeConfigError(msg)
     return value.strip()
 
 
@@ -762,7 +771,8 @@ def _check_channel(values: Mapping[str, Any], source: str, prefix: str) -> dict[
     checked: dict[str, Any] = {}
     name = values['name']
     if not isinstance(name, str):
-        raise BridgeConfigError(f'{source}: {prefix}name: must be a string, got {name!r}')
+        msg = f'{source}: {prefix}name: must be a string, got {name!r}'
+        raise BridgeConfigError(msg)
     checked['name'] = name
     for signal in _SIGNALS:
         channel_key = f'{signal}_channel'
@@ -776,21 +786,22 @@ def _check_channel(values: Mapping[str, Any], source: str, prefix: str) -> dict[
         high = _number(values[high_key], source, prefix + high_key)
         for key, voltage in ((low_key, low), (high_key, high)):
             if abs(voltage) > MAX_ABS_VOLTAGE:
-                raise BridgeConfigError(
-                    f'{source}: {prefix}{key}: {voltage:g} V is beyond +-{MAX_ABS_VOLTAGE:g} V'
-                )
+                msg = f'{source}: {prefix}{key}: {voltage:g} V is beyond +-{MAX_ABS_VOLTAGE:g} V'
+                raise BridgeConfigError(msg)
         if not low < high:
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: {prefix}{low_key}: must be below {high_key} '
                 f'({low:g} V >= {high:g} V)'
             )
+            raise BridgeConfigError(msg)
         checked[low_key] = low
         checked[high_key] = high
     if checked['displacement_channel'].lower() == checked['force_channel'].lower():
-        raise BridgeConfigError(
+        msg = (
             f'{source}: {prefix}force_channel: same physical channel as displacement_channel '
             f'({checked["force_channel"]})'
         )
+        raise BridgeConfigError(msg)
     return checked
 
 
@@ -798,24 +809,26 @@ def _check_config(values: Mapping[str, Any], source: str) -> dict[str, Any]:
     """Validate the driver-level values; return them normalised."""
     channels = values['channels']
     if isinstance(channels, DaqmxChannelConfig) or not isinstance(channels, (list, tuple)):
-        raise BridgeConfigError(
+        msg = (
             f'{source}: channels: must be a list of channel configurations, '
             f'got {type(channels).__name__}'
         )
+        raise BridgeConfigError(msg)
     if not channels:
-        raise BridgeConfigError(f'{source}: channels: must list at least one DOF')
+        msg = f'{source}: channels: must list at least one DOF'
+        raise BridgeConfigError(msg)
     for index, channel in enumerate(channels):
         if not isinstance(channel, DaqmxChannelConfig):
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: channels[{index}]: must be a DaqmxChannelConfig, '
                 f'got {type(channel).__name__}'
             )
+            raise BridgeConfigError(msg)
     names: set[str] = set()
     for index, channel in enumerate(channels):
         if channel.name in names:
-            raise BridgeConfigError(
-                f'{source}: channels[{index}].name: duplicate DOF name {channel.name!r}'
-            )
+            msg = f'{source}: channels[{index}].name: duplicate DOF name {channel.name!r}'
+            raise BridgeConfigError(msg)
         if channel.name:
             names.add(channel.name)
     seen: dict[str, str] = {}
@@ -825,32 +838,34 @@ def _check_config(values: Mapping[str, Any], source: str) -> dict[str, Any]:
             physical = getattr(channel, f'{signal}_channel')
             normalised = physical.lower().lstrip('/')
             if normalised in seen:
-                raise BridgeConfigError(
+                msg = (
                     f'{source}: {key}: physical channel {physical} is already used by '
                     f'{seen[normalised]}'
                 )
+                raise BridgeConfigError(msg)
             seen[normalised] = key
 
     sample_rate = _number(values['sample_rate'], source, 'sample_rate', rule='positive')
     samples = values['samples_per_read']
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise BridgeConfigError(
-            f'{source}: samples_per_read: must be a positive integer, got {samples!r}'
-        )
+        msg = f'{source}: samples_per_read: must be a positive integer, got {samples!r}'
+        raise BridgeConfigError(msg)
     terminal = values['terminal_configuration']
     if terminal not in TERMINAL_CONFIGURATIONS:
-        raise BridgeConfigError(
+        msg = (
             f'{source}: terminal_configuration: must be one of '
             f'{", ".join(TERMINAL_CONFIGURATIONS)}, got {terminal!r}'
         )
+        raise BridgeConfigError(msg)
     settle_time = _number(values['settle_time'], source, 'settle_time', rule='nonnegative')
     timeout = _number(values['timeout'], source, 'timeout', rule='positive')
     acquisition = samples / sample_rate
     if timeout <= acquisition:
-        raise BridgeConfigError(
+        msg = (
             f'{source}: timeout: {timeout:g} s does not exceed the acquisition time '
             f'samples_per_read / sample_rate = {acquisition:g} s'
         )
+        raise BridgeConfigError(msg)
     return {
         'channels': tuple(channels),
         'sample_rate': sample_rate,

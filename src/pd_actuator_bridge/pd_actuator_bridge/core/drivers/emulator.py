@@ -207,9 +207,8 @@ class EmulatorParameters:
         object.__setattr__(self, 'force_bias', _number(self.force_bias, 'force_bias', where, ''))
         band = self.integral_band
         if isinstance(band, bool) or not isinstance(band, Real) or not float(band) > 0.0:
-            raise BridgeConfigError(
-                f'{where}: integral_band must be a positive number (inf: no band), got {band!r}'
-            )
+            msg = f'{where}: integral_band must be a positive number (inf: no band), got {band!r}'
+            raise BridgeConfigError(msg)
         object.__setattr__(self, 'integral_band', float(band))
         if self.supply_pressure is not None:
             object.__setattr__(
@@ -222,16 +221,16 @@ class EmulatorParameters:
         if self.seed is not None:
             object.__setattr__(self, 'seed', _integer(self.seed, 'seed', where, 0))
         if self.rate < MIN_RATE:
-            raise BridgeConfigError(
-                f'{where}: rate must be at least {MIN_RATE:g} Hz, got {self.rate:g}'
-            )
+            msg = f'{where}: rate must be at least {MIN_RATE:g} Hz, got {self.rate:g}'
+            raise BridgeConfigError(msg)
         number = math.sqrt(self.friction_stiffness / self.piston_mass) * self.substep
         if self.friction_coulomb > 0.0 and number > MAX_FRICTION_STIFFNESS_NUMBER:
-            raise BridgeConfigError(
+            msg = (
                 f'{where}: friction_stiffness {self.friction_stiffness:g} N/m is too stiff for '
                 f'the sub-step {self.substep:g} s (sqrt(friction_stiffness/piston_mass)*h = '
                 f'{number:.3g} > {MAX_FRICTION_STIFFNESS_NUMBER}); raise substeps or rate'
             )
+            raise BridgeConfigError(msg)
 
     @classmethod
     def from_mapping(
@@ -345,9 +344,8 @@ def _number(value: Any, name: str, where: str, kind: str) -> float:
     """Return ``value`` as a finite float (``kind``: 'positive', 'non-negative' or '')."""
     text = f'a {kind} finite number' if kind else 'a finite number'
     if isinstance(value, bool) or not isinstance(value, Real):
-        raise BridgeConfigError(
-            f'{where}: {name} must be {text}, got {type(value).__name__} {value!r}'
-        )
+        msg = f'{where}: {name} must be {text}, got {type(value).__name__} {value!r}'
+        raise BridgeConfigError(msg)
     number = float(value)
     bad = (
         not math.isfinite(number)
@@ -355,16 +353,16 @@ def _number(value: Any, name: str, where: str, kind: str) -> float:
         or (kind == 'non-negative' and number < 0.0)
     )
     if bad:
-        raise BridgeConfigError(f'{where}: {name} must be {text}, got {value!r}')
+        msg = f'{where}: {name} must be {text}, got {value!r}'
+        raise BridgeConfigError(msg)
     return number
 
 
 def _integer(value: Any, name: str, where: str, lowest: int) -> int:
     """Return ``value`` as an int ``>= lowest``."""
     if isinstance(value, bool) or not isinstance(value, Integral) or int(value) < lowest:
-        raise BridgeConfigError(
-            f'{where}: {name} must be an integer >= {lowest}, got {value!r}'
-        )
+        msg = f'{where}: {name} must be an integer >= {lowest}, got {value!r}'
+        raise BridgeConfigError(msg)
     return int(value)
 
 
@@ -424,21 +422,20 @@ class ServoHydraulicEmulator:
         """
         for attribute in ('restoring_force', 'commit', 'revert_to_last_commit'):
             if not callable(getattr(specimen, attribute, None)):
-                raise BridgeConfigError(
-                    f'ServoHydraulicEmulator: specimen has no method {attribute}()'
-                )
+                msg = f'ServoHydraulicEmulator: specimen has no method {attribute}()'
+                raise BridgeConfigError(msg)
         n_dof = getattr(specimen, 'n_dof', None)
         if isinstance(n_dof, bool) or not isinstance(n_dof, Integral) or n_dof < 1:
-            raise BridgeConfigError(
-                f'ServoHydraulicEmulator: specimen.n_dof must be a positive integer, got {n_dof!r}'
-            )
+            msg = f'ServoHydraulicEmulator: specimen.n_dof must be a positive integer, got {n_dof!r}'
+            raise BridgeConfigError(msg)
         if parameters is None:
             parameters = EmulatorParameters()
         if not isinstance(parameters, EmulatorParameters):
-            raise BridgeConfigError(
+            msg = (
                 'ServoHydraulicEmulator: parameters must be EmulatorParameters, got '
                 f'{type(parameters).__name__}'
             )
+            raise BridgeConfigError(msg)
         self._specimen = specimen
         self._p = parameters
         self._n = n = int(n_dof)
@@ -460,14 +457,14 @@ class ServoHydraulicEmulator:
         try:
             k0 = np.array(stiffness, dtype=float)
         except (TypeError, ValueError):
-            raise BridgeConfigError(
-                'ServoHydraulicEmulator: stiffness must be a numeric matrix'
-            ) from None
+            msg = 'ServoHydraulicEmulator: stiffness must be a numeric matrix'
+            raise BridgeConfigError(msg) from None
         if k0.shape != (n, n) or not np.all(np.isfinite(k0)):
-            raise BridgeConfigError(
+            msg = (
                 f'ServoHydraulicEmulator: stiffness must be a finite {n}x{n} matrix, got shape '
                 f'{k0.shape}'
             )
+            raise BridgeConfigError(msg)
         return k0
 
     def _build_discretisation(self) -> None:
@@ -722,33 +719,34 @@ class ServoHydraulicEmulator:
             if vector.shape == (self._n,) and math.isfinite(vector.sum()):
                 return vector
         except (TypeError, ValueError):
-            raise DriverError(
-                f'ServoHydraulicEmulator: {what} must be {self._n} numbers, got {values!r}'
-            ) from None
+            msg = f'ServoHydraulicEmulator: {what} must be {self._n} numbers, got {values!r}'
+            raise DriverError(msg) from None
         if vector.shape != (self._n,):
-            raise DriverError(
-                f'ServoHydraulicEmulator: {what} has {vector.size} values, expected {self._n}'
-            )
+            msg = f'ServoHydraulicEmulator: {what} has {vector.size} values, expected {self._n}'
+            raise DriverError(msg)
         if not np.all(np.isfinite(vector)):
-            raise DriverError(f'ServoHydraulicEmulator: non-finite {what} {vector.tolist()}')
+            msg = f'ServoHydraulicEmulator: non-finite {what} {vector.tolist()}'
+            raise DriverError(msg)
         return vector
 
     def _evaluate(self, x: np.ndarray) -> np.ndarray:
         """Trial restoring force at ``x``; reverts the specimen's trial state on failure."""
         try:
             r = np.asarray(self._specimen.restoring_force(x.copy()), dtype=float).reshape(-1)
-        except Exception as exc:  # noqa: BLE001 - any model failure is a driver failure
+        except Exception as exc:
             self._specimen.revert_to_last_commit()
-            raise DriverError(
+            msg = (
                 f'ServoHydraulicEmulator: specimen failed at x={x.tolist()} m: '
                 f'{type(exc).__name__}: {exc}'
-            ) from exc
+            )
+            raise DriverError(msg) from exc
         if r.shape != (self._n,) or not math.isfinite(r.sum()):
             self._specimen.revert_to_last_commit()
-            raise DriverError(
+            msg = (
                 f'ServoHydraulicEmulator: specimen returned {r.tolist()} at x={x.tolist()} m, '
                 f'expected {self._n} finite forces'
             )
+            raise DriverError(msg)
         return r
 
     def _extra_flow(self, z: np.ndarray) -> np.ndarray:

@@ -81,19 +81,20 @@ class GenericTCPClient:
             BridgeConfigError: On an invalid argument.
         """
         if not isinstance(host, str) or not host:
-            raise BridgeConfigError(f'GenericTCP: host must be a non-empty string, got {host!r}')
+            msg = f'GenericTCP: host must be a non-empty string, got {host!r}'
+            raise BridgeConfigError(msg)
         port = check_count(port, 'port')
         if not 0 < port < 65536:
-            raise BridgeConfigError(f'GenericTCP: port must be in 1..65535, got {port}')
+            msg = f'GenericTCP: port must be in 1..65535, got {port}'
+            raise BridgeConfigError(msg)
         for name, value in (('timeout', timeout), ('connect_timeout', connect_timeout)):
             if value is None and name == 'connect_timeout':
                 continue
             if isinstance(value, bool) or not isinstance(value, int | float) or not (
                 math.isfinite(value) and value > 0
             ):
-                raise BridgeConfigError(
-                    f'GenericTCP: {name} must be a positive number of seconds, got {value!r}'
-                )
+                msg = f'GenericTCP: {name} must be a positive number of seconds, got {value!r}'
+                raise BridgeConfigError(msg)
         byte_order_prefix(byte_order)
         check_count(data_size, 'data_size')
         self._host = host
@@ -139,8 +140,9 @@ class GenericTCPClient:
         except ConnectionRefusedError:
             raise self._error('connect', 'connection refused') from None
         except TimeoutError:
+            msg = 'connect'
             raise self._error(
-                'connect', f'timed out after {self._connect_timeout:g} s'
+                msg, f'timed out after {self._connect_timeout:g} s'
             ) from None
         except OSError as exc:
             raise self._error('connect', describe_error(exc)) from None

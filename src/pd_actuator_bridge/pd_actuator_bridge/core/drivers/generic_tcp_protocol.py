@@ -169,19 +169,18 @@ class SizeID:
         object.__setattr__(self, 'daq', normalize_sizes(self.daq, 'daq sizes'))
         data_size = check_count(self.data_size, 'data_size')
         if data_size < 1 or data_size > MAX_DATA_SIZE:
-            raise BridgeConfigError(
-                f'GenericTCP: data_size must be in 1..{MAX_DATA_SIZE}, got {data_size}'
-            )
+            msg = f'GenericTCP: data_size must be in 1..{MAX_DATA_SIZE}, got {data_size}'
+            raise BridgeConfigError(msg)
         object.__setattr__(self, 'data_size', data_size)
         if 1 + self.ctrl_length > data_size:
-            raise BridgeConfigError(
+            msg = (
                 f'GenericTCP: 1 action + {self.ctrl_length} control values do not fit in '
                 f'data_size {data_size}'
             )
+            raise BridgeConfigError(msg)
         if self.daq_length > data_size:
-            raise BridgeConfigError(
-                f'GenericTCP: {self.daq_length} daq values do not fit in data_size {data_size}'
-            )
+            msg = f'GenericTCP: {self.daq_length} daq values do not fit in data_size {data_size}'
+            raise BridgeConfigError(msg)
 
     @property
     def ctrl_length(self) -> int:
@@ -218,7 +217,8 @@ def check_count(value: object, name: str) -> int:
         or not math.isfinite(value)
         or value != int(value)
     ):
-        raise BridgeConfigError(f'GenericTCP: {name} must be an integer, got {value!r}')
+        msg = f'GenericTCP: {name} must be an integer, got {value!r}'
+        raise BridgeConfigError(msg)
     return int(value)
 
 
@@ -231,9 +231,8 @@ def byte_order_prefix(byte_order: str) -> str:
     try:
         return BYTE_ORDERS[byte_order]
     except KeyError:
-        raise BridgeConfigError(
-            f"GenericTCP: byte_order must be 'little' or 'big', got {byte_order!r}"
-        ) from None
+        msg = f"GenericTCP: byte_order must be 'little' or 'big', got {byte_order!r}"
+        raise BridgeConfigError(msg) from None
 
 
 def normalize_sizes(sizes: SizesLike, name: str = 'sizes') -> tuple[int, ...]:
@@ -250,21 +249,24 @@ def normalize_sizes(sizes: SizesLike, name: str = 'sizes') -> tuple[int, ...]:
     if isinstance(sizes, Mapping):
         unknown = sorted(set(sizes) - set(RESPONSE_KINDS))
         if unknown:
-            raise BridgeConfigError(
+            msg = (
                 f'GenericTCP: {name}: unknown response kind(s) {", ".join(map(str, unknown))} '
                 f'(expected {", ".join(RESPONSE_KINDS)})'
             )
+            raise BridgeConfigError(msg)
         values = [sizes.get(kind, 0) for kind in RESPONSE_KINDS]
     else:
         values = list(sizes)
         if len(values) != len(RESPONSE_KINDS):
-            raise BridgeConfigError(
+            msg = (
                 f'GenericTCP: {name}: expected {len(RESPONSE_KINDS)} sizes '
                 f'({", ".join(RESPONSE_KINDS)}), got {len(values)}'
             )
+            raise BridgeConfigError(msg)
     result = tuple(check_count(v, name) for v in values)
     if any(v < 0 for v in result):
-        raise BridgeConfigError(f'GenericTCP: {name}: sizes must be >= 0, got {list(result)}')
+        msg = f'GenericTCP: {name}: sizes must be >= 0, got {list(result)}'
+        raise BridgeConfigError(msg)
     return result
 
 
@@ -281,15 +283,15 @@ def decode_size_id(payload: bytes, byte_order: str = 'little') -> SizeID:
     """
     expected = 4 * SIZE_ID_LENGTH
     if len(payload) != expected:
-        raise GenericTCPError(
-            f'GenericTCP: size ID must be {expected} bytes, got {len(payload)}'
-        )
+        msg = f'GenericTCP: size ID must be {expected} bytes, got {len(payload)}'
+        raise GenericTCPError(msg)
     values = struct.unpack(f'{byte_order_prefix(byte_order)}{SIZE_ID_LENGTH}i', payload)
     n = len(RESPONSE_KINDS)
     try:
         return SizeID(values[:n], values[n:2 * n], values[2 * n])
     except BridgeConfigError as exc:
-        raise GenericTCPError(f'invalid size ID {list(values)}: {exc}') from None
+        msg = f'invalid size ID {list(values)}: {exc}'
+        raise GenericTCPError(msg) from None
 
 
 def encode_vector(values: Sequence[float], data_size: int, byte_order: str = 'little') -> bytes:
@@ -300,9 +302,8 @@ def encode_vector(values: Sequence[float], data_size: int, byte_order: str = 'li
     """
     values = [float(v) for v in values]
     if len(values) > data_size:
-        raise GenericTCPError(
-            f'GenericTCP: {len(values)} values do not fit in a vector of {data_size}'
-        )
+        msg = f'GenericTCP: {len(values)} values do not fit in a vector of {data_size}'
+        raise GenericTCPError(msg)
     values.extend([0.0] * (data_size - len(values)))
     return struct.pack(f'{byte_order_prefix(byte_order)}{data_size}d', *values)
 
@@ -314,9 +315,8 @@ def decode_vector(payload: bytes, data_size: int, byte_order: str = 'little') ->
         GenericTCPError: If the payload length is not ``8 * data_size``.
     """
     if len(payload) != 8 * data_size:
-        raise GenericTCPError(
-            f'GenericTCP: a data vector must be {8 * data_size} bytes, got {len(payload)}'
-        )
+        msg = f'GenericTCP: a data vector must be {8 * data_size} bytes, got {len(payload)}'
+        raise GenericTCPError(msg)
     return list(struct.unpack(f'{byte_order_prefix(byte_order)}{data_size}d', payload))
 
 
@@ -331,9 +331,8 @@ def _flatten(sizes: tuple[int, ...], groups: Mapping[str, Sequence[float] | None
             continue
         group = [float(v) for v in group]
         if len(group) != size:
-            raise GenericTCPError(
-                f'GenericTCP: {what} {kind} has {len(group)} values, the size ID says {size}'
-            )
+            msg = f'GenericTCP: {what} {kind} has {len(group)} values, the size ID says {size}'
+            raise GenericTCPError(msg)
         values.extend(group)
     return values
 

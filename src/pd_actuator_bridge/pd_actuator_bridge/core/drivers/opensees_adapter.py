@@ -140,16 +140,17 @@ class OpenSeesAdapterDriver(RemoteDriver):
         super().__init__(n_dof, 'OpenSeesAdapterDriver')
         where = 'OpenSeesAdapterDriver'
         if not isinstance(host, str) or not host:
-            raise BridgeConfigError(f'{where}: host must be a non-empty string, got {host!r}')
+            msg = f'{where}: host must be a non-empty string, got {host!r}'
+            raise BridgeConfigError(msg)
         if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
-            raise BridgeConfigError(f'{where}: port must be an integer in 1..65535, got {port!r}')
+            msg = f'{where}: port must be an integer in 1..65535, got {port!r}'
+            raise BridgeConfigError(msg)
         for name, value in (('timeout', timeout), ('connect_timeout', connect_timeout)):
             if isinstance(value, bool) or not isinstance(value, int | float) or not (
                 math.isfinite(value) and value > 0
             ):
-                raise BridgeConfigError(
-                    f'{where}: {name} must be a positive number of seconds, got {value!r}'
-                )
+                msg = f'{where}: {name} must be a positive number of seconds, got {value!r}'
+                raise BridgeConfigError(msg)
         self._size_id = adapter_size_id(n_dof, data_size)
         self._host = host
         self._port = port
@@ -237,8 +238,9 @@ class OpenSeesAdapterDriver(RemoteDriver):
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 return sock
             if time.monotonic() + CONNECT_RETRY_INTERVAL > deadline:
+                msg = 'connect'
                 raise self._error(
-                    'connect', f'{last} for {self._connect_timeout:g} s (is the OpenSees model '
+                    msg, f'{last} for {self._connect_timeout:g} s (is the OpenSees model '
                     f'with the adapter element running its analysis?)'
                 )
             time.sleep(CONNECT_RETRY_INTERVAL)

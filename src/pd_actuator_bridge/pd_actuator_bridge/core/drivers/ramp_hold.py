@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from pd_common.specimen import load_specimen_section, specimen_from_config
 
 from ..error_models import ErrorInjector, ErrorModel
@@ -91,10 +92,11 @@ class RampHoldParameters:
         """Validate and normalise the values."""
         where = 'RampHoldParameters'
         if self.ramp_time is not None and self.ramp_velocity is not None:
-            raise BridgeConfigError(
+            msg = (
                 f'{where}: ramp_time and ramp_velocity are exclusive, got both '
                 f'({self.ramp_time!r} s and {self.ramp_velocity!r} m/s)'
             )
+            raise BridgeConfigError(msg)
         if self.ramp_time is not None:
             object.__setattr__(self, 'ramp_time', _number(self.ramp_time, 'ramp_time', False))
         if self.ramp_velocity is not None:
@@ -110,7 +112,8 @@ class RampHoldParameters:
             object.__setattr__(self, name, _number(getattr(self, name), name, positive))
         samples = self.samples
         if isinstance(samples, bool) or not isinstance(samples, Integral) or samples < 1:
-            raise BridgeConfigError(f'{where}: samples must be an integer >= 1, got {samples!r}')
+            msg = f'{where}: samples must be an integer >= 1, got {samples!r}'
+            raise BridgeConfigError(msg)
         object.__setattr__(self, 'samples', int(samples))
 
     @classmethod
@@ -127,21 +130,24 @@ class RampHoldParameters:
             BridgeConfigError: On a non-mapping, an unknown key or a bad value.
         """
         if not isinstance(mapping, Mapping):
-            raise BridgeConfigError(
+            msg = (
                 f'{source}: ramp-and-hold parameters must be a mapping, got '
                 f'{type(mapping).__name__}'
             )
+            raise BridgeConfigError(msg)
         known = [f.name for f in fields(cls)]
         for key in mapping:
             if key not in known:
-                raise BridgeConfigError(
+                msg = (
                     f'{source}: unknown ramp-and-hold parameter {key!r} '
                     f'(expected one of: {", ".join(sorted(known))})'
                 )
+                raise BridgeConfigError(msg)
         try:
             return cls(**dict(mapping))
         except BridgeConfigError as exc:
-            raise BridgeConfigError(f'{source}: {exc}') from None
+            msg = f'{source}: {exc}'
+            raise BridgeConfigError(msg) from None
 
     def ramp_duration(self, increment: float) -> float:
         """Ramp duration for a largest absolute increment ``increment`` (m), s."""
@@ -153,15 +159,15 @@ class RampHoldParameters:
 def _number(value: Any, name: str, positive: bool) -> float:
     kind = 'positive' if positive else 'non-negative'
     if isinstance(value, bool) or not isinstance(value, Real):
-        raise BridgeConfigError(
+        msg = (
             f'RampHoldParameters: {name} must be a {kind} finite number, got '
             f'{type(value).__name__} {value!r}'
         )
+        raise BridgeConfigError(msg)
     number = float(value)
     if not math.isfinite(number) or number < 0.0 or (positive and number == 0.0):
-        raise BridgeConfigError(
-            f'RampHoldParameters: {name} must be a {kind} finite number, got {value!r}'
-        )
+        msg = f'RampHoldParameters: {name} must be a {kind} finite number, got {value!r}'
+        raise BridgeConfigError(msg)
     return number
 
 
@@ -262,10 +268,11 @@ class RampHoldExecutor:
         elif isinstance(parameters, Mapping):
             parameters = RampHoldParameters.from_mapping(parameters)
         elif not isinstance(parameters, RampHoldParameters):
-            raise BridgeConfigError(
+            msg = (
                 'RampHoldExecutor: parameters must be RampHoldParameters or a mapping, got '
                 f'{type(parameters).__name__}'
             )
+            raise BridgeConfigError(msg)
         if settings:
             merged = {f.name: getattr(parameters, f.name) for f in fields(parameters)}
             if 'ramp_velocity' in settings and 'ramp_time' not in settings:
@@ -274,10 +281,11 @@ class RampHoldExecutor:
                 merged['ramp_velocity'] = None
             unknown = sorted(set(settings) - set(merged))
             if unknown:
-                raise BridgeConfigError(
+                msg = (
                     f'RampHoldExecutor: unknown ramp-and-hold parameter {unknown[0]!r} '
                     f'(expected one of: {", ".join(sorted(merged))})'
                 )
+                raise BridgeConfigError(msg)
             merged.update(settings)
             parameters = dataclasses.replace(parameters, **merged)
         self._emulator = emulator
@@ -403,10 +411,13 @@ class RampHoldExecutor:
             if held >= timeout_ticks:
                 dof = int(np.argmax(error))
                 partial = execution(False, displacements[-1].copy(), forces[-1].copy(), held)
-                raise SettleTimeoutError(
+                msg = (
                     f'ramp-and-hold: DOF {dof} did not settle within {p.settle_tolerance:g} m of '
                     f'the target {driven[dof]:.6g} m for {p.settle_time:g} s in {p.timeout:g} s '
-                    f'(last error {error[dof]:.3g} m)',
+                    f'(last error {error[dof]:.3g} m)'
+                )
+                raise SettleTimeoutError(
+                    msg,
                     partial,
                 )
         phases[-p.samples:] = [PHASE_SAMPLE] * p.samples
@@ -423,11 +434,14 @@ def _target(values: Any, n: int) -> np.ndarray:
     try:
         target = np.array(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise DriverError(f'ramp-and-hold: target must be {n} numbers, got {values!r}') from None
+        msg = f'ramp-and-hold: target must be {n} numbers, got {values!r}'
+        raise DriverError(msg) from None
     if target.size != n:
-        raise DriverError(f'ramp-and-hold: target has {target.size} values, expected {n}')
+        msg = f'ramp-and-hold: target has {target.size} values, expected {n}'
+        raise DriverError(msg)
     if not np.all(np.isfinite(target)):
-        raise DriverError(f'ramp-and-hold: non-finite target {target.tolist()}')
+        msg = f'ramp-and-hold: non-finite target {target.tolist()}'
+        raise DriverError(msg)
     return target
 
 
@@ -506,7 +520,8 @@ class EmulatorDriver(ActuatorDriver):
                 not settle in time or the emulator fails.
         """
         if not self.is_open:
-            raise DriverError('EmulatorDriver: command() called before open()')
+            msg = 'EmulatorDriver: command() called before open()'
+            raise DriverError(msg)
         try:
             execution = self._executor.execute(target)
         except SettleTimeoutError as exc:

@@ -146,14 +146,14 @@ def amplification_matrix(
         raise ConfigError(msg) from None
     array = np.asarray(matrix)
     if array.ndim != 2 or array.shape[0] != array.shape[1] or array.shape[0] == 0:
-        raise ConfigError(
+        msg_0 = (
             f'scheme {cls.name!r}: amplification_matrix returned shape {array.shape}, '
             'expected a square matrix'
         )
+        raise ConfigError(msg_0)
     if not np.all(np.isfinite(array)):
-        raise ConfigError(
-            f'scheme {cls.name!r}: amplification_matrix is not finite at Ω = {omega:g}'
-        )
+        msg_0 = f'scheme {cls.name!r}: amplification_matrix is not finite at Ω = {omega:g}'
+        raise ConfigError(msg_0)
     return array
 
 
@@ -161,9 +161,11 @@ def _check_omega(omega_dt: float) -> float:
     try:
         omega = float(omega_dt)
     except (TypeError, ValueError):
-        raise ConfigError(f'omega_dt: expected a number, got {omega_dt!r}') from None
+        msg = f'omega_dt: expected a number, got {omega_dt!r}'
+        raise ConfigError(msg) from None
     if not (math.isfinite(omega) and omega >= 0.0):
-        raise ConfigError(f'omega_dt: must be finite and ≥ 0, got {omega_dt!r}')
+        msg = f'omega_dt: must be finite and ≥ 0, got {omega_dt!r}'
+        raise ConfigError(msg)
     return omega
 
 
@@ -171,9 +173,11 @@ def _check_xi(xi: float) -> float:
     try:
         value = float(xi)
     except (TypeError, ValueError):
-        raise ConfigError(f'xi: expected a number, got {xi!r}') from None
+        msg = f'xi: expected a number, got {xi!r}'
+        raise ConfigError(msg) from None
     if not (0.0 <= value < 1.0):
-        raise ConfigError(f'xi: viscous damping ratio must be in [0, 1), got {xi!r}')
+        msg = f'xi: viscous damping ratio must be in [0, 1), got {xi!r}'
+        raise ConfigError(msg)
     return value
 
 
@@ -356,9 +360,11 @@ def omega_grid(omega_max: float = 4.0, points: int = 400) -> np.ndarray:
         ConfigError: If ``omega_max`` is not positive and finite or ``points < 2``.
     """
     if not (math.isfinite(omega_max) and omega_max > 0.0):
-        raise ConfigError(f'omega_max: must be positive and finite, got {omega_max!r}')
+        msg = f'omega_max: must be positive and finite, got {omega_max!r}'
+        raise ConfigError(msg)
     if int(points) != points or points < 2:
-        raise ConfigError(f'points: must be an integer ≥ 2, got {points!r}')
+        msg = f'points: must be an integer ≥ 2, got {points!r}'
+        raise ConfigError(msg)
     return omega_max * np.arange(1, int(points) + 1) / int(points)
 
 

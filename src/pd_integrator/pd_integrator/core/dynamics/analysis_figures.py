@@ -55,7 +55,8 @@ def write_sweep_csv(
     items = [sweeps] if isinstance(sweeps, Mapping) else list(sweeps)
     tags = [dict(p) for p in parameters] if parameters is not None else [{} for _ in items]
     if len(tags) != len(items):
-        raise ValueError(f'parameters: {len(tags)} sets for {len(items)} sweeps')
+        msg = f'parameters: {len(tags)} sets for {len(items)} sweeps'
+        raise ValueError(msg)
     parameter_names: list[str] = []
     for tag in tags:
         parameter_names += [name for name in tag if name not in parameter_names]

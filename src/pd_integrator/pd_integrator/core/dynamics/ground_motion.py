@@ -64,38 +64,35 @@ class GroundMotion:
         try:
             dt = float(self.dt)
         except (TypeError, ValueError):
-            raise GroundMotionError(
-                f"ground motion '{source}': time step dt must be a number, got {self.dt!r}"
-            ) from None
+            msg = f"ground motion '{source}': time step dt must be a number, got {self.dt!r}"
+            raise GroundMotionError(msg) from None
         if not (math.isfinite(dt) and dt > 0.0):
-            raise GroundMotionError(
-                f"ground motion '{source}': time step dt must be positive and finite, got {dt!r}"
-            )
+            msg = f"ground motion '{source}': time step dt must be positive and finite, got {dt!r}"
+            raise GroundMotionError(msg)
         object.__setattr__(self, 'dt', dt)
 
         if np.iscomplexobj(self.acceleration):
-            raise GroundMotionError(f"ground motion '{source}': acceleration must be real")
+            msg = f"ground motion '{source}': acceleration must be real"
+            raise GroundMotionError(msg)
         try:
             acc = np.array(self.acceleration, dtype=np.float64, copy=True)
         except (TypeError, ValueError) as exc:
-            raise GroundMotionError(
-                f"ground motion '{source}': acceleration is not numeric ({exc})"
-            ) from None
+            msg = f"ground motion '{source}': acceleration is not numeric ({exc})"
+            raise GroundMotionError(msg) from None
         if acc.ndim != 1:
-            raise GroundMotionError(
-                f"ground motion '{source}': acceleration must be 1-D, got shape {acc.shape}"
-            )
+            msg = f"ground motion '{source}': acceleration must be 1-D, got shape {acc.shape}"
+            raise GroundMotionError(msg)
         if acc.size < 2:
-            raise GroundMotionError(
-                f"ground motion '{source}': need at least 2 samples, got {acc.size}"
-            )
+            msg = f"ground motion '{source}': need at least 2 samples, got {acc.size}"
+            raise GroundMotionError(msg)
         bad = np.flatnonzero(~np.isfinite(acc))
         if bad.size:
             index = int(bad[0])
-            raise GroundMotionError(
+            msg = (
                 f"ground motion '{source}': non-finite acceleration {acc[index]!r} "
                 f'at index {index}'
             )
+            raise GroundMotionError(msg)
         acc.setflags(write=False)
         object.__setattr__(self, 'acceleration', acc)
 
@@ -158,9 +155,8 @@ class GroundMotion:
         """
         factor = float(factor)
         if not math.isfinite(factor):
-            raise GroundMotionError(
-                f"ground motion '{self.source}': scale factor must be finite, got {factor!r}"
-            )
+            msg = f"ground motion '{self.source}': scale factor must be finite, got {factor!r}"
+            raise GroundMotionError(msg)
         return GroundMotion(self.dt, self.acceleration * factor, self.source)
 
     def resampled(self, dt: float) -> GroundMotion:
@@ -189,20 +185,22 @@ class GroundMotion:
         """
         dt = float(dt)
         if not (math.isfinite(dt) and dt > 0.0):
-            raise GroundMotionError(
+            msg = (
                 f"ground motion '{self.source}': resampling dt must be positive and finite, "
                 f'got {dt!r}'
             )
+            raise GroundMotionError(msg)
         acc = self.acceleration
         if dt_close(dt, self.dt):
             return GroundMotion(self.dt, acc.copy(), self.source)
 
         n_new = math.floor(self.duration / dt + _COUNT_EPS) + 1
         if n_new < 2:
-            raise GroundMotionError(
+            msg = (
                 f"ground motion '{self.source}': resampling dt={dt!r} s is longer than the "
                 f'record duration {self.duration!r} s'
             )
+            raise GroundMotionError(msg)
 
         finer = self.dt / dt
         k = round(finer)
@@ -243,16 +241,18 @@ class GroundMotion:
         """
         duration = float(duration)
         if not math.isfinite(duration):
-            raise GroundMotionError(
+            msg = (
                 f"ground motion '{self.source}': padded duration must be finite, "
                 f'got {duration!r}'
             )
+            raise GroundMotionError(msg)
         n_total = math.floor(duration / self.dt + _COUNT_EPS) + 1
         if n_total < self.n_samples:
-            raise GroundMotionError(
+            msg = (
                 f"ground motion '{self.source}': cannot pad to {duration!r} s, the record is "
                 f'already {self.duration!r} s long'
             )
+            raise GroundMotionError(msg)
         out = np.zeros(n_total, dtype=np.float64)
         out[: self.n_samples] = self.acceleration
         return GroundMotion(self.dt, out, self.source)

@@ -171,7 +171,7 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
 def read_ground_motion(
     path: PathLike,
     *,
-    format: str = 'auto',  # noqa: A002 - the public parameter name
+    format: str = 'auto',
     units: str = 'g',
     dt: float | None = None,
     g: float = G_THESIS,
@@ -202,10 +202,11 @@ def read_ground_motion(
     """
     label = _label(path)
     if not isinstance(format, str) or format not in FORMATS:
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: unknown format {format!r} '
             f'(expected one of {", ".join(FORMATS)})'
         )
+        raise GroundMotionError(msg)
     scale = _unit_scale(path, units, g)
     if dt is not None:
         dt = _check_dt(path, dt)
@@ -215,9 +216,8 @@ def read_ground_motion(
         fmt = 'at2'
     if fmt == 'at2':
         if _normalise_units(units) != 'g':
-            raise GroundMotionError(
-                f'ground motion {label}: AT2 files are in g, units={units!r} does not apply'
-            )
+            msg = f'ground motion {label}: AT2 files are in g, units={units!r} does not apply'
+            raise GroundMotionError(msg)
         motion = read_at2(path, g=g)
         _check_file_dt(label, motion.dt, dt)
         return motion
@@ -239,10 +239,11 @@ def read_ground_motion(
         return motion
     if dt is None:
         layout = 'single-column' if fmt == 'single_column' else 'multi-column'
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: a {layout} file needs dt (the time step is not in the '
             f'file); pass dt=...'
         )
+        raise GroundMotionError(msg)
     if fmt == 'single_column':
         return _build_single_column(path, label, rows, dt, scale)
     return _build_multi_column(path, label, rows, dt, scale)
@@ -280,15 +281,15 @@ def _unit_scale(path: PathLike, units: object, g: object) -> float:
     label = _label(path)
     unit = _normalise_units(units)
     if unit is None:
-        raise GroundMotionError(
-            f"ground motion {label}: unknown units {units!r} (expected 'g' or 'm/s2')"
-        )
+        msg = f"ground motion {label}: unknown units {units!r} (expected 'g' or 'm/s2')"
+        raise GroundMotionError(msg)
     try:
         g_value = float(g)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         g_value = math.nan
     if not (math.isfinite(g_value) and g_value > 0.0):
-        raise GroundMotionError(f'ground motion {label}: g must be positive and finite, got {g!r}')
+        msg = f'ground motion {label}: g must be positive and finite, got {g!r}'
+        raise GroundMotionError(msg)
     return g_value if unit == 'g' else 1.0
 
 
@@ -299,18 +300,16 @@ def _check_dt(path: PathLike, dt: object) -> float:
     except (TypeError, ValueError):
         value = math.nan
     if not (math.isfinite(value) and value > 0.0):
-        raise GroundMotionError(
-            f'ground motion {_label(path)}: dt must be positive and finite, got {dt!r}'
-        )
+        msg = f'ground motion {_label(path)}: dt must be positive and finite, got {dt!r}'
+        raise GroundMotionError(msg)
     return value
 
 
 def _check_file_dt(label: str, file_dt: float, dt: float | None) -> None:
     """Reject a user-given dt that contradicts the one stored in the file."""
     if dt is not None and not dt_close(file_dt, dt):
-        raise GroundMotionError(
-            f'ground motion {label}: dt={dt!r} was given but the file has dt={file_dt!r}'
-        )
+        msg = f'ground motion {label}: dt={dt!r} was given but the file has dt={file_dt!r}'
+        raise GroundMotionError(msg)
 
 
 def _make(path: PathLike, dt: float, acceleration: np.ndarray) -> GroundMotion:
@@ -325,13 +324,16 @@ def _load_lines(path: PathLike) -> tuple[str, list[str]]:
         data = Path(path).read_bytes()
     except OSError as exc:
         reason = exc.strerror or exc.__class__.__name__
-        raise GroundMotionError(f'ground motion {label}: cannot read file: {reason}') from exc
+        msg = f'ground motion {label}: cannot read file: {reason}'
+        raise GroundMotionError(msg) from exc
     try:
         text = data.decode('utf-8-sig')
     except UnicodeDecodeError:
-        raise GroundMotionError(f'ground motion {label}: not a text file') from None
+        msg = f'ground motion {label}: not a text file'
+        raise GroundMotionError(msg) from None
     if not text.strip():
-        raise GroundMotionError(f'ground motion {label}: file is empty')
+        msg = f'ground motion {label}: file is empty'
+        raise GroundMotionError(msg)
     return label, text.splitlines()
 
 
@@ -365,7 +367,8 @@ def _parse_values(label: str, lineno: int, line: str, last: bool) -> list[float]
             else:
                 what = f'non-numeric value {token!r}'
             hint = ' (file truncated?)' if last else ''
-            raise GroundMotionError(f'ground motion {label}: line {lineno}: {what}{hint}')
+            msg = f'ground motion {label}: line {lineno}: {what}{hint}'
+            raise GroundMotionError(msg)
         values.append(value)
     return values
 
@@ -382,14 +385,14 @@ def _parse_table(label: str, lines: Sequence[str]) -> list[_Row]:
         if line.strip() and not line.lstrip().startswith('#')
     ]
     if not content:
-        raise GroundMotionError(f'ground motion {label}: no data, only comments or blank lines')
+        msg = f'ground motion {label}: no data, only comments or blank lines'
+        raise GroundMotionError(msg)
     first_line = content[0][1]
     if not any(_is_numberish(token) for token in _tokens(first_line)):
         content = content[1:]  # a single header line such as 'time,accel'
         if not content:
-            raise GroundMotionError(
-                f'ground motion {label}: no data after the header line {first_line.strip()!r}'
-            )
+            msg = f'ground motion {label}: no data after the header line {first_line.strip()!r}'
+            raise GroundMotionError(msg)
     last_number = content[-1][0]
     return [
         (number, _parse_values(label, number, line, number == last_number))
@@ -408,31 +411,33 @@ def _build_two_column(
     """Two-column (time, acceleration) rows to a record."""
     for number, values in rows:
         if len(values) != 2:
-            raise GroundMotionError(
+            msg = (
                 f'ground motion {label}: line {number}: expected 2 columns (time, '
                 f'acceleration), found {len(values)}'
             )
+            raise GroundMotionError(msg)
     if len(rows) < 2:
-        raise GroundMotionError(
-            f'ground motion {label}: need at least 2 samples, found {len(rows)}'
-        )
+        msg = f'ground motion {label}: need at least 2 samples, found {len(rows)}'
+        raise GroundMotionError(msg)
     time = np.array([values[0] for _, values in rows], dtype=np.float64)
     acc = np.array([values[1] for _, values in rows], dtype=np.float64)
     raw_dt = time[1] - time[0]
     if not raw_dt > 0.0:
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: line {rows[1][0]}: time must increase, '
             f'got {time[0]!r} then {time[1]!r}'
         )
+        raise GroundMotionError(msg)
     dt = float(f'{raw_dt:.12g}')
     steps = np.diff(time)
     bad = np.flatnonzero(np.abs(steps - raw_dt) > 1e-6 * raw_dt + 1e-9)
     if bad.size:
         index = int(bad[0]) + 1
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: non-uniform time step at line {rows[index][0]} '
             f'(step {steps[index - 1]!r} s, expected {dt!r} s)'
         )
+        raise GroundMotionError(msg)
     return _make(path, dt, acc * scale)
 
 
@@ -442,15 +447,15 @@ def _build_single_column(
     """Single-column rows to a record."""
     for number, values in rows:
         if len(values) != 1:
-            raise GroundMotionError(
+            msg = (
                 f'ground motion {label}: line {number}: expected 1 value per line in a '
                 f'single-column file, found {len(values)}'
             )
+            raise GroundMotionError(msg)
     acc = _flatten(rows)
     if acc.size < 2:
-        raise GroundMotionError(
-            f'ground motion {label}: need at least 2 samples, found {acc.size}'
-        )
+        msg = f'ground motion {label}: need at least 2 samples, found {acc.size}'
+        raise GroundMotionError(msg)
     return _make(path, dt, acc * scale)
 
 
@@ -463,15 +468,15 @@ def _build_multi_column(
         is_last = index == len(rows) - 1
         if len(values) == width or (is_last and len(values) < width):
             continue
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: line {number}: expected {width} values, found '
             f'{len(values)} (only the last row may be shorter)'
         )
+        raise GroundMotionError(msg)
     acc = _flatten(rows)
     if acc.size < 2:
-        raise GroundMotionError(
-            f'ground motion {label}: need at least 2 samples, found {acc.size}'
-        )
+        msg = f'ground motion {label}: need at least 2 samples, found {acc.size}'
+        raise GroundMotionError(msg)
     return _make(path, dt, acc * scale)
 
 
@@ -484,34 +489,34 @@ def _parse_at2_header(label: str, line: str) -> tuple[int, float]:
     else:
         old = _AT2_OLD_RE.match(line)
         if not old:
-            raise GroundMotionError(
-                f'ground motion {label}: line 4: cannot find NPTS and DT in {line.strip()!r}'
-            )
+            msg = f'ground motion {label}: line 4: cannot find NPTS and DT in {line.strip()!r}'
+            raise GroundMotionError(msg)
         npts_text, dt_text = old.group(1), old.group(2)
     try:
         npts = int(npts_text)
     except ValueError:
         npts = -1
     if npts < 0:
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: line 4: NPTS must be a non-negative integer, '
             f'got {npts_text!r}'
         )
+        raise GroundMotionError(msg)
     dt = _parse_number(dt_text)
     if dt is None or not (math.isfinite(dt) and dt > 0.0):
-        raise GroundMotionError(
-            f'ground motion {label}: line 4: DT must be a positive number, got {dt_text!r}'
-        )
+        msg = f'ground motion {label}: line 4: DT must be a positive number, got {dt_text!r}'
+        raise GroundMotionError(msg)
     return npts, dt
 
 
 def _parse_at2(label: str, lines: Sequence[str]) -> tuple[int, float, np.ndarray]:
     """NPTS, DT and the values (in g) of an AT2 file."""
     if len(lines) < 4:
-        raise GroundMotionError(
+        msg = (
             f'ground motion {label}: AT2 header incomplete: expected 4 header lines, '
             f'found {len(lines)}'
         )
+        raise GroundMotionError(msg)
     npts, dt = _parse_at2_header(label, lines[3])
     data = [(number, line) for number, line in enumerate(lines, start=1) if number > 4]
     data = [(number, line) for number, line in data if line.strip()]
@@ -522,8 +527,7 @@ def _parse_at2(label: str, lines: Sequence[str]) -> tuple[int, float, np.ndarray
         for value in _parse_values(label, number, line, number == last_number)
     ]
     if len(values) != npts:
-        raise GroundMotionError(
-            f'ground motion {label}: line 4: NPTS={npts} but {len(values)} values were read'
-        )
+        msg = f'ground motion {label}: line 4: NPTS={npts} but {len(values)} values were read'
+        raise GroundMotionError(msg)
     return npts, dt, np.array(values, dtype=np.float64)
 

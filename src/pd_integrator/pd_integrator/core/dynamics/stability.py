@@ -17,19 +17,19 @@ Conventions used here (``T = 2π/ω``, ``T̄ = 2π/ω̄``, so ``T̄/T = Ω/Ω̄`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from . import analysis
 from ..errors import ConfigError, PdIntegratorError, StabilityError
 from ..schemes import (
     Integrator,
     newmark_explicit_numerical_frequency,
     scheme_class,
 )
+from . import analysis
 from .structure import omega_max as structure_omega_max
 
 __all__ = [
@@ -181,9 +181,11 @@ def check_stability(
     try:
         dt_value = float(dt)
     except (TypeError, ValueError):
-        raise ConfigError(f'dt: expected a number, got {dt!r}') from None
+        msg = f'dt: expected a number, got {dt!r}'
+        raise ConfigError(msg) from None
     if not (dt_value > 0.0 and math.isfinite(dt_value)):
-        raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
+        msg = f'dt: must be positive and finite, got {dt!r}'
+        raise ConfigError(msg)
     w_max = structure_omega_max(mass, stiffness)
     omega_dt = w_max * dt_value
     # An instance may have a parameter-dependent limit (e.g. rho_b of generalized-alpha).
@@ -237,8 +239,9 @@ def require_stable(report: StabilityReport) -> StabilityReport:
     """
     if report.stable:
         return report
-    raise StabilityError(
+    msg = (
         f'dt: {report.dt:g} s is unstable for {report.scheme}: ω_max·Δt = '
         f'{report.omega_dt:.4g} > {_format_limit(report.limit)} (ω_max = '
         f'{report.omega_max:.6g} rad/s); use dt ≤ {report.max_stable_dt:.6g} s'
     )
+    raise StabilityError(msg)

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ConfigError
-from ..matrices import as_float_array, as_matrix, as_vector, readonly_copy, square_matrix
+from ..matrices import as_float_array, as_vector, readonly_copy, square_matrix
 
 __all__ = [
     'Structure',
@@ -44,7 +44,8 @@ def _check_positive_definite(matrix: np.ndarray, name: str) -> None:
     try:
         np.linalg.cholesky(matrix)
     except np.linalg.LinAlgError:
-        raise ConfigError(f'{name}: matrix must be positive definite') from None
+        msg = f'{name}: matrix must be positive definite'
+        raise ConfigError(msg) from None
 
 
 def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -66,15 +67,17 @@ def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
     m = square_matrix(mass, 'mass')
     k = square_matrix(stiffness, 'stiffness')
     if m.shape != k.shape:
-        raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
+        msg = f'stiffness: shape {k.shape} does not match mass shape {m.shape}'
+        raise ConfigError(msg)
     _check_positive_definite(m, 'mass')
     eigenvalues, shapes = scipy.linalg.eigh(k, m)
     scale = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 0.0
     if eigenvalues[0] < -1e-10 * scale:
-        raise ConfigError(
+        msg = (
             f'stiffness: matrix has a negative eigenvalue ({eigenvalues[0]:.6g}); '
             'it must be positive semi-definite'
         )
+        raise ConfigError(msg)
     omegas = np.sqrt(np.clip(eigenvalues, 0.0, None))
     for j in range(shapes.shape[1]):
         column = shapes[:, j]
@@ -97,9 +100,11 @@ def omega_max(mass: Any, stiffness: Any) -> float:
     k = square_matrix(stiffness, 'stiffness')
     if m.shape == (1, 1) and k.shape == (1, 1):
         if m[0, 0] <= 0.0:
-            raise ConfigError('mass: must be positive')
+            msg = 'mass: must be positive'
+            raise ConfigError(msg)
         if k[0, 0] < 0.0:
-            raise ConfigError('stiffness: must not be negative')
+            msg = 'stiffness: must not be negative'
+            raise ConfigError(msg)
         return math.sqrt(float(k[0, 0]) / float(m[0, 0]))
     omegas, _ = modal_analysis(m, k)
     return float(omegas[-1])
@@ -131,40 +136,44 @@ def damping_from_ratio(
     m = square_matrix(mass, 'mass')
     k = square_matrix(stiffness, 'stiffness')
     if m.shape != k.shape:
-        raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
+        msg = f'stiffness: shape {k.shape} does not match mass shape {m.shape}'
+        raise ConfigError(msg)
     ratios = as_float_array(ratio, 'damping_ratio').reshape(-1)
     if ratios.size not in (1, 2) or np.any(ratios < 0.0):
-        raise ConfigError(
-            f'damping_ratio: expected one non-negative ratio or a pair, got {ratio!r}'
-        )
+        msg = f'damping_ratio: expected one non-negative ratio or a pair, got {ratio!r}'
+        raise ConfigError(msg)
     n = m.shape[0]
     if n == 1:
         if ratios.size != 1:
-            raise ConfigError('damping_ratio: an SDOF takes a single ratio')
+            msg = 'damping_ratio: an SDOF takes a single ratio'
+            raise ConfigError(msg)
         mm = float(m[0, 0])
         kk = float(k[0, 0])
         if mm <= 0.0:
-            raise ConfigError('mass: must be positive')
+            msg = 'mass: must be positive'
+            raise ConfigError(msg)
         if kk < 0.0:
-            raise ConfigError('stiffness: must not be negative')
+            msg = 'stiffness: must not be negative'
+            raise ConfigError(msg)
         w = math.sqrt(kk / mm)
         return np.array([[2 * mm * w * float(ratios[0])]])
     zeta_i, zeta_j = (float(ratios[0]), float(ratios[-1]))
     if len(modes) != 2:
-        raise ConfigError(f'damping_modes: expected two mode numbers, got {modes!r}')
+        msg = f'damping_modes: expected two mode numbers, got {modes!r}'
+        raise ConfigError(msg)
     mode_i, mode_j = (int(modes[0]), int(modes[1]))
     if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
-        raise ConfigError(
-            f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
-        )
+        msg = f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
+        raise ConfigError(msg)
     omegas, _ = modal_analysis(m, k)
     w_i = float(omegas[mode_i - 1])
     w_j = float(omegas[mode_j - 1])
     if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
-        raise ConfigError(
+        msg = (
             f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
             f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
         )
+        raise ConfigError(msg)
     # ζ = a0/(2ω) + a1 ω/2 at both modes.
     system = np.array([[1.0 / (2.0 * w_i), w_i / 2.0], [1.0 / (2.0 * w_j), w_j / 2.0]])
     a0, a1 = np.linalg.solve(system, np.array([zeta_i, zeta_j]))
@@ -187,7 +196,8 @@ def effective_load(mass: Any, influence: Any, ground_acceleration: Any) -> np.nd
     iota = as_vector(influence, n, 'influence')
     a_g = as_float_array(ground_acceleration, 'ground_acceleration')
     if a_g.ndim > 1:
-        raise ConfigError(f'ground_acceleration: expected a 1-D history, got shape {a_g.shape}')
+        msg = f'ground_acceleration: expected a 1-D history, got shape {a_g.shape}'
+        raise ConfigError(msg)
     m_iota = m @ iota
     if a_g.ndim == 0:
         return -(m_iota * float(a_g))
@@ -218,34 +228,35 @@ class Structure:
     def __post_init__(self) -> None:
         names = self.dof_names
         if isinstance(names, str) or not isinstance(names, Sequence):
-            raise ConfigError(f'dof_names: expected a sequence of names, got {names!r}')
+            msg = f'dof_names: expected a sequence of names, got {names!r}'
+            raise ConfigError(msg)
         names = tuple(names)
         if not names:
-            raise ConfigError('dof_names: at least one degree of freedom is required')
+            msg = 'dof_names: at least one degree of freedom is required'
+            raise ConfigError(msg)
         for name in names:
             if not isinstance(name, str) or not name:
-                raise ConfigError(
-                    f'dof_names: every name must be a non-empty string, got {name!r}'
-                )
+                msg = f'dof_names: every name must be a non-empty string, got {name!r}'
+                raise ConfigError(msg)
         if len(set(names)) != len(names):
-            raise ConfigError(f'dof_names: names must be unique, got {list(names)}')
+            msg = f'dof_names: names must be unique, got {list(names)}'
+            raise ConfigError(msg)
         n = len(names)
         fields: dict[str, np.ndarray] = {}
         for field in ('mass', 'damping', 'initial_stiffness'):
             array = as_float_array(getattr(self, field), field)
             if array.shape != (n, n):
-                raise ConfigError(
-                    f'{field}: expected shape ({n}, {n}) for {n} DOF, got {array.shape}'
-                )
+                msg = f'{field}: expected shape ({n}, {n}) for {n} DOF, got {array.shape}'
+                raise ConfigError(msg)
             fields[field] = array
         influence = as_float_array(self.influence, 'influence')
         if influence.shape != (n,):
-            raise ConfigError(
-                f'influence: expected shape ({n},) for {n} DOF, got {influence.shape}'
-            )
+            msg = f'influence: expected shape ({n},) for {n} DOF, got {influence.shape}'
+            raise ConfigError(msg)
         for field in ('mass', 'initial_stiffness'):
             if not _is_symmetric(fields[field]):
-                raise ConfigError(f'{field}: matrix must be symmetric')
+                msg = f'{field}: matrix must be symmetric'
+                raise ConfigError(msg)
         _check_positive_definite(fields['mass'], 'mass')
         object.__setattr__(self, 'dof_names', names)
         for field, array in fields.items():

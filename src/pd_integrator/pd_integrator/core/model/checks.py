@@ -39,9 +39,11 @@ def positive(value: Any, name: str, what: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: {what} must be a number, got {value!r}') from None
+        msg = f'{name}: {what} must be a number, got {value!r}'
+        raise ConfigError(msg) from None
     if not math.isfinite(number) or number <= 0.0:
-        raise ConfigError(f'{name}: {what} must be positive and finite, got {value!r}')
+        msg = f'{name}: {what} must be positive and finite, got {value!r}'
+        raise ConfigError(msg)
     return number
 
 
@@ -79,5 +81,6 @@ def mass_and_stiffness(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarra
     m = dense_square(mass, 'mass')
     k = dense_square(stiffness, 'stiffness')
     if m.shape != k.shape:
-        raise ConfigError(f'stiffness: shape {k.shape} does not match mass shape {m.shape}')
+        msg = f'stiffness: shape {k.shape} does not match mass shape {m.shape}'
+        raise ConfigError(msg)
     return m, k

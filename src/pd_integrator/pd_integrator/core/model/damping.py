@@ -30,9 +30,11 @@ def _ratio(value: Any, name: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: expected a damping ratio, got {value!r}') from None
+        msg = f'{name}: expected a damping ratio, got {value!r}'
+        raise ConfigError(msg) from None
     if not math.isfinite(number) or number < 0.0:
-        raise ConfigError(f'{name}: damping ratio must be finite and >= 0, got {value!r}')
+        msg = f'{name}: damping ratio must be finite and >= 0, got {value!r}'
+        raise ConfigError(msg)
     return number
 
 
@@ -64,9 +66,8 @@ def rayleigh_coefficients(
     z_i = _ratio(zeta_i, 'rayleigh: zeta_i')
     z_j = _ratio(zeta_j, 'rayleigh: zeta_j')
     if math.isclose(w_i, w_j, rel_tol=1e-9):
-        raise ConfigError(
-            f'rayleigh: omega_i and omega_j must differ, got {w_i:.6g} and {w_j:.6g} rad/s'
-        )
+        msg = f'rayleigh: omega_i and omega_j must differ, got {w_i:.6g} and {w_j:.6g} rad/s'
+        raise ConfigError(msg)
     denominator = w_j**2 - w_i**2
     a0 = 2.0 * w_i * w_j * (z_i * w_j - z_j * w_i) / denominator
     a1 = 2.0 * (z_j * w_j - z_i * w_i) / denominator
@@ -97,24 +98,26 @@ def rayleigh_damping(
     m, k = mass_and_stiffness(M, K)
     n = m.shape[0]
     if isinstance(modes, (str, bytes)) or len(modes) != 2:
-        raise ConfigError(f'damping_modes: expected two mode numbers, got {modes!r}')
+        msg = f'damping_modes: expected two mode numbers, got {modes!r}'
+        raise ConfigError(msg)
     mode_i, mode_j = (int(modes[0]), int(modes[1]))
     if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
-        raise ConfigError(
-            f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
-        )
+        msg = f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
+        raise ConfigError(msg)
     pair = np.atleast_1d(np.asarray(ratios, dtype=object)).reshape(-1)
     if pair.size not in (1, 2):
-        raise ConfigError(f'damping_ratio: expected one ratio or a pair, got {ratios!r}')
+        msg = f'damping_ratio: expected one ratio or a pair, got {ratios!r}'
+        raise ConfigError(msg)
     z_i = _ratio(pair[0], 'damping_ratio')
     z_j = _ratio(pair[-1], 'damping_ratio')
     omegas, _ = modal_analysis(m, k)
     w_i, w_j = float(omegas[mode_i - 1]), float(omegas[mode_j - 1])
     if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
-        raise ConfigError(
+        msg = (
             f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
             f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
         )
+        raise ConfigError(msg)
     a0, a1 = rayleigh_coefficients(w_i, w_j, z_i, z_j)
     return a0 * m + a1 * k
 
@@ -141,17 +144,18 @@ def modal_damping(M: Any, K: Any, ratios: Sequence[float]) -> np.ndarray:
     m, k = mass_and_stiffness(M, K)
     n = m.shape[0]
     if isinstance(ratios, (str, bytes)):
-        raise ConfigError(f'damping_ratios: expected a list of ratios, got {ratios!r}')
+        msg = f'damping_ratios: expected a list of ratios, got {ratios!r}'
+        raise ConfigError(msg)
     if np.ndim(ratios) == 0:
         values = [ratios]
     else:
         values = list(np.asarray(ratios, dtype=object).reshape(-1))
     if not values:
-        raise ConfigError('damping_ratios: at least one ratio is required')
+        msg = 'damping_ratios: at least one ratio is required'
+        raise ConfigError(msg)
     if len(values) > n:
-        raise ConfigError(
-            f'damping_ratios: {len(values)} ratios given but the model has only {n} modes'
-        )
+        msg = f'damping_ratios: {len(values)} ratios given but the model has only {n} modes'
+        raise ConfigError(msg)
     zetas = np.array([_ratio(v, 'damping_ratios') for v in values])
     zetas = np.concatenate([zetas, np.full(n - zetas.size, zetas[-1])])
     omegas, shapes = modal_analysis(m, k)

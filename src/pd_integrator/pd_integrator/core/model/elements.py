@@ -100,9 +100,11 @@ def beam_column_2d_stiffness(
         try:
             coords = np.array(point, dtype=float).reshape(-1)
         except (TypeError, ValueError):
-            raise ConfigError(f'{name}: {label} must be a pair (x, y), got {point!r}') from None
+            msg = f'{name}: {label} must be a pair (x, y), got {point!r}'
+            raise ConfigError(msg) from None
         if coords.shape != (2,) or not np.all(np.isfinite(coords)):
-            raise ConfigError(f'{name}: {label} must be a finite pair (x, y), got {point!r}')
+            msg = f'{name}: {label} must be a finite pair (x, y), got {point!r}'
+            raise ConfigError(msg)
         points.append(coords)
     e = positive(E, name, 'E')
     a = positive(A, name, 'A')
@@ -111,7 +113,8 @@ def beam_column_2d_stiffness(
     length = math.hypot(dx, dy)
     scale = max(float(np.max(np.abs(points[0]))), float(np.max(np.abs(points[1]))), 1.0)
     if length <= 1e-12 * scale:
-        raise ConfigError(f'{name}: nodes xi and xj coincide (zero length)')
+        msg = f'{name}: nodes xi and xj coincide (zero length)'
+        raise ConfigError(msg)
     c, s = dx / length, dy / length
     ea = e * a / length
     k1 = 12.0 * e * inertia / length**3
@@ -168,7 +171,8 @@ def assemble(
             matrix whose size does not match its index list (naming the element by position).
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ConfigError(f'assemble: n must be a positive integer, got {n!r}')
+        msg = f'assemble: n must be a positive integer, got {n!r}'
+        raise ConfigError(msg)
     n = int(n)
     rows: list[np.ndarray] = []
     cols: list[np.ndarray] = []
@@ -178,18 +182,22 @@ def assemble(
         try:
             indices, matrix = entry
         except (TypeError, ValueError):
-            raise ConfigError(f'{label}: expected a pair (indices, matrix)') from None
+            msg = f'{label}: expected a pair (indices, matrix)'
+            raise ConfigError(msg) from None
         if isinstance(indices, (str, bytes)) or not isinstance(indices, Sequence | np.ndarray):
-            raise ConfigError(f'{label}: indices must be a sequence, got {indices!r}')
+            msg = f'{label}: indices must be a sequence, got {indices!r}'
+            raise ConfigError(msg)
         local: list[int] = []
         glob: list[int] = []
         for position, index in enumerate(indices):
             if index is None:
                 continue
             if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
-                raise ConfigError(f'{label}: DOF index must be an integer or None, got {index!r}')
+                msg = f'{label}: DOF index must be an integer or None, got {index!r}'
+                raise ConfigError(msg)
             if not 0 <= int(index) < n:
-                raise ConfigError(f'{label}: DOF index {int(index)} is out of range 0..{n - 1}')
+                msg = f'{label}: DOF index {int(index)} is out of range 0..{n - 1}'
+                raise ConfigError(msg)
             local.append(position)
             glob.append(int(index))
         dense = _element_matrix(matrix, len(indices), label)
@@ -218,18 +226,22 @@ def _element_matrix(matrix: Any, size: int, label: str) -> np.ndarray:
     try:
         dense = np.array(matrix, dtype=float)
     except (TypeError, ValueError):
-        raise ConfigError(f'{label}: matrix must contain numbers') from None
+        msg = f'{label}: matrix must contain numbers'
+        raise ConfigError(msg) from None
     if dense.ndim == 0 and size == 1:
         dense = dense.reshape(1, 1)
     if dense.ndim != 2 or dense.shape[0] != dense.shape[1]:
-        raise ConfigError(f'{label}: matrix must be square, got shape {dense.shape}')
+        msg = f'{label}: matrix must be square, got shape {dense.shape}'
+        raise ConfigError(msg)
     if dense.shape[0] != size:
-        raise ConfigError(
+        msg = (
             f'{label}: matrix is {dense.shape[0]}x{dense.shape[1]} but {size} DOF indices '
             'were given'
         )
+        raise ConfigError(msg)
     if not np.all(np.isfinite(dense)):
-        raise ConfigError(f'{label}: matrix values must be finite')
+        msg = f'{label}: matrix values must be finite'
+        raise ConfigError(msg)
     return dense
 
 
@@ -283,20 +295,25 @@ def static_condensation(K: Any, condensed: Sequence[int]) -> Condensation:
     k = dense_square(K, 'stiffness')
     n = k.shape[0]
     if isinstance(condensed, (str, bytes)):
-        raise ConfigError(f'condensed: expected a sequence of DOF indices, got {condensed!r}')
+        msg = f'condensed: expected a sequence of DOF indices, got {condensed!r}'
+        raise ConfigError(msg)
     cond: list[int] = []
     for index in condensed:
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
-            raise ConfigError(f'condensed: DOF index must be an integer, got {index!r}')
+            msg = f'condensed: DOF index must be an integer, got {index!r}'
+            raise ConfigError(msg)
         if not 0 <= int(index) < n:
-            raise ConfigError(f'condensed: DOF index {int(index)} is out of range 0..{n - 1}')
+            msg = f'condensed: DOF index {int(index)} is out of range 0..{n - 1}'
+            raise ConfigError(msg)
         cond.append(int(index))
     if len(set(cond)) != len(cond):
-        raise ConfigError(f'condensed: DOF indices must be unique, got {cond}')
+        msg = f'condensed: DOF indices must be unique, got {cond}'
+        raise ConfigError(msg)
     chosen = set(cond)
     retained = [i for i in range(n) if i not in chosen]
     if not retained:
-        raise ConfigError('condensed: at least one DOF must be retained')
+        msg = 'condensed: at least one DOF must be retained'
+        raise ConfigError(msg)
     r = np.asarray(retained, dtype=np.intp)
     c = np.asarray(cond, dtype=np.intp)
     k_rr = k[np.ix_(r, r)]
@@ -312,10 +329,11 @@ def static_condensation(K: Any, condensed: Sequence[int]) -> Condensation:
             warnings.simplefilter('error', scipy.linalg.LinAlgWarning)
             recovery = -scipy.linalg.solve(k_cc, k_cr)
     except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
-        raise ConfigError(
+        msg = (
             f'condensed: K_cc is singular; condensed DOFs {_null_dofs(k_cc, cond)} have no '
             'stiffness of their own (retain them or add stiffness)'
-        ) from None
+        )
+        raise ConfigError(msg) from None
     stiffness = k_rr + k_rc @ recovery
     if np.allclose(k, k.T, rtol=1e-10, atol=1e-12 * float(np.max(np.abs(k)))):
         stiffness = 0.5 * (stiffness + stiffness.T)

@@ -103,9 +103,11 @@ class ModalProperties:
         else:
             comps = [str(c) for c in component_names]
         if len(dofs) != n:
-            raise ConfigError(f'dof_names: expected {n} names, got {len(dofs)}')
+            msg = f'dof_names: expected {n} names, got {len(dofs)}'
+            raise ConfigError(msg)
         if len(comps) != n_c:
-            raise ConfigError(f'component_names: expected {n_c} names, got {len(comps)}')
+            msg = f'component_names: expected {n_c} names, got {len(comps)}'
+            raise ConfigError(msg)
 
         def period(value: float) -> str:
             return f'{value:10.4f}' if math.isfinite(value) else f'{"inf":>10}'
@@ -171,15 +173,16 @@ def modal_properties(M: Any, K: Any, influences: Any) -> ModalProperties:
     try:
         iota = np.array(influences, dtype=float)
     except (TypeError, ValueError):
-        raise ConfigError('influences: expected an array of numbers') from None
+        msg = 'influences: expected an array of numbers'
+        raise ConfigError(msg) from None
     if iota.ndim == 1:
         iota = iota.reshape(1, -1)
     if iota.ndim != 2 or iota.shape[1] != n or iota.shape[0] == 0:
-        raise ConfigError(
-            f'influences: expected shape (n_components, {n}), got {np.shape(influences)}'
-        )
+        msg = f'influences: expected shape (n_components, {n}), got {np.shape(influences)}'
+        raise ConfigError(msg)
     if not np.all(np.isfinite(iota)):
-        raise ConfigError('influences: all values must be finite')
+        msg = 'influences: all values must be finite'
+        raise ConfigError(msg)
     omegas, shapes = modal_analysis(m, k)
     # Rigid-body modes come out of the eigensolver with round-off ω² of either sign; treat
     # ω² below the tolerance structure.modal_analysis uses for negative values as exactly 0.
@@ -188,9 +191,8 @@ def modal_properties(M: Any, K: Any, influences: Any) -> ModalProperties:
     total = np.einsum('cn,nc->c', iota, m_iota)
     for c, value in enumerate(total):
         if not value > 0.0:
-            raise ConfigError(
-                f'influences: component {c} has zero mass (iota^T M iota = {value:.6g})'
-            )
+            msg = f'influences: component {c} has zero mass (iota^T M iota = {value:.6g})'
+            raise ConfigError(msg)
     modal_mass = np.einsum('nj,nk,kj->j', shapes, m, shapes)  # φ_jᵀ M φ_j (= 1 here)
     l_factor = shapes.T @ m_iota  # φ_jᵀ M ι_c, (n, n_c)
     participation = l_factor / modal_mass[:, None]

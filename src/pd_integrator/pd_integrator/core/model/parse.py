@@ -39,12 +39,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from pd_common.specimen import SpecimenError, hysteresis_from_config
 
-from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
 from ..errors import ConfigError
-from .setups import OneToOneSetup, setup_from_config
 from ..matrices import as_matrix
+from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
+from .setups import OneToOneSetup, setup_from_config
 from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
 
 __all__ = ['ELEMENT_TYPES', 'SITE_NAME', 'ParsedModel', 'parse_elements']

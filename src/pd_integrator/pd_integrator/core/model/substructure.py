@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ConfigError
 from pd_common.protocol import DEFAULT_SITE
+
+from ..errors import ConfigError
 
 if TYPE_CHECKING:
     import scipy.sparse

@@ -14,11 +14,10 @@
 from __future__ import annotations
 
 from .definition import TestDefinition
-
-from .test_file import PARAMETER_PATHS, from_dict, from_json, load_test_file
 from .history import ResponseHistory
 from .protocol import StepProtocol, Verdict
 from .session import TestSession
+from .test_file import PARAMETER_PATHS, from_dict, from_json, load_test_file
 
 __all__ = [
     'PARAMETER_PATHS',

@@ -39,7 +39,6 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from ..errors import BagError
 from pd_common.protocol import (
     Command,
     Feedback,
@@ -48,6 +47,8 @@ from pd_common.protocol import (
     feedback_from_message,
     status_from_message,
 )
+
+from ..errors import BagError
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection

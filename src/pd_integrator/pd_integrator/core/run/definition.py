@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..dynamics.structure import Structure, damping_from_ratio
+from ..errors import ConfigError
 from ..model.damping import modal_damping, rayleigh_damping
 from ..model.modes import modal_properties
 

@@ -19,10 +19,11 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from pd_common.protocol import Command, Feedback, Status, TestState, site_topic_name
-from .protocol import Verdict
+
+from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from .coordinator import SiteCoordinator
+from .protocol import Verdict
 
 if TYPE_CHECKING:
     from .bag import BagRecorder

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
 from pd_common.experimental import tracking_error, tracking_indicator
 
 if TYPE_CHECKING:

@@ -12,21 +12,22 @@ from __future__ import annotations
 import time
 from collections import deque
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
-from .definition import TestDefinition
-from .test_file import from_json
-from .dispatch import StepDispatcher
-from .energy import energy_balance
-from ..errors import BagError, ConfigError
 from pd_common.protocol import Command, Feedback, TestState
 from pd_common.specimen import SpecimenError, SpecimenServer, server_from_config
-from .progress import ProgressMeter
+
+from ..errors import BagError, ConfigError
+from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
+from .definition import TestDefinition
+from .dispatch import StepDispatcher
+from .energy import energy_balance
 from .outputs import summarize, tracking_history, write_run_outputs
+from .progress import ProgressMeter
 from .session import TestSession
+from .test_file import from_json
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -57,7 +58,7 @@ class RunResult:
 
 def default_run_directory(root: str | Path, test_id: str) -> Path:
     """``<root>/<test_id>-<UTC timestamp>`` (a new folder per run)."""
-    stamp = datetime.now(tz=timezone.utc).strftime('%Y%m%d-%H%M%S')
+    stamp = datetime.now(tz=UTC).strftime('%Y%m%d-%H%M%S')
     return Path(root) / f'{test_id}-{stamp}'
 
 

@@ -16,16 +16,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
-from .history import ResponseHistory
 from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
-from .protocol import StepProtocol, TimeoutAction, Verdict
-from ..schemes import SchemeParameterError, make_integrator
+
 from ..dynamics.stability import StabilityReport, check_stability, require_stable
+from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
+from ..schemes import SchemeParameterError, make_integrator
+from .history import ResponseHistory
+from .protocol import StepProtocol, TimeoutAction, Verdict
 
 if TYPE_CHECKING:
-    from .definition import TestDefinition
     from ..schemes import Integrator
+    from .definition import TestDefinition
 
 PROBE_SUFFIX = ':probe'
 

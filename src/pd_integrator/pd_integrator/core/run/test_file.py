@@ -30,12 +30,10 @@ from ..matrices import as_matrix
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
 from .definition import (
-    SCHEMA_VERSION,
     GroundComponent,
     ProbeSettings,
     ProtocolSettings,
     TestDefinition,
-    damping_matrix,
 )
 
 __all__ = ['PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict', 'from_json',

@@ -122,27 +122,34 @@ class Integrator(abc.ABC):
         try:
             dt_value = float(dt)
         except (TypeError, ValueError):
-            raise ConfigError(f'dt: expected a number, got {dt!r}') from None
+            msg = f'dt: expected a number, got {dt!r}'
+            raise ConfigError(msg) from None
         if not (math.isfinite(dt_value) and dt_value > 0.0):
-            raise ConfigError(f'dt: must be positive and finite, got {dt!r}')
+            msg = f'dt: must be positive and finite, got {dt!r}'
+            raise ConfigError(msg)
         m = square_matrix(mass, 'mass')
         n = m.shape[0]
         c = square_matrix(damping, 'damping')
         if c.shape != (n, n):
-            raise ConfigError(f'damping: expected shape ({n}, {n}), got {c.shape}')
+            msg = f'damping: expected shape ({n}, {n}), got {c.shape}'
+            raise ConfigError(msg)
         if not np.allclose(m, m.T, rtol=0.0, atol=1e-10 * float(np.max(np.abs(m)))):
-            raise ConfigError('mass: matrix must be symmetric')
+            msg = 'mass: matrix must be symmetric'
+            raise ConfigError(msg)
         try:
             np.linalg.cholesky(m)
         except np.linalg.LinAlgError:
-            raise ConfigError('mass: matrix must be positive definite') from None
+            msg = 'mass: matrix must be positive definite'
+            raise ConfigError(msg) from None
         k: np.ndarray | None = None
         if initial_stiffness is not None:
             k = square_matrix(initial_stiffness, 'initial_stiffness')
             if k.shape != (n, n):
-                raise ConfigError(f'initial_stiffness: expected shape ({n}, {n}), got {k.shape}')
+                msg = f'initial_stiffness: expected shape ({n}, {n}), got {k.shape}'
+                raise ConfigError(msg)
         elif self.needs_initial_stiffness:
-            raise ConfigError(f'initial_stiffness: required by scheme {self.name!r}')
+            msg = f'initial_stiffness: required by scheme {self.name!r}'
+            raise ConfigError(msg)
         self._n = n
         self._scalar = n == 1
         self._dt = dt_value
@@ -201,7 +208,8 @@ class Integrator(abc.ABC):
         Called instead of :meth:`_correct` while ``iteration + 1 < iterations_per_step``;
         the next :meth:`_predict` returns the following target.
         """
-        raise NotImplementedError(f'{type(self).__name__} does not iterate')
+        msg = f'{type(self).__name__} does not iterate'
+        raise NotImplementedError(msg)
 
     def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
         """Hook: take the validated parameter values (before :meth:`_setup`; default: none)."""
@@ -303,25 +311,27 @@ class Integrator(abc.ABC):
                 try:
                     array = np.asarray(value, dtype=float)
                 except (TypeError, ValueError):
-                    raise IntegratorError(f'{name}: expected a number, got {value!r}') from None
+                    msg = f'{name}: expected a number, got {value!r}'
+                    raise IntegratorError(msg) from None
                 if array.size != 1:
-                    raise IntegratorError(
-                        f'{name}: expected 1 value for 1 DOF, got shape {array.shape}'
-                    )
+                    msg = f'{name}: expected 1 value for 1 DOF, got shape {array.shape}'
+                    raise IntegratorError(msg)
                 result = float(array.reshape(-1)[0])
             if not math.isfinite(result):
-                raise IntegratorError(f'{name}: must be finite, got {result!r}')
+                msg = f'{name}: must be finite, got {result!r}'
+                raise IntegratorError(msg)
             return result
         try:
             array = np.array(value, dtype=float)
         except (TypeError, ValueError):
-            raise IntegratorError(f'{name}: expected {self._n} numbers, got {value!r}') from None
+            msg = f'{name}: expected {self._n} numbers, got {value!r}'
+            raise IntegratorError(msg) from None
         if array.shape != (self._n,):
-            raise IntegratorError(
-                f'{name}: expected shape ({self._n},) for {self._n} DOF, got {array.shape}'
-            )
+            msg = f'{name}: expected shape ({self._n},) for {self._n} DOF, got {array.shape}'
+            raise IntegratorError(msg)
         if not np.all(np.isfinite(array)):
-            raise IntegratorError(f'{name}: all values must be finite, got {array.tolist()}')
+            msg = f'{name}: all values must be finite, got {array.tolist()}'
+            raise IntegratorError(msg)
         return array
 
     def _export(self, value: Any) -> np.ndarray:
@@ -363,7 +373,8 @@ class Integrator(abc.ABC):
         r0v = self._vector(r0, 'r0')
         a0 = self._initial_acceleration(x0v, v0v, p0v, r0v)
         if not self._finite(a0):
-            raise IntegratorError('initialize: the initial acceleration is not finite')
+            msg = 'initialize: the initial acceleration is not finite'
+            raise IntegratorError(msg)
         if self._scalar:
             self._x, self._v, self._a = x0v, v0v, a0
             self._r, self._p = r0v, p0v
@@ -393,21 +404,22 @@ class Integrator(abc.ABC):
                 trial has not been committed or reverted.
         """
         if self._status != 'running':
-            raise IntegratorError(
-                f'predict: integrator is {self._status!r}; call initialize() first'
-            )
+            msg = f'predict: integrator is {self._status!r}; call initialize() first'
+            raise IntegratorError(msg)
         if self._phase not in (COMMITTED, ITERATING):
-            raise IntegratorError(
+            msg = (
                 f'predict: step {self._step + 1} is already {self._phase}; '
                 'commit() or revert_to_last_step() first'
             )
+            raise IntegratorError(msg)
         xt = self._predict()
         if not self._finite(xt):
             self._status = 'failed'
-            raise IntegratorError(
+            msg = (
                 f'predict: step {self._step + 1}: the target displacement is not finite '
                 '(the response diverged)'
             )
+            raise IntegratorError(msg)
         self._xt = xt
         self._phase = PREDICTED
         return np.array((xt,)) if self._scalar else xt.copy()
@@ -431,10 +443,11 @@ class Integrator(abc.ABC):
         """
         if self._status != 'running' or self._phase != PREDICTED:
             state = self._status if self._status != 'running' else self._phase
-            raise IntegratorError(
+            msg = (
                 f'correct: step {self._step + 1} has not been predicted (state {state!r}); '
                 'call predict() first'
             )
+            raise IntegratorError(msg)
         r = self._vector(restoring_force, 'restoring_force')
         p = self._vector(load, 'load')
         if self._iteration + 1 < self.iterations_per_step:
@@ -448,10 +461,11 @@ class Integrator(abc.ABC):
         if not (self._finite(at) and self._finite(vt) and self._finite(self._xt)
                 and self._finite(self._rt)):
             self._status = 'failed'
-            raise IntegratorError(
+            msg = (
                 f'correct: step {self._step + 1}: the trial acceleration or velocity is not '
                 'finite (the response diverged)'
             )
+            raise IntegratorError(msg)
         self._at = at
         self._vt = vt
         self._phase = CORRECTED
@@ -463,10 +477,11 @@ class Integrator(abc.ABC):
             IntegratorError: If the current step has not been predicted and corrected.
         """
         if self._phase != CORRECTED or self._status != 'running':
-            raise IntegratorError(
+            msg = (
                 f'commit: step {self._step + 1} is {self._phase} (status {self._status!r}); '
                 'predict() and correct() it first'
             )
+            raise IntegratorError(msg)
         self._x = self._xt
         self._v = self._vt
         self._a = self._at

@@ -51,7 +51,8 @@ class Factorization:
         if matrix.shape == (1, 1):  # an SDOF: a division (fast and exact)
             value = float(matrix[0, 0])
             if value == 0.0 or not math.isfinite(value):
-                raise ConfigError(f'{name} is singular')
+                msg = f'{name} is singular'
+                raise ConfigError(msg)
             self._factor: tuple[str, Any] = ('scalar', value)
             return
         self._factor = cholesky_or_lu(
@@ -60,7 +61,8 @@ class Factorization:
         if self._factor[0] == 'lu':
             diagonal = np.abs(np.diag(self._factor[1][0]))
             if not np.all(diagonal > 1e-13 * max(float(np.max(diagonal)), 1e-300)):
-                raise ConfigError(f'{name} is singular')
+                msg = f'{name} is singular'
+                raise ConfigError(msg)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve ``matrix · x = rhs`` (``rhs`` a vector or a matrix of columns)."""
@@ -96,7 +98,8 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
         try:
             return ('sparse', scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(matrix)))
         except RuntimeError as err:  # "Factor is exactly singular"
-            raise ConfigError(f'matrix of {matrix.shape[0]} DOFs is singular ({err})') from None
+            msg = f'matrix of {matrix.shape[0]} DOFs is singular ({err})'
+            raise ConfigError(msg) from None
     if symmetric:
         try:
             return ('cholesky', scipy.linalg.cho_factor(matrix, check_finite=False))

@@ -172,7 +172,7 @@ class NewmarkExplicit(Integrator):
         v_new = v + self._half_dt * (a + a_new)
         return a_new, v_new
 
-    def predict(self) -> np.ndarray:  # noqa: D102 - documented on the base class
+    def predict(self) -> np.ndarray:
         # SDOF fast path: same checks and arithmetic as the generic path, fewer calls.
         if self._scalar and self._status == 'running' and self._phase == COMMITTED:
             dt = self._dt
@@ -183,7 +183,7 @@ class NewmarkExplicit(Integrator):
                 return np.array((xt,))
         return super().predict()
 
-    def correct(self, restoring_force: Any, load: Any) -> None:  # noqa: D102
+    def correct(self, restoring_force: Any, load: Any) -> None:
         # SDOF fast path for float inputs (numpy float64 and one-element arrays included);
         # anything else goes through the validating path of the base class.
         if self._scalar:

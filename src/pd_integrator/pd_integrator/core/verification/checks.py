@@ -38,9 +38,11 @@ def positive(value: Any, name: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: expected a number, got {value!r}') from None
+        msg = f'{name}: expected a number, got {value!r}'
+        raise ConfigError(msg) from None
     if not (math.isfinite(number) and number > 0.0):
-        raise ConfigError(f'{name}: must be positive and finite, got {value!r}')
+        msg = f'{name}: must be positive and finite, got {value!r}'
+        raise ConfigError(msg)
     return number
 
 
@@ -60,9 +62,11 @@ def non_negative(value: Any, name: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: expected a number, got {value!r}') from None
+        msg = f'{name}: expected a number, got {value!r}'
+        raise ConfigError(msg) from None
     if not (math.isfinite(number) and number >= 0.0):
-        raise ConfigError(f'{name}: must be non-negative and finite, got {value!r}')
+        msg = f'{name}: must be non-negative and finite, got {value!r}'
+        raise ConfigError(msg)
     return number
 
 
@@ -82,9 +86,11 @@ def finite(value: Any, name: str) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: expected a number, got {value!r}') from None
+        msg = f'{name}: expected a number, got {value!r}'
+        raise ConfigError(msg) from None
     if not math.isfinite(number):
-        raise ConfigError(f'{name}: must be finite, got {value!r}')
+        msg = f'{name}: must be finite, got {value!r}'
+        raise ConfigError(msg)
     return number
 
 
@@ -104,11 +110,14 @@ def sample_history(value: Any, name: str) -> np.ndarray:
     try:
         array = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise ConfigError(f'{name}: expected a 1-D array of numbers') from None
+        msg = f'{name}: expected a 1-D array of numbers'
+        raise ConfigError(msg) from None
     if array.ndim != 1 or array.size == 0:
-        raise ConfigError(f'{name}: expected a non-empty 1-D array, got shape {array.shape}')
+        msg = f'{name}: expected a non-empty 1-D array, got shape {array.shape}'
+        raise ConfigError(msg)
     if not np.all(np.isfinite(array)):
-        raise ConfigError(f'{name}: all values must be finite')
+        msg = f'{name}: all values must be finite'
+        raise ConfigError(msg)
     return array
 
 
@@ -127,5 +136,6 @@ def damping_ratio(value: Any, name: str) -> float:
     """
     number = non_negative(value, name)
     if number >= 1.0:
-        raise ConfigError(f'{name}: must be below 1 (underdamped), got {value!r}')
+        msg = f'{name}: must be below 1 (underdamped), got {value!r}'
+        raise ConfigError(msg)
     return number

@@ -91,7 +91,8 @@ def harmonic_response(
     f = finite(amplitude, 'amplitude')
     den = (w * w - big_w * big_w) ** 2 + (2.0 * z * w * big_w) ** 2
     if den == 0.0:
-        raise ConfigError('frequency: undamped resonance has no steady state')
+        msg = 'frequency: undamped resonance has no steady state'
+        raise ConfigError(msg)
     cs_coef = -f * 2.0 * z * w * big_w / den
     sn_coef = f * (w * w - big_w * big_w) / den
     times = np.asarray(t, dtype=float)

@@ -161,10 +161,11 @@ def epp_exact(
     omega = math.sqrt(k / m)
     zeta = c / (2.0 * m * omega)
     if zeta >= 1.0:
-        raise ConfigError(
+        msg = (
             f'damping: c = {c!r} gives ζ = {zeta:.4g} ≥ 1; the elastic branch must be '
             'underdamped'
         )
+        raise ConfigError(msg)
     wd = omega * math.sqrt(1.0 - zeta * zeta)
     lam = c / m
     uy = fy / k
@@ -237,10 +238,11 @@ def epp_exact(
             events.append((t_seg + tau, kind))
             n_events += 1
             if n_events > _MAX_EVENTS_PER_SEGMENT:
-                raise IntegratorError(
+                msg = (
                     f'epp_exact: more than {_MAX_EVENTS_PER_SEGMENT} yield/unload events '
                     f'between t = {t_seg!r} s and {t_seg + h!r} s (chattering)'
                 )
+                raise IntegratorError(msg)
             if tau >= h:
                 break
         xs[i + 1], vs[i + 1], xps[i + 1], es[i + 1] = x, v, xp, energy

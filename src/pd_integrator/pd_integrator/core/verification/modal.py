@@ -75,61 +75,74 @@ def modal_superposition(
     k = np.atleast_2d(np.array(stiffness, dtype=float))
     n = m.shape[0]
     if m.ndim != 2 or m.shape != (n, n) or k.shape != (n, n):
-        raise ConfigError(f'mass, stiffness: expected square matrices of one shape, '
-                          f'got {m.shape} and {k.shape}')
+        msg = (
+            f'mass, stiffness: expected square matrices of one shape, '
+                          f'got {m.shape} and {k.shape}'
+        )
+        raise ConfigError(msg)
     if not (np.all(np.isfinite(m)) and np.all(np.isfinite(k))):
-        raise ConfigError('mass, stiffness: all values must be finite')
+        msg = 'mass, stiffness: all values must be finite'
+        raise ConfigError(msg)
     if not (np.allclose(m, m.T, rtol=1e-12, atol=0.0) and np.allclose(k, k.T, rtol=1e-12,
                                                                       atol=0.0)):
-        raise ConfigError('mass, stiffness: matrices must be symmetric')
+        msg = 'mass, stiffness: matrices must be symmetric'
+        raise ConfigError(msg)
     try:
         eigenvalues, phi = scipy.linalg.eigh(k, m)
     except np.linalg.LinAlgError:
-        raise ConfigError('mass: matrix must be positive definite') from None
+        msg = 'mass: matrix must be positive definite'
+        raise ConfigError(msg) from None
     if not np.all(eigenvalues > 0.0):
-        raise ConfigError(
-            f'stiffness: every mode needs a positive frequency, got ω² = {eigenvalues.min():.6g}'
-        )
+        msg = f'stiffness: every mode needs a positive frequency, got ω² = {eigenvalues.min():.6g}'
+        raise ConfigError(msg)
     omegas = np.sqrt(eigenvalues)
     dt_value = positive(dt, 'dt')
 
     if (damping_ratios is None) == (damping_matrix is None):
-        raise ConfigError('damping: give exactly one of damping_ratios and damping_matrix')
+        msg = 'damping: give exactly one of damping_ratios and damping_matrix'
+        raise ConfigError(msg)
     if damping_matrix is not None:
         c = np.atleast_2d(np.array(damping_matrix, dtype=float))
         if c.shape != (n, n) or not np.all(np.isfinite(c)):
-            raise ConfigError(f'damping_matrix: expected a finite ({n}, {n}) matrix')
+            msg = f'damping_matrix: expected a finite ({n}, {n}) matrix'
+            raise ConfigError(msg)
         modal_c = phi.T @ c @ phi
         diag = np.diag(modal_c).copy()
         scale = float(np.max(np.abs(diag)))
         off = modal_c - np.diag(diag)
         worst = float(np.max(np.abs(off))) if n > 1 else 0.0
         if worst > classical_tol * scale:
-            raise ConfigError(
+            msg = (
                 f'damping_matrix: not classical: off-diagonal modal damping {worst:.3g} '
                 f'exceeds {classical_tol:g} x {scale:.3g} (ΦᵀCΦ must be diagonal)'
             )
+            raise ConfigError(msg)
         zetas = diag / (2.0 * omegas)
     else:
         zetas = np.array(damping_ratios, dtype=float).reshape(-1)
         if zetas.size == 1:
             zetas = np.full(n, float(zetas[0]))
         if zetas.size != n:
-            raise ConfigError(f'damping_ratios: expected 1 or {n} values, got {zetas.size}')
+            msg = f'damping_ratios: expected 1 or {n} values, got {zetas.size}'
+            raise ConfigError(msg)
     if not np.all(np.isfinite(zetas) & (zetas >= 0.0) & (zetas < 1.0)):
-        raise ConfigError(f'damping: modal damping ratios must be in [0, 1), got {zetas}')
+        msg = f'damping: modal damping ratios must be in [0, 1), got {zetas}'
+        raise ConfigError(msg)
 
     p = np.array(load, dtype=float)
     if p.ndim == 1 and n == 1:
         p = p.reshape(-1, 1)
     if p.ndim != 2 or p.shape[1] != n or p.shape[0] == 0:
-        raise ConfigError(f'load: expected shape (n_samples, {n}), got {p.shape}')
+        msg = f'load: expected shape (n_samples, {n}), got {p.shape}'
+        raise ConfigError(msg)
     if not np.all(np.isfinite(p)):
-        raise ConfigError('load: all values must be finite')
+        msg = 'load: all values must be finite'
+        raise ConfigError(msg)
     x_init = np.zeros(n) if x0 is None else np.array(x0, dtype=float).reshape(-1)
     v_init = np.zeros(n) if v0 is None else np.array(v0, dtype=float).reshape(-1)
     if x_init.shape != (n,) or v_init.shape != (n,):
-        raise ConfigError(f'x0, v0: expected shape ({n},)')
+        msg = f'x0, v0: expected shape ({n},)'
+        raise ConfigError(msg)
 
     modal_load = p @ phi  # (n_samples, n): f_n = φ_nᵀ p
     q0 = phi.T @ (m @ x_init)

@@ -239,11 +239,14 @@ def nigam_jennings_coefficients(
     try:
         w, z = np.broadcast_arrays(np.asarray(omega, dtype=float), np.asarray(zeta, dtype=float))
     except (TypeError, ValueError) as exc:
-        raise ConfigError(f'omega, zeta: expected numbers or arrays ({exc})') from None
+        msg = f'omega, zeta: expected numbers or arrays ({exc})'
+        raise ConfigError(msg) from None
     if not np.all(np.isfinite(w) & (w > 0.0)):
-        raise ConfigError('omega: every frequency must be positive and finite')
+        msg = 'omega: every frequency must be positive and finite'
+        raise ConfigError(msg)
     if not np.all(np.isfinite(z) & (z >= 0.0) & (z < 1.0)):
-        raise ConfigError('zeta: every damping ratio must be in [0, 1)')
+        msg = 'zeta: every damping ratio must be in [0, 1)'
+        raise ConfigError(msg)
     a11, a12, a21, a22, p1x, p1v, p2x, p2v = _transition_arrays(w, z, dt_value)
     a = np.stack([np.stack([a11, a12], -1), np.stack([a21, a22], -1)], -2)
     b = np.stack(

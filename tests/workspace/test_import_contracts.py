@@ -1,0 +1,73 @@
+"""The import contracts of pyproject.toml hold, and they fail when a rule is broken.
+
+lint-imports runs on a copy of the source tree in which one import is added: a pure core
+importing rclpy, a node package importing another, a cycle. Each must break the contract that
+forbids it (so CI, which runs the same contracts, would catch it).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
+
+
+def lint_imports(src: Path) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ)
+    env['PYTHONPATH'] = os.pathsep.join(str(src / package) for package in PACKAGES)
+    linter = Path(sys.executable).with_name('lint-imports')
+    return subprocess.run([str(linter), '--no-cache', '--config', str(REPO / 'pyproject.toml')],
+                          capture_output=True, text=True, env=env, cwd=src, check=False,
+                          timeout=120)
+
+
+@pytest.fixture
+def source_copy(tmp_path: Path) -> Path:
+    """The Python packages of src/ (no build products)."""
+    for package in PACKAGES:
+        shutil.copytree(REPO / 'src' / package / package, tmp_path / package / package,
+                        ignore=shutil.ignore_patterns('__pycache__'))
+    return tmp_path
+
+
+def test_the_contracts_hold_on_the_source_tree(source_copy: Path) -> None:
+    result = lint_imports(source_copy)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'BROKEN' not in result.stdout
+    assert result.stdout.count('KEPT') == 5
+
+
+@pytest.mark.parametrize(('module', 'line', 'contract'), [
+    ('pd_integrator/pd_integrator/core/run/history.py', 'import rclpy',
+     'Pure cores import no ROS'),
+    ('pd_common/pd_common/specimen/backbone.py', 'import pd_common.ros',
+     'Pure cores import no ROS'),
+    ('pd_actuator_bridge/pd_actuator_bridge/core/limits.py', 'import pd_msgs.msg',
+     'Pure cores import no ROS'),
+    ('pd_actuator_bridge/pd_actuator_bridge/node.py', 'import pd_specimen_sim.node',
+     'Node packages are peers'),
+    ('pd_integrator/pd_integrator/core/run/outputs.py', 'import pd_actuator_bridge.core',
+     'Node packages are peers'),
+    ('pd_common/pd_common/protocol/messages.py', 'import pd_integrator.core.errors',
+     'The shared library imports no node package'),
+    ('pd_integrator/pd_integrator/core/schemes/base.py', 'import pd_integrator.core.run.history',
+     "The integrator's core is layered"),
+    ('pd_common/pd_common/errors.py', 'import pd_common.specimen.backbone',
+     'No import cycles'),
+])
+def test_a_forbidden_import_breaks_its_contract(source_copy: Path, module: str, line: str,
+                                                contract: str) -> None:
+    path = source_copy / module
+    path.write_text(path.read_text(encoding='utf-8') + f'\n{line}  # injected\n',
+                    encoding='utf-8')
+    result = lint_imports(source_copy)
+    assert result.returncode != 0
+    broken = [text for text in result.stdout.splitlines() if text.endswith('BROKEN')]
+    assert any(text.startswith(contract) for text in broken), result.stdout
