@@ -19,7 +19,8 @@ setup(
     zip_safe=True,
     maintainer='Pseudo-dynamic testing maintainers',
     maintainer_email='maintainers@pseudodynamic.dev',
-    description='Actuator bridge of the pseudo-dynamic test: enforces its own safety limits and drives the actuator controller.',
+    description=('Actuator bridge of the pseudo-dynamic test: enforces its own safety limits '
+                 'and drives the actuator controller.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

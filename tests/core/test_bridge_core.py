@@ -208,7 +208,7 @@ def test_from_mapping_rejects_bad_config(mapping: dict, expected: str) -> None:
 
 
 def test_from_mapping_rejects_non_mapping() -> None:
-    with pytest.raises(BridgeConfigError, match='bridge.yaml: safety limits must be a mapping'):
+    with pytest.raises(BridgeConfigError, match=r'bridge.yaml: safety limits must be a mapping'):
         SafetyLimits.from_mapping([0.25, 0.01, 1.0], 'bridge.yaml')  # type: ignore[arg-type]
 
 
@@ -274,7 +274,8 @@ def test_velocity_limit_each_way(sign: float) -> None:
 def test_limit_message_names_dof_value_and_limit() -> None:
     violation = check_command([0.31], [0.25], LIMITS, ['top'])
     assert violation == LimitViolation(
-        FeedbackStatus.LIMIT, 0, 'DOF 0 (top): target displacement 0.31 m exceeds max_displacement 0.25 m'
+        FeedbackStatus.LIMIT, 0,
+        'DOF 0 (top): target displacement 0.31 m exceeds max_displacement 0.25 m',
     )
     # A value just beyond the limit never prints equal to it.
     violation = check_command([just_above(0.25)], [0.25], LIMITS, ['top'])
@@ -482,7 +483,9 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
     # Safe commands, repeats and new tests do not move while holding.
     for test_id, step, x in [('t1', 2, [0.15]), ('t1', 3, [0.1]), ('t2', 0, [0.1])]:
         held = bridge.handle_command(test_id, step, x)
-        assert held == BridgeReply(test_id, step, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason)
+        assert held == BridgeReply(
+            test_id, step, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason
+        )
     assert len(driver.commands) == 2
     assert driver.position() == [0.1]
     assert driver.hold_count == 1
@@ -499,7 +502,7 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
 
 
 def test_reset_when_not_holding_does_nothing() -> None:
-    bridge, driver = make_bridge()
+    bridge, _driver = make_bridge()
     first = bridge.handle_command('t1', 0, [0.0])
     bridge.reset()
     assert bridge.handle_command('t1', 0, [0.0]) is first
@@ -507,7 +510,8 @@ def test_reset_when_not_holding_does_nothing() -> None:
 
 def test_force_limit_on_feedback_triggers_hold() -> None:
     bridge, driver = make_bridge(stiffness=10000.0)  # 1000 N at 0.1 m
-    assert bridge.handle_command('t1', 0, [0.1]).status is FeedbackStatus.OK  # exactly at max_force
+    # Exactly at max_force.
+    assert bridge.handle_command('t1', 0, [0.1]).status is FeedbackStatus.OK
     reply = bridge.handle_command('t1', 1, [0.125])
     assert reply is not None
     assert reply.status is FeedbackStatus.LIMIT
@@ -853,7 +857,7 @@ def test_a_shared_parameter_has_one_default(scratch_registry: None) -> None:
     with pytest.raises(BridgeConfigError,
                        match=r"parameter tcp_port: default 44001 differs from 44000 of driver"):
         register_driver(loopback_spec(tcp_port=44001))
-    with pytest.raises(BridgeConfigError, match='parameter tcp_port: default 44000.0 differs'):
+    with pytest.raises(BridgeConfigError, match=r'parameter tcp_port: default 44000.0 differs'):
         register_driver(loopback_spec(tcp_port=44000.0))
     register_driver(loopback_spec(tcp_port=44000))
     shared = {parameter.name: drivers for parameter, drivers in driver_parameters()}

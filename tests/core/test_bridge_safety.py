@@ -239,7 +239,7 @@ def test_watchdog_exactly_at_timeout_does_not_hold_just_above_does() -> None:
 
 def test_watchdog_uses_the_clock_when_no_time_is_given() -> None:
     clock = Clock(0.0)
-    bridge, driver = make_bridge(WATCHDOG_LIMITS, clock=clock)
+    bridge, _driver = make_bridge(WATCHDOG_LIMITS, clock=clock)
     bridge.handle_command('t', 0, [0.0])
     clock.t = WATCHDOG
     assert bridge.check_watchdog() is None
@@ -259,7 +259,7 @@ def test_late_command_trips_the_watchdog_before_moving() -> None:
 
 
 def test_any_command_feeds_the_watchdog() -> None:
-    bridge, driver = make_bridge(WATCHDOG_LIMITS)
+    bridge, _driver = make_bridge(WATCHDOG_LIMITS)
     bridge.handle_command('t', 0, [0.0], now=0.0)
     bridge.handle_command('t', 1, [0.01], now=0.4)
     bridge.handle_command('t', 1, [0.01], now=0.8)  # a repeat (the integrator re-sending)
@@ -269,16 +269,16 @@ def test_any_command_feeds_the_watchdog() -> None:
 
 
 def test_watchdog_is_off_without_timeout_and_unarmed_before_the_first_command() -> None:
-    bridge, driver = make_bridge(LIMITS)
+    bridge, _driver = make_bridge(LIMITS)
     bridge.handle_command('t', 0, [0.0], now=0.0)
     assert bridge.check_watchdog(1e9) is None and not bridge.watchdog_armed
-    bridge, driver = make_bridge(WATCHDOG_LIMITS)
+    bridge, _driver = make_bridge(WATCHDOG_LIMITS)
     assert bridge.check_watchdog(1e9) is None  # no test started
     assert bridge.state == 'ready'
 
 
 def test_reset_disarms_the_watchdog_until_the_next_command() -> None:
-    bridge, driver = make_bridge(WATCHDOG_LIMITS)
+    bridge, _driver = make_bridge(WATCHDOG_LIMITS)
     bridge.handle_command('t', 0, [0.0], now=0.0)
     assert bridge.check_watchdog(5.0) is not None
     assert bridge.reset()
@@ -305,7 +305,7 @@ def test_watchdog_answers_the_step_in_flight() -> None:
 
 @pytest.mark.parametrize('bad_time', [NAN, INF])
 def test_watchdog_holds_on_an_invalid_time(bad_time: float) -> None:
-    bridge, driver = make_bridge(WATCHDOG_LIMITS)
+    bridge, _driver = make_bridge(WATCHDOG_LIMITS)
     bridge.handle_command('t', 0, [0.0], now=0.0)
     reply = bridge.check_watchdog(bad_time)
     assert reply is not None and reply.status is FeedbackStatus.FAULT
@@ -376,7 +376,8 @@ def test_plausibility_async_measurement() -> None:
     assert bridge.handle_measurement(0, [0.0625 - TOLERANCE], [1.0]).status is FeedbackStatus.OK
     bridge.handle_command('t', 1, [0.0625])
     reply = bridge.handle_measurement(1, [just_above(0.0625 + TOLERANCE)], [1.0])
-    assert reply is not None and reply.status is FeedbackStatus.FAULT and 'tracking error' in reply.message
+    assert (reply is not None and reply.status is FeedbackStatus.FAULT
+            and 'tracking error' in reply.message)
 
 
 def test_plausibility_compares_with_the_saturated_target() -> None:
@@ -445,7 +446,7 @@ def test_saturate_only_touches_the_offending_dofs() -> None:
 
 
 def test_saturate_exactly_at_a_limit_is_not_a_saturation() -> None:
-    bridge, driver = make_bridge(on_limit='saturate')
+    bridge, _driver = make_bridge(on_limit='saturate')
     assert bridge.handle_command('t', 0, [0.125]) == BridgeReply(
         't', 0, (0.125,), (125.0,), FeedbackStatus.OK, ''
     )
@@ -483,7 +484,7 @@ def test_saturate_holds_when_no_allowed_value_is_reachable() -> None:
 
 
 def test_measurement_violations_still_hold_in_saturate_mode() -> None:
-    bridge, driver = make_bridge(on_limit='saturate', stiffness=10000.0)
+    bridge, _driver = make_bridge(on_limit='saturate', stiffness=10000.0)
     reply = bridge.handle_command('t', 0, [0.5])  # clipped to 0.125 m: 1250 N > 1000 N
     assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert reply.message == 'DOF 0 (top): measured force 1250 N exceeds max_force 1000 N'
@@ -518,7 +519,8 @@ def test_emergency_stop_is_latched_until_explicitly_cleared() -> None:
     assert bridge.reset() is False
     assert bridge.state == 'holding' and bridge.emergency_stopped
     held = bridge.handle_command('t', 1, [0.01], now=0.1)
-    assert held.status is FeedbackStatus.FAULT and held.message == 'emergency stop: operator button'
+    assert (held.status is FeedbackStatus.FAULT
+            and held.message == 'emergency stop: operator button')
     assert bridge.check_watchdog(100.0) is None
     assert bridge.handle_fault('something else') is None
     assert bridge.hold_reason == 'emergency stop: operator button'
@@ -564,7 +566,7 @@ def test_emergency_stop_before_any_command() -> None:
 
 
 def test_reset_without_emergency_behaves_as_before() -> None:
-    bridge, driver = make_bridge()
+    bridge, _driver = make_bridge()
     assert bridge.reset() is True  # not holding: nothing to do
     bridge.handle_command('t', 0, [1.0])
     assert bridge.reset() is True and bridge.state == 'ready'

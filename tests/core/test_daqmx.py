@@ -13,12 +13,10 @@ from typing import Any
 
 import pytest
 
+import pd_actuator_bridge.core as core
 from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverError, SafetyLimits
-from pd_actuator_bridge.core.drivers.daqmx import (
-    DaqmxChannelConfig,
-    DaqmxConfig,
-    DaqmxDriver,
-)
+from pd_actuator_bridge.core.drivers.daqmx import DaqmxDriver
+from pd_actuator_bridge.core.drivers.daqmx_config import DaqmxChannelConfig, DaqmxConfig
 from pd_common.protocol import FeedbackStatus
 
 REPO = Path(__file__).resolve().parents[2]
@@ -411,7 +409,7 @@ def test_close_closes_all_tasks_and_is_idempotent() -> None:
 def test_close_failure_still_closes_the_other_task() -> None:
     rig = FakeRig(fail_on={('feedback', 'close'): RuntimeError('stuck')})
     driver, _ = opened(rig=rig)
-    with pytest.raises(DriverError, match='close.*stuck'):
+    with pytest.raises(DriverError, match=r'close.*stuck'):
         driver.close()
     assert rig.task('command').close_count == 1
     assert not driver.is_open
@@ -434,7 +432,7 @@ def test_open_failure_midway_closes_the_tasks_already_created(
 ) -> None:
     rig = FakeRig(fail_on={failure: RuntimeError('DAQmx error -200220')})
     driver, _ = make_driver(rig=rig)
-    with pytest.raises(DriverError, match='open.*-200220') as info:
+    with pytest.raises(DriverError, match=r'open.*-200220') as info:
         driver.open()
     assert '\n' not in str(info.value)
     assert sorted(t.role for t in rig.tasks) == expected_closed
@@ -545,30 +543,30 @@ def _without_channel_key(key: str) -> dict[str, Any]:
         (_without_channel_key('command_channel'),
          "test.yaml: channels[0]: missing required key 'command_channel'"),
         (_with_channel(comand_scale=0.01), 'test.yaml: channels[0].comand_scale: unknown key'),
-        (_with_channel(command_scale=0.0), 'test.yaml: channels[0].command_scale: must be a '
-                                           'non-zero finite number'),
+        (_with_channel(command_scale=0.0), ('test.yaml: channels[0].command_scale: must be a '
+                                            'non-zero finite number')),
         (_with_channel(force_scale=True), 'test.yaml: channels[0].force_scale: must be'),
         (_with_channel(displacement_scale='0.01'), 'channels[0].displacement_scale: must be'),
         (_with_channel(force_offset=math.nan), 'channels[0].force_offset: must be a finite'),
-        (_with_channel(command_max_voltage=12.0), 'channels[0].command_max_voltage: 12 V is '
-                                                  'beyond'),
-        (_with_channel(command_min_voltage=5.0), 'channels[0].command_min_voltage: must be '
-                                                 'below command_max_voltage'),
-        (_with_channel(command_channel='Dev1/ao0:1'), 'channels[0].command_channel: must name '
-                                                      'one physical channel'),
+        (_with_channel(command_max_voltage=12.0), ('channels[0].command_max_voltage: 12 V is '
+                                                   'beyond')),
+        (_with_channel(command_min_voltage=5.0), ('channels[0].command_min_voltage: must be '
+                                                  'below command_max_voltage')),
+        (_with_channel(command_channel='Dev1/ao0:1'), ('channels[0].command_channel: must name '
+                                                       'one physical channel')),
         (_with_channel(command_channel=''), 'channels[0].command_channel: must be a physical'),
         (_with_channel(force_channel='Dev1/ai0'), 'channels[0].force_channel: same physical'),
         (_with_channel(name=3), 'channels[0].name: must be a string'),
         (config_mapping(channels=[channel(0), channel(1, command_channel='dev1/ao0')]),
-         'channels[1].command_channel: physical channel dev1/ao0 is already used by '
-         'channels[0].command_channel'),
+         ('channels[1].command_channel: physical channel dev1/ao0 is already used by '
+          'channels[0].command_channel')),
         (config_mapping(channels=[channel(0), channel(1, name='dof0')]),
          "channels[1].name: duplicate DOF name 'dof0'"),
         (config_mapping(channels=[]), 'test.yaml: channels: must list at least one DOF'),
         (config_mapping(channels={'a': 1}), 'test.yaml: channels: must be a list'),
         (config_mapping(channels=['Dev1/ao0']), 'test.yaml: channels[0]: must be a mapping'),
-        (config_mapping(samples_per_read=0), 'test.yaml: samples_per_read: must be a positive '
-                                             'integer'),
+        (config_mapping(samples_per_read=0), ('test.yaml: samples_per_read: must be a positive '
+                                              'integer')),
         (config_mapping(samples_per_read=10.0), 'test.yaml: samples_per_read'),
         (config_mapping(sample_rate=-1.0), 'test.yaml: sample_rate: must be a positive'),
         (config_mapping(terminal_configuration='differential'),
@@ -621,13 +619,13 @@ def test_example_yaml_loads_and_drives_a_fake_task() -> None:
 def test_from_yaml_errors_name_the_file(tmp_path: Path) -> None:
     path = tmp_path / 'rig.yaml'
     path.write_text('bridge: {}\n', encoding='utf-8')
-    with pytest.raises(BridgeConfigError, match="rig.yaml: missing top-level section 'daqmx'"):
+    with pytest.raises(BridgeConfigError, match=r"rig.yaml: missing top-level section 'daqmx'"):
         DaqmxConfig.from_yaml(path)
     path.write_text('daqmx:\n  channels: [\n', encoding='utf-8')
-    with pytest.raises(BridgeConfigError, match='rig.yaml: '):
+    with pytest.raises(BridgeConfigError, match=r'rig.yaml: '):
         DaqmxConfig.from_yaml(path)
     path.write_text('daqmx:\n  channels: []\n', encoding='utf-8')
-    with pytest.raises(BridgeConfigError, match='rig.yaml: daqmx: channels: must list'):
+    with pytest.raises(BridgeConfigError, match=r'rig.yaml: daqmx: channels: must list'):
         DaqmxConfig.from_yaml(path)
 
 
@@ -638,7 +636,7 @@ def spring_rig(config: DaqmxConfig, stiffness: float) -> FakeRig:
     """A controller that reaches every command exactly, on a linear specimen."""
 
     def feedback(rig: FakeRig, n: int) -> list[list[float]]:
-        writes = [t for t in rig.tasks if t.role == 'command'][0].writes
+        writes = next(t for t in rig.tasks if t.role == 'command').writes
         last = writes[-1] if writes else [0.0] * config.n_dof
         volts = [last] if isinstance(last, float) else list(last)
         rows = []
@@ -708,8 +706,6 @@ def test_driver_voltage_limit_backs_up_a_wide_bridge_limit() -> None:
 
 
 def test_public_names_are_exported_from_the_core() -> None:
-    import pd_actuator_bridge.core as core
-
     for name in ('DaqmxChannelConfig', 'DaqmxConfig', 'DaqmxDriver'):
         assert name in core.__all__
         assert getattr(core, name) is globals()[name]

@@ -7,11 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from pd_actuator_bridge.core.drivers.emulator import (
-    EmulatorParameters,
-    Measurement,
-    ServoHydraulicEmulator,
-)
+from pd_actuator_bridge.core.drivers.emulator import Measurement, ServoHydraulicEmulator
+from pd_actuator_bridge.core.drivers.emulator_parameters import EmulatorParameters
 from pd_actuator_bridge.core.errors import BridgeConfigError, DriverError
 from pd_common.specimen import Elastic, ElasticPerfectlyPlastic, Specimen
 
@@ -322,7 +319,7 @@ class FailingSpecimen:
 def test_specimen_failure_is_a_driver_error_and_reverts_the_trial() -> None:
     specimen = FailingSpecimen(0.5e-3)
     emu = ServoHydraulicEmulator(specimen)
-    with pytest.raises(DriverError, match='specimen failed .*beyond the last backbone point'):
+    with pytest.raises(DriverError, match=r'specimen failed .*beyond the last backbone point'):
         for _ in range(500):
             emu.tick([1.0e-3])
     assert specimen.reverts == 1

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import pytest
 
-from pd_actuator_bridge.controller_server import (
-    ControllerServer,
+from pd_actuator_bridge.controller_server import ControllerServer
+from pd_actuator_bridge.controllers import (
     ElasticController,
     EmulatorController,
     load_emulator_controller,
@@ -286,9 +286,11 @@ def test_client_usage_errors_name_the_address_and_action() -> None:
 
 def test_setup_is_required(elastic_server) -> None:
     server = elastic_server()
-    with GenericTCPClient(HOST, server.port, timeout=TIMEOUT) as client:
-        with pytest.raises(GenericTCPError, match='setTrialResponse: setup\\(\\) was not called'):
-            client.set_trial_response(disp=[0.0])
+    with (
+        GenericTCPClient(HOST, server.port, timeout=TIMEOUT) as client,
+        pytest.raises(GenericTCPError, match='setTrialResponse: setup\\(\\) was not called'),
+    ):
+        client.set_trial_response(disp=[0.0])
 
 
 # --------------------------------------------------------------------------- failures
@@ -313,8 +315,8 @@ def test_connection_refused_is_a_clear_error() -> None:
     ('reply', 'close_after', 'pattern'),
     [
         (b'\0' * 16, True,
-         r'getDaqResponse: the controller closed the connection mid-message '
-         r'\(got 16 of 2048 bytes'),
+         (r'getDaqResponse: the controller closed the connection mid-message '
+          r'\(got 16 of 2048 bytes')),
         (daq_vector(0.001, 1.0) + b'\0' * 8, False,
          r'getDaqResponse: malformed reply: 8 unexpected byte\(s\) after the 2048-byte vector'),
         (daq_vector(0.001, math.nan), False,

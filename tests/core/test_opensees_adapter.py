@@ -302,8 +302,8 @@ def test_site_without_openseespy_exits_with_one_line(monkeypatch, capsys) -> Non
     status = opensees_site.main(['--port', '45000', '--stiffness', '1', '--yield-force', '1'])
     err = capsys.readouterr().err
     assert status == 2
-    assert err == 'opensees_site: openseespy is not installed (pinned in requirements.txt; ' \
-                  'run ./pd setup)\n'
+    assert err == ('opensees_site: openseespy is not installed (pinned in requirements.txt; '
+                   'run ./pd setup)\n')
 
 
 def test_site_rejects_incomplete_options(capsys) -> None:

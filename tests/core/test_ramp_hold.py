@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 
 from pd_actuator_bridge.core import ActuatorBridge, DriverError, SafetyLimits
-from pd_actuator_bridge.core.drivers.emulator import EmulatorParameters, ServoHydraulicEmulator
+from pd_actuator_bridge.core.drivers.emulator import ServoHydraulicEmulator
+from pd_actuator_bridge.core.drivers.emulator_driver import EmulatorDriver
+from pd_actuator_bridge.core.drivers.emulator_parameters import EmulatorParameters
 from pd_actuator_bridge.core.drivers.ramp_hold import (
     DEFAULT_RAMP_TIME,
     PHASE_HOLD,
     PHASE_RAMP,
     PHASE_SAMPLE,
-    EmulatorDriver,
     RampHoldExecutor,
     RampHoldParameters,
     SettleTimeoutError,
@@ -155,7 +156,7 @@ def test_invalid_ramp_hold_parameters(values: dict[str, object], name: str) -> N
 def test_ramp_hold_parameters_from_mapping_and_overrides() -> None:
     p = RampHoldParameters.from_mapping({'ramp_velocity': 0.05, 'samples': 4}, source='b.yaml')
     assert p.ramp_velocity == 0.05 and p.ramp_time is None and p.samples == 4
-    with pytest.raises(BridgeConfigError, match="b.yaml: unknown ramp-and-hold parameter 'ramp'"):
+    with pytest.raises(BridgeConfigError, match=r"b.yaml: unknown ramp-and-hold parameter 'ramp'"):
         RampHoldParameters.from_mapping({'ramp': 1.0}, source='b.yaml')
     # Keyword overrides replace the other ramp definition.
     executor = RampHoldExecutor(emulator(), p, ramp_time=0.2)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from pd_actuator_bridge.core import ActuatorDriver, BridgeConfigError, DriverError
+from pd_actuator_bridge.core import ActuatorDriver, BridgeConfigError, DriverError, StepId
 
 
 class LoopbackDriver(ActuatorDriver):
@@ -53,7 +53,7 @@ class LoopbackDriver(ActuatorDriver):
         self._restoring_force = restoring_force
         self._n_dof = n_dof
         self._position = position
-        self.commands: list[tuple[int, tuple[float, ...]]] = []
+        self.commands: list[tuple[StepId, tuple[float, ...]]] = []
         self.hold_count = 0
         self.is_open = False
 
@@ -70,7 +70,7 @@ class LoopbackDriver(ActuatorDriver):
         """Mark the driver closed."""
         self.is_open = False
 
-    def command(self, step: int, target: Sequence[float]) -> None:
+    def command(self, step: StepId, target: Sequence[float]) -> None:
         """Move exactly to ``target`` and report the restoring force immediately.
 
         Raises:

@@ -45,8 +45,8 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
@@ -321,7 +321,7 @@ class ActuatorBridgeNode(LifecycleNode):
         key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
         self._target = (message.test_id, key, tuple(message.target_displacement.tolist()))
         was_holding = bridge.state == 'holding'
-        reply = bridge.handle_command(message.test_id, key,  # type: ignore[arg-type]
+        reply = bridge.handle_command(message.test_id, key,
                                       tuple(message.target_displacement.tolist()))
         if (reply is None and isinstance(self.driver, SimServoDriver)
                 and bridge.in_flight == (message.test_id, key)):
@@ -419,7 +419,7 @@ class ActuatorBridgeNode(LifecycleNode):
             self.get_logger().warning(f'bridge/control {request}: {text}')
 
 
-def _autostart(node: ActuatorBridgeNode, executor: EventsExecutor) -> None:
+def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
     """Configure, wait for the driver, activate (simulated set-ups)."""
     if node.trigger_configure() != SUCCESS:
         return
@@ -433,7 +433,7 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_actuator_bridge main``."""
     rclpy.init(args=args)
     node: ActuatorBridgeNode | None = None
-    executor: EventsExecutor | None = None
+    executor: Executor | None = None
     try:
         node = ActuatorBridgeNode()
         executor = EventsExecutor()

@@ -1,9 +1,10 @@
 """Run an OpenSees substructure behind an ``adapter`` element: the ``opensees_site`` executable.
 
-The bridge's ``opensees_adapter`` driver (:mod:`pd_actuator_bridge.core.drivers.opensees_adapter`) is
-the client; this executable is the OpenSees side. It builds a model with openseespy, puts an
-``adapter`` element on the DOF the test drives and runs a static analysis one step at a time
-for as long as the client sends trial displacements::
+The bridge's ``opensees_adapter`` driver
+(:mod:`pd_actuator_bridge.core.drivers.opensees_adapter`) is the client; this executable is the
+OpenSees side. It builds a model with openseespy, puts an ``adapter`` element on the DOF the
+test drives and runs a static analysis one step at a time for as long as the client sends trial
+displacements::
 
     opensees_site --port 44001 --model epp --stiffness 312559 --yield-force 10000
 
@@ -57,7 +58,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -158,7 +159,7 @@ def opensees_library_dir() -> Path | None:
     spec = importlib.util.find_spec('openseespylinux')
     if spec is None or not spec.submodule_search_locations:
         return None
-    lib = Path(list(spec.submodule_search_locations)[0]) / 'lib'
+    lib = Path(next(iter(spec.submodule_search_locations))) / 'lib'
     return lib if lib.is_dir() else None
 
 
@@ -289,7 +290,7 @@ def client_gone(pid: int, port: int) -> bool:
 class _OutputForwarder(threading.Thread):
     """Forward the child's output to stderr and notice the adapter's completion message."""
 
-    def __init__(self, stream, quiet: bool) -> None:
+    def __init__(self, stream: Iterable[str], quiet: bool) -> None:
         super().__init__(daemon=True)
         self._stream = stream
         self._quiet = quiet
@@ -318,6 +319,7 @@ def run_supervisor(args: argparse.Namespace) -> int:
     child = subprocess.Popen(
         command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
         text=True, env=opensees_environment(), preexec_fn=_die_with_parent)
+    assert child.stdout is not None  # stdout=PIPE
     forwarder = _OutputForwarder(child.stdout, args.quiet)
     forwarder.start()
     print(f'{PROG}: serving {describe(args)} on port {args.port}', flush=True)

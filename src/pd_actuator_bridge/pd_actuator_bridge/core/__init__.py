@@ -8,14 +8,16 @@ importing this package registers the built-in ones.
 from __future__ import annotations
 
 from .bridge import ActuatorBridge, BridgeReply
-from .drivers.base import ActuatorDriver, MeasurementCallback, RemoteDriver
-from .drivers.daqmx import DaqmxChannelConfig, DaqmxConfig, DaqmxDriver
-from .drivers.emulator import EmulatorParameters, Measurement, ServoHydraulicEmulator
+from .drivers.base import ActuatorDriver, MeasurementCallback, RemoteDriver, StepId
+from .drivers.daqmx import DaqmxDriver
+from .drivers.daqmx_config import DaqmxChannelConfig, DaqmxConfig
+from .drivers.emulator import Measurement, ServoHydraulicEmulator
+from .drivers.emulator_driver import EmulatorDriver
+from .drivers.emulator_parameters import EmulatorParameters
 from .drivers.generic_tcp import GenericTCPClient, GenericTCPDriver
 from .drivers.generic_tcp_protocol import DaqResponse, GenericTCPError, SizeID, TrialResponse
 from .drivers.opensees_adapter import OpenSeesAdapterDriver, OpenSeesAdapterError
 from .drivers.ramp_hold import (
-    EmulatorDriver,
     RampHoldExecutor,
     RampHoldParameters,
     SettleTimeoutError,
@@ -80,6 +82,7 @@ __all__ = [
     'SettleTimeoutError',
     'SizeID',
     'StepExecution',
+    'StepId',
     'TrialResponse',
     'apply_error_model',
     'check_command',

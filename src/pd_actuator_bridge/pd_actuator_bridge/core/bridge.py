@@ -52,6 +52,7 @@ a repeated step returns the last reply without moving, a duplicate of the step i
 from __future__ import annotations
 
 import math
+import operator
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -59,7 +60,7 @@ from dataclasses import dataclass
 
 from pd_common.protocol import FeedbackStatus
 
-from .drivers.base import ActuatorDriver
+from .drivers.base import ActuatorDriver, StepId
 from .errors import BridgeConfigError
 from .limits import (
     KIND_FAULT,
@@ -96,7 +97,7 @@ class BridgeReply:
 
     Attributes:
         test_id: Test id of the command answered.
-        step: Step number of the command answered.
+        step: Step (number or ``(step, iteration)`` key) of the command answered.
         displacement: Measured (or, when holding, current) displacement per DOF, m.
         force: Measured (or, when holding, last measured) force per DOF, N; NaN before the
             first measurement.
@@ -106,7 +107,7 @@ class BridgeReply:
     """
 
     test_id: str
-    step: int
+    step: StepId
     displacement: tuple[float, ...]
     force: tuple[float, ...]
     status: FeedbackStatus
@@ -200,12 +201,12 @@ class ActuatorBridge:
         self._force: tuple[float, ...] = (math.nan,) * n_dof
         # Step bookkeeping.
         self._last_test_id: str | None = None
-        self._last_step: int | None = None
+        self._last_step: StepId | None = None
         self._last_reply: BridgeReply | None = None
-        self._in_flight: tuple[str, int] | None = None
+        self._in_flight: tuple[str, StepId] | None = None
         self._commanded: tuple[float, ...] | None = None  # target sent for the step in flight
         self._saturation_note = ''  # what was clipped for the step in flight
-        self._last_command: tuple[str, int] | None = None  # last (test_id, step) received
+        self._last_command: tuple[str, StepId] | None = None  # last (test_id, step) received
         # Interlocks.
         self._emergency: str | None = None  # the latched emergency-stop reason
         self._watchdog_armed = False
@@ -253,7 +254,7 @@ class ActuatorBridge:
         return self._dof_names
 
     @property
-    def in_flight(self) -> tuple[str, int] | None:
+    def in_flight(self) -> tuple[str, StepId] | None:
         """``(test_id, step)`` commanded and not answered yet, or ``None``."""
         return self._in_flight
 
@@ -325,13 +326,14 @@ class ActuatorBridge:
             self._reply_callback = callback
 
     def handle_command(
-        self, test_id: str, step: int, target: Sequence[float], now: float | None = None
+        self, test_id: str, step: StepId, target: Sequence[float], now: float | None = None
     ) -> BridgeReply | None:
         """Handle one step command from the integrator.
 
         Args:
             test_id: Test id of the command.
-            step: Step number (0 is the initial displacement).
+            step: Step number (0 is the initial displacement), or a totally ordered key such as
+                ``(step, iteration)``.
             target: Target displacement per DOF, m.
             now: Arrival time (monotonic seconds) for the command watchdog; the bridge's clock
                 if omitted. If the watchdog has expired, the bridge holds before anything else.
@@ -429,7 +431,7 @@ class ActuatorBridge:
             return captured
 
     def handle_measurement(
-        self, step: int, displacement: Sequence[float], force: Sequence[float]
+        self, step: StepId, displacement: Sequence[float], force: Sequence[float]
     ) -> BridgeReply | None:
         """Handle a measurement reported by the driver (normally through its callback).
 
@@ -472,6 +474,8 @@ class ActuatorBridge:
                     status, message = STATUS_LIMIT, SATURATED_PREFIX + note
                 else:
                     status, message = STATUS_OK, ''
+                # No violation: the measurement was stored as the displacement above.
+                assert self._displacement is not None
                 reply = BridgeReply(
                     test_id, step, self._displacement, self._force, status, message
                 )
@@ -587,7 +591,7 @@ class ActuatorBridge:
     # ------------------------------------------------------------------ internals
 
     def _on_driver_measurement(
-        self, step: int, displacement: list[float], force: list[float]
+        self, step: StepId, displacement: list[float], force: list[float]
     ) -> None:
         with self._lock:
             reply = self.handle_measurement(step, displacement, force)
@@ -636,7 +640,7 @@ class ActuatorBridge:
         return None
 
     def _enter_hold(
-        self, test_id: str, step: int, status: FeedbackStatus, message: str, record: bool
+        self, test_id: str, step: StepId, status: FeedbackStatus, message: str, record: bool
     ) -> BridgeReply:
         """Hold the actuator, latch the hold and return the reply for ``(test_id, step)``."""
         try:
@@ -660,7 +664,9 @@ class ActuatorBridge:
         self._last_step = reply.step
         self._last_reply = reply
 
-    def _reply(self, test_id: str, step: int, status: FeedbackStatus, message: str) -> BridgeReply:
+    def _reply(
+        self, test_id: str, step: StepId, status: FeedbackStatus, message: str
+    ) -> BridgeReply:
         return BridgeReply(
             test_id, step, self._current_displacement(), self._force, status, message
         )
@@ -678,10 +684,11 @@ class ActuatorBridge:
         return (math.nan,) * self._n_dof
 
 
-def _older(step: object, last_step: object) -> bool:
+def _older(step: StepId, last_step: StepId) -> bool:
     """Whether ``step`` is older than ``last_step``; a key that cannot be ordered is foreign."""
     try:
-        return bool(step < last_step)  # type: ignore[operator]
+        # operator.lt is ``<``; an int against a tuple raises TypeError (a foreign key).
+        return bool(operator.lt(step, last_step))
     except (TypeError, ValueError):
         return True
 

@@ -33,9 +33,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from numbers import Integral
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pd_common.experimental import error_model as _shared
 from pd_common.experimental.error_model import (
@@ -46,7 +47,19 @@ from pd_common.experimental.error_model import (
 
 from .errors import BridgeConfigError, DriverError
 
-_P = TypeVar('_P')
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+__all__ = [
+    'ErroneousStep',
+    'ErrorInjector',
+    'ErrorModel',
+    'RestoringForce',
+    'apply_error_model',
+    'parameters_from_mapping',
+]
+
+_P = TypeVar('_P', bound='DataclassInstance')
 
 
 def parameters_from_mapping(
@@ -72,7 +85,7 @@ def parameters_from_mapping(
     if not isinstance(mapping, Mapping):
         msg = f'{source}: {what} must be a mapping, got {type(mapping).__name__}'
         raise BridgeConfigError(msg)
-    known = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+    known = [f.name for f in fields(cls)]
     for key in mapping:
         if key not in known:
             msg = (
@@ -179,7 +192,7 @@ class ErrorInjector(_shared.ErrorInjector):
         self,
         model: _shared.ErrorModel,
         n_dof: int = 1,
-        initial_position: Sequence[float] | None = None,
+        initial_position: Sequence[float] | NDArray[np.float64] | None = None,
     ) -> None:
         """Create the injector.
 
@@ -203,12 +216,12 @@ class ErrorInjector(_shared.ErrorInjector):
         except DriverError as exc:
             raise BridgeConfigError(str(exc)) from None
 
-    def _start(self, position: Sequence[float] | None) -> np.ndarray:
+    def _start(self, position: Sequence[float] | NDArray[np.float64] | None) -> np.ndarray:
         if position is None:
             return np.zeros(self._n)
         return _vector(position, 'ErrorInjector: position', self._n)
 
-    def reset(self, position: Sequence[float] | None = None) -> None:
+    def reset(self, position: Sequence[float] | NDArray[np.float64] | None = None) -> None:
         """Restart: empty the delay line at ``position`` and re-seed the generator.
 
         Args:
@@ -217,7 +230,9 @@ class ErrorInjector(_shared.ErrorInjector):
         super().reset(self._start(position))
 
     def impose(
-        self, target: Sequence[float] | np.ndarray, current: Sequence[float] | None = None
+        self,
+        target: Sequence[float] | np.ndarray,
+        current: Sequence[float] | NDArray[np.float64] | None = None,
     ) -> np.ndarray:
         """Return the displacement the actuator reaches when commanded ``target``.
 

@@ -116,7 +116,7 @@ class SafetyLimits:
             if key not in mapping:
                 msg = f'{source}: missing required safety limit {key!r}'
                 raise BridgeConfigError(msg)
-        values = {key: mapping.get(key) for key in known}
+        values: dict[str, Any] = {key: mapping.get(key) for key in known}
         _validate_values(values, source)
         return cls(**values)
 

@@ -2,12 +2,13 @@
 
 * :mod:`.base`: :class:`~.base.ActuatorDriver` (the interface), :class:`~.base.RemoteDriver`.
 * :mod:`.registry`: name -> :class:`~.registry.DriverSpec` (factory, parameters).
-* ``emulator``: :mod:`.emulator` (the servo-hydraulic actuator emulator) and :mod:`.ramp_hold`
-  (its ramp-and-hold executor and :class:`~.ramp_hold.EmulatorDriver`).
+* ``emulator``: :mod:`.emulator_driver` (:class:`~.emulator_driver.EmulatorDriver`) on
+  :mod:`.emulator` (the servo-hydraulic actuator emulator; its parameters in
+  :mod:`.emulator_parameters`) and :mod:`.ramp_hold` (its ramp-and-hold executor).
 * ``generic_tcp``: :mod:`.generic_tcp` (OpenFresco GenericTCP client), wire format in
   :mod:`.generic_tcp_protocol`.
 * ``opensees_adapter``: :mod:`.opensees_adapter` (client of OpenSees's adapter element).
-* ``daqmx``: :mod:`.daqmx` (NI DAQ analog I/O).
+* ``daqmx``: :mod:`.daqmx` (NI DAQ analog I/O), its configuration in :mod:`.daqmx_config`.
 
 Importing this package registers those four drivers; the node shell adds ``sim_servo``.
 """
@@ -15,6 +16,6 @@ Importing this package registers those four drivers; the node shell adds ``sim_s
 from __future__ import annotations
 
 # Importing the driver modules registers their drivers.
-from . import daqmx, generic_tcp, opensees_adapter, ramp_hold
+from . import daqmx, emulator_driver, generic_tcp, opensees_adapter
 
-__all__ = ['daqmx', 'generic_tcp', 'opensees_adapter', 'ramp_hold']
+__all__ = ['daqmx', 'emulator_driver', 'generic_tcp', 'opensees_adapter']

@@ -15,10 +15,15 @@ from __future__ import annotations
 import abc
 import math
 from collections.abc import Callable, Sequence
+from typing import TypeAlias
 
 from ..errors import BridgeConfigError, DriverError
 
-MeasurementCallback = Callable[[int, list[float], list[float]], None]
+StepId: TypeAlias = int | tuple[int, ...]
+"""A step as the bridge and the drivers see it: an ``int`` or a key such as
+:class:`pd_common.protocol.StepKey` ``(step, iteration)``, compared by equality and order only."""
+
+MeasurementCallback = Callable[[StepId, list[float], list[float]], None]
 """``cb(step, displacement, force)``: displacement in m and force in N, one value per DOF."""
 
 
@@ -47,14 +52,14 @@ class ActuatorDriver(abc.ABC):
     def n_dof(self) -> int:
         """Number of actuated DOF."""
 
-    def open(self) -> None:  # noqa: B027 - optional hook
+    def open(self) -> None:
         """Connect to the controller (OpenFresco ``setup``). The default does nothing."""
 
-    def close(self) -> None:  # noqa: B027 - optional hook
+    def close(self) -> None:
         """Disconnect from the controller. The default does nothing."""
 
     @abc.abstractmethod
-    def command(self, step: int, target: Sequence[float]) -> None:
+    def command(self, step: StepId, target: Sequence[float]) -> None:
         """Start moving to ``target`` (m, one value per DOF) for ``step``.
 
         OpenFresco's ``setTrialResponse`` and ``getDaqResponse`` in one call: the measurement is
@@ -77,7 +82,7 @@ class ActuatorDriver(abc.ABC):
         """Set (or clear with ``None``) the function that receives each measurement."""
         self._measurement_callback = callback
 
-    def _emit(self, step: int, displacement: list[float], force: list[float]) -> None:
+    def _emit(self, step: StepId, displacement: list[float], force: list[float]) -> None:
         """Deliver a measurement to the callback, if one is set."""
         if self._measurement_callback is not None:
             self._measurement_callback(step, displacement, force)
@@ -142,10 +147,10 @@ class RemoteDriver(ActuatorDriver):
         return list(self._force)
 
     @abc.abstractmethod
-    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+    def _exchange(self, step: StepId, target: list[float]) -> tuple[list[float], list[float]]:
         """Send the trial displacement; return the measured ``(displacement, force)``."""
 
-    def command(self, step: int, target: Sequence[float]) -> None:
+    def command(self, step: StepId, target: Sequence[float]) -> None:
         """Send ``target`` as the trial displacement, read the response and report it.
 
         Raises:

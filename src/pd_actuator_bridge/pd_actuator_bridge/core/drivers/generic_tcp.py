@@ -15,7 +15,7 @@ import socket
 from collections.abc import Sequence
 
 from ..errors import BridgeConfigError
-from .base import RemoteDriver
+from .base import RemoteDriver, StepId
 from .generic_tcp_protocol import (
     ACTION_DIE,
     ACTION_GET_DAQ_RESPONSE,
@@ -131,21 +131,21 @@ class GenericTCPClient:
         Raises:
             GenericTCPError: If already connected, refused, timed out or unreachable.
         """
+        action = 'connect'
         if self._sock is not None:
-            raise self._error('connect', 'already connected')
+            raise self._error(action, 'already connected')
         try:
             sock = socket.create_connection(
                 (self._host, self._port), timeout=self._connect_timeout
             )
         except ConnectionRefusedError:
-            raise self._error('connect', 'connection refused') from None
+            raise self._error(action, 'connection refused') from None
         except TimeoutError:
-            msg = 'connect'
             raise self._error(
-                msg, f'timed out after {self._connect_timeout:g} s'
+                action, f'timed out after {self._connect_timeout:g} s'
             ) from None
         except OSError as exc:
-            raise self._error('connect', describe_error(exc)) from None
+            raise self._error(action, describe_error(exc)) from None
         sock.settimeout(self._timeout)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._sock = sock
@@ -165,7 +165,7 @@ class GenericTCPClient:
             BridgeConfigError: On invalid sizes.
             GenericTCPError: If not connected or the send fails.
         """
-        size_id = SizeID(ctrl_sizes, daq_sizes, self._data_size)  # type: ignore[arg-type]
+        size_id = SizeID.from_sizes(ctrl_sizes, daq_sizes, self._data_size)
         self._send('setup', encode_size_id(size_id, self._byte_order))
         self._size_id = size_id
         return size_id
@@ -218,7 +218,8 @@ class GenericTCPClient:
                                          byte_order=self._byte_order))
         payload = self._recv(action, size_id.vector_bytes)
         # A peer that closed right after a valid reply is reported by the next action.
-        extra, _ = pending_bytes(self._sock)  # type: ignore[arg-type]
+        assert self._sock is not None  # _recv() returned: still connected
+        extra, _ = pending_bytes(self._sock)
         if extra:
             self._drop()
             raise self._error(
@@ -389,7 +390,7 @@ class GenericTCPDriver(RemoteDriver):
         self._client = GenericTCPClient(host, port, timeout, connect_timeout, data_size,
                                         byte_order)
         # Validate the sizes now rather than at open().
-        SizeID({'disp': n_dof}, {'disp': n_dof, 'force': n_dof}, data_size)  # type: ignore[arg-type]
+        SizeID.from_sizes({'disp': n_dof}, {'disp': n_dof, 'force': n_dof}, data_size)
 
     @property
     def client(self) -> GenericTCPClient:
@@ -430,7 +431,7 @@ class GenericTCPDriver(RemoteDriver):
         """Send ``99`` and disconnect. Idempotent."""
         self._client.close()
 
-    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+    def _exchange(self, step: StepId, target: list[float]) -> tuple[list[float], list[float]]:
         self._client.set_trial_response(disp=target)
         daq = self._client.get_daq_response()
         return list(daq.disp), list(daq.force)

@@ -182,6 +182,24 @@ class SizeID:
             msg = f'GenericTCP: {self.daq_length} daq values do not fit in data_size {data_size}'
             raise BridgeConfigError(msg)
 
+    @classmethod
+    def from_sizes(
+        cls, ctrl: SizesLike, daq: SizesLike, data_size: int = DEFAULT_DATA_SIZE
+    ) -> SizeID:
+        """Build the size ID from sizes per kind, e.g. ``{'disp': 2, 'force': 2}``.
+
+        Args:
+            ctrl: Controlled values per kind: five integers or a mapping (see
+                :func:`normalize_sizes`).
+            daq: Acquired values per kind, likewise.
+            data_size: Doubles in every data vector.
+
+        Raises:
+            BridgeConfigError: On a negative or non-integer size, or vectors too long.
+        """
+        return cls(normalize_sizes(ctrl, 'ctrl sizes'), normalize_sizes(daq, 'daq sizes'),
+                   data_size)
+
     @property
     def ctrl_length(self) -> int:
         """Total number of control values."""

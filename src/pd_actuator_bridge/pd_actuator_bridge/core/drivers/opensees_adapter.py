@@ -63,7 +63,7 @@ import time
 import numpy as np
 
 from ..errors import BridgeConfigError, DriverError
-from .base import RemoteDriver
+from .base import RemoteDriver, StepId
 from .generic_tcp_protocol import (
     DEFAULT_DATA_SIZE,
     SizeID,
@@ -101,7 +101,7 @@ def adapter_size_id(n_dof: int, data_size: int = DEFAULT_DATA_SIZE) -> SizeID:
             daq values.
     """
     sizes = {'disp': n_dof}
-    return SizeID(sizes, {'disp': n_dof, 'force': n_dof}, data_size)  # type: ignore[arg-type]
+    return SizeID.from_sizes(sizes, {'disp': n_dof, 'force': n_dof}, data_size)
 
 
 class OpenSeesAdapterDriver(RemoteDriver):
@@ -196,7 +196,7 @@ class OpenSeesAdapterDriver(RemoteDriver):
             raise
         self.fault = ''
 
-    def _exchange(self, step: int, target: list[float]) -> tuple[list[float], list[float]]:
+    def _exchange(self, step: StepId, target: list[float]) -> tuple[list[float], list[float]]:
         action = f'step {step}'
         self._send(action, encode_action(ACTION_SET_TRIAL_RESPONSE, self._size_id.data_size,
                                          target))
@@ -220,6 +220,7 @@ class OpenSeesAdapterDriver(RemoteDriver):
         return OpenSeesAdapterError(f'OpenSees adapter {self.address}: {action}: {message}')
 
     def _connect(self) -> socket.socket:
+        action = 'connect'
         deadline = time.monotonic() + self._connect_timeout
         last = 'no attempt'
         while True:
@@ -232,15 +233,14 @@ class OpenSeesAdapterDriver(RemoteDriver):
             except TimeoutError:
                 last = 'connection attempt timed out'
             except OSError as exc:
-                raise self._error('connect', describe_error(exc)) from None
+                raise self._error(action, describe_error(exc)) from None
             else:
                 sock.settimeout(self._timeout)
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 return sock
             if time.monotonic() + CONNECT_RETRY_INTERVAL > deadline:
-                msg = 'connect'
                 raise self._error(
-                    msg, f'{last} for {self._connect_timeout:g} s (is the OpenSees model '
+                    action, f'{last} for {self._connect_timeout:g} s (is the OpenSees model '
                     f'with the adapter element running its analysis?)'
                 )
             time.sleep(CONNECT_RETRY_INTERVAL)

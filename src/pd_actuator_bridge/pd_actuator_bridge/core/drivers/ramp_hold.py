@@ -12,37 +12,25 @@ the hold removes the actuator's dynamics from the measurement, and averaging red
 noise.
 
 :class:`RampHoldExecutor` runs it on a :class:`~.emulator.ServoHydraulicEmulator` and returns a
-:class:`StepExecution` with the sub-step trajectory at the controller rate. :class:`EmulatorDriver`
-is the synchronous :class:`~.base.ActuatorDriver` through which the
-:class:`~..bridge.ActuatorBridge` drives the emulator: the ``emulator`` driver (:data:`EMULATOR`,
-built by :func:`make_emulator_driver` on the specimen of a test file).
+:class:`StepExecution` with the sub-step trajectory at the controller rate. The driver through
+which the :class:`~..bridge.ActuatorBridge` drives the emulator (the ``emulator`` driver) is
+:class:`~.emulator_driver.EmulatorDriver`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from numbers import Integral, Real
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pd_common.specimen import load_specimen_section, specimen_from_config
-
 from ..error_models import ErrorInjector, ErrorModel
 from ..errors import BridgeConfigError, DriverError
-from .base import ActuatorDriver
-from .emulator import EmulatorParameters, ServoHydraulicEmulator
-from .registry import (
-    DriverContext,
-    DriverParameter,
-    DriverSpec,
-    read_yaml_parameter,
-    register_driver,
-)
+from .emulator import ServoHydraulicEmulator
 
 DEFAULT_RAMP_TIME = 0.1
 """Ramp duration used when neither ``ramp_time`` nor ``ramp_velocity`` is set, s."""
@@ -53,9 +41,6 @@ PHASE_HOLD = 1
 """Trajectory phase code: the command holds the target, waiting for the measurement to settle."""
 PHASE_SAMPLE = 2
 """Trajectory phase code: settled; the samples averaged into the step's answer."""
-
-TrajectoryCallback = Callable[[Any, 'StepExecution'], None]
-"""``cb(step, execution)``: receives every step's execution (also a failed one)."""
 
 
 @dataclass(frozen=True)
@@ -291,6 +276,7 @@ class RampHoldExecutor:
         self._emulator = emulator
         self._p = parameters
         self._n = int(emulator.n_dof)
+        self._errors = errors
         self._injector = (
             None if errors is None else ErrorInjector(errors, self._n, emulator.command)
         )
@@ -309,7 +295,7 @@ class RampHoldExecutor:
     @property
     def errors(self) -> ErrorModel | None:
         """The injected error model, if any."""
-        return None if self._injector is None else self._injector.model
+        return self._errors
 
     @property
     def n_dof(self) -> int:
@@ -452,141 +438,3 @@ def _ticks(duration: float, rate: float) -> int:
 
 def _rows(rows: list[np.ndarray], n: int) -> np.ndarray:
     return np.array(rows, dtype=float) if rows else np.zeros((0, n))
-
-
-class EmulatorDriver(ActuatorDriver):
-    """Synchronous actuator driver executing each step on the emulator by ramp-and-hold.
-
-    It answers inside :meth:`command` through the measurement callback, with the averaged
-    measurement. It keeps the last :class:`StepExecution` (its trajectory is what the node
-    records at the controller rate) and passes every execution to an optional trajectory
-    callback. A settling timeout, or any emulator failure, raises :class:`~..errors.DriverError`
-    (the bridge then holds with a fault).
-
-    Attributes:
-        is_open: Whether :meth:`open` was called (and :meth:`close` not since).
-        hold_count: Number of :meth:`hold` calls.
-        last_execution: The last step's execution (also a failed one), or ``None``.
-    """
-
-    def __init__(
-        self,
-        emulator: ServoHydraulicEmulator,
-        parameters: RampHoldParameters | Mapping[str, Any] | None = None,
-        *,
-        errors: ErrorModel | None = None,
-        **settings: Any,
-    ) -> None:
-        """Create the driver; the arguments are those of :class:`RampHoldExecutor`."""
-        super().__init__()
-        self._executor = RampHoldExecutor(emulator, parameters, errors=errors, **settings)
-        self._trajectory_callback: TrajectoryCallback | None = None
-        self.is_open = False
-        self.hold_count = 0
-        self.last_execution: StepExecution | None = None
-
-    @property
-    def n_dof(self) -> int:
-        """Number of DOF."""
-        return self._executor.n_dof
-
-    @property
-    def executor(self) -> RampHoldExecutor:
-        """The ramp-and-hold executor."""
-        return self._executor
-
-    @property
-    def emulator(self) -> ServoHydraulicEmulator:
-        """The emulator."""
-        return self._executor.emulator
-
-    def set_trajectory_callback(self, callback: TrajectoryCallback | None) -> None:
-        """Set (or clear) the function receiving ``(step, execution)`` after each step."""
-        self._trajectory_callback = callback
-
-    def open(self) -> None:
-        """Mark the driver open (the emulator is already running at rest)."""
-        self.is_open = True
-
-    def close(self) -> None:
-        """Mark the driver closed."""
-        self.is_open = False
-
-    def command(self, step: Any, target: Sequence[float]) -> None:
-        """Execute ``target`` by ramp-and-hold and report the averaged measurement.
-
-        Raises:
-            DriverError: If the driver is not open, the target is malformed, the actuator does
-                not settle in time or the emulator fails.
-        """
-        if not self.is_open:
-            msg = 'EmulatorDriver: command() called before open()'
-            raise DriverError(msg)
-        try:
-            execution = self._executor.execute(target)
-        except SettleTimeoutError as exc:
-            self._record(step, exc.execution)
-            raise
-        self._record(step, execution)
-        self._emit(step, execution.displacement.tolist(), execution.force.tolist())
-
-    def hold(self) -> None:
-        """Hold the actuator where it is (the next ramp starts from the measured position)."""
-        self.hold_count += 1
-        self._executor.hold()
-
-    def position(self) -> list[float]:
-        """Return the last measured displacement per DOF, m."""
-        return [float(x) for x in self._executor.emulator.measured_displacement]
-
-    def _record(self, step: Any, execution: StepExecution) -> None:
-        self.last_execution = execution
-        if self._trajectory_callback is not None:
-            self._trajectory_callback(step, execution)
-
-
-def make_emulator_driver(context: DriverContext) -> EmulatorDriver:
-    """The emulator driver on the specimen of ``test_file`` (settings from ``driver_config``).
-
-    ``driver_config`` (optional) may hold ``emulator`` (emulator parameters), ``ramp_hold``
-    (ramp-and-hold settings) and ``errors`` (injected experimental errors) sections. Every step's
-    execution goes to ``context.on_trajectory``.
-
-    Raises:
-        BridgeConfigError: Without a test file, on a specimen with another number of DOF or on
-            bad settings.
-    """
-    test_file = context.parameters['test_file']
-    driver_config = context.parameters['driver_config']
-    n_dof = context.n_dof
-    if not test_file:
-        msg = 'parameter test_file: the emulator needs a test file with a specimen section'
-        raise BridgeConfigError(msg)
-    section, dof_names = load_specimen_section(test_file)
-    specimen = specimen_from_config(section, base_dir=Path(test_file).resolve().parent,
-                                    source=Path(test_file).name, dof_names=dof_names)
-    if specimen.n_dof != n_dof:
-        msg = (f'parameter dof_names: {n_dof} DOF but the specimen of {test_file} has '
-               f'{specimen.n_dof}')
-        raise BridgeConfigError(msg)
-    settings = read_yaml_parameter(driver_config, 'driver_config') if driver_config else {}
-    parameters = (EmulatorParameters.from_mapping(settings['emulator'])
-                  if 'emulator' in settings else None)
-    errors = ErrorModel.from_mapping(settings['errors']) if 'errors' in settings else None
-    emulator = ServoHydraulicEmulator(specimen, parameters)
-    driver = EmulatorDriver(emulator, settings.get('ramp_hold'), errors=errors)
-    driver.set_trajectory_callback(context.on_trajectory)
-    return driver
-
-
-EMULATOR = DriverSpec(
-    name='emulator',
-    factory=make_emulator_driver,
-    parameters=(
-        DriverParameter('test_file', '', 'YAML test file whose specimen section is driven'),
-        DriverParameter('driver_config', '', 'YAML file with the driver settings'),
-    ),
-    description='in-process servo-hydraulic actuator emulator driving the specimen of '
-                'test_file by ramp-and-hold; sub-step trajectories on bridge/trajectory',
-)
-register_driver(EMULATOR)
