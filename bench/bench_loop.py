@@ -804,8 +804,8 @@ def render_schemes(bench: SchemeBench) -> str:
                          _fmt_steps(row.mdof_rate), _fmt_us(row.mdof_rate),
                          '; '.join(row.notes)) for row in bench.rows]
     widths = [max(len(cell[i]) for cell in cells) for i in range(len(header) - 1)]
-    lines = [f'5 schemes: ROS-free core, TestSession + SpecimenServer (no bag), best of '
-             f'{REPEATS}; setup (factorisations, stability check) not timed', bench.sdof,
+    lines = [(f'5 schemes: ROS-free core, TestSession + SpecimenServer (no bag), best of '
+              f'{REPEATS}; setup (factorisations, stability check) not timed'), bench.sdof,
              bench.mdof, '']
     for index, cell in enumerate(cells):
         parts = [cell[0].ljust(widths[0])] + [cell[i].rjust(widths[i])
@@ -834,11 +834,11 @@ def machine_header(domain_id: int) -> str:
     load = ', '.join(f'{value:.2f}' for value in os.getloadavg())
     return '\n'.join([
         f'pd bench_loop  {now}  (load average before: {load})',
-        f'machine: {os.cpu_count()} cores{f" ({cpu})" if cpu else ""}, '
-        f'{platform.system()} {platform.release()} {platform.machine()}',
-        f'python {platform.python_version()}, rclpy {rclpy_version}, '
-        f'{os.environ.get("RMW_IMPLEMENTATION", "default rmw")}, ROS_DOMAIN_ID {domain_id}, '
-        f'discovery {os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "default")}',
+        (f'machine: {os.cpu_count()} cores{f" ({cpu})" if cpu else ""}, '
+         f'{platform.system()} {platform.release()} {platform.machine()}'),
+        (f'python {platform.python_version()}, rclpy {rclpy_version}, '
+         f'{os.environ.get("RMW_IMPLEMENTATION", "default rmw")}, ROS_DOMAIN_ID {domain_id}, '
+         f'discovery {os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "default")}'),
     ])
 
 

@@ -11,8 +11,8 @@ or ``./pd bench`` (after the loop benchmark). Figures:
    first story is an experimental element at a site served in-process by a simulated elastic
    specimen (no ROS, no bag): milliseconds per step (session + site coordinator + numerical
    elements + specimen) and steps/s, best of 3, per scheme of ``--large-schemes`` (default
-   Newmark explicit, alpha-OS and KR-alpha); plus the one-off set-up (parsing the model, modal/stability
-   analysis, factorisations). Goal: under 1 ms per step.
+   Newmark explicit, alpha-OS and KR-alpha); plus the one-off set-up (parsing the model,
+   modal/stability analysis, factorisations). Goal: under 1 ms per step.
 2. A two-site test through the node graph (the example
    ``config/three_story_two_sites.yaml``: stories 1 and 3 at sites ``lab1`` and ``lab3``, one
    process per node started by ``run_test``), with ``--site direct``
@@ -77,7 +77,8 @@ def core_large(n: int, steps: int, scheme: str = 'newmark_explicit') -> dict[str
         servers = site_servers(definition)
         setup = min(setup, time.perf_counter() - start)
         queue: list[Any] = []
-        dispatcher = StepDispatcher(session, lambda site, command: queue.append((site, command)))
+        dispatcher = StepDispatcher(
+            session, lambda site, command, queue=queue: queue.append((site, command)))
         start = time.perf_counter()
         dispatcher.start()
         while queue:

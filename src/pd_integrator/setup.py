@@ -21,7 +21,8 @@ setup(
     zip_safe=True,
     maintainer='Pseudo-dynamic testing maintainers',
     maintainer_email='maintainers@pseudodynamic.dev',
-    description='Time-stepping node of the pseudo-dynamic test: integrator, ground motions, step protocol, bag and outputs.',
+    description=('Time-stepping node of the pseudo-dynamic test: integrator, ground motions, '
+                 'step protocol, bag and outputs.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -142,7 +142,7 @@ def test_csv_errors_name_file_and_line(tmp_path: Path, text: str, message: str) 
 
 
 def test_csv_missing_file(tmp_path: Path) -> None:
-    with pytest.raises(BackboneError, match='missing.csv.*cannot read file'):
+    with pytest.raises(BackboneError, match=r'missing.csv.*cannot read file'):
         load_backbone_csv(tmp_path / 'missing.csv')
 
 

@@ -233,8 +233,8 @@ def test_damping_ratio_and_coefficient_together(tmp_path: Path) -> None:
     raw = base_raw()
     raw['structure']['damping'] = {'ratio': 0.05, 'coefficient': 2819.5}
     assert_config_error(write_yaml(tmp_path, raw),
-                        r'^case\.yaml: structure\.damping: give exactly one of ratio, coefficient, '
-                        r'rayleigh or modal, got ratio, coefficient')
+                        r'^case\.yaml: structure\.damping: give exactly one of ratio, '
+                        r'coefficient, rayleigh or modal, got ratio, coefficient')
 
 
 @pytest.mark.parametrize('test_id', ['has space', 'a:probe', '', 'x' * 65, 'ünï'])

@@ -530,7 +530,7 @@ def test_effective_mass_ratios_sum_to_one_per_component() -> None:
     beam = beam_column_2d_stiffness((0.0, h), (span, h), E, A, 2 * I)
     fixed = [None, None, None]
     k = assemble(
-        6, [(fixed + [0, 1, 2], col_l), (fixed + [3, 4, 5], col_r), ([0, 1, 2, 3, 4, 5], beam)]
+        6, [([*fixed, 0, 1, 2], col_l), ([*fixed, 3, 4, 5], col_r), ([0, 1, 2, 3, 4, 5], beam)]
     )
     k_red = static_condensation(k, [2, 5]).stiffness
     masses = np.array([4.0e3, 4.0e3, 6.0e3, 6.0e3])

@@ -24,8 +24,16 @@ import yaml
 from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel
 from pd_actuator_bridge.core.errors import BridgeConfigError
 from pd_common.experimental import ErrorModel as SimulatedErrors
+from pd_common.experimental import error_model as errors_model
 from pd_common.experimental import tracking_error, tracking_indicator
-from pd_common.specimen import Elastic, Specimen, SpecimenConfigError, specimen_from_config
+from pd_common.specimen import (
+    Elastic,
+    PushoverHysteresis,
+    Specimen,
+    SpecimenConfigError,
+    bilinear_backbone,
+    specimen_from_config,
+)
 from pd_common.specimen.server import SpecimenServer, server_from_config
 from pd_integrator import study_errors
 from pd_integrator.core.run.outputs import read_response_csv
@@ -133,8 +141,6 @@ def test_error_free_run_is_unchanged_bit_for_bit(tmp_path: Path) -> None:
 
 def test_simulator_and_bridge_share_one_error_model() -> None:
     """The bridge's ErrorModel/ErrorInjector are the simulator's, with the bridge's checks."""
-    from pd_common.experimental import error_model as errors_model  # noqa: PLC0415
-
     assert issubclass(ErrorModel, errors_model.ErrorModel)
     assert issubclass(ErrorInjector, errors_model.ErrorInjector)
     assert fields(ErrorModel) == fields(SimulatedErrors)
@@ -194,8 +200,6 @@ def test_bad_errors_section_is_refused_before_anything_is_written(tmp_path: Path
 
 
 def test_a_fault_does_not_advance_the_delay_line() -> None:
-    from pd_common.specimen import PushoverHysteresis, bilinear_backbone  # noqa: PLC0415
-
     backbone = bilinear_backbone(1000.0, 10.0, 0.01, max_displacement=0.1)
     element = PushoverHysteresis(backbone, beyond='error')
     server = SpecimenServer(Specimen([element], dof_names=['u']),

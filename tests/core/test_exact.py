@@ -163,7 +163,7 @@ def test_step_load_matches_the_damped_step_response(zeta: float) -> None:
     # Chopra §4.3, step force applied at t = 0 (a constant, hence piecewise-linear, input).
     omega, big_f, dt = 9.0, 1.7, 0.005
     t = np.arange(3000) * dt
-    x, v, a = nigam_jennings(omega, zeta, dt, np.full(t.size, big_f))
+    x, _v, a = nigam_jennings(omega, zeta, dt, np.full(t.size, big_f))
     wd = omega * math.sqrt(1 - zeta**2)
     x_ref = big_f / omega**2 * (
         1
@@ -283,7 +283,8 @@ def direct_integration(
     for i in range(p.shape[0] - 1):
         p0, slope = p[i], (p[i + 1] - p[i]) / dt
 
-        def rhs(s: float, state: np.ndarray) -> np.ndarray:
+        def rhs(s: float, state: np.ndarray, p0: np.ndarray = p0,
+                slope: np.ndarray = slope) -> np.ndarray:
             load = p0 + slope * s
             return np.concatenate(
                 [state[n:], m_inv @ (load - c @ state[n:] - k @ state[:n])]
@@ -335,7 +336,7 @@ def test_free_vibration_in_one_mode_stays_in_that_mode() -> None:
     dt = 0.01
     mode = 1
     x0 = 0.02 * phi[:, mode]
-    x, v, _ = modal_superposition(m, k, zetas, dt, np.zeros((2000, 3)), x0, np.zeros(3))
+    x, _v, _ = modal_superposition(m, k, zetas, dt, np.zeros((2000, 3)), x0, np.zeros(3))
     q = x @ m @ phi  # modal coordinates Φᵀ M x
     others = [j for j in range(3) if j != mode]
     assert np.max(np.abs(q[:, others])) < 1e-14 * 0.02
@@ -350,8 +351,8 @@ def test_sdof_modal_superposition_equals_nigam_jennings() -> None:
     rng = np.random.default_rng(3)
     p = rng.standard_normal(500) * 1000.0
     mass, k, zeta = 2543.4, 312559.0, 0.05
-    x, v, a = modal_superposition(mass, k, zeta, 0.01, p, [0.003], [0.0])
-    xn, vn, an = nigam_jennings(math.sqrt(k / mass), zeta, 0.01, p / mass, 0.003)
+    x, _v, a = modal_superposition(mass, k, zeta, 0.01, p, [0.003], [0.0])
+    xn, _vn, an = nigam_jennings(math.sqrt(k / mass), zeta, 0.01, p / mass, 0.003)
     assert x.shape == (500, 1)
     assert relative_error(x[:, 0], xn) < 1e-13
     assert relative_error(a[:, 0], an) < 1e-13
@@ -570,7 +571,7 @@ def test_brief_yield_between_samples_matches_the_analytic_solution(dt: float) ->
     uy = 0.01
     fy = k * uy
     amplitude = 1.001 * uy
-    n = int(round(3.0 / dt)) + 1
+    n = round(3.0 / dt) + 1
     res = epp_exact(m, k, fy, 0.0, dt, np.zeros(n), 0.0, amplitude * omega)
     t1 = math.asin(uy / amplitude) / omega
     v1 = amplitude * omega * math.cos(omega * t1)
@@ -605,11 +606,11 @@ def test_epp_with_long_load_segments(dt: float) -> None:
     # segment). The Newmark reference and the same load sampled 20x finer must agree.
     m, k, c = 1.0, (2 * math.pi) ** 2, 0.3
     fy = 0.05 * k
-    n = int(round(12.0 / dt)) + 1
+    n = round(12.0 / dt) + 1
     load = 0.15 * k * np.random.default_rng(int(dt * 100)).standard_normal(n)
     res = epp_exact(m, k, fy, c, dt, load)
     assert len(res.events) >= 4
-    x_ref, r_ref = newmark_epp_reference(m, k, fy, c, dt, load, int(round(dt / 1e-4)))
+    x_ref, r_ref = newmark_epp_reference(m, k, fy, c, dt, load, round(dt / 1e-4))
     assert relative_error(res.x, x_ref) < 1e-6
     assert np.max(np.abs(res.r - r_ref)) < 1e-5 * fy
     refine = 20

@@ -1,4 +1,4 @@
-"""Tests of pd_integrator.core.dynamics.ground_motion: the record, its transforms and the file readers."""
+"""Tests of pd_integrator.core.dynamics.ground_motion: the record, its transforms, the readers."""
 
 from __future__ import annotations
 

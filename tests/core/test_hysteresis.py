@@ -361,7 +361,7 @@ def compare_with_matlab(x: np.ndarray, v: np.ndarray) -> set[int]:
     assert_signs_agree(x, v)
     expected, visited = matlab_states(PUSH_D, PUSH_R, x, v)
     model = PushoverHysteresis(Backbone(PUSH_D, PUSH_R))
-    got = [0.0] + drive(model, x[1:])
+    got = [0.0, *drive(model, x[1:])]
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-8)
     return visited
 

@@ -28,7 +28,13 @@ import pytest
 import scipy.linalg
 
 from pd_integrator.core.errors import ConfigError, IntegratorError
-from pd_integrator.core.schemes import SCHEMES, Integrator, NewmarkExplicit, make_integrator
+from pd_integrator.core.schemes import (
+    SCHEMES,
+    Integrator,
+    NewmarkExplicit,
+    amplification_matrix_newmark_explicit,
+    make_integrator,
+)
 from support.spectra import assert_same_spectrum
 
 # Thesis SDOF (Appendix A): m = 2543.4 kg, k_ini = 312559 N/m.
@@ -411,8 +417,6 @@ def test_spectral_radius_below_and_above_the_stability_limit(case: tuple) -> Non
 
 
 def test_newmark_explicit_amplification_is_the_thesis_matrix() -> None:
-    from pd_integrator.core.schemes import amplification_matrix_newmark_explicit
-
     for omega_dt in (0.1, 1.0, 1.9):
         np.testing.assert_array_equal(
             NewmarkExplicit.amplification_matrix(omega_dt),
@@ -697,7 +701,7 @@ def test_committed_restoring_force_is_the_measured_one(name: str) -> None:
     integrator = make_integrator(name, mass=2.0, damping=0.0, dt=0.01, initial_stiffness=80.0)
     integrator.initialize(0.01, 0.0, 0.0, 0.8)
     for i in range(4):
-        targets = step(integrator, lambda target: 60.0 * float(target[0]) + i, 0.0)
+        targets = step(integrator, lambda target, i=i: 60.0 * float(target[0]) + i, 0.0)
         assert float(integrator.x[0]) == float(targets[-1][0])
         assert float(integrator.r[0]) == 60.0 * float(targets[-1][0]) + i
 
@@ -816,10 +820,11 @@ def plain_modified_newton_paths(
         x_pred = x + dt * v + (0.5 - beta) * dt * dt * a
         v_pred = v + (1.0 - gamma) * dt * a
 
-        def increment(trial: float, r: float, p: float) -> float:
-            offset = trial - x_pred  # noqa: B023 - used within the step only
+        def increment(trial: float, r: float, p: float, x_pred: float = x_pred,
+                      v_pred: float = v_pred) -> float:
+            offset = trial - x_pred
             return (p - m * offset / (beta * dt * dt)
-                    - c * (v_pred + gamma * offset / (beta * dt)) - r) / k_hat  # noqa: B023
+                    - c * (v_pred + gamma * offset / (beta * dt)) - r) / k_hat
 
         path = [position]
         target = position + reduction * increment(position, force, p_guess)

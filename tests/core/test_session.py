@@ -415,7 +415,7 @@ def test_sdof_probe_measures_k_then_runs_the_test() -> None:
     assert session.omega_dt == pytest.approx(math.sqrt(K / M) * DT, rel=1e-9)
     # The test proper: test id '<id>', step 0 at rest, and the linear response.
     ag = [float(value) for value in session.definition.ground_acceleration]
-    x, v, a = newmark_explicit_reference(M, c, K, DT, ag)
+    x, v, _a = newmark_explicit_reference(M, c, K, DT, ag)
     first = session.next_command()
     assert first is not None
     assert first.test_id == 'sess'
@@ -512,9 +512,6 @@ def test_stable_limit_dt_is_accepted() -> None:
 
 
 def test_protocol_orders_feedback_by_step_and_iteration() -> None:
-    from pd_common.protocol import Command, Feedback
-    from pd_integrator.core.run.protocol import StepProtocol, Verdict
-
     protocol = StepProtocol(max_retries=1)
     command = Command(test_id='t', step=5, test_time=0.05, dof_names=('u',),
                       target_displacement=(0.1,), iteration=2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,8 @@ from pd_common.specimen import (
     Specimen,
     SpecimenConfigError,
     SpecimenError,
+    SpecimenServer,
+    bilinear_backbone,
     specimen_from_config,
 )
 
@@ -81,7 +84,6 @@ def test_restoring_force_validation(x: Any) -> None:
 
 
 def test_element_errors_propagate_as_specimen_errors() -> None:
-    from pd_common.specimen import bilinear_backbone
     spec = Specimen([PushoverHysteresis(bilinear_backbone(1.0, 1.0, 0.0, 2.0), beyond='error')])
     with pytest.raises(HysteresisError):
         spec.restoring_force([3.0])
@@ -184,8 +186,8 @@ def _mutate(path: str, value: Any) -> dict[str, Any]:
 
 @pytest.mark.parametrize(('path', 'value', 'message'), [
     ('elements.2.yield_force', -3,
-     r'^test\.yaml: specimen\.elements\[2\]\.yield_force: must be a positive finite number, '
-     r'got -3$'),
+     (r'^test\.yaml: specimen\.elements\[2\]\.yield_force: must be a positive finite number, '
+      r'got -3$')),
     ('elements.1.stiffness', float('nan'), r'elements\[1\].stiffness: must be a positive'),
     ('elements.1.stiffness', '1e5', r"stiffness: must be .*got '1e5' \(a string"),
     ('elements.1.stiffness', True, r'elements\[1\].stiffness: must be a positive'),
@@ -232,13 +234,12 @@ def test_config_backbone_file_errors(tmp_path: Path) -> None:
 
 
 def test_config_section_must_be_mapping(tmp_path: Path) -> None:
-    with pytest.raises(SpecimenConfigError, match='test.yaml: specimen: must be a mapping'):
+    with pytest.raises(SpecimenConfigError,
+                       match=re.escape('test.yaml: specimen: must be a mapping')):
         build(None, tmp_path)
 
 
 def test_server_keys_commands_by_step_and_iteration() -> None:
-    from pd_common.specimen import Elastic, Specimen, SpecimenServer
-
     server = SpecimenServer(Specimen([Elastic(1000.0)], dof_names=['u']))
     first = server.handle('t', 3, (0.01,), iteration=0)
     second = server.handle('t', 3, (0.02,), iteration=1)

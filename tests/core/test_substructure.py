@@ -20,9 +20,12 @@ from pd_common.protocol import TestState as State
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.model.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
 from pd_integrator.core.run.coordinator import SiteCoordinator
+from pd_integrator.core.run.dispatch import StepDispatcher
 from pd_integrator.core.run.protocol import Verdict
 from pd_integrator.core.run.runner import replay_bag, run_offline
-from pd_integrator.core.run.test_file import from_dict
+from pd_integrator.core.run.session import TestSession as Session  # not a test class
+from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
+from pd_integrator.core.schemes import linalg as scheme_linalg
 from pd_integrator.core.verification import modal_superposition
 
 MASSES = [2.0e4, 2.0e4, 1.5e4]
@@ -365,8 +368,6 @@ def test_coordinator_passes_a_site_limit_on_and_resends_to_that_site_only() -> N
 
 
 def test_shipped_two_site_example_runs_and_yields(tmp_path: Path) -> None:
-    from pd_integrator.core.run.test_file import load_test_file  # noqa: PLC0415
-
     example = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
                / 'three_story_two_sites.yaml')
     definition = load_test_file(example, {'duration': 3.0})
@@ -431,19 +432,14 @@ def test_two_horizontal_at2_components_load_with_their_influence(tmp_path: Path)
     report = definition.modal_report()
     assert 'H1' in report and 'H2' in report
     # Resolved (bag) form reads back to the same loads.
-    from pd_integrator.core.run.test_file import from_json  # noqa: PLC0415
-
     again = from_json(definition.to_json())
     np.testing.assert_array_equal(again.loads(), loads)
 
 
 def two_site_dispatcher(tmp_path: Path) -> tuple[Any, Any, list[tuple[str, Command]]]:
     """A started session of the two-site building, its dispatcher and the commands it sent."""
-    from pd_integrator.core.run.dispatch import StepDispatcher  # noqa: PLC0415
-    from pd_integrator.core.run.session import TestSession  # noqa: PLC0415
-
     definition = from_dict(building(experimental=(0, 2)), source='b.yaml', base_dir=tmp_path)
-    session = TestSession(definition)
+    session = Session(definition)
     sent: list[tuple[str, Command]] = []
     dispatcher = StepDispatcher(session, lambda site, command: sent.append((site, command)))
     dispatcher.start()
@@ -496,8 +492,6 @@ def test_a_site_limit_holds_and_resume_resends_to_the_sites_still_owing(
 def test_sparse_path_of_a_large_model_equals_the_dense_path(tmp_path: Path, monkeypatch,
                                                             scheme: str) -> None:
     """An 80-story building (sparse matrices) gives the dense computation's response."""
-    import pd_integrator.core.schemes.linalg as schemes  # noqa: PLC0415
-
     n = 80
     names = [f'u{i + 1}' for i in range(n)]
     elements = [{'type': 'experimental', 'site': 'lab', 'dofs': ['u1'],
@@ -511,9 +505,9 @@ def test_sparse_path_of_a_large_model_equals_the_dense_path(tmp_path: Path, monk
            'sites': {'lab': {'specimen': {'elements': [
                {'model': 'bilinear', 'stiffness': 2.0e8, 'yield_force': 2.0e4,
                 'hardening_ratio': 0.05}]}}}}
-    assert n >= schemes.SPARSE_MIN_DOF
+    assert n >= scheme_linalg.SPARSE_MIN_DOF
     sparse = run(raw, tmp_path, 'sparse').session.history.displacement
-    monkeypatch.setattr(schemes, 'SPARSE_MIN_DOF', 10**6)
+    monkeypatch.setattr(scheme_linalg, 'SPARSE_MIN_DOF', 10**6)
     dense = run(raw, tmp_path, 'dense').session.history.displacement
     scale = float(np.max(np.abs(dense)))
     assert scale > 1e-4

@@ -79,7 +79,7 @@ def elcentro() -> GroundMotion:
 def ground_motion_at(elcentro: GroundMotion, dt: float) -> np.ndarray:
     """The first DURATION s of El Centro at ``dt`` (m/s², linear interpolation)."""
     motion = elcentro.resampled(dt)
-    n = int(round(DURATION / dt)) + 1
+    n = round(DURATION / dt) + 1
     return motion.acceleration[:n]
 
 
@@ -278,7 +278,7 @@ def test_epp_sdof_converges_to_the_event_driven_solution(
         x = run(
             integrator,
             load[:, None],
-            lambda d: spring.set_trial_displacement(float(d[0])),
+            lambda d, spring=spring: spring.set_trial_displacement(float(d[0])),
             spring.commit,
         )[:, 0]
         x_exact = epp_references[fy, dt]

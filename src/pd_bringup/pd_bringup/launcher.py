@@ -88,6 +88,8 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
     if mode == 'none':
         return []
     params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+    # Per site: name, namespace, actuator (DOF) names and extra bridge parameters.
+    sites: list[tuple[str, str, list[str], dict[str, Any]]]
     if definition.model is None:
         sites = [('', '/pd', list(definition.dof_names), {})]
     else:
@@ -216,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f'run_test: {definition.test_id} ({definition.n_steps} steps), site: {args.site}, '
           f'run folder: {out}', flush=True)
     processes: list[tuple[str, subprocess.Popen[bytes]]] = []
-    code = 1
+    code: int | None = 1
     try:
         for name, command in commands:
             processes.append((name, subprocess.Popen(command, start_new_session=True)))

@@ -33,10 +33,12 @@ from typing import Any
 import numpy as np
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 from std_msgs.msg import String
 
 from pd_common.protocol import (
@@ -142,8 +144,9 @@ class IntegratorNode(Node):
 
         self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
         self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
-        self._command_pubs: dict[str, Any] = {}
-        self._feedback_subs: dict[str, Any] = {}
+        # pd_msgs has no type information: the message type parameter is Any.
+        self._command_pubs: dict[str, Publisher[Any]] = {}
+        self._feedback_subs: dict[str, Subscription[Any]] = {}
         for site in self.dispatcher.sites:
             self._command_pubs[site] = self.create_publisher(
                 StepCommand, site_topic(site, 'step_command'), STEP_QOS)
@@ -308,7 +311,7 @@ def _describe(node: IntegratorNode) -> None:
         logger.info('initial stiffness: measured by a probe before the test')
 
 
-def run(node: IntegratorNode, executor: EventsExecutor, stop: threading.Event) -> int:
+def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
     """Wait for the specimen side, run the test, write the outputs; returns the exit code.
 
     ``stop`` (set by SIGINT/SIGTERM) aborts the test cleanly: the final status is published
@@ -353,7 +356,7 @@ def main(args: list[str] | None = None) -> int:
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, lambda *_: stop.set())
     node: IntegratorNode | None = None
-    executor: EventsExecutor | None = None
+    executor: Executor | None = None  # an EventsExecutor (rclpy types it as an Executor)
     code = 1
     try:
         try:

@@ -120,8 +120,8 @@ def markdown_table(results: list[RecordResult], rows: list[dict[str, Any]]) -> s
     """The records (ω·Δt, PGA, dt) and the peak differences as Markdown."""
     lines = ['# Thesis chapter 5: comparison of the schemes', '',
              '## Records', '',
-             '| record | file | record dt [s] | PGA [g] | thesis PGA [g] | test dt [s] | steps '
-             '| ω·Δt | stability limits |',
+             ('| record | file | record dt [s] | PGA [g] | thesis PGA [g] | test dt [s] | steps '
+              '| ω·Δt | stability limits |'),
              '|---|---|---|---|---|---|---|---|---|']
     for result in results:
         record = result.record
@@ -139,16 +139,17 @@ def markdown_table(results: list[RecordResult], rows: list[dict[str, Any]]) -> s
             f'| {result.omega_dt:.4f} | {limits} |')
     omegas = sorted({_number(float(summary.get('omega_max') or math.nan), 6)
                      for result in results for summary in result.summaries.values()})
-    lines += ['', f'ω·Δt with ω = {", ".join(omegas)} rad/s (initial stiffness). The thesis '
-              'quotes 0.2217 for El Centro at its record step (0.02 s) and 0.111 for Northridge '
-              'and Kobe (0.01 s); this study integrates every record at the test files\' dt '
-              '(0.01 s: El Centro linearly resampled, as the thesis\'s MATLAB does).',
+    lines += ['', (f'ω·Δt with ω = {", ".join(omegas)} rad/s (initial stiffness). The thesis '
+                   'quotes 0.2217 for El Centro at its record step (0.02 s) and 0.111 for '
+                   'Northridge and Kobe (0.01 s); this study integrates every record at the test '
+                   'files\' dt (0.01 s: El Centro linearly resampled, as the thesis\'s MATLAB '
+                   'does).'),
               '', '## Peak differences', '',
-              'Peaks are absolute values (`summary.json` of each run); difference = scheme − '
-              'reference; relative = difference / reference peak; max |Δ(t)| = largest '
-              'difference of the two histories.', '',
-              '| record | quantity | reference | ref. peak | scheme | peak | difference '
-              '| relative | max \\|Δ(t)\\| | unit |',
+              ('Peaks are absolute values (`summary.json` of each run); difference = scheme − '
+               'reference; relative = difference / reference peak; max |Δ(t)| = largest '
+               'difference of the two histories.'), '',
+              ('| record | quantity | reference | ref. peak | scheme | peak | difference '
+               '| relative | max \\|Δ(t)\\| | unit |'),
               '|---|---|---|---|---|---|---|---|---|---|']
     for row in rows:
         relative = row['relative_difference']
@@ -181,8 +182,10 @@ def comparison_figures(result: RecordResult, directory: Path) -> list[Path]:
     schemes = list(result.histories)
     reference = schemes[0]
     numbers = record.figures
-    styles = [{'linewidth': 1.1}, {'linewidth': 0.9, 'linestyle': '--'},
-              {'linewidth': 0.8, 'linestyle': ':'}, {'linewidth': 0.8, 'linestyle': '-.'}]
+    # Keyword arguments of ``Axes.plot`` (matplotlib types each keyword differently).
+    styles: list[dict[str, Any]] = [
+        {'linewidth': 1.1}, {'linewidth': 0.9, 'linestyle': '--'},
+        {'linewidth': 0.8, 'linestyle': ':'}, {'linewidth': 0.8, 'linestyle': '-.'}]
     dt = next(iter(record.definitions.values())).dt
     subtitle = f'ω·Δt = {result.omega_dt:.4f}, dt = {dt:g} s'
     series = (('displacement.png', 'displacement', 'Displacement [m]', 'Displacement response',

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from pd_common.resources import ResourceError, share_file
+from pd_common.specimen import specimen_from_config
 
 from .core.errors import ConfigError, PdIntegratorError
 from .core.run.definition import TestDefinition
@@ -238,7 +239,7 @@ def resolve_records(study: Study, items: list[str] | None) -> list[tuple[str, Re
     Raises:
         StudyError: an unknown record name, or a record file that does not exist.
     """
-    items = list(study.default_records) if not items else items
+    items = items if items else list(study.default_records)
     resolved: list[tuple[str, RecordSpec, Path]] = []
     for item in items:
         name, equals, path_text = item.partition('=')
@@ -264,13 +265,13 @@ def resolve_records(study: Study, items: list[str] | None) -> list[tuple[str, Re
                 raise StudyError(msg)
             _check_record_file(path, item)
             lowered = path.name.lower()
-            spec = next((spec for spec in study.records.values()
-                         if any(word in lowered for word in spec.match)), None)
-            if spec is None:
+            matched = next((spec for spec in study.records.values()
+                            if any(word in lowered for word in spec.match)), None)
+            if matched is None:
                 resolved.append((_label(path.stem), study.records[study.generic_record],
                                  path.resolve()))
             else:
-                resolved.append((spec.name, spec, path.resolve()))
+                resolved.append((matched.name, matched, path.resolve()))
     labels: dict[str, int] = {}
     unique: list[tuple[str, RecordSpec, Path]] = []
     for label, spec, path in resolved:
@@ -308,8 +309,6 @@ def _placeholder_file(spec: RecordSpec) -> Path:
 
 def _check_runnable(definition: TestDefinition) -> None:
     """Build the specimen and the session once: stability and specimen errors surface here."""
-    from pd_common.specimen import specimen_from_config  # noqa: PLC0415
-
     if definition.specimen is None:
         msg = f'{definition.source}: specimen: section is required for a simulated run'
         raise ConfigError(msg)

@@ -20,10 +20,10 @@ specimen as the node graph) with errors injected by the simulated specimen
   the force noise that a random actuator error of that size produces on the initial stiffness
   (``force_noise = k_ini f δ``); one run per seed (``--seeds``, default 3).
 
-Measures per run (of the first DOF): the peak displacement and its relative error to the clean run, the RMS of the
-displacement history's difference to the clean run (relative to the clean RMS), the energy
-error (largest and final ``|E_input - E_kinetic - E_viscous - E_strain|`` over the largest
-energy term, from ``summary.json``) and the final tracking indicator.
+Measures per run (of the first DOF): the peak displacement and its relative error to the clean
+run, the RMS of the displacement history's difference to the clean run (relative to the clean
+RMS), the energy error (largest and final ``|E_input - E_kinetic - E_viscous - E_strain|`` over
+the largest energy term, from ``summary.json``) and the final tracking indicator.
 
 Output folder (``--out``, default ``runs/study_errors-<UTC time>``)::
 
@@ -70,6 +70,7 @@ import numpy as np
 from .core.errors import ConfigError, PdIntegratorError
 from .core.run.runner import default_run_directory, run_offline
 from .core.run.test_file import load_test_file
+from .offline import default_test_file
 
 if TYPE_CHECKING:
     from .core.run.definition import TestDefinition
@@ -413,8 +414,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error('--seeds must be at least 1')
-    from .offline import default_test_file  # noqa: PLC0415
-
     try:
         test_file = Path(args.test_file) if args.test_file else default_test_file()
         overrides = {'duration': args.duration} if args.duration is not None else None

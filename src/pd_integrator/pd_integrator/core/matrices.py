@@ -10,10 +10,18 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .errors import ConfigError
 
-__all__ = ['as_float_array', 'as_matrix', 'as_vector', 'readonly', 'readonly_copy', 'square_matrix']
+__all__ = [
+    'as_float_array',
+    'as_matrix',
+    'as_vector',
+    'readonly',
+    'readonly_copy',
+    'square_matrix',
+]
 
 
 def readonly(array: np.ndarray) -> np.ndarray:
@@ -22,12 +30,12 @@ def readonly(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def readonly_copy(array: Any) -> np.ndarray:
+def readonly_copy(array: Any) -> NDArray[np.float64]:
     """A read-only float copy of ``array``."""
     return readonly(np.array(array, dtype=float))
 
 
-def as_float_array(value: Any, name: str) -> np.ndarray:
+def as_float_array(value: Any, name: str) -> NDArray[np.float64]:
     """``value`` as a finite float array; a ConfigError naming ``name`` otherwise."""
     if value is None:
         msg = f'{name}: a value is required'
@@ -52,7 +60,7 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
     return array
 
 
-def as_matrix(value: Any, n: int, name: str) -> np.ndarray:
+def as_matrix(value: Any, n: int, name: str) -> NDArray[np.float64]:
     """Build an ``n``×``n`` matrix from a scalar, a diagonal or a full matrix.
 
     Args:
@@ -81,7 +89,7 @@ def as_matrix(value: Any, n: int, name: str) -> np.ndarray:
     raise ConfigError(msg)
 
 
-def as_vector(value: Any, n: int, name: str) -> np.ndarray:
+def as_vector(value: Any, n: int, name: str) -> NDArray[np.float64]:
     """Build a length-``n`` vector from a scalar (broadcast) or a sequence of length ``n``.
 
     Args:
@@ -104,7 +112,7 @@ def as_vector(value: Any, n: int, name: str) -> np.ndarray:
     raise ConfigError(msg)
 
 
-def square_matrix(value: Any, name: str) -> np.ndarray:
+def square_matrix(value: Any, name: str) -> NDArray[np.float64]:
     """A scalar or a square matrix as a finite 2-D float array (ConfigError otherwise)."""
     array = as_float_array(value, name)
     if array.ndim == 0:

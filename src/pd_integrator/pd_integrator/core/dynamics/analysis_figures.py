@@ -12,12 +12,15 @@ import csv
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..schemes import newmark_explicit_numerical_frequency, scheme_class
 from .analysis import SWEEP_COLUMNS, sweep
+
+if TYPE_CHECKING:
+    from matplotlib.typing import LineStyleType
 
 __all__ = [
     'plot_figure_3_2',
@@ -91,7 +94,7 @@ def _add_dt_over_t_axis(axes: Any) -> None:
     top.set_xlabel('Δt/T')
 
 
-_LINESTYLES = ('-', '--', ':', '-.')
+_LINESTYLES: tuple[LineStyleType, ...] = ('-', '--', ':', '-.')
 
 
 def plot_sweeps(

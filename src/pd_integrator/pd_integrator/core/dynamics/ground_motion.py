@@ -130,6 +130,8 @@ class GroundMotion:
             and np.array_equal(self.acceleration, other.acceleration)
         )
 
+    # Unhashable (equality compares the samples). typeshed declares object.__hash__ as a method
+    # only, though the data model allows None: hence the ignore.
     __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:

@@ -164,7 +164,7 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
     """
     scale = _unit_scale(path, 'g', g)
     label, lines = _load_lines(path)
-    npts, dt, values = _parse_at2(label, lines)
+    _npts, dt, values = _parse_at2(label, lines)
     return _make(path, dt, values * scale)
 
 
@@ -276,7 +276,7 @@ def _normalise_units(units: object) -> str | None:
     return None
 
 
-def _unit_scale(path: PathLike, units: object, g: object) -> float:
+def _unit_scale(path: PathLike, units: object, g: float) -> float:
     """Factor converting the file's units to m/s²."""
     label = _label(path)
     unit = _normalise_units(units)
@@ -284,7 +284,7 @@ def _unit_scale(path: PathLike, units: object, g: object) -> float:
         msg = f"ground motion {label}: unknown units {units!r} (expected 'g' or 'm/s2')"
         raise GroundMotionError(msg)
     try:
-        g_value = float(g)  # type: ignore[arg-type]
+        g_value = float(g)
     except (TypeError, ValueError):
         g_value = math.nan
     if not (math.isfinite(g_value) and g_value > 0.0):
@@ -293,10 +293,10 @@ def _unit_scale(path: PathLike, units: object, g: object) -> float:
     return g_value if unit == 'g' else 1.0
 
 
-def _check_dt(path: PathLike, dt: object) -> float:
+def _check_dt(path: PathLike, dt: float) -> float:
     """Validate a user-given time step."""
     try:
-        value = float(dt)  # type: ignore[arg-type]
+        value = float(dt)
     except (TypeError, ValueError):
         value = math.nan
     if not (math.isfinite(value) and value > 0.0):

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..matrices import as_float_array, as_vector, readonly_copy, square_matrix
@@ -48,7 +49,9 @@ def _check_positive_definite(matrix: np.ndarray, name: str) -> None:
         raise ConfigError(msg) from None
 
 
-def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
+def modal_analysis(
+    mass: Any, stiffness: Any
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Undamped modes of ``K φ = ω² M φ``.
 
     Args:
@@ -70,6 +73,9 @@ def modal_analysis(mass: Any, stiffness: Any) -> tuple[np.ndarray, np.ndarray]:
         msg = f'stiffness: shape {k.shape} does not match mass shape {m.shape}'
         raise ConfigError(msg)
     _check_positive_definite(m, 'mass')
+    # scipy has no type information: eigh of two real matrices gives real float arrays.
+    eigenvalues: NDArray[np.float64]
+    shapes: NDArray[np.float64]
     eigenvalues, shapes = scipy.linalg.eigh(k, m)
     scale = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 0.0
     if eigenvalues[0] < -1e-10 * scale:
@@ -176,7 +182,8 @@ def damping_from_ratio(
         raise ConfigError(msg)
     # ζ = a0/(2ω) + a1 ω/2 at both modes.
     system = np.array([[1.0 / (2.0 * w_i), w_i / 2.0], [1.0 / (2.0 * w_j), w_j / 2.0]])
-    a0, a1 = np.linalg.solve(system, np.array([zeta_i, zeta_j]))
+    coefficients = np.linalg.solve(system, np.array([zeta_i, zeta_j]))
+    a0, a1 = float(coefficients[0]), float(coefficients[1])
     return a0 * m + a1 * k
 
 
@@ -277,10 +284,5 @@ class Structure:
         )
 
     def __hash__(self) -> int:
-        return hash(
-            (self.dof_names,)
-            + tuple(
-                getattr(self, f).tobytes()
-                for f in ('mass', 'damping', 'initial_stiffness', 'influence')
-            )
-        )
+        fields = ('mass', 'damping', 'initial_stiffness', 'influence')
+        return hash((self.dof_names, *(getattr(self, f).tobytes() for f in fields)))

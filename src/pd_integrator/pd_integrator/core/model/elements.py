@@ -129,7 +129,8 @@ def beam_column_2d_stiffness(
             [-ea, 0.0, 0.0, ea, 0.0, 0.0],
             [0.0, -k1, -k2, 0.0, k1, -k2],
             [0.0, k2, k4, 0.0, -k2, k3],
-        ]
+        ],
+        dtype=np.float64,
     )
     # Local (axial, transverse, rotation) = R · global (ux, uy, rz) at each node.
     rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -218,7 +218,7 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
     if massless:
         try:
             condensation = static_condensation(
-                linear_full.toarray() if hasattr(linear_full, 'toarray') else linear_full,
+                linear_full if isinstance(linear_full, np.ndarray) else linear_full.toarray(),
                 massless)
         except ConfigError as err:
             msg = f'{source}: structure.elements: {err}'
@@ -240,13 +240,14 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
             msg = f'{path.removesuffix(".model")}.dofs: the second DOF must not be null'
             raise ConfigError(msg)
         try:
-            model = hysteresis_from_config(model_raw, path=path.split(': ', 1)[-1],
-                                           base_dir=base_dir, source=source)
+            hysteresis = hysteresis_from_config(model_raw, path=path.split(': ', 1)[-1],
+                                                base_dir=base_dir, source=source)
         except SpecimenError as err:
             raise ConfigError(str(err)) from None
         spring_objects.append(NonlinearSpring(
             dofs=np.array([position[j]]),
-            relative=np.array([-1 if i is None else position[i]]), name=name, model=model))
+            relative=np.array([-1 if i is None else position[i]]), name=name,
+            model=hysteresis))
 
     experimental_objects = []
     actuator_names_seen: dict[str, set[str]] = {}

@@ -34,6 +34,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import ConfigError
 
@@ -59,14 +60,16 @@ class ExperimentalSetup(abc.ABC):
         """Actuator strokes [m] that impose the basic displacement ``basic``."""
 
     @abc.abstractmethod
-    def jacobian(self, basic: np.ndarray) -> np.ndarray:
+    def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
         """``∂ d_actuator / ∂ d_basic`` at ``basic`` (``n_actuators × n_basic``)."""
 
     def basic_displacement(self, actuator: np.ndarray) -> np.ndarray:
         """The basic displacement that produced the measured actuator strokes."""
         return np.linalg.solve(self.jacobian(np.zeros(self.n_basic)), actuator)
 
-    def basic_force(self, actuator_force: np.ndarray, basic: np.ndarray) -> np.ndarray:
+    def basic_force(
+        self, actuator_force: NDArray[np.float64], basic: np.ndarray
+    ) -> NDArray[np.float64]:
         """Basic forces equivalent to the actuator forces at ``basic`` (``Jᵀ f``)."""
         return self.jacobian(basic).T @ actuator_force
 
@@ -85,13 +88,15 @@ class OneToOneSetup(ExperimentalSetup):
     def actuator_targets(self, basic: np.ndarray) -> np.ndarray:
         return np.array(basic, dtype=float)
 
-    def jacobian(self, basic: np.ndarray) -> np.ndarray:
+    def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
         return self._identity
 
     def basic_displacement(self, actuator: np.ndarray) -> np.ndarray:
         return np.array(actuator, dtype=float)
 
-    def basic_force(self, actuator_force: np.ndarray, basic: np.ndarray) -> np.ndarray:
+    def basic_force(
+        self, actuator_force: NDArray[np.float64], basic: np.ndarray
+    ) -> NDArray[np.float64]:
         return np.array(actuator_force, dtype=float)
 
 
@@ -111,7 +116,8 @@ class RigidLinkTwoActuators(ExperimentalSetup):
                  actuator_length: float | None = None) -> None:
         a = [float(value) for value in offsets]
         if len(a) != 2 or not all(math.isfinite(value) for value in a) or a[0] == a[1]:
-            msg = f'rigid_link_2 setup: offsets must be two distinct finite numbers, got {offsets!r}'
+            msg = ('rigid_link_2 setup: offsets must be two distinct finite numbers, '
+                   f'got {offsets!r}')
             raise ConfigError(msg)
         if geometry not in ('linear', 'nonlinear'):
             msg = f"rigid_link_2 setup: geometry must be 'linear' or 'nonlinear', got {geometry!r}"
@@ -128,20 +134,27 @@ class RigidLinkTwoActuators(ExperimentalSetup):
         self.actuator_length = actuator_length
         self._linear = np.array([[1.0, a[0]], [1.0, a[1]]])
 
+    def _length(self) -> float:
+        """L [m]: set (and positive) for the nonlinear geometry (checked on construction)."""
+        if self.actuator_length is None:
+            msg = 'rigid_link_2 setup: geometry nonlinear needs a positive actuator_length'
+            raise ConfigError(msg)
+        return float(self.actuator_length)
+
     def actuator_targets(self, basic: np.ndarray) -> np.ndarray:
         u, theta = float(basic[0]), float(basic[1])
         if self.geometry == 'linear':
             return u + self.offsets * theta
-        length = float(self.actuator_length)  # type: ignore[arg-type]
+        length = self._length()
         along = length + u + self.offsets * math.sin(theta)
         across = self.offsets * (1.0 - math.cos(theta))
         return np.hypot(along, across) - length
 
-    def jacobian(self, basic: np.ndarray) -> np.ndarray:
+    def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
         if self.geometry == 'linear':
             return self._linear
         u, theta = float(basic[0]), float(basic[1])
-        length = float(self.actuator_length)  # type: ignore[arg-type]
+        length = self._length()
         a = self.offsets
         along = length + u + a * math.sin(theta)
         across = a * (1.0 - math.cos(theta))

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pd_common.protocol import DEFAULT_SITE
 
@@ -41,10 +42,10 @@ __all__ = [
 class _TwoEnded:
     """Element DOFs ``x[dofs] - x[relative]`` (a relative index of −1 means the ground)."""
 
-    dofs: np.ndarray
-    relative: np.ndarray
+    dofs: NDArray[np.intp]
+    relative: NDArray[np.intp]
 
-    def basic(self, x: np.ndarray) -> np.ndarray:
+    def basic(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Basic displacements of the element."""
         values = x[self.dofs]
         grounded = self.relative >= 0
@@ -184,8 +185,11 @@ class StructuralModel:
     def site_targets(self, site: str, x: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """Actuator targets of ``site`` at ``x``, and each element's basic target."""
         basics = [element.basic(x) for element in self.sites[site]]
-        targets = [element.setup.actuator_targets(basic)  # type: ignore[union-attr]
-                   for element, basic in zip(self.sites[site], basics)]
+        targets = []
+        for element, basic in zip(self.sites[site], basics):
+            setup = element.setup
+            assert setup is not None  # every experimental element of a model has a setup
+            targets.append(setup.actuator_targets(basic))
         return np.concatenate(targets), basics
 
     def add_site_feedback(self, site: str, displacement: np.ndarray, force: np.ndarray,

@@ -32,7 +32,7 @@ import functools
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 from rosbags.highlevel import AnyReader
@@ -77,6 +77,12 @@ _TOPICS = {
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
     TOPIC_TRAJECTORY: MSG_TRAJECTORY,
 }
+
+
+class _StringMessage(Protocol):
+    """A deserialised ``std_msgs/msg/String``."""
+
+    data: str
 
 
 def _message_type(topic: str) -> str | None:
@@ -221,7 +227,8 @@ class BagRecorder:
         """Record a step command."""
         self._write(topic, t_ns, self._store.types[MSG_COMMAND](
             header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
-            iteration=command.iteration, test_time=command.test_time, dof_names=list(command.dof_names),
+            iteration=command.iteration, test_time=command.test_time,
+            dof_names=list(command.dof_names),
             target_displacement=np.array(command.target_displacement, dtype=np.float64)))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK
@@ -229,7 +236,8 @@ class BagRecorder:
         """Record a step feedback."""
         self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
             header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
-            iteration=feedback.iteration, measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
+            iteration=feedback.iteration,
+            measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
             restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
             status=int(feedback.status), message=feedback.message))
 
@@ -294,7 +302,9 @@ def read_bag(path: str | Path) -> RecordedRun:
                 topic = connection.topic
                 msgtype = connection.msgtype
                 if topic == TOPIC_DEFINITION:
-                    definition = definition or message.data
+                    # rosbags types a deserialised message as ``object``; the definition topic
+                    # carries a std_msgs/msg/String (the resolved test as JSON text).
+                    definition = definition or cast('_StringMessage', message).data
                 elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
                     item = (command_from_message(message) if msgtype == MSG_COMMAND
                             else feedback_from_message(message))

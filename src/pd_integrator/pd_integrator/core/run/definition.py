@@ -11,12 +11,14 @@ enough to reproduce and analyse the run.
 
 from __future__ import annotations
 
+import copy
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..dynamics.structure import Structure, damping_from_ratio
 from ..errors import ConfigError
@@ -148,11 +150,12 @@ class TestDefinition:
         """Simulated time of ``step`` [s]."""
         return step * self.dt
 
-    def load(self, step: int) -> np.ndarray:
+    def load(self, step: int) -> NDArray[np.float64]:
         """External load p = −M Σ ι_c a_gc at ``step`` [N]."""
-        return self.loads(step, step + 1)[0]
+        load: NDArray[np.float64] = self.loads(step, step + 1)[0]  # the one row of (1, n)
+        return load
 
-    def loads(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+    def loads(self, start: int = 0, stop: int | None = None) -> NDArray[np.float64]:
         """External loads p_k = −M Σ_c ι_c a_gc(t_k) for steps ``start..stop-1`` [N]."""
         components = self.components or (GroundComponent(
             'ground', self.ground_motion, self.ground_acceleration, self.influence, None, {}),)
@@ -207,7 +210,7 @@ class TestDefinition:
     def to_resolved_dict(self) -> dict[str, Any]:
         """A self-contained plain-data form (exact floats) that :func:`from_dict` reads back."""
         if self.structure_raw is not None:
-            return self._resolved_with_model()
+            return self._resolved_with_model(self.structure_raw)
         structure: dict[str, Any] = {
             'dof_names': list(self.dof_names),
             'mass': self.mass.tolist(),
@@ -257,11 +260,9 @@ class TestDefinition:
                                else component.influence.tolist())}
                 for component in self.components]
 
-    def _resolved_with_model(self) -> dict[str, Any]:
+    def _resolved_with_model(self, structure_raw: dict[str, Any]) -> dict[str, Any]:
         """Resolved form of a test with ``structure.elements`` (the structure as given)."""
-        import copy  # noqa: PLC0415
-
-        structure = copy.deepcopy(self.structure_raw)
+        structure = copy.deepcopy(structure_raw)
         ground = self._resolved_ground_motion()
         if isinstance(ground, dict) and self.components:
             ground_influence = self.components[0].influence_raw

@@ -34,6 +34,10 @@ __all__ = ['SendFunction', 'StepDispatcher']
 SendFunction = Callable[[str, Command], None]
 """``send(site, command)``: deliver a site command (publish it, or call a specimen)."""
 
+#: One item of a batch: a structure command and its site commands, or the feedback of a step
+#: completed at once (a fully numerical model: no site commands).
+_BatchItem = tuple[Command | Feedback, list[tuple[str, Command]]]
+
 
 class StepDispatcher:
     """Drives a :class:`~.session.TestSession` through its sites.
@@ -131,9 +135,9 @@ class StepDispatcher:
             self.coordinator.commit()
         return verdict
 
-    def _next_batch(self) -> list[tuple[Command, list[tuple[str, Command]]]]:
+    def _next_batch(self) -> list[_BatchItem]:
         """The next command(s); steps without any site are completed at once."""
-        batch: list[tuple[Command, list[tuple[str, Command]]]] = []
+        batch: list[_BatchItem] = []
         session = self.session
         while (command := session.next_command()) is not None:
             site_commands = self.coordinator.dispatch(command)
@@ -142,22 +146,22 @@ class StepDispatcher:
                 break
             # A fully numerical model: nothing to wait for.
             feedback = self.coordinator.complete()
-            batch.append((feedback, []))  # type: ignore[arg-type]
+            batch.append((feedback, []))
             self._deliver(feedback)
             if session.state is not TestState.RUNNING:
                 break
         return batch
 
-    def _send_batch(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+    def _send_batch(self, batch: list[_BatchItem]) -> None:
         for _, site_commands in batch:
             for site, site_command in site_commands:
                 self._send(site, site_command)
 
-    def _flush(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+    def _flush(self, batch: list[_BatchItem]) -> None:
         self._send_batch(batch)
         self._record_batch(batch)
 
-    def _record_batch(self, batch: list[tuple[Command, list[tuple[str, Command]]]]) -> None:
+    def _record_batch(self, batch: list[_BatchItem]) -> None:
         if self.bag is None:
             return
         t_ns = self._clock()

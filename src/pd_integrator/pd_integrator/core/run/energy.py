@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from .history import ResponseHistory
@@ -31,13 +32,13 @@ if TYPE_CHECKING:
 class EnergyHistory:
     """Energy terms at each committed step [J] and the normalised error."""
 
-    input: np.ndarray
-    kinetic: np.ndarray
-    viscous: np.ndarray
-    strain: np.ndarray
+    input: NDArray[np.float64]
+    kinetic: NDArray[np.float64]
+    viscous: NDArray[np.float64]
+    strain: NDArray[np.float64]
 
     @property
-    def error(self) -> np.ndarray:
+    def error(self) -> NDArray[np.float64]:
         """``E_input − E_kinetic − E_viscous − E_strain`` [J]."""
         return self.input - self.kinetic - self.viscous - self.strain
 
@@ -50,7 +51,7 @@ class EnergyHistory:
                          np.max(np.abs(self.viscous)), np.max(np.abs(self.strain))))
 
     @property
-    def error_ratio(self) -> np.ndarray:
+    def error_ratio(self) -> NDArray[np.float64]:
         """|error| over the largest energy term of the run (0 if nothing moved)."""
         scale = self.scale
         if scale == 0.0:

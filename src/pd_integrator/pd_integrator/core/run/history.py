@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 
 @dataclass
@@ -25,12 +26,12 @@ class ResponseHistory:
 
     dof_names: tuple[str, ...]
     dt: float
-    displacement: np.ndarray
-    velocity: np.ndarray
-    acceleration: np.ndarray
-    restoring_force: np.ndarray
-    measured_displacement: np.ndarray
-    ground_acceleration: np.ndarray
+    displacement: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    restoring_force: NDArray[np.float64]
+    measured_displacement: NDArray[np.float64]
+    ground_acceleration: NDArray[np.float64]
     n_committed: int = 0
 
     @classmethod

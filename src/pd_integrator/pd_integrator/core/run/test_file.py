@@ -217,15 +217,17 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     test_id = test.string('id', 'pd-test')
     assert test_id is not None
     if not _TEST_ID.match(test_id):
-        raise test.error('id', f'must be 1-64 letters, digits, "_", "-" or ".", got {test_id!r}')
+        error = test.error('id', f'must be 1-64 letters, digits, "_", "-" or ".", got {test_id!r}')
+        raise error
     scheme = test.string('scheme', 'newmark_explicit', choices=tuple(sorted(SCHEMES)))
     assert scheme is not None
     scheme_parameters = test.get('scheme_parameters', {}) or {}
     if not isinstance(scheme_parameters, dict) or not all(
             isinstance(key, str) and isinstance(value, (int, float)) and not isinstance(
                 value, bool) and math.isfinite(value) for key, value in scheme_parameters.items()):
-        raise test.error('scheme_parameters', 'must map parameter names to finite numbers, '
-                         f'got {scheme_parameters!r}')
+        error = test.error('scheme_parameters', 'must map parameter names to finite numbers, '
+                           f'got {scheme_parameters!r}')
+        raise error
     dt = test.number('dt', positive=True, required=True)
     assert dt is not None
     duration = test.number('duration', positive=True)
@@ -244,9 +246,10 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     retained = list(range(n))
     if elements_raw is not None:
         if stiffness_raw is not None:
-            raise structure.error('initial_stiffness', 'must not be given with elements (it '
-                                  "follows from them and the experimental elements' "
-                                  'initial_stiffness)')
+            error = structure.error('initial_stiffness', 'must not be given with elements (it '
+                                    "follows from them and the experimental elements' "
+                                    'initial_stiffness)')
+            raise error
         parsed = parse_elements(elements_raw, dof_names=dof_names, mass=mass, source=source,
                                 base_dir=base_dir)
         model = parsed.model
@@ -256,13 +259,15 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     elif stiffness_raw == 'probe':
         stiffness = None
     elif stiffness_raw is None:
-        raise structure.error('initial_stiffness', "is required (a value or 'probe')")
+        error = structure.error('initial_stiffness', "is required (a value or 'probe')")
+        raise error
     else:
         stiffness = _matrix(structure, 'initial_stiffness', n, required=True)
     damping, damping_ratio, damping_spec = _damping(structure, n)
     if damping is not None and model is not None:
-        raise structure.error('damping', 'give a ratio, rayleigh or modal damping with '
-                              'elements (a coefficient matrix would include massless DOFs)')
+        error = structure.error('damping', 'give a ratio, rayleigh or modal damping with '
+                                'elements (a coefficient matrix would include massless DOFs)')
+        raise error
     influence_given = 'influence' in structure.raw
     influence_raw = structure.get('influence', [1.0] * n)
     influence_full = _vector(structure, 'influence', influence_raw, n)
@@ -273,7 +278,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         default_influence=influence_full, influence_given=influence_given, dt=dt)
     n_steps = record_steps if duration is None else math.floor(duration / dt + 1e-9)
     if n_steps < 1:
-        raise test.error('dt', f'is longer than the test ({components[0].motion.duration} s)')
+        error = test.error('dt', f'is longer than the test ({components[0].motion.duration} s)')
+        raise error
     components = tuple(_padded(component, n_steps) for component in components)
     first = components[0]
     proto = _Reader(raw.get('protocol', {}), 'protocol', source)
@@ -348,9 +354,11 @@ def _dof_names(reader: _Reader) -> tuple[str, ...]:
         return tuple(f'u{i + 1}' for i in range(n))
     if (not isinstance(names, list) or not names
             or not all(isinstance(name, str) and name for name in names)):
-        raise reader.error('dof_names', f'must be a non-empty list of names, got {names!r}')
+        error = reader.error('dof_names', f'must be a non-empty list of names, got {names!r}')
+        raise error
     if len(set(names)) != len(names):
-        raise reader.error('dof_names', f'names must be unique, got {names!r}')
+        error = reader.error('dof_names', f'names must be unique, got {names!r}')
+        raise error
     return tuple(names)
 
 
@@ -397,11 +405,13 @@ def _damping(reader: _Reader, n: int
                                     ('rayleigh', rayleigh), ('modal', modal))
              if value is not None]
     if len(given) != 1:
-        raise reader.error('damping', 'give exactly one of ratio, coefficient, rayleigh or '
-                           f'modal, got {", ".join(given) or "none"}')
+        error = reader.error('damping', 'give exactly one of ratio, coefficient, rayleigh or '
+                             f'modal, got {", ".join(given) or "none"}')
+        raise error
     if ratio is not None:
         if not 0.0 <= ratio < 1.0:
-            raise damping.error('ratio', f'must be in [0, 1), got {ratio!r}')
+            error = damping.error('ratio', f'must be in [0, 1), got {ratio!r}')
+            raise error
         return None, ratio, None
     if rayleigh is not None:
         spec = _Reader(rayleigh, f'{reader.path}.damping.rayleigh', reader.source)
@@ -411,7 +421,9 @@ def _damping(reader: _Reader, n: int
         if (not isinstance(modes, list) or len(modes) != 2 or not all(
                 isinstance(m, int) and not isinstance(m, bool) and m >= 1 for m in modes)
                 or modes[0] == modes[1]):
-            raise spec.error('modes', f'must be two distinct mode numbers (1-based), got {modes!r}')
+            error = spec.error('modes',
+                               f'must be two distinct mode numbers (1-based), got {modes!r}')
+            raise error
         ratios = _ratios(spec, 'ratios', ratios, 2)
         return None, None, {'rayleigh': {'modes': list(modes), 'ratios': ratios}}
     if modal is not None:
@@ -499,7 +511,8 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
     assert scale is not None
     direction = reader.number('direction', 1.0)
     if direction not in (1.0, -1.0):
-        raise reader.error('direction', f'must be 1 or -1, got {direction!r}')
+        error = reader.error('direction', f'must be 1 or -1, got {direction!r}')
+        raise error
     assert direction is not None
     units = reader.string('units', 'g')
     g = reader.number('g', 9.81, positive=True)
@@ -510,7 +523,8 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
     record_dt = reader.number('dt', positive=True)
     reader.finish()
     if (inline is None) == (file is None):
-        raise reader.error('file', 'give exactly one of file or inline')
+        error = reader.error('file', 'give exactly one of file or inline')
+        raise error
     try:
         if inline is not None:
             inline_reader = _Reader(inline, f'{where}.inline', source)
@@ -519,7 +533,8 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
             inline_reader.finish()
             factor = 1.0 if units in ('m/s2', 'm/s^2') else (g or 9.81)
             if units not in ('m/s2', 'm/s^2', 'g'):
-                raise reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
+                error = reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
+                raise error
             acceleration = np.asarray(values, dtype=float) * factor
             motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration,
                                   source='inline').scaled(scale * direction)

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .base import Integrator
 from .linalg import Factorization, operator
@@ -49,13 +50,15 @@ class ArrayIntegrator(Integrator):
         """The committed ``(x, v, a)`` as arrays."""
         return self._arr(self._x), self._arr(self._v), self._arr(self._a)
 
-    def _motion_rhs(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
+    def _motion_rhs(
+        self, p: NDArray[np.float64], v: NDArray[np.float64], r: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """``p − C v − r``, the right-hand side of ``M a = p − C v − r`` (arrays)."""
         return p - self._damping_product @ v - r
 
     def _weighted_rhs(
-        self, alpha_f: float, load: Any, r_new: np.ndarray, v_new: np.ndarray
-    ) -> np.ndarray:
+        self, alpha_f: float, load: Any, r_new: NDArray[np.float64], v_new: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
         generalized-α), with the committed state at ``t_n``."""
         c = self._damping_product

@@ -40,6 +40,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import ConfigError, IntegratorError
 from ..matrices import readonly, square_matrix
@@ -95,6 +96,19 @@ class Integrator(abc.ABC):
     #: The scheme's parameters, each declared once (default and range).
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = ()
 
+    # The committed state (x, v, a, r, p) and the trial state (…t): plain floats for an SDOF
+    # (fast, and float for float the thesis's MATLAB), ``(n,)`` float arrays for an MDOF.
+    _x: Any
+    _v: Any
+    _a: Any
+    _r: Any
+    _p: Any
+    _xt: Any
+    _vt: Any
+    _at: Any
+    _rt: Any
+    _pt: Any
+
     def __init__(
         self, mass: Any, damping: Any, dt: float, initial_stiffness: Any = None,
         **parameters: Any,
@@ -128,7 +142,7 @@ class Integrator(abc.ABC):
             msg = f'dt: must be positive and finite, got {dt!r}'
             raise ConfigError(msg)
         m = square_matrix(mass, 'mass')
-        n = m.shape[0]
+        n: int = m.shape[0]
         c = square_matrix(damping, 'damping')
         if c.shape != (n, n):
             msg = f'damping: expected shape ({n}, {n}), got {c.shape}'
@@ -288,11 +302,12 @@ class Integrator(abc.ABC):
 
     # ----------------------------------------------------------------- array helpers
 
-    def _arr(self, value: Any) -> np.ndarray:
+    def _arr(self, value: Any) -> NDArray[np.float64]:
         """A state value as a 1-D array (a new 1-element array for an SDOF float)."""
         if self._scalar:
             return np.array((value,), dtype=float)
-        return value
+        array: NDArray[np.float64] = value  # an MDOF's state is an (n,) float array
+        return array
 
     def _out(self, array: np.ndarray) -> Any:
         """Back from :meth:`_arr`: a float for an SDOF, else the array."""

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
+from numpy.typing import NDArray
 
 from ..errors import ConfigError
 
@@ -23,6 +24,7 @@ __all__ = [
     'SPARSE_MAX_DENSITY',
     'SPARSE_MIN_DOF',
     'Factorization',
+    'MatrixOperator',
     'cholesky_or_lu',
     'is_sparse_structure',
     'operator',
@@ -77,14 +79,24 @@ SPARSE_MAX_DENSITY = 0.1
 
 def is_sparse_structure(matrix: np.ndarray) -> bool:
     """Whether ``matrix`` is large and mostly zeros (handled as a sparse matrix)."""
-    n = matrix.shape[0]
-    return n >= SPARSE_MIN_DOF and np.count_nonzero(matrix) <= SPARSE_MAX_DENSITY * n * n
+    n: int = matrix.shape[0]
+    return n >= SPARSE_MIN_DOF and bool(np.count_nonzero(matrix) <= SPARSE_MAX_DENSITY * n * n)
 
 
-def operator(matrix: np.ndarray) -> Any:
+class MatrixOperator(Protocol):
+    """A constant matrix for repeated products ``A @ x``: a dense array or a scipy CSR matrix."""
+
+    def __matmul__(self, other: NDArray[np.float64], /) -> NDArray[np.float64]:
+        """The product with a vector (or a matrix of columns)."""
+        ...
+
+
+def operator(matrix: np.ndarray) -> MatrixOperator:
     """``matrix`` for repeated products: CSR when it is large and sparse, else itself."""
     if matrix.ndim == 2 and is_sparse_structure(matrix):
-        return scipy.sparse.csr_matrix(matrix)
+        # scipy has no type information; a CSR matrix multiplies arrays with ``@``.
+        sparse: MatrixOperator = scipy.sparse.csr_matrix(matrix)
+        return sparse
     return matrix
 
 
@@ -113,10 +125,14 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
 def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
     """Solve with a ``(kind, factor)`` of :class:`Factorization` or :func:`cholesky_or_lu`."""
     kind, value = factor
+    # ``value`` is a float, or a factor of scipy (untyped): the solution is a float array.
+    solution: NDArray[np.float64]
     if kind == 'scalar':
-        return np.asarray(rhs, dtype=float) / value
-    if kind == 'cholesky':
-        return scipy.linalg.cho_solve(value, rhs, check_finite=False)
-    if kind == 'sparse':
-        return value.solve(np.asarray(rhs, dtype=float))
-    return scipy.linalg.lu_solve(value, rhs, check_finite=False)
+        solution = np.asarray(rhs, dtype=float) / value
+    elif kind == 'cholesky':
+        solution = scipy.linalg.cho_solve(value, rhs, check_finite=False)
+    elif kind == 'sparse':
+        solution = value.solve(np.asarray(rhs, dtype=float))
+    else:
+        solution = scipy.linalg.lu_solve(value, rhs, check_finite=False)
+    return solution

@@ -137,11 +137,11 @@ class NewmarkExplicit(Integrator):
                 msg = f'damping: m + dt/2*c = {self._lhs!r} must be positive'
                 raise ConfigError(msg)
             return
-        c = self._damping
-        self._half_dt_c_matrix = operator(dt * 0.5 * c)
-        self._damping_operator = operator(c)
-        lhs = self._mass + dt * 0.5 * c
-        self._factor = cholesky_or_lu(lhs, bool(np.array_equal(c, c.T)))
+        c_matrix = self._damping
+        self._half_dt_c_matrix = operator(dt * 0.5 * c_matrix)
+        self._damping_operator = operator(c_matrix)
+        lhs = self._mass + dt * 0.5 * c_matrix
+        self._factor = cholesky_or_lu(lhs, bool(np.array_equal(c_matrix, c_matrix.T)))
         if self._factor[0] == 'lu' and np.any(np.diag(self._factor[1][0]) == 0.0):
             msg = 'damping: M + dt/2*C is singular'
             raise ConfigError(msg)

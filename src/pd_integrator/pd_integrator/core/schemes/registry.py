@@ -43,7 +43,7 @@ def scheme_class(scheme: str | type[Integrator] | Integrator) -> type[Integrator
     if isinstance(scheme, type) and issubclass(scheme, Integrator):
         return scheme
     try:
-        return SCHEMES[scheme]  # type: ignore[index]
+        return SCHEMES[scheme]
     except (KeyError, TypeError):
         valid = ', '.join(sorted(SCHEMES))
         msg = f'scheme: unknown integration scheme {scheme!r}; valid: {valid}'

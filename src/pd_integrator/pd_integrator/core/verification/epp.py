@@ -83,7 +83,10 @@ def _root(func: Any, lo: float, hi: float, scale: float) -> float:
     f_lo = func(lo)
     if f_lo == 0.0:
         return lo
-    return scipy.optimize.brentq(func, lo, hi, xtol=1e-15 * scale, rtol=4.0 * np.finfo(float).eps)
+    # scipy has no type information; brentq returns the root as a float.
+    root: float = scipy.optimize.brentq(func, lo, hi, xtol=1e-15 * scale,
+                                        rtol=4.0 * np.finfo(float).eps)
+    return root
 
 
 def epp_exact(
@@ -292,7 +295,7 @@ def _elastic_branch(
             cuts.append((ta, ua, va))
         cuts.append((right, u_r, v_r))
         pieces = [cuts[0]]
-        for (ta, ua, va), (tb, ub, vb) in zip(cuts[:-1], cuts[1:]):
+        for (ta, _ua, va), (tb, ub, vb) in zip(cuts[:-1], cuts[1:]):
             if va * vb < 0.0:
                 tv = _root(lambda t: state(t)[1], ta, tb, span)
                 uv, vv, _ = state(tv)
