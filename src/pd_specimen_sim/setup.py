@@ -17,7 +17,8 @@ setup(
     zip_safe=True,
     maintainer='Pseudo-dynamic testing maintainers',
     maintainer_email='maintainers@pseudodynamic.dev',
-    description='Simulated specimen of the pseudo-dynamic test: answers step commands with the restoring force of a hysteresis model.',
+    description=('Simulated specimen of the pseudo-dynamic test: answers step commands with '
+                 'the restoring force of a hysteresis model.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

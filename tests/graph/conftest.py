@@ -52,9 +52,9 @@ def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
 @pytest.fixture
 def observer(domain_id: int) -> Iterator[Any]:
     """An rclpy node in this test's domain (own context), shut down after the test."""
-    import rclpy  # noqa: PLC0415 - only graph tests need ROS
-    from rclpy.executors import SingleThreadedExecutor  # noqa: PLC0415
-    from rclpy.node import Node  # noqa: PLC0415
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
 
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain_id)

@@ -34,10 +34,10 @@ QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 def make_executor(context: rclpy.Context):
     """EventsExecutor if available (driven by spin_once only), else SingleThreadedExecutor."""
     try:
-        from rclpy.experimental import EventsExecutor  # noqa: PLC0415
+        from rclpy.experimental import EventsExecutor
         return EventsExecutor(context=context)
     except ImportError:
-        from rclpy.executors import SingleThreadedExecutor  # noqa: PLC0415
+        from rclpy.executors import SingleThreadedExecutor
         return SingleThreadedExecutor(context=context)
 
 

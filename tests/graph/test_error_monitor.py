@@ -31,8 +31,8 @@ ERRORS = {'systematic': -0.05, 'displacement_noise': 1.0e-5, 'force_noise': 5.0,
 
 def test_errors_and_tracking_monitor_through_the_graph(processes: Processes, observer: object,
                                                         tmp_path: Path) -> None:
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: PLC0415
-    from std_msgs.msg import Float64MultiArray  # noqa: PLC0415
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64MultiArray
 
     raw = yaml.safe_load(DEFAULT_TEST.read_text(encoding='utf-8'))
     raw['ground_motion']['file'] = str(RECORD)

@@ -86,7 +86,7 @@ def spin_until(observer: Any, predicate: Callable[[], bool], timeout: float, wha
 
 def latched_qos() -> Any:
     """QoS of the latched status topics."""
-    from rclpy.qos import (  # noqa: PLC0415
+    from rclpy.qos import (
         DurabilityPolicy,
         HistoryPolicy,
         QoSProfile,
@@ -149,9 +149,9 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
 
 def test_bridge_limit_holds_and_never_reaches_the_specimen(
         processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from std_msgs.msg import String  # noqa: PLC0415
+    from std_msgs.msg import String
 
-    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
+    from pd_msgs.msg import StepCommand, TestStatus
 
     limit = 0.01  # m; the column reaches ~0.049 m under El Centro
     test_file = write_test_file(tmp_path / 'limit.yaml', test__duration=6.0,
@@ -207,9 +207,9 @@ def test_bridge_limit_holds_and_never_reaches_the_specimen(
 
 def test_specimen_killed_mid_test_leads_to_holding(
         processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from std_msgs.msg import String  # noqa: PLC0415
+    from std_msgs.msg import String
 
-    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+    from pd_msgs.msg import TestStatus
 
     test_file = write_test_file(tmp_path / 'kill.yaml', test__id='graph-kill',
                                 protocol__feedback_timeout=0.5, protocol__max_retries=2)
@@ -296,11 +296,11 @@ def call_service(observer: Any, service_type: Any, name: str, request: Any) -> A
 
 def test_bridge_lifecycle_and_latched_emergency_stop(
         processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from lifecycle_msgs.msg import Transition  # noqa: PLC0415
-    from lifecycle_msgs.srv import ChangeState, GetState  # noqa: PLC0415
-    from std_srvs.srv import Trigger  # noqa: PLC0415
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState, GetState
+    from std_srvs.srv import Trigger
 
-    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+    from pd_msgs.msg import TestStatus
 
     # Long (free vibration after the record): the emergency stop must come while it runs.
     test_file = write_test_file(tmp_path / 'life.yaml', test__duration=600.0,

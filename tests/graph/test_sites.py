@@ -170,10 +170,10 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
                                                   tmp_path: Path) -> None:
     """lab1's bridge refuses a command past its limit: the integrator holds naming lab1, the
     other site is not driven further, and an abort ends the test with its outputs."""
-    from std_msgs.msg import String  # noqa: PLC0415
+    from std_msgs.msg import String
 
-    from pd_common.protocol import Command, Feedback, FeedbackStatus  # noqa: PLC0415
-    from pd_msgs.msg import StepCommand, TestStatus  # noqa: PLC0415
+    from pd_common.protocol import Command, Feedback, FeedbackStatus
+    from pd_msgs.msg import StepCommand, TestStatus
 
     limit = 0.004  # m; story 1 reaches ~0.013 m
     raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))
@@ -221,9 +221,9 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
 
 def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, observer: Any,
                                                       tmp_path: Path) -> None:
-    from std_msgs.msg import String  # noqa: PLC0415
+    from std_msgs.msg import String
 
-    from pd_msgs.msg import TestStatus  # noqa: PLC0415
+    from pd_msgs.msg import TestStatus
 
     raw = yaml.safe_load(EXAMPLE.read_text(encoding='utf-8'))
     raw['ground_motion']['file'] = str(RECORD)
@@ -254,7 +254,8 @@ def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, obse
     spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
                30.0, 'the integrator to hold')
     holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
-    assert holding.message == 'emergency stop: operator pressed the lab e-stop'
+    # Its own e-stop subscription, or a site's e-stop hold reply, whichever arrives first.
+    assert 'operator pressed the lab e-stop' in holding.message
     spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
     control.publish(String(data='abort'))
     assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1

@@ -26,12 +26,11 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 
 from pd_common.protocol import FeedbackStatus
-from pd_common.ros import STEP_QOS, feedback_message
+from pd_common.ros import STEP_QOS, events_executor, feedback_message
 from pd_common.specimen import SpecimenError, load_specimen_section, server_from_config
 from pd_msgs.msg import StepCommand, StepFeedback
 
@@ -94,15 +93,14 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_specimen_sim main``."""
     rclpy.init(args=args)
     node: SpecimenSimNode | None = None
-    executor: EventsExecutor | None = None
+    executor: Executor | None = None
     try:
         try:
             node = SpecimenSimNode()
         except SpecimenError as err:
             print(f'pd_specimen_sim: error: {err}', file=sys.stderr)
             return 2
-        executor = EventsExecutor()
-        executor.add_node(node)
+        executor = events_executor(node)
         while rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):

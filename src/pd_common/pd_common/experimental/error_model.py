@@ -38,11 +38,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecimenConfigError
+from ..types import FloatArray
 
 ERRORS_KEY = 'errors'
 """Key of the experimental-error mapping in the ``specimen`` section."""
 
-RestoringForce = Callable[[np.ndarray], Sequence[float]]
+RestoringForce = Callable[[FloatArray], FloatArray | Sequence[float]]
 """``r(x)``: displacement per DOF (m) to restoring force per DOF (N)."""
 
 
@@ -73,9 +74,10 @@ class ErrorModel:
 
     def __post_init__(self) -> None:
         """Validate and normalise the values."""
-        systematic = self._real(self.systematic, 'systematic')
+        name = 'systematic'
+        systematic = self._real(self.systematic, name)
         if not -1.0 < systematic <= 1.0:
-            raise self._invalid('systematic', 'must be in (-1, 1] (a fraction of the '
+            raise self._invalid(name, 'must be in (-1, 1] (a fraction of the '
                                 f'increment), got {self.systematic!r}')
         object.__setattr__(self, 'systematic', systematic)
         for name in ('displacement_noise', 'force_noise'):
@@ -156,16 +158,16 @@ class ErroneousStep:
         force: Measured force (true force plus bias and noise), N.
     """
 
-    target: np.ndarray
-    imposed: np.ndarray
-    true_force: np.ndarray
-    displacement: np.ndarray
-    force: np.ndarray
+    target: FloatArray
+    imposed: FloatArray
+    true_force: FloatArray
+    displacement: FloatArray
+    force: FloatArray
 
 
 def systematic_displacement(
-    target: np.ndarray, current: np.ndarray, systematic: float
-) -> np.ndarray:
+    target: FloatArray, current: FloatArray, systematic: float
+) -> FloatArray:
     """Displacement reached with a systematic error: ``target + systematic * (target - current)``.
 
     Args:
@@ -177,8 +179,8 @@ def systematic_displacement(
 
 
 def measure(
-    model: ErrorModel, x: np.ndarray, f: np.ndarray, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
+    model: ErrorModel, x: FloatArray, f: FloatArray, rng: np.random.Generator
+) -> tuple[FloatArray, FloatArray]:
     """Add noise (always drawn, so that the sequence does not depend on the stds) and bias.
 
     Args:
@@ -204,7 +206,7 @@ class ErrorInjector:
     ``n_dof`` finite values; they are not checked here.
     """
 
-    def __init__(self, model: ErrorModel, initial_position: np.ndarray) -> None:
+    def __init__(self, model: ErrorModel, initial_position: FloatArray) -> None:
         """Create the injector.
 
         Args:
@@ -226,11 +228,11 @@ class ErrorInjector:
         return self._n
 
     @property
-    def current(self) -> np.ndarray:
+    def current(self) -> FloatArray:
         """The actuator's current position (the last imposed displacement), m."""
         return self._current.copy()
 
-    def reset(self, position: np.ndarray) -> None:
+    def reset(self, position: FloatArray) -> None:
         """Restart: empty the delay line at ``position`` and re-seed the generator.
 
         Args:
@@ -241,7 +243,7 @@ class ErrorInjector:
         self._pending = [start.copy() for _ in range(self._model.delay_steps)]
         self._rng = np.random.default_rng(self._model.seed)
 
-    def peek(self, target: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
+    def peek(self, target: FloatArray, current: FloatArray | None = None) -> FloatArray:
         """The displacement the actuator would reach when commanded ``target``; no state change.
 
         The target goes through the delay line; the delayed target then gets the systematic
@@ -251,7 +253,7 @@ class ErrorInjector:
         x_c = self._current if current is None else current
         return systematic_displacement(delayed, x_c, self._model.systematic)
 
-    def impose(self, target: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
+    def impose(self, target: FloatArray, current: FloatArray | None = None) -> FloatArray:
         """Command ``target``: :meth:`peek`, then advance the delay line and the position.
 
         Returns:
@@ -261,12 +263,12 @@ class ErrorInjector:
         self._advance(target, imposed)
         return imposed
 
-    def measure(self, displacement: np.ndarray, force: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def measure(self, displacement: FloatArray, force: FloatArray
+                ) -> tuple[FloatArray, FloatArray]:
         """Corrupt a measurement with the model's noise and force bias (one draw)."""
         return measure(self._model, displacement, force, self._rng)
 
-    def step(self, target: np.ndarray, restoring_force: RestoringForce) -> ErroneousStep:
+    def step(self, target: FloatArray, restoring_force: RestoringForce) -> ErroneousStep:
         """Impose ``target`` with the errors, evaluate the force there and measure.
 
         If ``restoring_force`` raises, the exception propagates and nothing changes (the delay
@@ -285,7 +287,7 @@ class ErrorInjector:
         displacement, measured = self.measure(imposed, force)
         return ErroneousStep(target, imposed, force, displacement, measured)
 
-    def _advance(self, target: np.ndarray, imposed: np.ndarray) -> None:
+    def _advance(self, target: FloatArray, imposed: FloatArray) -> None:
         if self._pending:
             self._pending.pop(0)
             self._pending.append(target)

@@ -28,12 +28,14 @@ from typing import Any
 
 import numpy as np
 
+from ..types import FloatArray
+
 __all__ = ['TrackingMonitor', 'TrackingSample', 'tracking_error', 'tracking_indicator']
 
 
 def tracking_error(
-    command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
-) -> np.ndarray:
+    command: Sequence[float] | FloatArray, measured: Sequence[float] | FloatArray
+) -> FloatArray:
     """History of the tracking error ``measured - command``.
 
     Args:
@@ -51,8 +53,8 @@ def tracking_error(
 
 
 def tracking_indicator(
-    command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
-) -> np.ndarray:
+    command: Sequence[float] | FloatArray, measured: Sequence[float] | FloatArray
+) -> FloatArray:
     """Running tracking indicator (Mercan and Ricles 2007) of a measured-vs-command history.
 
     ``TI_0 = 0`` and ``TI_{i+1} = TI_i + (x_m,i x_c,i+1 - x_m,i+1 x_c,i) / 2``, the trapezoidal
@@ -88,8 +90,8 @@ class TrackingSample:
         indicator: Tracking indicator so far, m2.
     """
 
-    error: np.ndarray
-    indicator: np.ndarray
+    error: FloatArray
+    indicator: FloatArray
 
 
 class TrackingMonitor:
@@ -111,19 +113,19 @@ class TrackingMonitor:
         if isinstance(n_dof, bool) or not isinstance(n_dof, Integral) or n_dof < 1:
             msg = f'TrackingMonitor: n_dof must be a positive integer, got {n_dof!r}'
             raise ValueError(msg)
-        self._n = int(n_dof)
+        self._n: int = int(n_dof)
         self.reset()
 
     def reset(self) -> None:
         """Forget every sample."""
-        self._commands: list[np.ndarray] = []
-        self._measured: list[np.ndarray] = []
-        self._errors: list[np.ndarray] = []
-        self._indicators: list[np.ndarray] = []
+        self._commands: list[FloatArray] = []
+        self._measured: list[FloatArray] = []
+        self._errors: list[FloatArray] = []
+        self._indicators: list[FloatArray] = []
         self._indicator = np.zeros(self._n)
 
     def update(
-        self, command: Sequence[float] | np.ndarray, measured: Sequence[float] | np.ndarray
+        self, command: Sequence[float] | FloatArray, measured: Sequence[float] | FloatArray
     ) -> TrackingSample:
         """Add one (command, measured) pair.
 
@@ -155,27 +157,27 @@ class TrackingMonitor:
         return len(self._commands)
 
     @property
-    def indicator(self) -> np.ndarray:
+    def indicator(self) -> FloatArray:
         """Tracking indicator so far per DOF, m2."""
         return self._indicator.copy()
 
     @property
-    def commands(self) -> np.ndarray:
+    def commands(self) -> FloatArray:
         """Command history, shape ``(count, n_dof)``, m."""
         return _stack(self._commands, self._n)
 
     @property
-    def measured(self) -> np.ndarray:
+    def measured(self) -> FloatArray:
         """Measured history, shape ``(count, n_dof)``, m."""
         return _stack(self._measured, self._n)
 
     @property
-    def errors(self) -> np.ndarray:
+    def errors(self) -> FloatArray:
         """Tracking error history, shape ``(count, n_dof)``, m."""
         return _stack(self._errors, self._n)
 
     @property
-    def indicators(self) -> np.ndarray:
+    def indicators(self) -> FloatArray:
         """Tracking indicator history, shape ``(count, n_dof)``, m2."""
         return _stack(self._indicators, self._n)
 
@@ -185,11 +187,11 @@ class TrackingMonitor:
 # ---------------------------------------------------------------------- helpers
 
 
-def _stack(rows: list[np.ndarray], n: int) -> np.ndarray:
+def _stack(rows: list[FloatArray], n: int) -> FloatArray:
     return np.array(rows) if rows else np.zeros((0, n))
 
 
-def _series(command: Any, measured: Any) -> tuple[np.ndarray, np.ndarray]:
+def _series(command: Any, measured: Any) -> tuple[FloatArray, FloatArray]:
     c = np.asarray(command, dtype=float)
     m = np.asarray(measured, dtype=float)
     if c.shape != m.shape or c.ndim not in (1, 2):
@@ -202,7 +204,7 @@ def _series(command: Any, measured: Any) -> tuple[np.ndarray, np.ndarray]:
     return c, m
 
 
-def _vector(values: Any, what: str, n: int) -> np.ndarray:
+def _vector(values: Any, what: str, n: int) -> FloatArray:
     try:
         vector = np.array(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .executor import events_executor
 from .messages import command_message, feedback_message, now_stamp, stamp_from_ns, status_message
 from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
 
@@ -11,6 +12,7 @@ __all__ = [
     'MONITOR_QOS',
     'STEP_QOS',
     'command_message',
+    'events_executor',
     'feedback_message',
     'now_stamp',
     'stamp_from_ns',

@@ -167,9 +167,10 @@ def _backbone(ctx: _Context, value: Any, path: str, base_dir: Path) -> Backbone:
                 None if max_d is None else ctx.number(max_d, f'{path}.max_displacement'))
         spec = ctx.mapping(spec, path, {'displacement_file', 'reaction_file'},
                            {'skip_rows', 'column', 'force_sign', 'force_scale'})
-        sign = ctx.number(spec.get('force_sign', -1.0), f'{path}.force_sign', positive=False)
+        sign_key = f'{path}.force_sign'
+        sign = ctx.number(spec.get('force_sign', -1.0), sign_key, positive=False)
         if sign == 0.0:
-            raise ctx.error(f'{path}.force_sign', 'must be non-zero, got 0')
+            raise ctx.error(sign_key, 'must be non-zero, got 0')
         return load_opensees_pushover(
             _resolve(base_dir, ctx.text(spec['displacement_file'], f'{path}.displacement_file')),
             _resolve(base_dir, ctx.text(spec['reaction_file'], f'{path}.reaction_file')),
@@ -191,8 +192,9 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
         raise ctx.error(path, "missing key 'model'")
     model = value['model']
     if not isinstance(model, str) or model not in _MODEL_KEYS:
-        raise ctx.error(f'{path}.model', f"must be one of {', '.join(_MODEL_KEYS)}, got "
-                                         f'{_show(model)}')
+        model_key = f'{path}.model'
+        raise ctx.error(model_key, f"must be one of {', '.join(_MODEL_KEYS)}, got "
+                                   f'{_show(model)}')
     required, optional = _MODEL_KEYS[model]
     spec = ctx.mapping(value, path, required | {'model'}, optional)
 
@@ -210,7 +212,8 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
     ku = spec.get('unloading_stiffness')
     beyond = spec.get('beyond_last_point', 'extrapolate')
     if beyond not in BEYOND_MODES:
-        raise ctx.error(f'{path}.beyond_last_point',
+        beyond_key = f'{path}.beyond_last_point'
+        raise ctx.error(beyond_key,
                         f"must be one of {', '.join(BEYOND_MODES)}, got {_show(beyond)}")
     try:
         return PushoverHysteresis(
@@ -253,18 +256,19 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
     ctx = _Context(source)
     # 'errors' (injected experimental errors) belongs to the specimen server, which validates
     # it (server.split_errors); the specimen itself ignores it.
-    section = ctx.mapping(section, 'specimen', {'elements'}, {'topology', 'errors'})
+    root, topology_key, elements_key = 'specimen', 'specimen.topology', 'specimen.elements'
+    section = ctx.mapping(section, root, {'elements'}, {'topology', 'errors'})
     topology = section.get('topology', 'independent')
     if topology not in TOPOLOGIES:
-        raise ctx.error('specimen.topology',
+        raise ctx.error(topology_key,
                         f"must be one of {', '.join(TOPOLOGIES)}, got {_show(topology)}")
     items = section['elements']
     if isinstance(items, (str, bytes, Mapping)) or not isinstance(items, Sequence):
-        raise ctx.error('specimen.elements', f'must be a list, got {_show(items)}')
+        raise ctx.error(elements_key, f'must be a list, got {_show(items)}')
     names = list(dof_names)
     if len(items) != len(names):
         per = 'story' if topology == 'shear_building' else 'DOF'
-        raise ctx.error('specimen.elements',
+        raise ctx.error(elements_key,
                         f'{len(items)} elements but {len(names)} DOFs {names} (one per {per})')
     base_dir = Path(base_dir)
     elements = [_element(ctx, item, f'specimen.elements[{i}]', base_dir)
@@ -274,7 +278,7 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
     except SpecimenConfigError:
         raise
     except SpecimenError as exc:
-        raise ctx.error('specimen', str(exc)) from None
+        raise ctx.error(root, str(exc)) from None
 
 
 def load_specimen_section(path: str | Path, site: str = ''

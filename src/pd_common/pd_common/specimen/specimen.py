@@ -97,7 +97,7 @@ class Specimen:
         if values.shape != (self.n_dof,):
             msg = f'specimen: displacement must have shape ({self.n_dof},), got {values.shape}'
             raise SpecimenError(msg)
-        out = values.tolist()
+        out: list[float] = values.tolist()
         for name, value in zip(self._dof_names, out):
             if not math.isfinite(value):
                 msg = f'specimen: displacement of {name} is not finite ({value})'
