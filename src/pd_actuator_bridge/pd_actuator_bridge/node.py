@@ -46,7 +46,6 @@ from typing import Any
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import Executor, ExternalShutdownException
-from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
@@ -58,6 +57,7 @@ from pd_common.ros import (
     LATCHED_QOS,
     MONITOR_QOS,
     STEP_QOS,
+    events_executor,
     feedback_message,
     now_stamp,
 )
@@ -436,8 +436,7 @@ def main(args: list[str] | None = None) -> int:
     executor: Executor | None = None
     try:
         node = ActuatorBridgeNode()
-        executor = EventsExecutor()
-        executor.add_node(node)
+        executor = events_executor(node)
         if node.get_parameter('autostart').value:
             _autostart(node, executor)
         while rclpy.ok():

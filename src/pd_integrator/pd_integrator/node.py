@@ -34,7 +34,6 @@ import numpy as np
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import Executor, ExternalShutdownException
-from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
@@ -55,6 +54,7 @@ from pd_common.ros import (
     LATCHED_QOS,
     STEP_QOS,
     command_message,
+    events_executor,
     now_stamp,
     stamp_from_ns,
     status_message,
@@ -356,7 +356,7 @@ def main(args: list[str] | None = None) -> int:
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, lambda *_: stop.set())
     node: IntegratorNode | None = None
-    executor: Executor | None = None  # an EventsExecutor (rclpy types it as an Executor)
+    executor: Executor | None = None
     code = 1
     try:
         try:
@@ -364,8 +364,7 @@ def main(args: list[str] | None = None) -> int:
         except PdIntegratorError as err:
             print(f'pd_integrator: error: {err}', file=sys.stderr)
             return 2
-        executor = EventsExecutor()
-        executor.add_node(node)
+        executor = events_executor(node)
         code = run(node, executor, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         if node is not None:

@@ -12,7 +12,10 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
 
-__all__ = ['Command', 'Feedback', 'FeedbackStatus', 'Status', 'StepKey', 'TestState']
+from ..types import FloatArray
+
+__all__ = ['Command', 'Control', 'Feedback', 'FeedbackStatus', 'SessionStart', 'Status', 'StepKey',
+           'TestState']
 
 
 class FeedbackStatus(IntEnum):
@@ -77,8 +80,8 @@ class Feedback:
 
     test_id: str
     step: int
-    measured_displacement: tuple[float, ...]
-    restoring_force: tuple[float, ...]
+    measured_displacement: tuple[float, ...] | FloatArray  # a read-only array is fine
+    restoring_force: tuple[float, ...] | FloatArray
     status: FeedbackStatus = FeedbackStatus.OK
     message: str = ''
     iteration: int = 0
@@ -101,3 +104,34 @@ class Status:
     retries: int = 0
     ignored_messages: int = 0
     message: str = ''
+
+
+@dataclass(frozen=True)
+class Control:
+    """An operator's request to a node (``pause``, ``resume``, ``abort``, ``reset``, ...).
+
+    Attributes:
+        command: what to do.
+        target: the node or site addressed ('' = whoever receives it on its topic).
+        reason: why (shown in logs and statuses).
+        stamp: when it was issued, s since the epoch (a signed control is obeyed only within
+            a time window of the receiver's clock, and only once).
+    """
+
+    command: str
+    target: str = ''
+    reason: str = ''
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class SessionStart:
+    """A sender's request to open a signed session with a receiver of step commands.
+
+    Attributes:
+        test_id: the test the session is for.
+        challenge: the receiver's current challenge (from its session offer).
+    """
+
+    test_id: str
+    challenge: str

@@ -185,8 +185,7 @@ class SiteCoordinator:
         measured.setflags(write=False)
         force.setflags(write=False)
         return Feedback(test_id=command.test_id, step=command.step, iteration=command.iteration,
-                        measured_displacement=measured,  # type: ignore[arg-type]
-                        restoring_force=force)  # type: ignore[arg-type]
+                        measured_displacement=measured, restoring_force=force)
 
     def summary(self) -> dict[str, Any]:
         """Per-site protocol counters (for ``summary.json``)."""

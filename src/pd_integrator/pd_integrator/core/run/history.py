@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pd_common.types import FloatArray
+
 
 @dataclass
 class ResponseHistory:
@@ -46,7 +48,8 @@ class ResponseHistory:
                    ground_acceleration=np.asarray(ground_acceleration, dtype=float))
 
     def record(self, step: int, x: np.ndarray, v: np.ndarray, a: np.ndarray,
-               force: tuple[float, ...], measured: tuple[float, ...]) -> None:
+               force: tuple[float, ...] | FloatArray,
+               measured: tuple[float, ...] | FloatArray) -> None:
         """Fill row ``step`` (rows are filled in order)."""
         self.displacement[step] = x
         self.velocity[step] = v

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
+from pd_common.types import FloatArray
 
 from ..dynamics.stability import StabilityReport, check_stability, require_stable
 from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
 PROBE_SUFFIX = ':probe'
 
 
-def _all_finite(values: tuple[float, ...]) -> bool:
+def _all_finite(values: tuple[float, ...] | FloatArray) -> bool:
     """Whether every value is finite (numpy for long vectors, plain Python for short ones)."""
     if isinstance(values, np.ndarray) or len(values) > 16:
         return bool(np.isfinite(np.asarray(values, dtype=float)).all())
@@ -66,7 +67,7 @@ class TestSession:
         self._integrator: Integrator | None = None
         self._step = 0  # next integration step to command
         self._probe_plan: list[tuple[float, ...]] = []
-        self._probe_forces: list[tuple[float, ...]] = []
+        self._probe_forces: list[tuple[float, ...] | FloatArray] = []
         self._last_command: Command | None = None
         self._failure: str | None = None  # a numerical failure: the test cannot go on
         # p_k = -M ι a_g(t_k) for every step, computed once.
