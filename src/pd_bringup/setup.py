@@ -22,6 +22,8 @@ setup(
     entry_points={
         'console_scripts': [
             'run_test = pd_bringup.launcher:main',
+            'keygen = pd_bringup.keygen:main',
+            'control = pd_bringup.control:main',
         ],
     },
 )

@@ -27,13 +27,34 @@ def domain_id() -> int:
 
 
 @pytest.fixture
-def ros_env(domain_id: int) -> dict[str, str]:
-    """Environment for child nodes: the sourced workspace, this test's domain, host-only DDS."""
+def key_file(tmp_path: Path) -> Path:
+    """The key of this test's nodes (owner-only), as run_test makes one per simulated test."""
+    from pd_common.auth import generate_key
+
+    path = tmp_path / 'keys' / 'test.key'
+    generate_key(path)
+    return path
+
+
+@pytest.fixture
+def rig_key(key_file: Path) -> Any:
+    """The key itself, for the test's own signed controls."""
+    from pd_common.auth import load_key
+
+    return load_key(key_file)
+
+
+@pytest.fixture
+def ros_env(domain_id: int, key_file: Path, tmp_path: Path) -> dict[str, str]:
+    """Environment for child nodes: the sourced workspace, this test's domain, host-only DDS,
+    this test's key (``PD_KEY_FILE``: every node and run_test take it)."""
     env = dict(os.environ)
     env['ROS_DOMAIN_ID'] = str(domain_id)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env.setdefault('HOME', str(REPO))
     env['PYTHONUNBUFFERED'] = '1'
+    env['PD_KEY_FILE'] = str(key_file)
+    env['XDG_STATE_HOME'] = str(tmp_path / 'state')
     return env
 
 

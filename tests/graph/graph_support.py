@@ -15,6 +15,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -105,3 +106,24 @@ def remove_stale_segments(before: set[str]) -> None:
             (Path('/dev/shm') / name).unlink()
         except OSError:
             pass
+
+
+def send_control(observer: Any, key: Any, command: str, *, topic: str = '/pd/test_control',
+                 reason: str = '', timeout: float = 10.0) -> None:
+    """Publish a signed control (as ``./pd control`` does) once a subscriber listens."""
+    from pd_common.auth import Signer, control_payload
+    from pd_common.protocol import Control
+    from pd_common.ros import control_message
+    from pd_msgs.msg import Control as ControlMessage
+
+    publisher = observer.create_publisher(ControlMessage, topic, 10)
+    deadline = time.monotonic() + timeout
+    while publisher.get_subscription_count() == 0:
+        if time.monotonic() > deadline:
+            pytest.fail(f'nobody subscribes to {topic}')
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    control = Control(command=command, reason=reason, stamp=time.time())
+    publisher.publish(control_message(control, Signer(key).sign(control_payload(control))))
+    end = time.monotonic() + 0.2
+    while time.monotonic() < end:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from graph_support import REPO, Processes, executable
+from graph_support import REPO, Processes, executable, send_control
 from rosbags.highlevel import AnyReader
 
 from pd_common.protocol import Command, Feedback, FeedbackStatus
@@ -148,8 +148,7 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
 
 
 def test_bridge_limit_holds_and_never_reaches_the_specimen(
-        processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from std_msgs.msg import String
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
 
     from pd_msgs.msg import StepCommand, TestStatus
 
@@ -165,7 +164,6 @@ def test_bridge_limit_holds_and_never_reaches_the_specimen(
     observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
     observer.create_subscription(TestStatus, '/pd/bridge/status', bridge_statuses.append,
                                  latched_qos())
-    control = observer.create_publisher(String, '/pd/test_control', 10)
 
     out = tmp_path / 'run'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
@@ -179,8 +177,7 @@ def test_bridge_limit_holds_and_never_reaches_the_specimen(
     spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING
                                      for s in bridge_statuses), 10.0, 'the bridge status')
     time.sleep(0.5)  # nothing moves while holding
-    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
-    control.publish(String(data='abort'))
+    send_control(observer, rig_key, 'abort')
     code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
     assert code == 1
 
@@ -206,8 +203,7 @@ def test_bridge_limit_holds_and_never_reaches_the_specimen(
 
 
 def test_specimen_killed_mid_test_leads_to_holding(
-        processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from std_msgs.msg import String
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
 
     from pd_msgs.msg import TestStatus
 
@@ -215,7 +211,6 @@ def test_specimen_killed_mid_test_leads_to_holding(
                                 protocol__feedback_timeout=0.5, protocol__max_retries=2)
     statuses: list[Any] = []
     observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
-    control = observer.create_publisher(String, '/pd/test_control', 10)
     out = tmp_path / 'run'
     integrator = processes.start('integrator', [
         executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
@@ -234,8 +229,7 @@ def test_specimen_killed_mid_test_leads_to_holding(
     holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
     assert 'no feedback for step' in holding.message
     assert holding.retries >= 2
-    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
-    control.publish(String(data='abort'))
+    send_control(observer, rig_key, 'abort')
     code = wait_exit(integrator, 30.0, lambda: processes.log('integrator'))
     assert code == 1
 
@@ -295,7 +289,7 @@ def call_service(observer: Any, service_type: Any, name: str, request: Any) -> A
 
 
 def test_bridge_lifecycle_and_latched_emergency_stop(
-        processes: Processes, observer: Any, tmp_path: Path) -> None:
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
     from lifecycle_msgs.msg import Transition
     from lifecycle_msgs.srv import ChangeState, GetState
     from std_srvs.srv import Trigger
@@ -337,12 +331,18 @@ def test_bridge_lifecycle_and_latched_emergency_stop(
     spin_until(observer, lambda: any(s.state == TestStatus.STATE_HOLDING for s in statuses),
                20.0, 'the integrator to hold after the emergency stop')
     assert any('EMERGENCY STOP' in s.message for s in bridge_statuses)
-    # A plain reset does not clear an emergency stop.
+    # Nobody clears an emergency stop without the key: the services cannot be authenticated.
     refused = call_service(observer, Trigger, '/pd/bridge/reset', Trigger.Request())
     assert not refused.success
-    cleared = call_service(observer, Trigger, '/pd/bridge/reset_emergency_stop',
-                           Trigger.Request())
-    assert cleared.success
+    unsigned = call_service(observer, Trigger, '/pd/bridge/reset_emergency_stop',
+                            Trigger.Request())
+    assert not unsigned.success and 'signed control' in unsigned.message
+    # A plain (signed) reset does not clear it either; a signed reset_emergency_stop does.
+    send_control(observer, rig_key, 'reset', topic='/pd/bridge/control')
+    send_control(observer, rig_key, 'reset_emergency_stop', topic='/pd/bridge/control')
+    spin_until(observer, lambda: any('hold reset by operator' in s.message
+                                     for s in bridge_statuses), 10.0, 'the e-stop to clear')
+    assert any('unsigned: 2' in s.refused_by_reason for s in bridge_statuses)
     Processes.signal(integrator, signal.SIGINT)
     assert wait_exit(integrator, 30.0, lambda: processes.log('integrator')) == 1
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))

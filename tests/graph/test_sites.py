@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from graph_support import REPO, Processes, executable
+from graph_support import REPO, Processes, executable, send_control
 from rosbags.highlevel import AnyReader
 from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
@@ -166,11 +166,10 @@ def test_opensees_substructure_is_a_site(processes: Processes, tmp_path: Path) -
                                atol=1e-5 * yield_force)
 
 
-def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer: Any,
-                                                  tmp_path: Path) -> None:
+def test_a_limit_at_one_site_holds_the_whole_test(
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
     """lab1's bridge refuses a command past its limit: the integrator holds naming lab1, the
     other site is not driven further, and an abort ends the test with its outputs."""
-    from std_msgs.msg import String
 
     from pd_common.protocol import Command, Feedback, FeedbackStatus
     from pd_msgs.msg import StepCommand, TestStatus
@@ -189,7 +188,6 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
                                  lambda m: forwarded.extend(m.target_displacement), 100)
     observer.create_subscription(TestStatus, '/pd/test_status', statuses.append,
                                  latched_qos())
-    control = observer.create_publisher(String, '/pd/test_control', 10)
     out = tmp_path / 'run'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
                                                     '--out', str(out), '--no-figures'])
@@ -198,8 +196,7 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
     holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
     assert 'site lab1' in holding.message and 'max_displacement' in holding.message
     time.sleep(0.5)  # nothing moves while holding
-    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
-    control.publish(String(data='abort'))
+    send_control(observer, rig_key, 'abort')
     code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
     assert code == 1
     assert all(abs(x) <= limit for x in forwarded)
@@ -219,8 +216,8 @@ def test_a_limit_at_one_site_holds_the_whole_test(processes: Processes, observer
     assert abs(lab1_commands[held_step].target_displacement[0]) > limit
 
 
-def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, observer: Any,
-                                                      tmp_path: Path) -> None:
+def test_the_lab_wide_emergency_stop_holds_every_site(
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
     from std_msgs.msg import String
 
     from pd_msgs.msg import TestStatus
@@ -238,7 +235,6 @@ def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, obse
         observer.create_subscription(TestStatus, f'/pd/{lab}/bridge/status', seen.append,
                                      latched_qos())
     stop = observer.create_publisher(String, '/pd/emergency_stop', 10)
-    control = observer.create_publisher(String, '/pd/test_control', 10)
     out = tmp_path / 'run'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
                                                     '--out', str(out), '--no-figures'])
@@ -256,8 +252,7 @@ def test_the_lab_wide_emergency_stop_holds_every_site(processes: Processes, obse
     holding = next(s for s in statuses if s.state == TestStatus.STATE_HOLDING)
     # Its own e-stop subscription, or a site's e-stop hold reply, whichever arrives first.
     assert 'operator pressed the lab e-stop' in holding.message
-    spin_until(observer, lambda: control.get_subscription_count() > 0, 10.0, 'test_control')
-    control.publish(String(data='abort'))
+    send_control(observer, rig_key, 'abort')
     assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'aborted'

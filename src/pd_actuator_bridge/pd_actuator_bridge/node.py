@@ -10,8 +10,8 @@ latched until an operator sends ``reset`` on ``bridge/control`` (or calls ``brid
 Lifecycle (``ros2 lifecycle set /pd/pd_actuator_bridge <transition>``):
 
 * ``configure`` builds and opens the driver and reads the actuator's position and force;
-* ``activate`` enables motion: only now does the bridge listen on ``step_command`` (so the
-  integrator waits for an active bridge);
+* ``activate`` starts listening on ``step_command`` and, once the driver is ready, offers a
+  new session: motion then needs the owner's signed session start (the integrator waits);
 * ``deactivate`` holds position and stops listening;
 * ``cleanup`` / ``shutdown`` release the hardware.
 
@@ -27,7 +27,17 @@ test id). The integrator's outputs rebuild the same values from the bag
 Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
 ``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or on the lab-wide
 ``/pd/emergency_stop`` topic (every bridge of every site listens to it), or a call of the
-``bridge/emergency_stop`` service (``std_srvs/Trigger``).
+``bridge/emergency_stop`` service (``std_srvs/Trigger``). Anyone may stop the machine; clearing
+the stop, like every other control, is authenticated.
+
+Authentication (parameters ``key_file``, ``authentication``; see :mod:`pd_common.ros.keys`):
+the bridge obeys step commands only in the session a signed ``session/start`` opened while it
+is active (its ``session/offer`` is latched; activating or deactivating ends the session, so a
+lifecycle transition alone never enables motion), signs every answer, and obeys
+``bridge/control`` (``pd_msgs/Control``: ``reset``, ``reset_emergency_stop``, ``hold``) only
+when signed, fresh and new. The ``bridge/reset`` and ``bridge/reset_emergency_stop``
+services cannot be authenticated: with a key they refuse and say so. Refused messages are
+counted by reason on ``bridge/status``.
 
 Drivers (parameter ``driver``): any name registered in
 :mod:`pd_actuator_bridge.core.drivers.registry`. ``driver_names()`` lists them and
@@ -50,22 +60,44 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
+from pd_common.auth import (
+    AuthError,
+    ControlGate,
+    control_payload,
+    describe_refusals,
+    merge_refusals,
+)
 from pd_common.experimental import TrackingMonitor
-from pd_common.protocol import GLOBAL_EMERGENCY_STOP, Feedback, FeedbackStatus, StepKey
+from pd_common.protocol import (
+    GLOBAL_EMERGENCY_STOP,
+    Feedback,
+    FeedbackStatus,
+    Signature,
+    StepKey,
+    command_from_message,
+    control_from_message,
+    signature_from_message,
+)
 from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
     MONITOR_QOS,
     STEP_QOS,
+    RefusalLog,
+    SessionReceiver,
+    declare_key,
     events_executor,
     feedback_message,
+    new_epoch,
     now_stamp,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import Control as ControlMessage
 
 from .core import (
     ActuatorBridge,
     ActuatorDriver,
+    BridgeConfigError,
     BridgeError,
     BridgeReply,
     DriverContext,
@@ -106,6 +138,15 @@ class ActuatorBridgeNode(LifecycleNode):
         for parameter, drivers in driver_parameters():
             self.declare_parameter(parameter.name, parameter.default, describe(
                 description=f'{"/".join(drivers)}: {parameter.description}'))
+        self.key = declare_key(self)
+        self.epoch = new_epoch()
+        self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
+        self._control_gate = ControlGate(self.key)
+        self.receiver = SessionReceiver(self, self.key, len(self.get_parameter('dof_names').value),
+                                        self.epoch, on_refused=self._on_refused_start)
+        self.receiver.set_accepting(False)  # sessions only while active
+        self._request = Signature()  # the signature of the command being answered
+        self._accept_when_ready = False
         self.bridge: ActuatorBridge | None = None
         self.driver: ActuatorDriver | None = None
         self.limits: SafetyLimits | None = None
@@ -115,6 +156,7 @@ class ActuatorBridgeNode(LifecycleNode):
         self._feedback = StepFeedback()
         self._test_id = ''
         self._step = 0
+        self._last_status: tuple[int, str] = (TestStatus.STATE_IDLE, 'unconfigured')
         self._status_pub = self.create_publisher(TestStatus, 'bridge/status', LATCHED_QOS)
         self._trajectory_pub = self.create_publisher(ActuatorTrajectory, 'bridge/trajectory',
                                                      STEP_QOS)
@@ -124,7 +166,8 @@ class ActuatorBridgeNode(LifecycleNode):
         self._monitor_key: tuple[str, int] | None = None  # (test id, DOF count) monitored
         self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
-        self.create_subscription(String, 'bridge/control', self._on_control, CONTROL_DEPTH)
+        self.create_subscription(ControlMessage, 'bridge/control', self._on_control,
+                                 CONTROL_DEPTH)
         self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic,
                                  CONTROL_DEPTH)
         # The lab-wide emergency stop: one message holds every site's bridge at once.
@@ -151,12 +194,13 @@ class ActuatorBridgeNode(LifecycleNode):
         """Enable motion: start answering the integrator."""
         driver = self.driver
         if isinstance(driver, SimServoDriver) and not driver.ready():
-            self.get_logger().error('activate refused: no specimen node on '
-                                    f'{self.resolve_topic_name("specimen/step_command")}')
-            return FAILURE
+            # Active, but no session is offered (so nothing can move) until it is.
+            self.get_logger().info('active; waiting for the specimen node on '
+                                   f'{self.resolve_topic_name("specimen/step_command")}')
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self._command_sub = self.create_subscription(StepCommand, 'step_command',
                                                      self._on_command, STEP_QOS)
+        self._accept_when_ready = True  # check_driver offers a session once the driver is
         limits = self.limits
         assert limits is not None
         self.publish_status(TestStatus.STATE_RUNNING, (
@@ -168,6 +212,8 @@ class ActuatorBridgeNode(LifecycleNode):
         """Hold position and stop answering the integrator."""
         self._hold_driver()
         self._stop_answering()
+        self._accept_when_ready = False
+        self.receiver.set_accepting(False)
         self.publish_status(TestStatus.STATE_IDLE, 'inactive: holding position')
         return super().on_deactivate(state)
 
@@ -179,6 +225,7 @@ class ActuatorBridgeNode(LifecycleNode):
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Hold and release the hardware."""
+        self.receiver.set_accepting(False)
         self._hold_driver()
         self._stop_answering()
         self._release()
@@ -198,6 +245,9 @@ class ActuatorBridgeNode(LifecycleNode):
             if float(value(key).value) > 0.0:
                 limits[key] = float(value(key).value)
         self.limits = SafetyLimits.from_mapping(limits, source='pd_actuator_bridge parameters')
+        if len(names) != len(self.receiver.position):
+            msg = 'parameter dof_names: changed after the node started (restart it)'
+            raise BridgeConfigError(msg)
         self.driver = self._make_driver(value('driver').value, len(names))
         self.driver.open()
         self.bridge = ActuatorBridge(self.driver, self.limits, names,
@@ -214,7 +264,18 @@ class ActuatorBridgeNode(LifecycleNode):
                       for key in driver_spec(name).parameter_names}
         return make_driver(name, DriverContext(
             n_dof, parameters, on_trajectory=self._publish_trajectory,
-            on_fault=self._on_driver_fault, host=self))
+            on_fault=self._on_driver_fault, host=self, key=self.key))
+
+    def _offer_state(self) -> None:
+        """The specimen state behind the bridge, for its offer: epoch, origin, position."""
+        driver = self.driver
+        if driver is None:
+            return
+        self.receiver.epoch = driver.state_epoch or self.epoch
+        self.receiver.origin = driver.state_origin
+        force = getattr(driver, 'last_force', None)
+        position = driver.position()
+        self.receiver.set_state(position, force if force is not None else [0.0] * len(position))
 
     def _hold_driver(self) -> None:
         if self.driver is not None:
@@ -249,16 +310,46 @@ class ActuatorBridgeNode(LifecycleNode):
         status.state = state
         status.step = self._step
         status.message = message
+        refused = merge_refusals(self.refusals().values())
+        status.refused_messages = sum(refused.values())
+        status.refused_by_reason = describe_refusals(refused)
         self._status_pub.publish(status)
+        self._last_status = (state, message)
+
+    def refusals(self) -> dict[str, dict[str, int]]:
+        """Messages refused by authentication, by source and reason."""
+        counts = {'step_command': dict(self.receiver.gate.refused),
+                  'bridge/control': dict(self._control_gate.refused)}
+        driver_refused = getattr(self.driver, 'refused', None)
+        if isinstance(driver_refused, dict):
+            counts['specimen/step_feedback'] = driver_refused
+        return {source: count for source, count in counts.items() if count}
+
+    def _refused(self, reason: Any, signature: Signature, source: str) -> None:
+        """Count-and-report path of a refused message: one log line per kind, a status."""
+        self._refusal_log(reason, signature, self.resolve_topic_name(source))
+        state, message = self._last_status
+        self.publish_status(state, message)
+
+    def _on_refused_start(self, reason: Any, signature: Signature) -> None:
+        self._refused(reason, signature, 'session/start')
 
     def _publish_reply(self, reply: BridgeReply) -> None:
         if self._feedback_pub is None:
             return
         step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
-        self._feedback_pub.publish(feedback_message(Feedback(
+        driver = self.driver
+        feedback = Feedback(
             test_id=reply.test_id, step=step, iteration=iteration,
             measured_displacement=reply.displacement, restoring_force=reply.force,
-            status=reply.status, message=reply.message), message=self._feedback))
+            status=reply.status, message=reply.message,
+            epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
+            state_origin=driver.state_origin if driver is not None else self.receiver.origin)
+        self._feedback_pub.publish(feedback_message(
+            feedback, message=self._feedback,
+            signature=self.receiver.sign(feedback, self._request)))
+        if reply.status is FeedbackStatus.OK:
+            self.receiver.set_state(reply.displacement, reply.force)
         if reply.status is FeedbackStatus.OK and self._monitor_pub is not None:
             try:
                 self._publish_monitor(reply)
@@ -317,6 +408,12 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge = self.bridge
         if bridge is None:
             return
+        signature = signature_from_message(message.signature)
+        reason = self.receiver.admit(command_from_message(message), signature)
+        if reason is not None:  # never moves on a message it cannot authenticate
+            self._refused(reason, signature, 'step_command')
+            return
+        self._request = signature
         self._test_id, self._step = message.test_id, message.step
         key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
         self._target = (message.test_id, key, tuple(message.target_displacement.tolist()))
@@ -340,10 +437,16 @@ class ActuatorBridgeNode(LifecycleNode):
             self._publish_reply(reply)
 
     def check_driver(self) -> None:
-        """Hold if the driver did not answer in time, or if the command watchdog expired."""
+        """Offer a session once an active bridge's driver is ready; hold if the driver did not
+        answer in time, or if the command watchdog expired."""
         bridge, driver = self.bridge, self.driver
         if bridge is None:
             return
+        if self._accept_when_ready and (not isinstance(driver, SimServoDriver)
+                                        or driver.ready()):
+            self._accept_when_ready = False
+            self._offer_state()
+            self.receiver.set_accepting(True)  # a new challenge: motion needs a signed start
         timeout = float(self.get_parameter('driver_timeout').value)
         if (isinstance(driver, SimServoDriver) and driver.in_flight and bridge.state == 'busy'
                 and time.monotonic() - driver.sent_at > timeout):
@@ -391,18 +494,38 @@ class ActuatorBridgeNode(LifecycleNode):
                             message)
         return True, message
 
+    def _unauthenticated_reset(self, response: Trigger.Response) -> Trigger.Response:
+        """A reset service call cannot be authenticated: refused while a key is in use."""
+        response.success = False
+        response.message = ('refused: authentication is on; send a signed control instead '
+                            '(./pd control reset or reset_emergency_stop)')
+        self._control_gate.refused['unsigned'] += 1
+        state, message = self._last_status
+        self.publish_status(state, message)
+        return response
+
     def _on_reset_service(self, request: Trigger.Request, response: Trigger.Response
                           ) -> Trigger.Response:
+        if self.key is not None:
+            return self._unauthenticated_reset(response)
         response.success, response.message = self.reset()
         return response
 
     def _on_reset_emergency(self, request: Trigger.Request, response: Trigger.Response
                             ) -> Trigger.Response:
+        if self.key is not None:
+            return self._unauthenticated_reset(response)
         response.success, response.message = self.reset(clear_emergency=True)
         return response
 
-    def _on_control(self, message: String) -> None:
-        request = message.data.strip().lower()
+    def _on_control(self, message: Any) -> None:
+        control = control_from_message(message)
+        signature = signature_from_message(message.signature)
+        reason = self._control_gate.admit(control_payload(control), signature, control.stamp)
+        if reason is not None:
+            self._refused(reason, signature, 'bridge/control')
+            return
+        request = control.command.strip().lower()
         if request == 'reset':
             ok, text = self.reset()
         elif request == 'reset_emergency_stop':
@@ -412,7 +535,7 @@ class ActuatorBridgeNode(LifecycleNode):
             self.publish_status(TestStatus.STATE_HOLDING, 'hold requested by operator')
             return
         else:
-            self.get_logger().warning(f'bridge/control: unknown request {message.data!r} '
+            self.get_logger().warning(f'bridge/control: unknown request {control.command!r} '
                                       '(reset, reset_emergency_stop, hold)')
             return
         if not ok:
@@ -429,13 +552,18 @@ def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
     node.trigger_activate()
 
 
+
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_actuator_bridge main``."""
     rclpy.init(args=args)
     node: ActuatorBridgeNode | None = None
     executor: Executor | None = None
     try:
-        node = ActuatorBridgeNode()
+        try:
+            node = ActuatorBridgeNode()
+        except (AuthError, BridgeError) as err:
+            print(f'pd_actuator_bridge: error: {err}', file=sys.stderr)
+            return 2
         executor = events_executor(node)
         if node.get_parameter('autostart').value:
             _autostart(node, executor)

@@ -6,6 +6,11 @@ A shell-side driver (it needs ``rclpy``): each move goes out as a ``StepCommand`
 (:data:`SIM_SERVO`); the node imports it. The node also enforces ``driver_timeout`` on the move
 in flight, re-sends the move for a re-sent command (:meth:`SimServoDriver.repeat`) and waits for
 :meth:`SimServoDriver.ready` before activating.
+
+With a key, the driver opens a signed session with the specimen node (as the integrator does
+with the bridge), signs every move (a re-sent move gets a new signature) and takes only the
+specimen's signed answers; before the session is open it reads the specimen's position from
+its session offer, so a restarted bridge starts from where the specimen is.
 """
 
 from __future__ import annotations
@@ -17,8 +22,15 @@ from typing import Any
 
 from rclpy.node import Node
 
-from pd_common.protocol import FeedbackStatus
-from pd_common.ros import STEP_QOS, now_stamp
+from pd_common.auth import Key, Signer
+from pd_common.protocol import (
+    Command,
+    FeedbackStatus,
+    StateOrigin,
+    feedback_from_message,
+    signature_from_message,
+)
+from pd_common.ros import STEP_QOS, SessionSender, command_message
 from pd_msgs.msg import StepCommand, StepFeedback
 
 from .core import (
@@ -43,9 +55,13 @@ class SimServoDriver(ActuatorDriver):
         on_fault: Receives the message of a specimen fault (the bridge then holds).
     """
 
-    def __init__(self, node: Node, n_dof: int, namespace: str) -> None:
+    def __init__(self, node: Node, n_dof: int, namespace: str, key: Key | None = None) -> None:
         """Create the publisher and subscription under ``namespace`` on ``node``."""
         super().__init__()
+        self._sender = SessionSender(node, f'{namespace}/', Signer(key) if key else None, key)
+        self._positioned = False
+        self._specimen_epoch: str | None = None
+        self._specimen_origin = StateOrigin.FRESH
         self._node = node
         self._n_dof = n_dof
         self._session = f'bridge-{os.getpid()}'
@@ -56,7 +72,8 @@ class SimServoDriver(ActuatorDriver):
         self._position = [0.0] * n_dof
         self._sequence = 0
         self._in_flight: tuple[Any, int] | None = None  # (bridge step, driver sequence)
-        self._message: StepCommand | None = None
+        self._move: Command | None = None
+        self._message = StepCommand()
         self.sent_at = 0.0
         self.on_fault: Callable[[str], None] | None = None
 
@@ -66,9 +83,35 @@ class SimServoDriver(ActuatorDriver):
         return self._n_dof
 
     def ready(self) -> bool:
-        """Whether a specimen node listens and talks back."""
+        """Whether a specimen node listens, talks back and obeys this driver's session.
+
+        Opens the session when the specimen offers one; takes the specimen's position (and
+        its state's epoch) from the offer the first time.
+        """
+        sender = self._sender
+        sender.open(self._session)
+        offer = sender.offer
+        if offer is not None and not self._positioned and len(offer.position) == self._n_dof:
+            self._position = [float(x) for x in offer.position]
+            self._specimen_epoch = offer.epoch
+            self._specimen_origin = StateOrigin(offer.state_origin)
+            self._positioned = True
+        return self.connected() and sender.opened
+
+    def connected(self) -> bool:
+        """Whether a specimen node listens and talks back (its session may not be open yet)."""
         return (self._publisher.get_subscription_count() > 0
                 and self._subscription.get_publisher_count() > 0)
+
+    @property
+    def state_epoch(self) -> str | None:
+        """The specimen node's epoch (from its offer and its answers)."""
+        return self._specimen_epoch
+
+    @property
+    def refused(self) -> dict[str, int]:
+        """The specimen answers refused by authentication, by reason."""
+        return dict(self._sender.reply_gate.refused)
 
     @property
     def in_flight(self) -> bool:
@@ -78,25 +121,27 @@ class SimServoDriver(ActuatorDriver):
     def command(self, step: Any, target: Sequence[float]) -> None:
         """Forward a checked move to the specimen."""
         self._sequence += 1
-        message = StepCommand()
-        message.header.stamp = now_stamp()
-        message.test_id = self._session
-        message.step = self._sequence
-        message.dof_names = [f'dof{i}' for i in range(self._n_dof)]
-        message.target_displacement = [float(value) for value in target]
+        self._move = Command(test_id=self._session, step=self._sequence, test_time=0.0,
+                             dof_names=tuple(f'dof{i}' for i in range(self._n_dof)),
+                             target_displacement=tuple(float(value) for value in target))
         self._in_flight = (step, self._sequence)
-        self._message = message
         self.repeat()
 
     def repeat(self) -> None:
-        """Re-send the move in flight (the specimen answers it again without moving)."""
-        if self._message is not None and self._in_flight is not None:
+        """Re-send the move in flight, signed anew (the specimen answers it without moving)."""
+        if self._move is not None and self._in_flight is not None:
             self.sent_at = time.monotonic()
-            self._publisher.publish(self._message)
+            self._publisher.publish(command_message(self._move, message=self._message,
+                                                    signature=self._sender.sign(self._move)))
 
     def hold(self) -> None:
         """Stop: forget the move in flight; the specimen stays where it is."""
         self._in_flight = None
+
+    @property
+    def state_origin(self) -> StateOrigin:
+        """Where the specimen node's state comes from (its offer, then its answers)."""
+        return self._specimen_origin
 
     def position(self) -> list[float]:
         """Last measured displacement."""
@@ -113,6 +158,11 @@ class SimServoDriver(ActuatorDriver):
         if (self._in_flight is None or message.test_id != self._session
                 or message.step != self._in_flight[1]):
             return
+        if self._sender.admit(feedback_from_message(message),
+                              signature_from_message(message.signature)) is not None:
+            return  # not the specimen's genuine answer (counted): the move stays in flight
+        self._specimen_epoch = message.epoch
+        self._specimen_origin = StateOrigin(message.state_origin)
         step = self._in_flight[0]
         self._in_flight = None
         if message.status != FeedbackStatus.OK:
@@ -133,7 +183,8 @@ def make_sim_servo_driver(context: DriverContext) -> SimServoDriver:
         msg = (f'driver sim_servo: needs the rclpy node as DriverContext.host, got '
                f'{type(context.host).__name__}')
         raise BridgeConfigError(msg)
-    driver = SimServoDriver(context.host, context.n_dof, context.parameters['specimen_namespace'])
+    driver = SimServoDriver(context.host, context.n_dof, context.parameters['specimen_namespace'],
+                            context.key)
     driver.on_fault = context.on_fault
     return driver
 

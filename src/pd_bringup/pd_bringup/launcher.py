@@ -38,12 +38,16 @@ from typing import Any
 
 import yaml
 
+from pd_common.auth import KEY_FILE_ENV, AuthError, load_key
+from pd_common.config import read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
 from pd_integrator.core.run.runner import default_run_directory
 from pd_integrator.core.run.session import TestSession
 from pd_integrator.core.run.test_file import load_test_file
+
+from .rig import RigError, RigSettings, default_rig_key, load_rig, test_key_path
 
 STOP_TIMEOUT = 10.0
 
@@ -187,7 +191,54 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--param', '-p', action='append', default=[], metavar='NAME:=VALUE',
                         help='integrator parameter override, e.g. -p scale_factor:=0.5')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--key', help='key file of the rig or test, handed to every node '
+                        '(default: rig.key_file; for a simulated test a new key per test; '
+                        'for --site none the rig key of ./pd keygen)')
+    parser.add_argument('--rig', help='rig file: domain_id, discovery, static_peers, key_file')
+    parser.add_argument('--no-authentication', action='store_true',
+                        help='run every node without a key (an isolated machine only)')
     return parser.parse_args(argv)
+
+
+def resolve_key(args: argparse.Namespace, rig: RigSettings, test_id: str) -> Path | None:
+    """The key file every node gets (checked), or ``None`` without authentication.
+
+    Raises:
+        LaunchError: no usable key file.
+    """
+    if args.no_authentication:
+        return None
+    if args.key:
+        path = Path(args.key).expanduser()
+    elif rig.key_file is not None:
+        path = rig.key_file
+    elif os.environ.get(KEY_FILE_ENV):
+        path = Path(os.environ[KEY_FILE_ENV]).expanduser()
+    elif args.site == 'none':  # a physical specimen side: the rig's own key
+        path = default_rig_key()
+        if not path.exists():
+            msg = (f'--site none: no key file given and no rig key at {path} (make one with '
+                   './pd keygen and give it to every node of the rig, or pass --key)')
+            raise LaunchError(msg)
+    else:  # everything is simulated here: a key of this test only
+        try:
+            path = test_key_path(test_id)
+        except AuthError as err:
+            raise LaunchError(str(err)) from None
+    try:
+        load_key(path)  # refuse a missing, malformed or group/world-readable key now
+    except AuthError as err:
+        raise LaunchError(str(err)) from None
+    return path.resolve()
+
+
+def with_key(command: list[str], key_file: Path | None) -> list[str]:
+    """A node's command line with its key parameter (unchanged for a non-ROS process)."""
+    if '--ros-args' not in command:
+        return command
+    if key_file is None:
+        return [*command, '-p', 'authentication:=false']
+    return [*command, '-p', f'key_file:={key_file}']
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -211,9 +262,20 @@ def main(argv: list[str] | None = None) -> int:
             integrator += ['-p', item]
         commands = site_commands(definition, test_file.resolve(), args.site,
                                  Path(args.bridge_params) if args.bridge_params else None)
-    except (PdIntegratorError, ResourceError) as err:
+        rig = load_rig(read_yaml_file(test_file) or {}, test_file,
+                       Path(args.rig) if args.rig else None)
+        key_file = resolve_key(args, rig, definition.test_id)
+    except (PdIntegratorError, ResourceError, RigError) as err:
         print(f'run_test: error: {err}', file=sys.stderr)
         return 2
+    integrator = with_key(integrator, key_file)
+    commands = [(name, with_key(command, key_file)) for name, command in commands]
+    env = rig.environment(os.environ)
+    if key_file is not None:
+        print(f'run_test: key {key_file} (id {load_key(key_file).key_id})', flush=True)
+    if rig.domain_id is not None:
+        print(f'run_test: rig ROS_DOMAIN_ID={rig.domain_id}, discovery {rig.discovery}',
+              flush=True)
 
     print(f'run_test: {definition.test_id} ({definition.n_steps} steps), site: {args.site}, '
           f'run folder: {out}', flush=True)
@@ -221,8 +283,9 @@ def main(argv: list[str] | None = None) -> int:
     code: int | None = 1
     try:
         for name, command in commands:
-            processes.append((name, subprocess.Popen(command, start_new_session=True)))
-        process = subprocess.Popen(integrator, start_new_session=True)
+            processes.append((name, subprocess.Popen(command, start_new_session=True,
+                                                     env=env)))
+        process = subprocess.Popen(integrator, start_new_session=True, env=env)
         processes.append(('pd_integrator', process))
         while (code := process.poll()) is None:
             failed = [(name, other) for name, other in processes[:-1]

@@ -23,6 +23,7 @@ Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing 
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import sys
 import threading
@@ -40,11 +41,23 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 from std_msgs.msg import String
 
+from pd_common.auth import (
+    AuthError,
+    ControlGate,
+    Signer,
+    control_payload,
+    describe_refusals,
+    merge_refusals,
+)
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Command,
+    Signature,
+    Status,
     TestState,
+    control_from_message,
     feedback_from_message,
+    signature_from_message,
     site_topic,
     site_topic_name,
     status_from_message,
@@ -53,13 +66,17 @@ from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
     STEP_QOS,
+    RefusalLog,
+    SessionSender,
     command_message,
+    declare_key,
     events_executor,
     now_stamp,
     stamp_from_ns,
     status_message,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import Control as ControlMessage
 
 from .core.errors import PdIntegratorError
 from .core.run.bag import BagRecorder
@@ -135,6 +152,7 @@ class IntegratorNode(Node):
             raise PdIntegratorError(msg)
         definition = load_test_file(test_file, overrides)
         self.session = TestSession(definition)  # refuses an unstable test before any motion
+        self.key = declare_key(self)  # refuses a missing or readable key before any output
         output = self.get_parameter('output_dir').value
         self.directory = prepare_run_directory(
             Path(output) if output else default_run_directory('runs', definition.test_id))
@@ -142,8 +160,17 @@ class IntegratorNode(Node):
         self.meter = ProgressMeter(definition.n_steps,
                                    float(self.get_parameter('progress_interval').value))
 
+        self.signer = Signer(self.key) if self.key is not None else None
+        self._control_gate = ControlGate(self.key)
+        self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
+        self._resume_requested = False
+        self._session_lost: set[str] = set()
+
         self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
         self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
+        self.senders = {site: SessionSender(self, f'{site}/' if site else '', self.signer,
+                                            self.key)
+                        for site in self.dispatcher.sites}
         # pd_msgs has no type information: the message type parameter is Any.
         self._command_pubs: dict[str, Publisher[Any]] = {}
         self._feedback_subs: dict[str, Subscription[Any]] = {}
@@ -165,7 +192,8 @@ class IntegratorNode(Node):
                 STEP_QOS, raw=True)
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
-        self.create_subscription(String, 'test_control', self._on_control, CONTROL_DEPTH)
+        self.create_subscription(ControlMessage, 'test_control', self._on_control,
+                                 CONTROL_DEPTH)
         # The lab-wide emergency stop (every bridge holds on it too): hold at once.
         self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_stop,
                                  CONTROL_DEPTH)
@@ -182,9 +210,25 @@ class IntegratorNode(Node):
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
+    def refusals(self) -> dict[str, dict[str, int]]:
+        """Messages refused by authentication, by source and reason (for the summary)."""
+        counts = {f'feedback[{site or "default"}]': dict(sender.reply_gate.refused)
+                  for site, sender in self.senders.items()}
+        counts['test_control'] = dict(self._control_gate.refused)
+        return {source: count for source, count in counts.items() if count}
+
+    def status(self) -> Status:
+        """The dispatcher's status with the refused messages counted."""
+        status = self.dispatcher.status()
+        refused = merge_refusals(self.refusals().values())
+        if not refused:
+            return status
+        return dataclasses.replace(status, refused_messages=sum(refused.values()),
+                                   refused_by_reason=describe_refusals(refused))
+
     def publish_status(self) -> None:
         """Publish (and record) the session's status."""
-        status = self.dispatcher.status()
+        status = self.status()
         self._status_pub.publish(status_message(status, now_stamp()))
         self.bag.write_status(status, time.time_ns())
         if status.state is not self._last_state:
@@ -195,25 +239,56 @@ class IntegratorNode(Node):
             else:
                 self.get_logger().info(line)
 
-    def _publish_command(self, site: str, command: Command) -> None:
-        """Publish one site command; restart the feedback timer."""
+    def _publish_command(self, site: str, command: Command) -> Signature:
+        """Sign and publish one site command; restart the feedback timer."""
+        signature = self.senders[site].sign(command)
         self._command_pubs[site].publish(command_message(
-            command, stamp_from_ns(time.time_ns()), self._command_message))
+            command, stamp_from_ns(time.time_ns()), self._command_message, signature))
         self._sent_at = time.monotonic()
+        return signature
 
     def _site_ready(self, site: str) -> bool:
-        """Whether ``site`` listens to its commands and talks back."""
+        """Whether ``site`` listens, talks back and obeys this test's signed session."""
         return (self._command_pubs[site].get_subscription_count() > 0
-                and self._feedback_subs[site].get_publisher_count() > 0)
+                and self._feedback_subs[site].get_publisher_count() > 0
+                and self.senders[site].opened)
 
     def peers_ready(self) -> bool:
-        """Whether every site listens to its commands and talks back."""
+        """Whether every site is ready; opens the signed sessions not opened yet."""
+        for sender in self.senders.values():
+            sender.open(self.session.definition.test_id)
         return all(self._site_ready(site) for site in self.dispatcher.sites)
 
     def missing_sites(self) -> list[str]:
-        """The command topics nobody answers on yet (for the start-up error)."""
-        return [self.resolve_topic_name(site_topic(site, 'step_command'))
-                for site in self.dispatcher.sites if not self._site_ready(site)]
+        """The sites not ready, and why (for the start-up error)."""
+        missing = []
+        for site in self.dispatcher.sites:
+            if self._site_ready(site):
+                continue
+            topic = self.resolve_topic_name(site_topic(site, 'step_command'))
+            sender = self.senders[site]
+            why = sender.mismatch or ('no session opened' if sender.receiver_ready()
+                                      else 'no session offer')
+            missing.append(f'{topic} ({why})')
+        return missing
+
+    def check_sessions(self) -> None:
+        """Hold when a site no longer obeys this test's session; re-open it on resume."""
+        lost = {site for site, sender in self.senders.items() if not sender.opened}
+        if lost - self._session_lost and self.session.state is TestState.RUNNING:
+            names = ', '.join(site or 'default' for site in sorted(lost))
+            self.session.hold(f'site {names}: the signed session was lost (the receiver '
+                              'restarted or was re-activated); a signed resume re-opens it')
+            self.publish_status()
+        self._session_lost = lost
+        if not self._resume_requested:
+            return
+        for site in lost:
+            self.senders[site].open(self.session.definition.test_id)
+        if not lost:
+            self._resume_requested = False
+            self.dispatcher.resume()
+            self.publish_status()
 
     def start(self) -> None:
         """Send the first command."""
@@ -228,7 +303,15 @@ class IntegratorNode(Node):
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        self.dispatcher.on_feedback(site, feedback_from_message(message))
+        feedback = feedback_from_message(message)
+        signature = signature_from_message(message.signature)
+        reason = self.senders[site].admit(feedback, signature)
+        if reason is not None:  # unsigned, forged, replayed or of another session: not taken
+            self._refusal_log(reason, signature, self.resolve_topic_name(
+                site_topic(site, 'step_feedback')))
+            self.publish_status()
+            return
+        self.dispatcher.on_feedback(site, feedback, signature)
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):
             self._round_trips.append(received - sent_at)
@@ -248,17 +331,28 @@ class IntegratorNode(Node):
         self.session.hold(f'emergency stop: {message.data or "no reason given"}')
         self.publish_status()
 
-    def _on_control(self, message: String) -> None:
-        request = message.data.strip().lower()
+    def _on_control(self, message: Any) -> None:
+        control = control_from_message(message)
+        signature = signature_from_message(message.signature)
+        reason = self._control_gate.admit(control_payload(control), signature, control.stamp)
+        if reason is not None:
+            self._refusal_log(reason, signature, self.resolve_topic_name('test_control'))
+            self.publish_status()
+            return
+        request = control.command.strip().lower()
+        why = f' ({control.reason})' if control.reason else ''
         if request == 'pause':
             self.session.pause()
         elif request == 'resume':
-            self.dispatcher.resume()
+            self._resume_requested = True
+            self.check_sessions()
         elif request == 'abort':
-            self.session.abort('aborted by operator')
+            self.session.abort(f'aborted by operator{why}')
+        elif request == 'hold':
+            self.session.hold(f'held by operator{why}')
         else:
-            self.get_logger().warning(f'test_control: unknown request {message.data!r} '
-                                      '(pause, resume or abort)')
+            self.get_logger().warning(f'test_control: unknown request {control.command!r} '
+                                      '(pause, resume, hold or abort)')
             return
         self.publish_status()
 
@@ -289,7 +383,11 @@ class IntegratorNode(Node):
         summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
                                  figures=self.figures, mode='graph',
                                  step_round_trip=round_trip_statistics(self._round_trips),
-                                 site_protocol=self.dispatcher.coordinator.summary())
+                                 site_protocol=self.dispatcher.coordinator.summary(),
+                                 authentication={
+                                     'enabled': self.key is not None,
+                                     'key_id': self.key.key_id if self.key else None,
+                                     'refused_messages': self.refusals()})
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
 
@@ -340,6 +438,7 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
             break
         executor.spin_once(timeout_sec=0.05)
         node.check_timeout()
+        node.check_sessions()
         if probing and not node.session.probing:
             probing = False
             _describe(node)
@@ -361,7 +460,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         try:
             node = IntegratorNode()
-        except PdIntegratorError as err:
+        except (PdIntegratorError, AuthError) as err:
             print(f'pd_integrator: error: {err}', file=sys.stderr)
             return 2
         executor = events_executor(node)

@@ -2,7 +2,9 @@
 
 Reads the bag with ``rosbags``, re-runs the recorded commands and feedback through the same
 step protocol and integrator (checking every recomputed command against the recorded one) and
-writes ``response.csv``, ``summary.json`` and the figures.
+writes ``response.csv``, ``summary.json`` and the figures. With ``--key FILE`` it also checks
+every recorded authentication code (exit 1 if any fails); without it the bag is analysed all
+the same.
 """
 
 from __future__ import annotations
@@ -10,6 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+from pd_common.auth import AuthError, load_key
 
 from .core.errors import PdIntegratorError
 from .core.run.runner import rebuild_outputs
@@ -21,16 +25,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag)")
     parser.add_argument('--out', help='output folder (default: <bag>/../replay)')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--key', help="the test's key file: check the recorded signatures")
     args = parser.parse_args(argv)
     bag = Path(args.bag)
     out = Path(args.out) if args.out else bag.resolve().parent / 'replay'
     try:
-        result = rebuild_outputs(bag, out, figures=not args.no_figures)
-    except (PdIntegratorError, ValueError) as err:
+        key = load_key(args.key) if args.key else None
+        result = rebuild_outputs(bag, out, figures=not args.no_figures, key=key)
+    except (PdIntegratorError, AuthError, ValueError) as err:
         print(f'replay: error: {err}', file=sys.stderr)
         return 2
     print(f'replayed {result.summary["steps"]} steps ({result.summary["state"]}); outputs in '
           f'{result.directory}')
+    check = result.summary.get('signature_check')
+    if check is not None:
+        print(f'replay: signatures (key {check["key_id"]}): {check["verified"]} verified, '
+              f'{check["failed"]} failed, {check["unsigned"]} unsigned')
+        if check['failed']:
+            return 1
     return 0
 
 

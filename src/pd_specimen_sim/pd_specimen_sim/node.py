@@ -15,11 +15,14 @@ experimental errors injected into every step (see :mod:`pd_common.specimen.serve
 ``sites.<site>.specimen`` and the node runs in the namespace ``/pd/<site>`` (``-r
 __ns:=/pd/<site>``; ``/pd/<site>/specimen`` behind that site's bridge). ``dof_names`` — the
 names of the specimen's DOFs (the site's actuators; default: ``structure.dof_names``, or
-``a1, a2, ...`` for a site).
+``a1, a2, ...`` for a site). ``key_file``, ``authentication`` — the key (see
+:mod:`pd_common.ros.keys`): with it, the node obeys only commands of the session a signed
+``session/start`` opened (its ``session/offer`` is latched) and signs every answer.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
@@ -29,8 +32,22 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 
-from pd_common.protocol import FeedbackStatus
-from pd_common.ros import STEP_QOS, events_executor, feedback_message
+from pd_common.auth import AuthError
+from pd_common.protocol import (
+    FeedbackStatus,
+    StateOrigin,
+    command_from_message,
+    signature_from_message,
+)
+from pd_common.ros import (
+    STEP_QOS,
+    RefusalLog,
+    SessionReceiver,
+    declare_key,
+    events_executor,
+    feedback_message,
+    new_epoch,
+)
 from pd_common.specimen import SpecimenError, load_specimen_section, server_from_config
 from pd_msgs.msg import StepCommand, StepFeedback
 
@@ -68,6 +85,13 @@ class SpecimenSimNode(Node):
                 raise
             msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
             raise SpecimenError(msg) from None
+        self.key = declare_key(self)
+        self.epoch = new_epoch()
+        self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'command')
+        self.receiver = SessionReceiver(self, self.key, len(dof_names), self.epoch,
+                                        StateOrigin.FRESH, on_refused=self._refusal_log)
+        self.receiver.set_state(self.server.position, self.server.force)
+        self.receiver.publish_offer()
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
         self._feedback = StepFeedback()
@@ -79,12 +103,21 @@ class SpecimenSimNode(Node):
             self.get_logger().warning(f'injecting experimental errors: {errors}')
 
     def _on_command(self, message: StepCommand) -> None:
-        answer = self.server.handle(message.test_id, message.step,
-                                    message.target_displacement.tolist(),
-                                    iteration=message.iteration)
+        command = command_from_message(message)
+        signature = signature_from_message(message.signature)
+        reason = self.receiver.admit(command, signature)
+        if reason is not None:  # not obeyed: nothing moves, no answer
+            self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
+            return
+        answer = self.server.handle(command.test_id, command.step, command.target_displacement,
+                                    iteration=command.iteration)
         if answer is None:
             return
-        self._feedback_pub.publish(feedback_message(answer, message=self._feedback))
+        answer = dataclasses.replace(answer, epoch=self.epoch, state_origin=self.receiver.origin)
+        self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
+        self._feedback_pub.publish(feedback_message(answer, message=self._feedback,
+                                                    signature=self.receiver.sign(answer,
+                                                                                 signature)))
         if answer.status is not FeedbackStatus.OK:
             self.get_logger().error(f'step {answer.step}: {answer.message}')
 
@@ -97,7 +130,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         try:
             node = SpecimenSimNode()
-        except SpecimenError as err:
+        except (SpecimenError, AuthError) as err:
             print(f'pd_specimen_sim: error: {err}', file=sys.stderr)
             return 2
         executor = events_executor(node)

@@ -2,8 +2,25 @@
 
 from __future__ import annotations
 
-from .convert import command_from_message, feedback_from_message, status_from_message
-from .messages import Command, Feedback, FeedbackStatus, Status, StepKey, TestState
+from .convert import (
+    command_from_message,
+    control_from_message,
+    feedback_from_message,
+    signature_from_message,
+    status_from_message,
+)
+from .messages import (
+    Command,
+    Control,
+    Feedback,
+    FeedbackStatus,
+    SessionStart,
+    StateOrigin,
+    Status,
+    StepKey,
+    TestState,
+)
+from .signature import MAC_BYTES, Signature
 from .topics import (
     DEFAULT_SITE,
     GLOBAL_EMERGENCY_STOP,
@@ -15,15 +32,22 @@ from .topics import (
 __all__ = [
     'DEFAULT_SITE',
     'GLOBAL_EMERGENCY_STOP',
+    'MAC_BYTES',
     'NAMESPACE',
     'Command',
+    'Control',
     'Feedback',
     'FeedbackStatus',
+    'SessionStart',
+    'Signature',
+    'StateOrigin',
     'Status',
     'StepKey',
     'TestState',
     'command_from_message',
+    'control_from_message',
     'feedback_from_message',
+    'signature_from_message',
     'site_topic',
     'site_topic_name',
     'status_from_message',

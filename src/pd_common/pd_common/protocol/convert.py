@@ -9,9 +9,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from .messages import Command, Feedback, FeedbackStatus, Status, TestState
+from .messages import Command, Control, Feedback, FeedbackStatus, StateOrigin, Status, TestState
+from .signature import Signature
 
-__all__ = ['command_from_message', 'feedback_from_message', 'status_from_message']
+__all__ = ['command_from_message', 'control_from_message', 'feedback_from_message',
+           'signature_from_message', 'status_from_message']
 
 
 def command_from_message(message: Any) -> Command:
@@ -28,10 +30,15 @@ def feedback_from_message(message: Any) -> Feedback:
         status = FeedbackStatus(message.status)
     except ValueError:
         status = FeedbackStatus.FAULT
+    try:
+        origin = StateOrigin(message.state_origin)
+    except ValueError:
+        origin = StateOrigin.FRESH
     return Feedback(test_id=message.test_id, step=int(message.step),
                     measured_displacement=tuple(message.measured_displacement.tolist()),
                     restoring_force=tuple(message.restoring_force.tolist()), status=status,
-                    message=message.message, iteration=int(message.iteration))
+                    message=message.message, iteration=int(message.iteration),
+                    epoch=message.epoch, state_origin=origin)
 
 
 def status_from_message(message: Any) -> Status:
@@ -43,4 +50,17 @@ def status_from_message(message: Any) -> Status:
     return Status(test_id=message.test_id, state=state, step=int(message.step),
                   total_steps=int(message.total_steps), omega_dt=float(message.omega_dt),
                   retries=int(message.retries), ignored_messages=int(message.ignored_messages),
-                  message=message.message)
+                  message=message.message, refused_messages=int(message.refused_messages),
+                  refused_by_reason=message.refused_by_reason)
+
+
+def signature_from_message(message: Any) -> Signature:
+    """A :class:`~pd_common.auth.Signature` from a ``Signature`` message (its ``mac`` array)."""
+    return Signature(key_id=message.key_id, session=message.session,
+                     sequence=int(message.sequence), mac=bytes(message.mac))
+
+
+def control_from_message(message: Any) -> Control:
+    """A :class:`Control` from a ``Control`` message."""
+    return Control(command=message.command, target=message.target, reason=message.reason,
+                   stamp=float(message.stamp))

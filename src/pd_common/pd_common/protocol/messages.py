@@ -14,8 +14,8 @@ from typing import NamedTuple
 
 from ..types import FloatArray
 
-__all__ = ['Command', 'Control', 'Feedback', 'FeedbackStatus', 'SessionStart', 'Status', 'StepKey',
-           'TestState']
+__all__ = ['Command', 'Control', 'Feedback', 'FeedbackStatus', 'SessionStart', 'StateOrigin',
+           'Status', 'StepKey', 'TestState']
 
 
 class FeedbackStatus(IntEnum):
@@ -29,6 +29,14 @@ class FeedbackStatus(IntEnum):
     def label(self) -> str:
         """``'ok'``, ``'limit'`` or ``'fault'`` (for messages and summaries)."""
         return self.name.lower()
+
+
+class StateOrigin(IntEnum):
+    """Where a specimen side's state comes from (``SessionOffer.ORIGIN_*``)."""
+
+    FRESH = 0       # a new state: the process started without a history
+    RESTORED = 1    # restored from a run's record (its commanded history replayed)
+    HARDWARE = 2    # the hardware's own state (read from the controller)
 
 
 class StepKey(NamedTuple):
@@ -85,6 +93,8 @@ class Feedback:
     status: FeedbackStatus = FeedbackStatus.OK
     message: str = ''
     iteration: int = 0
+    epoch: str = ''
+    state_origin: StateOrigin = StateOrigin.FRESH
 
     @property
     def key(self) -> StepKey:
@@ -104,6 +114,8 @@ class Status:
     retries: int = 0
     ignored_messages: int = 0
     message: str = ''
+    refused_messages: int = 0
+    refused_by_reason: str = ''
 
 
 @dataclass(frozen=True)

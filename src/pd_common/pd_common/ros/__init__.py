@@ -3,17 +3,34 @@
 from __future__ import annotations
 
 from .executor import events_executor
-from .messages import command_message, feedback_message, now_stamp, stamp_from_ns, status_message
+from .keys import declare_key
+from .messages import (
+    command_message,
+    control_message,
+    feedback_message,
+    fill_signature,
+    now_stamp,
+    stamp_from_ns,
+    status_message,
+)
 from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
+from .session import RefusalLog, SessionReceiver, SessionSender, new_epoch
 
 __all__ = [
     'CONTROL_DEPTH',
     'LATCHED_QOS',
     'MONITOR_QOS',
     'STEP_QOS',
+    'RefusalLog',
+    'SessionReceiver',
+    'SessionSender',
     'command_message',
+    'control_message',
+    'declare_key',
     'events_executor',
     'feedback_message',
+    'fill_signature',
+    'new_epoch',
     'now_stamp',
     'stamp_from_ns',
     'status_message',

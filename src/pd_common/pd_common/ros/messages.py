@@ -6,12 +6,17 @@ import time
 
 from builtin_interfaces.msg import Time
 
+from pd_msgs.msg import Control as ControlMessage
+from pd_msgs.msg import Signature as SignatureMessage
 from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
 
-from ..protocol.messages import Command, Feedback, Status
+from ..protocol.messages import Command, Control, Feedback, Status
+from ..protocol.signature import Signature
 
-__all__ = ['command_message', 'feedback_message', 'now_stamp', 'stamp_from_ns',
-           'status_message']
+__all__ = ['command_message', 'control_message', 'feedback_message', 'fill_signature',
+           'now_stamp', 'stamp_from_ns', 'status_message']
+
+_UNSIGNED = Signature()
 
 
 def stamp_from_ns(t_ns: int) -> Time:
@@ -24,8 +29,17 @@ def now_stamp() -> Time:
     return stamp_from_ns(time.time_ns())
 
 
+def fill_signature(message: SignatureMessage, signature: Signature) -> None:
+    """Write ``signature`` into a ``pd_msgs/Signature`` field."""
+    message.key_id = signature.key_id
+    message.session = signature.session
+    message.sequence = signature.sequence
+    message.mac = signature.mac
+
+
 def command_message(command: Command, stamp: Time | None = None,
-                    message: StepCommand | None = None) -> StepCommand:
+                    message: StepCommand | None = None,
+                    signature: Signature = _UNSIGNED) -> StepCommand:
     """``pd_msgs/StepCommand`` of ``command`` (fills ``message`` if given; stamp: now)."""
     message = StepCommand() if message is None else message
     message.header.stamp = now_stamp() if stamp is None else stamp
@@ -35,11 +49,13 @@ def command_message(command: Command, stamp: Time | None = None,
     message.test_time = float(command.test_time)
     message.dof_names = list(command.dof_names)
     message.target_displacement = list(command.target_displacement)
+    fill_signature(message.signature, signature)
     return message
 
 
 def feedback_message(feedback: Feedback, stamp: Time | None = None,
-                     message: StepFeedback | None = None) -> StepFeedback:
+                     message: StepFeedback | None = None,
+                     signature: Signature = _UNSIGNED) -> StepFeedback:
     """``pd_msgs/StepFeedback`` of ``feedback`` (fills ``message`` if given; stamp: now)."""
     message = StepFeedback() if message is None else message
     message.header.stamp = now_stamp() if stamp is None else stamp
@@ -50,6 +66,21 @@ def feedback_message(feedback: Feedback, stamp: Time | None = None,
     message.restoring_force = list(feedback.restoring_force)
     message.status = int(feedback.status)
     message.message = feedback.message
+    message.epoch = feedback.epoch
+    message.state_origin = int(feedback.state_origin)
+    fill_signature(message.signature, signature)
+    return message
+
+
+def control_message(control: Control, signature: Signature = _UNSIGNED) -> ControlMessage:
+    """``pd_msgs/Control`` of ``control``."""
+    message = ControlMessage()
+    message.header.stamp = now_stamp()
+    message.command = control.command
+    message.target = control.target
+    message.reason = control.reason
+    message.stamp = float(control.stamp)
+    fill_signature(message.signature, signature)
     return message
 
 
@@ -65,4 +96,6 @@ def status_message(status: Status, stamp: Time | None = None) -> TestStatus:
     message.retries = status.retries
     message.ignored_messages = status.ignored_messages
     message.message = status.message
+    message.refused_messages = status.refused_messages
+    message.refused_by_reason = status.refused_by_reason
     return message

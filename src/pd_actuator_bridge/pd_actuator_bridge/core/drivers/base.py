@@ -17,6 +17,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import TypeAlias
 
+from pd_common.protocol import StateOrigin
+
 from ..errors import BridgeConfigError, DriverError
 
 StepId: TypeAlias = int | tuple[int, ...]
@@ -46,6 +48,18 @@ class ActuatorDriver(abc.ABC):
     def __init__(self) -> None:
         """Create the driver with no measurement callback."""
         self._measurement_callback: MeasurementCallback | None = None
+
+    @property
+    def state_origin(self) -> StateOrigin:
+        """Where the specimen state the driver drives comes from: the controller's hardware
+        (the default), or a simulated specimen (``FRESH`` when it cannot be restored)."""
+        return StateOrigin.HARDWARE
+
+    @property
+    def state_epoch(self) -> str | None:
+        """The epoch of the specimen state behind the driver, if it has its own (a simulator
+        node); ``None``: the bridge's own epoch."""
+        return None
 
     @property
     @abc.abstractmethod

@@ -12,6 +12,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
+from pd_common.protocol import StateOrigin
 from pd_common.specimen import load_specimen_section, specimen_from_config
 
 from ..error_models import ErrorModel
@@ -46,6 +47,13 @@ class EmulatorDriver(ActuatorDriver):
         hold_count: Number of :meth:`hold` calls.
         last_execution: The last step's execution (also a failed one), or ``None``.
     """
+
+    @property
+    def state_origin(self) -> StateOrigin:
+        """``FRESH``: the emulated specimen lives in the bridge's process (a restarted bridge
+        has a new one)."""
+        return StateOrigin.FRESH
+
 
     def __init__(
         self,

@@ -31,6 +31,8 @@ from typing import Any
 
 import yaml
 
+from pd_common.auth import Key
+
 from ..errors import BridgeConfigError
 from .base import ActuatorDriver
 
@@ -94,6 +96,8 @@ class DriverContext:
             :meth:`~.base.ActuatorDriver.command` (``sim_servo``: a specimen fault).
         host: Whatever a shell-side driver needs from its host, e.g. the ``rclpy`` node that
             ``sim_servo`` publishes from; ``None`` for the pure drivers.
+        key: The bridge's key, for a driver that talks to an authenticated peer
+            (``sim_servo``); ``None``: authentication off.
     """
 
     n_dof: int
@@ -101,6 +105,7 @@ class DriverContext:
     on_trajectory: TrajectoryCallback | None = None
     on_fault: FaultCallback | None = None
     host: Any = None
+    key: Key | None = None
 
 
 DriverFactory = Callable[[DriverContext], ActuatorDriver]

@@ -42,13 +42,17 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from pd_common.protocol import (
     Command,
     Feedback,
+    Signature,
     Status,
     command_from_message,
     feedback_from_message,
+    signature_from_message,
     status_from_message,
 )
 
 from ..errors import BagError
+
+_UNSIGNED = Signature()
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -68,6 +72,7 @@ MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
 MSG_STATUS = 'pd_msgs/msg/TestStatus'
 MSG_TRAJECTORY = 'pd_msgs/msg/ActuatorTrajectory'
 MSG_STRING = 'std_msgs/msg/String'
+MSG_SIGNATURE = 'pd_msgs/msg/Signature'
 
 _TOPICS = {
     TOPIC_DEFINITION: MSG_STRING,
@@ -122,7 +127,7 @@ def typestore() -> Typestore:
     store = get_typestore(Stores.ROS2_KILTED)
     directory = msg_directory()
     types: dict[str, Any] = {}
-    for name in ('StepCommand', 'StepFeedback', 'TestStatus', 'ActuatorTrajectory'):
+    for name in ('Signature', 'StepCommand', 'StepFeedback', 'TestStatus', 'ActuatorTrajectory'):
         text = (directory / f'{name}.msg').read_text(encoding='utf-8')
         types.update(get_types_from_msg(text, f'pd_msgs/msg/{name}'))
     store.register(types)
@@ -223,23 +228,32 @@ class BagRecorder:
         """Record the resolved test definition (JSON)."""
         self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
 
-    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND) -> None:
-        """Record a step command."""
+    def _signature(self, signature: Signature | None) -> Any:
+        signature = signature or _UNSIGNED
+        return self._store.types[MSG_SIGNATURE](
+            key_id=signature.key_id, session=signature.session, sequence=signature.sequence,
+            mac=np.frombuffer(signature.mac, dtype=np.uint8))
+
+    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
+                      signature: Signature | None = None) -> None:
+        """Record a step command (with the signature it went out with, if any)."""
         self._write(topic, t_ns, self._store.types[MSG_COMMAND](
             header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
             iteration=command.iteration, test_time=command.test_time,
             dof_names=list(command.dof_names),
-            target_displacement=np.array(command.target_displacement, dtype=np.float64)))
+            target_displacement=np.array(command.target_displacement, dtype=np.float64),
+            signature=self._signature(signature)))
 
-    def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK
-                       ) -> None:
-        """Record a step feedback."""
+    def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
+                       signature: Signature | None = None) -> None:
+        """Record a step feedback (with the signature it came with, if any)."""
         self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
             header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
             iteration=feedback.iteration,
             measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
             restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
-            status=int(feedback.status), message=feedback.message))
+            status=int(feedback.status), message=feedback.message, epoch=feedback.epoch,
+            state_origin=int(feedback.state_origin), signature=self._signature(signature)))
 
     def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
         """Record a test status (the integrator's, or the bridge's on its own topic)."""
@@ -247,7 +261,8 @@ class BagRecorder:
             header=_stamp(self._store, t_ns), test_id=status.test_id, state=int(status.state),
             step=status.step, total_steps=status.total_steps, omega_dt=status.omega_dt,
             retries=status.retries, ignored_messages=status.ignored_messages,
-            message=status.message))
+            message=status.message, refused_messages=status.refused_messages,
+            refused_by_reason=status.refused_by_reason))
 
 
 @dataclass
@@ -262,6 +277,8 @@ class RecordedRun:
         bridge_statuses: the bridge's statuses.
         trajectories: the actuator's sub-step trajectories (``ActuatorTrajectory`` messages).
         site_events: per site of a substructured test, ``(t_ns, item)`` of its own stream.
+        signatures: the signature of each item of ``events`` (unsigned ones empty).
+        site_signatures: the same for ``site_events``.
     """
 
     definition_json: str
@@ -270,6 +287,8 @@ class RecordedRun:
     bridge_statuses: list[tuple[int, Status]] = field(default_factory=list)
     trajectories: list[tuple[int, Any]] = field(default_factory=list)
     site_events: dict[str, list[tuple[int, Command | Feedback]]] = field(default_factory=dict)
+    signatures: list[Signature] = field(default_factory=list)
+    site_signatures: dict[str, list[Signature]] = field(default_factory=dict)
 
     @property
     def commands(self) -> list[Command]:
@@ -308,11 +327,15 @@ def read_bag(path: str | Path) -> RecordedRun:
                 elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
                     item = (command_from_message(message) if msgtype == MSG_COMMAND
                             else feedback_from_message(message))
+                    signature = signature_from_message(
+                        message.signature)  # type: ignore[attr-defined]  # rosbags: ``object``
                     if topic in main_topics:
                         run.events.append((t_ns, item))
+                        run.signatures.append(signature)
                     else:
                         site = topic.removeprefix('/pd/').rsplit('/', 1)[0]
                         run.site_events.setdefault(site, []).append((t_ns, item))
+                        run.site_signatures.setdefault(site, []).append(signature)
                 elif topic == TOPIC_STATUS:
                     run.statuses.append((t_ns, status_from_message(message)))
                 elif msgtype == MSG_TRAJECTORY:

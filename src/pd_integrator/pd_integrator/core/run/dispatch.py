@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from pd_common.protocol import Command, Feedback, Status, TestState, site_topic_name
+from pd_common.protocol import Command, Feedback, Signature, Status, TestState, site_topic_name
 
 from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from .coordinator import SiteCoordinator
@@ -31,8 +31,9 @@ if TYPE_CHECKING:
 
 __all__ = ['SendFunction', 'StepDispatcher']
 
-SendFunction = Callable[[str, Command], None]
-"""``send(site, command)``: deliver a site command (publish it, or call a specimen)."""
+SendFunction = Callable[[str, Command], Signature | None]
+"""``send(site, command)``: deliver a site command (publish it, or call a specimen); returns the
+signature it went out with (``None``: unsigned), which the bag records with the command."""
 
 #: One item of a batch: a structure command and its site commands, or the feedback of a step
 #: completed at once (a fully numerical model: no site commands).
@@ -84,14 +85,15 @@ class StepDispatcher:
         """Send the first command(s)."""
         self._flush(self._next_batch())
 
-    def on_feedback(self, site: str, feedback: Feedback) -> Verdict:
+    def on_feedback(self, site: str, feedback: Feedback,
+                    signature: Signature | None = None) -> Verdict:
         """One site's feedback: advance the test if the step is complete; send what follows."""
         received = self._clock()
         if not self.coordinator.passthrough and not self.session.accepting:
             # Holding, paused or finished: the site's answer is not taken (as the session
             # itself does); the held step is re-sent to every site on resume.
             self.session.protocol.ignore(Verdict.UNEXPECTED)
-            self._record_feedback(site, feedback, received)
+            self._record_feedback(site, feedback, received, signature)
             return Verdict.UNEXPECTED
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
@@ -99,11 +101,11 @@ class StepDispatcher:
             if self.coordinator.passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
-        self._send_batch(batch)
-        self._record_feedback(site, feedback, received)
+        signatures = self._send_batch(batch)
+        self._record_feedback(site, feedback, received, signature)
         if assembled is not None and not self.coordinator.passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
-        self._record_batch(batch)
+        self._record_batch(batch, signatures)
         return verdict
 
     def on_timeout(self) -> bool:
@@ -152,20 +154,21 @@ class StepDispatcher:
                 break
         return batch
 
-    def _send_batch(self, batch: list[_BatchItem]) -> None:
-        for _, site_commands in batch:
-            for site, site_command in site_commands:
-                self._send(site, site_command)
+    def _send_batch(self, batch: list[_BatchItem]) -> list[Signature | None]:
+        """Send the batch's site commands; their signatures, in order."""
+        return [self._send(site, site_command)
+                for _, site_commands in batch for site, site_command in site_commands]
 
     def _flush(self, batch: list[_BatchItem]) -> None:
-        self._send_batch(batch)
-        self._record_batch(batch)
+        self._record_batch(batch, self._send_batch(batch))
 
-    def _record_batch(self, batch: list[_BatchItem]) -> None:
+    def _record_batch(self, batch: list[_BatchItem], signatures: list[Signature | None]
+                      ) -> None:
         if self.bag is None:
             return
         t_ns = self._clock()
         passthrough = self.coordinator.passthrough
+        sent = iter(signatures)
         for item, site_commands in batch:
             if isinstance(item, Feedback):
                 self._record(TOPIC_STRUCTURE_FEEDBACK, item, t_ns)
@@ -173,17 +176,19 @@ class StepDispatcher:
             if not passthrough:
                 self._record(TOPIC_STRUCTURE_COMMAND, item, t_ns)
             for site, site_command in site_commands:
-                self._record(self._topics[site][0], site_command, t_ns)
+                self._record(self._topics[site][0], site_command, t_ns, next(sent, None))
 
-    def _record_feedback(self, site: str, feedback: Feedback, t_ns: int) -> None:
+    def _record_feedback(self, site: str, feedback: Feedback, t_ns: int,
+                         signature: Signature | None) -> None:
         topics = self._topics.get(site)
         if topics is not None:
-            self._record(topics[1], feedback, t_ns)
+            self._record(topics[1], feedback, t_ns, signature)
 
-    def _record(self, topic: str, item: Command | Feedback, t_ns: int) -> None:
+    def _record(self, topic: str, item: Command | Feedback, t_ns: int,
+                signature: Signature | None = None) -> None:
         if self.bag is None:
             return
         if isinstance(item, Command):
-            self.bag.write_command(item, t_ns, topic)
+            self.bag.write_command(item, t_ns, topic, signature)
         else:
-            self.bag.write_feedback(item, t_ns, topic)
+            self.bag.write_feedback(item, t_ns, topic, signature)

@@ -27,10 +27,13 @@ from .energy import energy_balance
 from .outputs import summarize, tracking_history, write_run_outputs
 from .progress import ProgressMeter
 from .session import TestSession
+from .signatures import check_signatures
 from .test_file import from_json
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+
+    from pd_common.auth import Key
 
 BAG_DIRECTORY = 'bag'
 DEFINITION_JSON = 'test_definition.json'
@@ -210,11 +213,18 @@ def replay_bag(bag_path: str | Path) -> TestSession:
     return session
 
 
-def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: bool = True
-                    ) -> RunResult:
-    """Rebuild ``response.csv``, ``summary.json`` and the figures from a bag alone."""
+def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: bool = True,
+                    key: Key | None = None) -> RunResult:
+    """Rebuild ``response.csv``, ``summary.json`` and the figures from a bag alone.
+
+    With ``key``, the recorded authentication codes are checked too (``summary.json``:
+    ``signature_check``).
+    """
     bag_path = Path(bag_path)
     run = read_bag(bag_path)
+    extra: dict[str, Any] = {}
+    if key is not None:
+        extra['signature_check'] = check_signatures(run, key).as_dict()
     session = replay_bag(bag_path)
     times = [t for t, _ in run.events]
     wall_time = (max(times) - min(times)) / 1e9 if times else 0.0
@@ -223,5 +233,6 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
     bridge = [status.message for _, status in run.bridge_statuses if status.message]
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
                              mode='replay', replayed_from=str(bag_path),
-                             bridge_messages=bridge[-5:], bridge_topic=TOPIC_BRIDGE_STATUS)
+                             bridge_messages=bridge[-5:], bridge_topic=TOPIC_BRIDGE_STATUS,
+                             **extra)
     return RunResult(session=session, directory=directory, summary=summary)

@@ -39,7 +39,10 @@ from .definition import (
 __all__ = ['PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict', 'from_json',
            'load_test_file']
 
-SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen', 'sites')
+#: The sections of a test file (``rig`` is read by ``run_test`` only: the rig's ROS domain and
+#: discovery; the integrator does not need it).
+SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen', 'sites',
+            'rig')
 
 #: Node parameter name -> path in the test definition (the integrator node's overrides).
 PARAMETER_PATHS: dict[str, tuple[str, str]] = {

@@ -1,0 +1,150 @@
+"""The rig a test runs on: its ROS domain, its discovery range and its key.
+
+Read from the test file's ``rig`` section and/or a rig file (``run_test --rig FILE``, the same
+keys; the test file's values win)::
+
+    rig:
+      domain_id: 42                  # ROS_DOMAIN_ID of the rig (0-101 or 215-232)
+      discovery: localhost           # localhost (default) | subnet (a multi-host test)
+      static_peers: [10.0.0.2]       # with subnet: the other hosts (ROS_STATIC_PEERS)
+      key_file: ~/.config/pd/keys/rig.key   # the rig's key (a physical rig has one)
+
+Keys: ``./pd keygen`` makes the rig's key; ``run_test`` makes a key per test in
+``~/.local/state/pd/keys/`` when every site is simulated and no key is given.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from pd_common.auth import generate_key
+from pd_common.config import YAMLError, read_yaml_file
+
+__all__ = ['DISCOVERY', 'RigError', 'RigSettings', 'default_rig_key', 'load_rig', 'state_key_dir',
+           'test_key_path']
+
+DISCOVERY = ('localhost', 'subnet')
+_KEYS = {'domain_id', 'discovery', 'static_peers', 'key_file'}
+
+
+class RigError(ValueError):
+    """The rig settings are invalid (one line naming the file and the key)."""
+
+
+@dataclass(frozen=True)
+class RigSettings:
+    """Where the test's nodes talk, and with which key.
+
+    Attributes:
+        domain_id: ROS_DOMAIN_ID (``None``: the environment's).
+        discovery: ``localhost`` or ``subnet``.
+        static_peers: ROS_STATIC_PEERS with ``subnet``.
+        key_file: the rig's key file (``None``: not given).
+    """
+
+    domain_id: int | None = None
+    discovery: str = 'localhost'
+    static_peers: tuple[str, ...] = ()
+    key_file: Path | None = None
+    sources: tuple[str, ...] = field(default=(), compare=False)
+
+    def environment(self, base: Mapping[str, str]) -> dict[str, str]:
+        """The environment of the test's processes: domain and discovery of the rig."""
+        env = dict(base)
+        if self.domain_id is not None:
+            env['ROS_DOMAIN_ID'] = str(self.domain_id)
+        if self.discovery == 'subnet':
+            env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
+            if self.static_peers:
+                env['ROS_STATIC_PEERS'] = ';'.join(self.static_peers)
+        else:
+            env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        return env
+
+
+def _settings(raw: Any, where: str, base_dir: Path) -> dict[str, Any]:
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        msg = f'{where}: must be a mapping of {", ".join(sorted(_KEYS))}'
+        raise RigError(msg)
+    unknown = sorted(set(raw) - _KEYS)
+    if unknown:
+        msg = f'{where}.{unknown[0]}: unknown key (expected {", ".join(sorted(_KEYS))})'
+        raise RigError(msg)
+    out: dict[str, Any] = {}
+    if 'domain_id' in raw:
+        value = raw['domain_id']
+        if isinstance(value, bool) or not isinstance(value, int) or not (
+                0 <= value <= 101 or 215 <= value <= 232):
+            msg = f'{where}.domain_id: must be an integer in 0-101 or 215-232, got {value!r}'
+            raise RigError(msg)
+        out['domain_id'] = value
+    if 'discovery' in raw:
+        if raw['discovery'] not in DISCOVERY:
+            msg = (f'{where}.discovery: must be one of {", ".join(DISCOVERY)}, got '
+                   f'{raw["discovery"]!r}')
+            raise RigError(msg)
+        out['discovery'] = raw['discovery']
+    if 'static_peers' in raw:
+        peers = raw['static_peers']
+        if not isinstance(peers, list) or not all(isinstance(p, str) and p for p in peers):
+            msg = f'{where}.static_peers: must be a list of host names or addresses'
+            raise RigError(msg)
+        out['static_peers'] = tuple(peers)
+    if 'key_file' in raw:
+        if not isinstance(raw['key_file'], str) or not raw['key_file']:
+            msg = f'{where}.key_file: must be the path of a key file'
+            raise RigError(msg)
+        path = Path(raw['key_file']).expanduser()
+        out['key_file'] = path if path.is_absolute() else base_dir / path
+    return out
+
+
+def load_rig(test_raw: Mapping[str, Any], test_file: Path, rig_file: Path | None
+             ) -> RigSettings:
+    """The rig settings of a test: its rig file's, overridden by its ``rig`` section.
+
+    Raises:
+        RigError: one line naming the file and the key.
+    """
+    values: dict[str, Any] = {}
+    sources: list[str] = []
+    if rig_file is not None:
+        try:
+            raw = read_yaml_file(rig_file)
+        except (OSError, YAMLError) as err:
+            msg = f'{rig_file}: cannot read the rig file ({err})'
+            raise RigError(msg) from None
+        section = raw.get('rig', raw) if isinstance(raw, Mapping) else raw
+        values.update(_settings(section, f'{rig_file.name}: rig', rig_file.parent))
+        sources.append(str(rig_file))
+    if test_raw.get('rig') is not None:
+        values.update(_settings(test_raw['rig'], f'{test_file.name}: rig', test_file.parent))
+        sources.append(str(test_file))
+    return RigSettings(**values, sources=tuple(sources))
+
+
+def state_key_dir() -> Path:
+    """Where ``run_test`` keeps the keys it makes per test (owner-only)."""
+    base = os.environ.get('XDG_STATE_HOME') or str(Path.home() / '.local' / 'state')
+    return Path(base) / 'pd' / 'keys'
+
+
+def default_rig_key() -> Path:
+    """The default path of the rig's key (``./pd keygen`` without ``--out``)."""
+    base = os.environ.get('XDG_CONFIG_HOME') or str(Path.home() / '.config')
+    return Path(base) / 'pd' / 'keys' / 'rig.key'
+
+
+def test_key_path(test_id: str) -> Path:
+    """A new key file for one simulated test (created, owner-only)."""
+    stamp = datetime.now(tz=UTC).strftime('%Y%m%d-%H%M%S-%f')
+    path = state_key_dir() / f'{test_id}-{stamp}.key'
+    generate_key(path)
+    return path

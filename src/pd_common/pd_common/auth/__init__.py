@@ -1,0 +1,61 @@
+"""Authentication of commands, feedback and controls (HMAC-SHA256 with a per-rig key).
+
+The Fast DDS of the wheels has no DDS-Security, so the application authenticates what moves
+an actuator or changes a test: see docs/security.md for the threat model.
+
+* :mod:`.keys` — key files (made by ``./pd keygen`` or ``run_test``; owner-only);
+* :mod:`.signing` — signatures: key id, session nonce, sequence, MAC;
+* :mod:`.payloads` — the fields each message kind authenticates;
+* :mod:`.gates` — who may be obeyed: sessions for step messages, freshness for controls.
+"""
+
+from __future__ import annotations
+
+from .errors import AuthError, KeyFileError
+from .gates import (
+    DEFAULT_CONTROL_WINDOW,
+    CommandGate,
+    ControlGate,
+    ReplyGate,
+    describe_refusals,
+    merge_refusals,
+)
+from .keys import KEY_BYTES, KEY_FILE_ENV, Key, generate_key, load_key, new_key
+from .payloads import command_payload, control_payload, feedback_payload, session_start_payload
+from .signing import (
+    Refusal,
+    Signer,
+    canonical,
+    mac_of,
+    new_session,
+    sign_reply,
+    verify_mac,
+)
+
+__all__ = [
+    'DEFAULT_CONTROL_WINDOW',
+    'KEY_BYTES',
+    'KEY_FILE_ENV',
+    'AuthError',
+    'CommandGate',
+    'ControlGate',
+    'Key',
+    'KeyFileError',
+    'Refusal',
+    'ReplyGate',
+    'Signer',
+    'canonical',
+    'command_payload',
+    'control_payload',
+    'describe_refusals',
+    'feedback_payload',
+    'generate_key',
+    'load_key',
+    'mac_of',
+    'merge_refusals',
+    'new_key',
+    'new_session',
+    'session_start_payload',
+    'sign_reply',
+    'verify_mac',
+]

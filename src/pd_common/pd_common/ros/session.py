@@ -1,0 +1,235 @@
+"""Signed sessions over ROS: the receiver's offer and the sender's start (pd_msgs wiring).
+
+A receiver of step commands (a bridge, a simulator) publishes a latched
+:class:`pd_msgs.msg.SessionOffer` on ``session/offer`` (its challenge, the session it obeys,
+its epoch and state) and takes :class:`pd_msgs.msg.SessionStart` on ``session/start``. A
+sender (the integrator; a bridge driving a simulator) opens a session with
+:class:`SessionSender` before its first command and checks every reply. The logic lives in
+:mod:`pd_common.auth`; this module only moves the messages.
+"""
+
+from __future__ import annotations
+
+import secrets
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+
+from pd_msgs.msg import SessionOffer
+from pd_msgs.msg import SessionStart as SessionStartMessage
+
+from ..auth.gates import CommandGate, ReplyGate
+from ..auth.keys import Key
+from ..auth.payloads import command_payload, feedback_payload, session_start_payload
+from ..auth.signing import Refusal, Signer, sign_reply
+from ..protocol.convert import signature_from_message
+from ..protocol.messages import Command, Feedback, SessionStart, StateOrigin, StepKey
+from ..protocol.signature import Signature
+from ..types import FloatArray
+from .messages import fill_signature, now_stamp
+from .qos import LATCHED_QOS, STEP_QOS
+
+__all__ = ['RefusalLog', 'SessionReceiver', 'SessionSender', 'new_epoch']
+
+_UNSIGNED = Signature()
+
+
+def new_epoch() -> str:
+    """A new random epoch (a process start of a specimen side)."""
+    return secrets.token_hex(8)
+
+
+class RefusalLog:
+    """One log line per kind of refusal (and the key mismatch said plainly), not per message."""
+
+    def __init__(self, warn: Callable[[str], object], key: Key | None, what: str) -> None:
+        self._warn = warn
+        self._key = key
+        self._what = what
+        self._said: set[str] = set()
+
+    def __call__(self, reason: Refusal, signature: Signature, source: str = '') -> None:
+        """Report a refused message (the first of its kind only)."""
+        if reason.value in self._said:
+            return
+        self._said.add(reason.value)
+        where = f' on {source}' if source else ''
+        if reason is Refusal.WRONG_KEY and self._key is not None:
+            self._warn(f'refusing every {self._what}{where} signed with key '
+                       f'{signature.key_id}: this node has key {self._key.key_id} (wrong key '
+                       'file?)')
+        else:
+            self._warn(f'refused {self._what}{where}: {reason.value} (counted; further ones '
+                       'are counted silently)')
+
+
+class SessionReceiver:
+    """The receiver's side: its latched offer, session starts, and command admission.
+
+    Args:
+        node: the node (topics relative to its namespace).
+        key: the key (``None``: authentication off).
+        n_dof: number of DOFs (for the state in the offer).
+        epoch: the specimen state's epoch (:func:`new_epoch`).
+        origin: where the state comes from.
+        on_refused: called for each refused session start.
+    """
+
+    def __init__(self, node: Node, key: Key | None, n_dof: int, epoch: str,
+                 origin: StateOrigin = StateOrigin.FRESH,
+                 on_refused: Callable[[Refusal, Signature], None] | None = None) -> None:
+        self._node = node
+        self.key = key
+        self.gate = CommandGate(key)
+        self.epoch = epoch
+        self.origin = origin
+        self.restored: tuple[str, StepKey] | None = None
+        self.position: list[float] = [0.0] * n_dof
+        self.force: list[float] = [0.0] * n_dof
+        self._on_refused = on_refused
+        self.accepting = True
+        self._offer_pub = node.create_publisher(SessionOffer, 'session/offer', LATCHED_QOS)
+        node.create_subscription(SessionStartMessage, 'session/start', self._on_start,
+                                 QoSProfile(depth=10, reliability=STEP_QOS.reliability))
+        self.publish_offer()
+
+    @property
+    def session(self) -> str | None:
+        """The session whose commands are obeyed."""
+        return self.gate.session
+
+    def publish_offer(self) -> None:
+        """Publish the current offer and state (latched)."""
+        offer = SessionOffer()
+        offer.header.stamp = now_stamp()
+        offer.node = self._node.get_fully_qualified_name()
+        offer.challenge = self.gate.challenge if self.accepting else ''
+        offer.active_session = self.gate.session or ''
+        offer.authenticated = self.gate.enabled
+        offer.epoch = self.epoch
+        offer.state_origin = int(self.origin)
+        if self.restored is not None:
+            offer.restored_test_id = self.restored[0]
+            offer.restored_step, offer.restored_iteration = self.restored[1]
+        offer.position = [float(x) for x in self.position]
+        offer.force = [float(f) for f in self.force]
+        self._offer_pub.publish(offer)
+
+    def set_state(self, position: Sequence[float] | FloatArray,
+                  force: Sequence[float] | FloatArray) -> None:
+        """The specimen side's measured state (published with the next offer)."""
+        self.position = [float(x) for x in position]
+        self.force = [float(f) for f in force]
+
+    def close(self) -> None:
+        """End the session (a new signed start is needed) and offer a new challenge."""
+        self.gate.close()
+        self.publish_offer()
+
+    def set_accepting(self, accepting: bool) -> None:
+        """Offer sessions, or not (an inactive bridge): either way the current one ends."""
+        self.accepting = accepting
+        self.close()
+
+    def admit(self, command: Command, signature: Signature) -> Refusal | None:
+        """``None`` if ``command`` may be obeyed."""
+        return self.gate.admit(command_payload(command), signature)
+
+    def sign(self, feedback: Feedback, request: Signature) -> Signature:
+        """The signature of ``feedback`` answering the command signed ``request``."""
+        if self.key is None or not request.signed:
+            return _UNSIGNED
+        return sign_reply(self.key, feedback_payload(feedback), request)
+
+    def _on_start(self, message: Any) -> None:
+        start = SessionStart(test_id=message.test_id, challenge=message.challenge)
+        signature = signature_from_message(message.signature)
+        if not self.accepting:
+            if self._on_refused is not None:
+                self._on_refused(Refusal.NO_SESSION, signature)
+            return
+        reason = self.gate.start(session_start_payload(start), message.challenge, signature)
+        if reason is not None and self._on_refused is not None:
+            self._on_refused(reason, signature)
+        self.publish_offer()
+
+
+class SessionSender:
+    """The sender's side towards one receiver: open a session, sign commands, check replies.
+
+    Args:
+        node: the node.
+        prefix: topic prefix of the receiver relative to the node (``''``, ``'lab1/'``,
+            ``'specimen/'``): its offer is ``<prefix>session/offer``.
+        signer: the sender's signer (one session per sender and run), or ``None`` (no key).
+        key: the key (``None``: authentication off).
+    """
+
+    def __init__(self, node: Node, prefix: str, signer: Signer | None,
+                 key: Key | None) -> None:
+        self._signer = signer
+        self.key = key
+        self.offer: Any = None
+        self._started_with = ''
+        self.reply_gate = ReplyGate(key, signer.session if signer is not None else '')
+        self._start_pub = node.create_publisher(
+            SessionStartMessage, f'{prefix}session/start',
+            QoSProfile(depth=10, reliability=STEP_QOS.reliability))
+        node.create_subscription(SessionOffer, f'{prefix}session/offer', self._on_offer,
+                                 LATCHED_QOS)
+
+    @property
+    def opened(self) -> bool:
+        """Whether the receiver obeys this sender's session (or neither side has a key)."""
+        if self.offer is None:
+            return False
+        if self._signer is None:
+            return not self.offer.authenticated
+        return bool(self.offer.authenticated and self.offer.active_session == self._signer.session)
+
+    @property
+    def mismatch(self) -> str:
+        """Why the two sides cannot work together ('' if they can)."""
+        if self.offer is None:
+            return ''
+        if self._signer is not None and not self.offer.authenticated:
+            return f'{self.offer.node} runs without authentication (no key)'
+        if self._signer is None and self.offer.authenticated:
+            return f'{self.offer.node} requires authentication (give this node the key file)'
+        return ''
+
+    def open(self, test_id: str) -> None:
+        """Send a signed session start for the receiver's current challenge (once each)."""
+        offer = self.offer
+        if (offer is None or not offer.challenge or self.opened or self._signer is None
+                or self.mismatch):
+            return
+        if offer.challenge == self._started_with:
+            return
+        start = SessionStart(test_id=test_id, challenge=offer.challenge)
+        message = SessionStartMessage()
+        message.header.stamp = now_stamp()
+        message.test_id = test_id
+        message.challenge = offer.challenge
+        fill_signature(message.signature, self._signer.sign(session_start_payload(start)))
+        self._started_with = offer.challenge
+        self._start_pub.publish(message)
+
+    def receiver_ready(self) -> bool:
+        """Whether a receiver has offered a session (its offer arrived)."""
+        return self.offer is not None
+
+    def sign(self, command: Command) -> Signature:
+        """The signature of the next command (unsigned without a key)."""
+        if self._signer is None:
+            return _UNSIGNED
+        return self._signer.sign(command_payload(command))
+
+    def admit(self, feedback: Feedback, signature: Signature) -> Refusal | None:
+        """``None`` if the reply is genuine, for this session, and new."""
+        return self.reply_gate.admit(feedback_payload(feedback), signature)
+
+    def _on_offer(self, offer: Any) -> None:
+        self.offer = offer

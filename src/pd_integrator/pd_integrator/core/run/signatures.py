@@ -1,0 +1,76 @@
+"""Checking the authentication codes recorded in a run's bag (``./pd replay --key``).
+
+Every command the integrator sent and every feedback it took went through the site's topics
+with a MAC (:mod:`pd_common.auth`); the bag records them with their signatures. With the key,
+each one can be checked again: a bag whose commands or feedback were altered after the test
+(or that mixes streams of another key) shows it. The key is needed only for this check; the
+replay itself does not need it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from pd_common.auth import Key, command_payload, feedback_payload, verify_mac
+from pd_common.protocol import Command, Feedback, Signature
+
+if TYPE_CHECKING:
+    from .bag import RecordedRun
+
+__all__ = ['SignatureCheck', 'check_signatures']
+
+
+@dataclass(frozen=True)
+class SignatureCheck:
+    """What checking a bag's recorded signatures found.
+
+    Attributes:
+        verified: messages whose MAC matches their recorded fields.
+        failed: messages whose MAC does not match (altered, or another key).
+        unsigned: messages recorded without a signature (a run without authentication).
+        key_id: id of the key used.
+    """
+
+    verified: int
+    failed: int
+    unsigned: int
+    key_id: str
+
+    @property
+    def ok(self) -> bool:
+        """Whether no recorded signature failed."""
+        return self.failed == 0
+
+    def as_dict(self) -> dict[str, object]:
+        """For ``summary.json``."""
+        return {'key_id': self.key_id, 'verified': self.verified, 'failed': self.failed,
+                'unsigned': self.unsigned}
+
+
+def _streams(run: RecordedRun) -> Iterable[tuple[Command | Feedback, Signature]]:
+    """The messages that went over the sites' topics, with their signatures."""
+    if run.site_events:  # a substructured test: the structure stream is internal, unsigned
+        for site, events in run.site_events.items():
+            yield from zip((item for _, item in events), run.site_signatures[site],
+                           strict=True)
+    else:
+        yield from zip((item for _, item in run.events), run.signatures, strict=True)
+
+
+def check_signatures(run: RecordedRun, key: Key) -> SignatureCheck:
+    """Check the MAC of every recorded command and feedback with ``key``."""
+    verified = failed = unsigned = 0
+    for item, signature in _streams(run):
+        if not signature.signed:
+            unsigned += 1
+            continue
+        payload = (command_payload(item) if isinstance(item, Command)
+                   else feedback_payload(item))
+        if verify_mac(key, payload, signature) is None:
+            verified += 1
+        else:
+            failed += 1
+    return SignatureCheck(verified=verified, failed=failed, unsigned=unsigned,
+                          key_id=key.key_id)

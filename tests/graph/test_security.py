@@ -1,0 +1,217 @@
+"""Only the test's owner moves the actuator: a rogue process on the same ROS domain, with
+well-formed messages, replays and forgeries, moves nothing and changes nothing.
+
+Integrator, bridge and simulator run as separate processes with the test's key; the observer
+node plays the rogue (no key, or a key of its own). The test's ``response.csv`` must equal the
+ROS-free run's byte for byte, and every refused attempt must be counted by reason.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from graph_support import Processes, executable
+from test_graph import (
+    RUN_TIMEOUT,
+    call_service,
+    latched_qos,
+    spin_until,
+    wait_exit,
+    write_bridge_params,
+    write_test_file,
+)
+
+from pd_common.auth import Signer, command_payload, control_payload, feedback_payload, new_key
+from pd_common.protocol import Command, Control, Feedback
+from pd_common.ros import command_message, control_message, feedback_message
+from pd_integrator.core.run.bag import read_bag
+from pd_integrator.core.run.runner import run_offline
+from pd_integrator.core.run.test_file import load_test_file
+
+pytestmark = pytest.mark.graph
+
+
+def rogue_commands(signer: Signer | None, test_id: str, start: float, count: int,
+                   step: int = 0) -> list[Any]:
+    """``count`` well-formed commands walking by 0.02 m (the increment limit) from ``start``."""
+    messages = []
+    for i in range(count):
+        command = Command(test_id=test_id, step=step + i, test_time=0.0, dof_names=('top',),
+                          target_displacement=(start + 0.02 * (i + 1),))
+        signature = signer.sign(command_payload(command)) if signer is not None else None
+        messages.append(command_message(command, signature=signature) if signature
+                        else command_message(command))
+    return messages
+
+
+def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState
+    from std_srvs.srv import Trigger
+
+    from pd_msgs.msg import Control as ControlMessage
+    from pd_msgs.msg import SessionStart, StepCommand, StepFeedback, TestStatus
+
+    test_file = write_test_file(tmp_path / 'secure.yaml', test__id='graph-secure',
+                                test__duration=12.0)
+    reference = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
+    rogue = Signer(new_key())  # a key of its own: well-formed signatures, the wrong key
+    moves: list[tuple[float, ...]] = []
+    statuses: list[Any] = []
+    bridge_statuses: list[Any] = []
+    genuine_commands: list[Any] = []
+    genuine_feedback: list[Any] = []
+    observer.create_subscription(StepCommand, '/pd/specimen/step_command',
+                                 lambda m: moves.append(tuple(m.target_displacement)), 1000)
+    observer.create_subscription(StepCommand, '/pd/step_command', genuine_commands.append, 1000)
+    observer.create_subscription(StepFeedback, '/pd/step_feedback', genuine_feedback.append,
+                                 1000)
+    observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
+    observer.create_subscription(TestStatus, '/pd/bridge/status', bridge_statuses.append,
+                                 latched_qos())
+    commands = observer.create_publisher(StepCommand, '/pd/step_command', 100)
+    feedback = observer.create_publisher(StepFeedback, '/pd/step_feedback', 100)
+    starts = observer.create_publisher(SessionStart, '/pd/session/start', 10)
+    test_control = observer.create_publisher(ControlMessage, '/pd/test_control', 10)
+    bridge_control = observer.create_publisher(ControlMessage, '/pd/bridge/control', 10)
+
+    processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args', '-r',
+                                 '__ns:=/pd/specimen', '-p', f'test_file:={test_file}'])
+    params = write_bridge_params(tmp_path / 'bridge.yaml', autostart=False)
+    processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args',
+                               '--params-file', str(params)])
+
+    # -- the idle bridge: the rogue drives its lifecycle and walks it, well within the limits
+    node = '/pd/pd_actuator_bridge'
+    spin_until(observer, lambda: observer.count_publishers('/pd/specimen/step_feedback') > 0
+               and observer.count_subscribers('/pd/step_command') > 0, 20.0,
+               'the specimen and the bridge')
+    time.sleep(0.5)  # and the bridge has discovered the specimen
+    for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
+        request = ChangeState.Request()
+        request.transition.id = transition
+        assert call_service(observer, ChangeState, f'{node}/change_state', request).success
+    spin_until(observer, lambda: commands.get_subscription_count() > 0, 20.0, 'the bridge')
+    start = SessionStart()
+    start.test_id = 'rogue'
+    starts.publish(start)  # an unsigned session start
+    for message in (rogue_commands(None, 'rogue', 0.0, 12)
+                    + rogue_commands(rogue, 'rogue', 0.0, 12)):
+        commands.publish(message)
+    for service in ('/pd/bridge/reset', '/pd/bridge/reset_emergency_stop'):
+        assert not call_service(observer, Trigger, service, Trigger.Request()).success
+    for signer in (None, rogue):
+        control = Control(command='reset_emergency_stop', stamp=time.time())
+        signature = signer.sign(control_payload(control)) if signer is not None else None
+        bridge_control.publish(control_message(control, signature) if signature
+                               else control_message(control))
+    spin_until(observer, lambda: any(s.refused_messages >= 26 for s in bridge_statuses), 20.0,
+               'the bridge to count the rogue messages')
+    assert moves == []  # nothing reached the specimen
+
+    # -- the owner's test runs; the rogue replays, forges and hijacks during it -------------
+    out = tmp_path / 'run'
+    integrator = processes.start('integrator', [
+        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+        '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', 'progress_interval:=0.05'])
+    spin_until(observer, lambda: any(s.step > 150 for s in statuses), RUN_TIMEOUT,
+               'the test to pass step 150')
+    captured_commands = list(genuine_commands[-5:])
+    captured_feedback = list(genuine_feedback[-5:])
+    last = captured_commands[-1]
+    for message in captured_commands * 3:  # replays of genuine signed commands
+        commands.publish(message)
+    hijack = Command(test_id=last.test_id, step=last.step + 1, test_time=0.0,
+                     dof_names=('top',),
+                     target_displacement=(float(last.target_displacement[0]) + 0.015,))
+    commands.publish(command_message(hijack))
+    commands.publish(command_message(hijack, signature=rogue.sign(command_payload(hijack))))
+    for step in range(last.step + 1, last.step + 11):  # forged forces for the next steps
+        forged = Feedback(test_id=last.test_id, step=step, measured_displacement=(0.0,),
+                          restoring_force=(0.0,))
+        feedback.publish(feedback_message(forged))
+        feedback.publish(feedback_message(forged,
+                                          signature=rogue.sign(feedback_payload(forged))))
+    for message in captured_feedback * 2:  # replays of genuine signed feedback
+        feedback.publish(message)
+    for command in ('abort', 'pause', 'resume'):
+        for signer in (None, rogue):
+            control = Control(command=command, stamp=time.time())
+            signature = signer.sign(control_payload(control)) if signer is not None else None
+            test_control.publish(control_message(control, signature) if signature
+                                 else control_message(control))
+    request = ChangeState.Request()
+    request.transition.id = Transition.TRANSITION_ACTIVATE  # already active: refused
+    assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+
+    assert wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator')) == 0
+    assert (out / 'response.csv').read_bytes() == (
+        reference.directory / 'response.csv').read_bytes()
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'finished'
+    refused = summary['authentication']['refused_messages']
+    assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
+    assert refused['feedback[default]']['unsigned'] >= 10
+    assert {'unsigned', 'wrong_key'} <= set(refused['test_control'])
+    spin_until(observer, lambda: all(reason in bridge_statuses[-1].refused_by_reason
+                                     for reason in ('unsigned', 'wrong_key', 'replayed')),
+               10.0, 'the bridge to name every refusal')
+    # Every move that reached the specimen (that the observer heard) was a target the
+    # owner's integrator sent (its bag); none of the rogue's.
+    sent = {item.target_displacement for item in read_bag(out / 'bag').commands}
+    assert moves and set(moves) <= sent
+    assert not {(0.015 + float(last.target_displacement[0]),)} & set(moves)
+
+
+def test_a_readable_key_file_is_refused_in_one_line(processes: Processes,
+                                                     tmp_path: Path) -> None:
+    from pd_common.auth import generate_key
+
+    key = tmp_path / 'open.key'
+    generate_key(key)
+    os.chmod(key, 0o644)
+    test_file = write_test_file(tmp_path / 'open.yaml', test__duration=0.2)
+    for name, command in (
+            ('run_test', [executable('pd_bringup', 'run_test'), str(test_file), '--key',
+                          str(key), '--out', str(tmp_path / 'run')]),
+            ('bridge', [executable('pd_actuator_bridge'), '--ros-args', '-p',
+                        f'key_file:={key}']),
+            ('specimen', [executable('pd_specimen_sim'), '--ros-args', '-p',
+                          f'test_file:={test_file}', '-p', f'key_file:={key}'])):
+        process = processes.start(name, command)
+        assert wait_exit(process, 30.0, lambda name=name: processes.log(name)) == 2
+        lines = [line for line in processes.log(name).splitlines() if line.strip()]
+        errors = [line for line in lines if 'error:' in line]
+        assert len(errors) == 1 and 'mode 0644' in errors[0] and str(key) in errors[0], lines
+        assert 'Traceback' not in processes.log(name)
+    assert not (tmp_path / 'run' / 'bag').exists()  # nothing started
+
+
+def test_a_node_with_the_wrong_key_refuses_every_message_and_says_so_once(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    from pd_common.auth import generate_key
+
+    other = tmp_path / 'other.key'
+    generate_key(other)
+    test_file = write_test_file(tmp_path / 'wrong.yaml', test__duration=0.5,
+                                protocol__start_timeout=5.0, test__id='graph-wrong-key')
+    specimen = processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args',
+                                            '-p', f'test_file:={test_file}',
+                                            '-p', f'key_file:={other}'])
+    integrator = processes.start('integrator', [
+        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+        '-p', f'output_dir:={tmp_path / "run"}', '-p', 'figures:=false'])
+    assert wait_exit(integrator, 60.0, lambda: processes.log('integrator')) == 1
+    assert 'no session opened' in processes.log('integrator')
+    assert specimen.poll() is None
+    refusals = [line for line in processes.log('specimen').splitlines()
+                if 'refusing every' in line]
+    assert len(refusals) == 1 and 'wrong key file' in refusals[0]
+    summary = json.loads((tmp_path / 'run' / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted' and summary['steps'] == 0
