@@ -26,7 +26,6 @@ import time
 from pathlib import Path
 
 from bench_loop import REPO, graph_run
-
 from pd_common.auth import (
     Signer,
     command_payload,
