@@ -367,3 +367,102 @@ def test_raw_file_is_not_modified_by_loading(tmp_path: Path) -> None:
     before = path.read_bytes()
     load_test_file(path, overrides={'dt': 0.005})
     assert path.read_bytes() == before
+
+
+# -- the MDOF initial stiffness and the specimen's ---------------------------------------------
+STORIES = (2.0e8, 1.5e8, 1.0e8)  # N/m, the 3-story shear building of the issue
+FLOOR_MASS = 1.0e5  # kg per floor: with STORIES the periods of the issue (0.3509/0.1405/0.0919 s)
+
+
+def shear_matrix(stories: tuple[float, ...]) -> np.ndarray:
+    """K_ii = k_i + k_(i+1), K_i,i+1 = K_i+1,i = -k_(i+1): written out for three stories."""
+    k1, k2, k3 = stories
+    return np.array([[k1 + k2, -k2, 0.0], [-k2, k2 + k3, -k3], [0.0, -k3, k3]])
+
+
+def three_story_raw(initial_stiffness: Any, specimen: Any = None) -> dict[str, Any]:
+    raw = base_raw()
+    raw['test']['dt'] = 0.005
+    raw['structure'] = {'dof_names': ['f1', 'f2', 'f3'], 'mass': [FLOOR_MASS] * 3,
+                        'damping': {'ratio': 0.05}, 'initial_stiffness': initial_stiffness,
+                        'influence': [1.0, 1.0, 1.0]}
+    raw['specimen'] = specimen if specimen is not None else {
+        'topology': 'shear_building',
+        'elements': [{'model': 'elastic', 'stiffness': k} for k in STORIES]}
+    return raw
+
+
+def test_the_shear_building_matrix_is_taken_as_given(tmp_path: Path) -> None:
+    expected = shear_matrix(STORIES)
+    definition = load_test_file(write_yaml(tmp_path, three_story_raw(expected.tolist())))
+    assert definition.initial_stiffness is not None
+    assert np.array_equal(definition.initial_stiffness, expected)
+    assert definition.warnings == ()
+    # Its periods, from K/m (M = m I): those of the issue; the diagonal reading of the story
+    # list gave other ones (the trap that a list is now refused for).
+    periods = 2 * np.pi / np.sqrt(np.linalg.eigvalsh(definition.initial_stiffness) / FLOOR_MASS)
+    np.testing.assert_allclose(np.sort(periods)[::-1], [0.3509, 0.1405, 0.0919], atol=5e-5)
+    diagonal = 2 * np.pi / np.sqrt(np.array(STORIES) / FLOOR_MASS)
+    assert not np.allclose(np.sort(diagonal)[::-1], np.sort(periods)[::-1], rtol=0.05)
+
+
+def test_the_story_list_is_refused(tmp_path: Path) -> None:
+    assert_config_error(write_yaml(tmp_path, three_story_raw(list(STORIES))),
+                        r'^case\.yaml: structure\.initial_stiffness: a list of 3 values is '
+                        r"ambiguous for 3 DOFs .*give the 3x3 matrix \(one row per DOF\) or "
+                        r"'probe'")
+
+
+def test_a_stiffness_unlike_the_specimens_is_a_warning(tmp_path: Path) -> None:
+    given = np.diag(STORIES)  # the diagonal reading of the story stiffnesses
+    definition = load_test_file(write_yaml(tmp_path, three_story_raw(given.tolist())))
+    assert definition.initial_stiffness is not None
+    assert np.array_equal(definition.initial_stiffness, given)  # not refused: a warning
+    own = shear_matrix(STORIES)
+    percent = 100.0 * np.linalg.norm(given - own) / np.linalg.norm(own)
+    assert percent == pytest.approx(61.2, abs=0.1)
+    assert len(definition.warnings) == 1
+    warning = definition.warnings[0]
+    assert '\n' not in warning
+    assert warning.startswith(
+        "case.yaml: structure.initial_stiffness differs from the specimen's initial stiffness "
+        f'by {percent:.3g} % (relative Frobenius norm): ')
+    assert '[[2e+08, 0, 0], [0, 1.5e+08, 0], [0, 0, 1e+08]] N/m in the structure' in warning
+    assert ('[[3.5e+08, -1.5e+08, 0], [-1.5e+08, 2.5e+08, -1e+08], [0, -1e+08, 1e+08]] N/m '
+            'from the specimen') in warning
+    # The warning is the user's, not the test's: the resolved form does not carry it.
+    assert 'warning' not in definition.to_json()
+    assert definition.with_initial_stiffness(given).warnings == definition.warnings
+
+
+@pytest.mark.parametrize(('factor', 'warned'), [(1.0, False), (1.005, False), (0.995, False),
+                                                (1.1, True), (0.9, True)])
+def test_the_sdof_warning_threshold_is_one_percent(tmp_path: Path, factor: float,
+                                                   warned: bool) -> None:
+    raw = base_raw()
+    raw['structure']['initial_stiffness'] = K * factor
+    definition = load_test_file(write_yaml(tmp_path, raw))
+    assert bool(definition.warnings) is warned
+    if warned:
+        assert f'by {100 * abs(factor - 1):.3g} % ' in definition.warnings[0]
+        assert f'{K * factor:.6g} N/m in the structure, {K:.6g} N/m from the specimen' in (
+            definition.warnings[0])
+
+
+def test_a_specimen_that_cannot_be_built_is_not_this_checks_business(tmp_path: Path) -> None:
+    # (three distinct mappings: yaml.safe_dump writes one shared object as an alias, refused)
+    specimen = {'topology': 'shear_building',
+                'elements': [{'model': 'no-such-model'} for _ in range(3)]}
+    raw = three_story_raw(np.diag(STORIES).tolist(), specimen)
+    definition = load_test_file(write_yaml(tmp_path, raw))
+    assert definition.warnings == ()
+
+
+def test_no_warning_without_a_specimen_or_with_a_probe(tmp_path: Path) -> None:
+    raw = base_raw()
+    raw['structure']['initial_stiffness'] = 2 * K
+    del raw['specimen']
+    assert load_test_file(write_yaml(tmp_path, raw)).warnings == ()
+    probe = load_test_file(DEFAULT_TEST, overrides={'initial_stiffness': 'probe'})
+    assert probe.warnings == ()
+    assert probe.with_initial_stiffness(np.array([[2 * K]])).warnings == ()

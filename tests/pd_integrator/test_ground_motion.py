@@ -567,3 +567,157 @@ def test_at2_unparseable_line4(tmp_path, line4):
 def test_missing_file(tmp_path):
     with pytest.raises(GroundMotionError, match=r"'.*nowhere\.csv'.*cannot read"):
         read_ground_motion(tmp_path / 'nowhere.csv')
+
+
+# ---------------------------------------------------------------------- strict AT2 reading
+
+
+def peer_value(value):
+    """``value`` as PEER writes it (Fortran E14.7 style): ``.1196327E-03``, ``-.1790158E-02``."""
+    if value == 0.0:
+        return '.0000000E+00'
+    exponent = math.floor(math.log10(abs(value))) + 1
+    mantissa = round(abs(value) / 10.0**exponent * 1e7)
+    if mantissa == 10**7:  # rounded up to 1.0
+        mantissa, exponent = 10**6, exponent + 1
+    sign = '-' if value < 0 else ''
+    return f'{sign}.{mantissa:07d}E{"-" if exponent < 0 else "+"}{abs(exponent):02d}'
+
+
+PEER_VALUES = [2.339013e-3, -1.790158e-3, 1.2e-3, -3.4e-3, 5.0e-3, 1.23e-4, -9.87e-3,
+               4.3e-3, 1.1e-3, 2.0e-4, 0.0, -1.790158e-3]
+
+
+def peer_text(values=PEER_VALUES, line4=None):
+    """A PEER-style AT2 file: values in 14-character fields, five per line, a final newline."""
+    tokens = [f'{peer_value(v):>14}' for v in values]
+    body = ''.join(''.join(tokens[i:i + 5]) + '\n' for i in range(0, len(tokens), 5))
+    return at2_text(line4 or f'NPTS=  {len(values)}, DT=   .0050 SEC', body)
+
+
+def test_peer_value_writes_what_peer_writes():
+    assert peer_value(-1.790158e-3) == '-.1790158E-02'
+    assert peer_value(1.196327e-4) == '.1196327E-03'
+    assert peer_value(0.0) == '.0000000E+00'
+
+
+def test_a_peer_file_and_one_without_its_final_newline_are_read(tmp_path):
+    text = peer_text()
+    assert text.endswith(' -.1790158E-02\n')
+    for name, content in (('full.AT2', text), ('no-newline.AT2', text[:-1]),
+                          ('crlf.AT2', text.replace('\n', '\r\n')),
+                          ('crlf-cut-1.AT2', text.replace('\n', '\r\n')[:-1])):
+        motion = read_at2(write(tmp_path, name, content))
+        np.testing.assert_allclose(motion.acceleration, np.array(PEER_VALUES) * G, rtol=1e-6)
+
+
+@pytest.mark.parametrize('cut', range(2, 16))
+def test_a_file_cut_short_is_refused(tmp_path, cut):
+    # The last value is ' -.1790158E-02' and a newline: cutting 2 to 13 characters leaves a
+    # part of it ('-.1790158E-0', ..., '-.1790158', ..., '-'), 14 or 15 drop it.
+    path = write(tmp_path, 'cut.AT2', peer_text()[:-cut])
+    with pytest.raises(GroundMotionError) as info:
+        read_at2(path)
+    message = str(info.value)
+    assert '\n' not in message
+    assert str(path) in message
+    if cut >= 14:
+        assert 'line 4: NPTS=12 but 11 values were read' in message
+    else:
+        left = '-.1790158E-02'[:14 - cut]
+        assert 'line 7: ' in message
+        assert repr(left) in message
+
+
+def test_a_file_cut_5_or_9_characters_short_names_the_file_line_and_token(tmp_path):
+    text = peer_text()
+    path = write(tmp_path, 'cut5.AT2', text[:-5])
+    with pytest.raises(GroundMotionError, match=re.escape(
+            f"ground motion '{path}': line 7: last value '-.1790158' is not written like the "
+            "one before it ('.0000000E+00') and the file does not end with a line end: file "
+            'truncated?')):
+        read_at2(path)
+    path = write(tmp_path, 'cut9.AT2', text[:-9])
+    with pytest.raises(GroundMotionError, match=re.escape(
+            f"ground motion '{path}': line 7: last value '-.179' is not written like")):
+        read_ground_motion(path)
+
+
+@pytest.mark.parametrize(('token', 'what'), [
+    ('-.1790158E-0', ("malformed value '-.1790158E-0' (an AT2 file writes an exponent with "
+                      'two digits or more; file truncated?)')),
+    ('-.1790158E', "non-numeric value '-.1790158E'"),
+    ('1.2E+', "non-numeric value '1.2E+'"),
+    ('1.2E-', "non-numeric value '1.2E-'"),
+    ('.1790158D-0', "malformed value '.1790158D-0'"),
+    ('1.2.3', "non-numeric value '1.2.3'"),
+    ('\u0661.5', "non-numeric value '\u0661.5'"),  # an Arabic-Indic digit: not a number here
+])
+def test_a_malformed_at2_token_is_refused_with_file_line_and_token(tmp_path, token, what):
+    # In the middle of the file, and with the final newline: not only at a cut end.
+    body = f'  .1000000E-02  {token}  .2000000E-02\n  .3000000E-02\n'
+    path = write(tmp_path, 'bad.AT2', at2_text('NPTS=  4, DT=   .0050 SEC', body))
+    with pytest.raises(GroundMotionError, match=re.escape(f"'{path}': line 5: {what}")):
+        read_at2(path)
+
+
+def test_at2_exponents_of_two_or_three_digits_are_read(tmp_path):
+    path = write(tmp_path, 'ok.AT2', at2_text('NPTS=3, DT=.01 SEC', '.1E-02 -.2E+02 .3E-100\n'))
+    np.testing.assert_allclose(read_at2(path).acceleration, np.array([1e-3, -20.0, 3e-101]) * G)
+
+
+def test_npts_may_be_an_integral_float(tmp_path):
+    values = [0.001 * ((i % 7) - 3) for i in range(5372)]
+    path = write(tmp_path, 'rec.AT2', peer_text(values, 'NPTS= 5372.0, DT= .0050 SEC'))
+    motion = read_at2(path)
+    assert motion.n_samples == 5372
+    path = write(tmp_path, 'half.AT2', peer_text(values, 'NPTS= 5372.5, DT= .0050 SEC'))
+    with pytest.raises(GroundMotionError, match=re.escape(
+            f"'{path}': line 4: NPTS must be a non-negative integer, got '5372.5'")):
+        read_at2(path)
+
+
+@pytest.mark.parametrize(('line4', 'dt'), [
+    ('NPTS=  12, DT=   .0050 SEC', 0.005),
+    ('NPTS=  12, DT=   10 MSEC', 0.01),
+    ('npts= 12 dt= 10 msec', 0.01),
+    ('NPTS=  12, DT=   .0050', 0.005),  # no unit: seconds, as before
+    ('NPTS=  12, DT=   .0050,', 0.005),
+    ('DT= .0050 NPTS= 12', 0.005),  # 'NPTS' is the next key, not a unit
+    ('DT= .0050 SEC NPTS= 12', 0.005),
+])
+def test_at2_dt_units(tmp_path, line4, dt):
+    assert read_at2(write(tmp_path, 'rec.AT2', peer_text(line4=line4))).dt == dt
+
+
+@pytest.mark.parametrize(('line4', 'unit'), [
+    ('NPTS=  12, DT=   10 USEC', 'USEC'),
+    ('NPTS=  12, DT=   .005 MIN', 'MIN'),
+    ('NPTS=  12, DT=   .005 samples', 'samples'),
+])
+def test_an_unknown_dt_unit_is_refused_naming_it(tmp_path, line4, unit):
+    path = write(tmp_path, 'rec.AT2', peer_text(line4=line4))
+    with pytest.raises(GroundMotionError, match=re.escape(
+            f"ground motion '{path}': line 4: unknown DT unit '{unit}' (expected SEC or MSEC, or "
+            'no unit for seconds)')):
+        read_ground_motion(path)
+
+
+@pytest.mark.parametrize(('name', 'text', 'line', 'token'), [
+    ('one.txt', '1.2E-\n0.3\n0.4\n', 1, '1.2E-'),  # not a header line: a cut number
+    ('one2.txt', '-.5E\n0.3\n', 1, '-.5E'),
+    ('two.csv', '0.0,1.2E-\n0.01,0.3\n', 1, '1.2E-'),
+    ('two2.csv', 'time,accel\n0.0,0.1\n0.01,1.2E+\n', 3, '1.2E+'),
+    ('multi.txt', '1 2 3\n4 5E 6\n', 2, '5E'),
+    ('digits.txt', '0.1\n\u0663\n', 2, '\u0663'),
+])
+def test_other_readers_refuse_malformed_numbers(tmp_path, name, text, line, token):
+    path = write(tmp_path, name, text)
+    with pytest.raises(GroundMotionError, match=re.escape(
+            f"ground motion '{path}': line {line}: non-numeric value {token!r}")):
+        read_ground_motion(path, dt=None if name.endswith('.csv') else 0.01)
+
+
+def test_a_header_line_is_still_skipped(tmp_path):
+    path = write(tmp_path, 'one.txt', 'accel_g\n0.1\n0.2\n')
+    np.testing.assert_allclose(read_ground_motion(path, dt=0.01).acceleration, [0.1 * G, 0.2 * G])

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from pd_common.config import load_yaml
 from pd_common.resources import ResourceError, share_file
 from pd_common.specimen import specimen_from_config
 
@@ -140,7 +141,7 @@ def _read_yaml(path: Path, what: str) -> Any:
         msg = f'{what} {str(path)!r}: cannot read it ({err.strerror})'
         raise StudyError(msg) from err
     try:
-        return yaml.safe_load(text)
+        return load_yaml(text)
     except yaml.YAMLError as err:
         mark = getattr(err, 'problem_mark', None)
         where = f'line {mark.line + 1}: ' if mark is not None else ''

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from .loader import YAMLError, load_yaml, read_yaml_file
+from .loader import YAMLAliasError, YAMLError, load_yaml, read_yaml_file
 
-__all__ = ['YAMLError', 'load_yaml', 'read_yaml_file']
+__all__ = ['YAMLAliasError', 'YAMLError', 'load_yaml', 'read_yaml_file']

@@ -24,6 +24,8 @@ from typing import Any
 
 import yaml
 
+from pd_common.config import load_yaml
+
 from ..errors import BridgeConfigError
 
 TERMINAL_CONFIGURATIONS = ('default', 'rse', 'nrse', 'diff', 'pseudo_diff')
@@ -223,7 +225,7 @@ class DaqmxConfig:
             msg = f'{path}: cannot read the daqmx configuration ({exc.strerror})'
             raise BridgeConfigError(msg) from exc
         try:
-            raw = yaml.safe_load(text)
+            raw = load_yaml(text)
         except yaml.YAMLError as exc:
             mark = getattr(exc, 'problem_mark', None)
             where = f'line {mark.line + 1}: ' if mark is not None else ''

@@ -32,6 +32,7 @@ from typing import Any
 import yaml
 
 from pd_common.auth import Key
+from pd_common.config import load_yaml
 
 from ..errors import BridgeConfigError
 from .base import ActuatorDriver
@@ -272,7 +273,7 @@ def read_yaml_parameter(path: str, parameter: str) -> dict[str, Any]:
         msg = f'parameter {parameter}: a YAML file is required for this driver'
         raise BridgeConfigError(msg)
     try:
-        raw = yaml.safe_load(Path(path).read_text(encoding='utf-8')) or {}
+        raw = load_yaml(Path(path).read_text(encoding='utf-8')) or {}
     except (OSError, yaml.YAMLError) as err:
         msg = f'{path}: cannot read ({err})'
         raise BridgeConfigError(msg) from err

@@ -9,6 +9,11 @@ PEER NGA ``.AT2`` format:
   the MATLAB code flattens with its nested ``rr``/``cc`` loops;
 - PEER NGA ``.AT2``: four header lines, ``NPTS`` and ``DT`` on line 4, values in g.
 
+Every value must be a well-formed decimal number (optional sign, digits with an optional point,
+an optional exponent ``E``/``D`` with its digits): ``1.2E-`` is refused, never read as something
+else, and in an AT2 file, which a program writes in Fortran's ``E`` format, an exponent has at
+least two digits (``-.1790158E-0`` is the start of ``-.1790158E-02`` in a cut file).
+
 :func:`read_ground_motion` picks the reader from the format (or the file). Records in g are
 converted with ``g = 9.81`` m/s² by default, the value hard-coded in the thesis's MATLAB code,
 so that results can be compared with it; pass ``g=G_STANDARD`` for the standard gravity.
@@ -50,11 +55,22 @@ UNITS = ('g', 'm/s2', 'm/s^2')
 
 PathLike = Union[str, 'os.PathLike[str]']
 
-_NUMBER_RE = re.compile(r'[+-]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][+-]?\d+)?')
+_NUMBER_RE = re.compile(r'[+-]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][+-]?\d+)?', re.ASCII)
+# An AT2 value: written by a program in Fortran's E format, its exponent has two digits or more.
+_AT2_NUMBER_RE = re.compile(r'[+-]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][+-]?\d{2,})?', re.ASCII)
+# The parts of a number: the digits after the point and the exponent's digits.
+_NUMBER_PARTS_RE = re.compile(r'[+-]?\d*(?:\.(\d*))?(?:[eEdD][+-]?(\d+))?', re.ASCII)
+# A number cut short or with a dangling exponent ('1.2E-', '-.'): data, not a header word.
+_CUT_NUMBER_RE = re.compile(r'[+-]?(?:\d+\.?\d*|\.\d*)(?:[eEdD][+-]?\d*)?', re.ASCII)
 _NON_FINITE_RE = re.compile(r'[+-]?(?:nan|inf|infinity)', re.IGNORECASE)
 _FIELD_SPLIT_RE = re.compile(r'\s*,\s*|\s+')
 _AT2_NPTS_RE = re.compile(r'\bNPTS\s*=\s*([^\s,]+)', re.IGNORECASE)
-_AT2_DT_RE = re.compile(r'\bDT\s*=\s*([^\s,]+)', re.IGNORECASE)
+# DT and its unit word, if any (a word followed by '=' is the next key, not a unit).
+_AT2_DT_RE = re.compile(r'\bDT\s*=\s*([^\s,]+)(?:[ \t]+([A-Za-z]+)\b(?![ \t]*=))?',
+                        re.IGNORECASE)
+#: Seconds per unit of the time step on line 4 of an AT2 file (no unit: seconds).
+_AT2_DT_UNITS = {'SEC': 1, 'SECS': 1, 'S': 1, 'SECOND': 1, 'SECONDS': 1,
+                 'MSEC': 1000, 'MSECS': 1000, 'MS': 1000}
 _AT2_OLD_RE = re.compile(r'^\s*([^\s,]+)\s*,?\s+([^\s,]+)\s+NPTS\s*,?\s*DT\b', re.IGNORECASE)
 
 
@@ -148,8 +164,15 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
 
     Lines 1–3 are free text. Line 4 holds the number of points and the time step, in any of
     the forms ``NPTS=  4000, DT=   .0050 SEC``, ``npts= 4000 dt= 0.005 sec`` or the older
-    ``4000    0.00500    NPTS, DT``. The values follow, several per line, read across each
-    line and then down; their count must equal NPTS.
+    ``4000    0.00500    NPTS, DT``. NPTS is an integer (``5372.0`` is read as 5372); DT is
+    in seconds, or in milliseconds with the unit ``MSEC`` (``DT= 10 MSEC`` is 0.010 s); any
+    other unit word is refused. The values follow, several per line, read across each line and
+    then down; their count must equal NPTS.
+
+    A file that does not end with a line end may have been cut: its last value must then be
+    written like the one before it (an exponent of as many digits, as many digits after the
+    point), or the file is refused (``-.1790158`` after ``.2339013E-02`` is what is left of
+    ``-.1790158E-02``).
 
     Args:
         path: The file.
@@ -159,12 +182,14 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
         The record in m/s², ``source`` the file name.
 
     Raises:
-        GroundMotionError: If the header is missing or unparseable, a value is not numeric or
-            not finite, or the number of values differs from NPTS.
+        GroundMotionError: If the header is missing or unparseable, a value is not a
+            well-formed number or not finite, the file looks cut short, or the number of values
+            differs from NPTS.
     """
     scale = _unit_scale(path, 'g', g)
-    label, lines = _load_lines(path)
-    _npts, dt, values = _parse_at2(label, lines)
+    label, text = _load_text(path)
+    _npts, dt, values = _parse_at2(label, text.splitlines(),
+                                   ends_with_line_end=text.endswith(('\n', '\r')))
     return _make(path, dt, values * scale)
 
 
@@ -319,6 +344,12 @@ def _make(path: PathLike, dt: float, acceleration: np.ndarray) -> GroundMotion:
 
 def _load_lines(path: PathLike) -> tuple[str, list[str]]:
     """Read the file as text lines (BOM and line endings handled)."""
+    label, text = _load_text(path)
+    return label, text.splitlines()
+
+
+def _load_text(path: PathLike) -> tuple[str, str]:
+    """Read the file as text (BOM removed); an empty file is an error."""
     label = _label(path)
     try:
         data = Path(path).read_bytes()
@@ -334,7 +365,7 @@ def _load_lines(path: PathLike) -> tuple[str, list[str]]:
     if not text.strip():
         msg = f'ground motion {label}: file is empty'
         raise GroundMotionError(msg)
-    return label, text.splitlines()
+    return label, text
 
 
 def _tokens(line: str) -> list[str]:
@@ -350,15 +381,24 @@ def _parse_number(token: str) -> float | None:
 
 
 def _is_numberish(token: str) -> bool:
-    """Whether a token is a number or a nan/inf spelling."""
-    return bool(_NUMBER_RE.fullmatch(token) or _NON_FINITE_RE.fullmatch(token))
+    """Whether a token is a number, a number cut short (``1.2E-``) or a nan/inf spelling."""
+    return bool(_NUMBER_RE.fullmatch(token) or _NON_FINITE_RE.fullmatch(token)
+                or _CUT_NUMBER_RE.fullmatch(token))
 
 
-def _parse_values(label: str, lineno: int, line: str, last: bool) -> list[float]:
-    """Parse every field of a data line, naming the line on failure."""
+def _parse_values(label: str, lineno: int, line: str, last: bool, *, at2: bool = False
+                  ) -> list[float]:
+    """Parse every field of a data line, naming the line on failure.
+
+    ``at2``: the line is AT2 data, whose exponents have two digits or more.
+    """
     values = []
     for token in _tokens(line):
         value = _parse_number(token)
+        if at2 and value is not None and not _AT2_NUMBER_RE.fullmatch(token):
+            msg = (f'ground motion {label}: line {lineno}: malformed value {token!r} (an AT2 '
+                   'file writes an exponent with two digits or more; file truncated?)')
+            raise GroundMotionError(msg)
         if value is None or not math.isfinite(value):
             if value is not None or _NON_FINITE_RE.fullmatch(token):
                 what = f'non-finite value {token!r}'
@@ -492,25 +532,69 @@ def _parse_at2_header(label: str, line: str) -> tuple[int, float]:
             msg = f'ground motion {label}: line 4: cannot find NPTS and DT in {line.strip()!r}'
             raise GroundMotionError(msg)
         npts_text, dt_text = old.group(1), old.group(2)
-    try:
-        npts = int(npts_text)
-    except ValueError:
-        npts = -1
-    if npts < 0:
+    unit = dt_match.group(2) if npts_match and dt_match else None
+    count = _parse_number(npts_text)  # '5372.0' is an integer; '5372.5' is not
+    if count is None or not (math.isfinite(count) and count >= 0 and count == int(count)):
         msg = (
             f'ground motion {label}: line 4: NPTS must be a non-negative integer, '
             f'got {npts_text!r}'
         )
         raise GroundMotionError(msg)
+    npts = int(count)
     dt = _parse_number(dt_text)
     if dt is None or not (math.isfinite(dt) and dt > 0.0):
         msg = f'ground motion {label}: line 4: DT must be a positive number, got {dt_text!r}'
         raise GroundMotionError(msg)
+    if unit is not None:
+        per_second = _AT2_DT_UNITS.get(unit.upper())
+        if per_second is None:
+            msg = (f'ground motion {label}: line 4: unknown DT unit {unit!r} (expected SEC or '
+                   'MSEC, or no unit for seconds)')
+            raise GroundMotionError(msg)
+        if per_second != 1:
+            dt /= per_second
     return npts, dt
 
 
-def _parse_at2(label: str, lines: Sequence[str]) -> tuple[int, float, np.ndarray]:
-    """NPTS, DT and the values (in g) of an AT2 file."""
+def _number_shape(token: str) -> tuple[int | None, int | None]:
+    """How a (well-formed) number is written: digits after the point, digits of the exponent.
+
+    ``None`` for a part that is not there.
+    """
+    parts = _NUMBER_PARTS_RE.fullmatch(token)
+    if parts is None:
+        return None, None
+    fraction, exponent = parts.groups()
+    return (None if fraction is None else len(fraction),
+            None if exponent is None else len(exponent))
+
+
+def _check_last_value(label: str, data: Sequence[tuple[int, str]]) -> None:
+    """Refuse a last value written unlike the one before it (the file looks cut short).
+
+    Only for values written with an exponent (the E format of a program): ``-.1790158`` after
+    ``.2339013E-02`` is the start of ``-.1790158E-02``.
+    """
+    tokens = [(number, token) for number, line in data[-2:] for token in _tokens(line)]
+    if len(tokens) < 2:
+        return
+    (_, before), (number, last) = tokens[-2:]
+    shape_before, shape_last = _number_shape(before), _number_shape(last)
+    if shape_before[1] is None:  # no exponent: nothing tells how the value was written
+        return
+    if shape_last != shape_before:
+        msg = (f'ground motion {label}: line {number}: last value {last!r} is not written like '
+               f'the one before it ({before!r}) and the file does not end with a line end: '
+               'file truncated?')
+        raise GroundMotionError(msg)
+
+
+def _parse_at2(label: str, lines: Sequence[str], *, ends_with_line_end: bool = True
+               ) -> tuple[int, float, np.ndarray]:
+    """NPTS, DT and the values (in g) of an AT2 file.
+
+    ``ends_with_line_end``: whether the text ends with a line end (if not, it may be cut).
+    """
     if len(lines) < 4:
         msg = (
             f'ground motion {label}: AT2 header incomplete: expected 4 header lines, '
@@ -524,8 +608,10 @@ def _parse_at2(label: str, lines: Sequence[str]) -> tuple[int, float, np.ndarray
     values = [
         value
         for number, line in data
-        for value in _parse_values(label, number, line, number == last_number)
+        for value in _parse_values(label, number, line, number == last_number, at2=True)
     ]
+    if not ends_with_line_end:
+        _check_last_value(label, data)
     if len(values) != npts:
         msg = f'ground motion {label}: line 4: NPTS={npts} but {len(values)} values were read'
         raise GroundMotionError(msg)
