@@ -41,6 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         test_file = Path(args.test_file) if args.test_file else default_test_file()
         definition = load_test_file(test_file)
+        for warning in definition.warnings:
+            print(f'offline: warning: {warning}', file=sys.stderr)
         if report := definition.modal_report():
             print(report)
         out = Path(args.out) if args.out else default_run_directory('runs', definition.test_id)

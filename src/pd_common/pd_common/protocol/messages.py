@@ -59,6 +59,7 @@ class TestState(IntEnum):
     HOLDING = 3
     FINISHED = 4
     ABORTED = 5
+    INTERRUPTED = 6  # its process was stopped (signal): the record is intact, resumable
 
 
 @dataclass(frozen=True)

@@ -44,11 +44,18 @@ class ProtocolSettings:
         feedback_timeout: seconds without feedback before the command is re-sent.
         max_retries: re-sends before the integrator holds.
         start_timeout: seconds to wait for the specimen side to appear before giving up.
+        tracking_tolerance: largest |measured - commanded| displacement [m] of any DOF
+            before the test holds (the actuator did not get where it was sent: a feedback
+            that is not plausible is never committed); 0 = off. The default, 5 mm, is well
+            above a servo-hydraulic actuator's tracking error in a pseudo-dynamic test (a
+            fraction of a millimetre) and below the default test's largest step (8 mm); a
+            resumed run also checks the specimen's position against its record with it.
     """
 
     feedback_timeout: float = 2.0
     max_retries: int = 3
     start_timeout: float = 30.0
+    tracking_tolerance: float = 0.005
 
 
 @dataclass(frozen=True)
@@ -104,6 +111,8 @@ class TestDefinition:
         source: where the definition came from (file name), for messages.
         base_dir: directory that relative paths are resolved against.
         record_info: description of the record (file, format, units, scale, direction).
+        warnings: one-line warnings about the test as given (e.g. an initial stiffness that is
+            not the specimen's), for the user to read; not part of the resolved form.
     """
 
     test_id: str
@@ -130,6 +139,7 @@ class TestDefinition:
     model: StructuralModel | None = None
     structure_raw: dict[str, Any] | None = None
     sites: dict[str, Any] | None = None
+    warnings: tuple[str, ...] = ()
 
     @property
     def n_dof(self) -> int:
@@ -239,7 +249,8 @@ class TestDefinition:
             'ground_motion': ground,
             'protocol': {'feedback_timeout': self.protocol.feedback_timeout,
                          'max_retries': self.protocol.max_retries,
-                         'start_timeout': self.protocol.start_timeout},
+                         'start_timeout': self.protocol.start_timeout,
+                         'tracking_tolerance': self.protocol.tracking_tolerance},
             'probe': {'amplitude': self.probe.amplitude},
             'specimen': self.specimen,
         }
@@ -280,7 +291,9 @@ def damping_matrix(mass: np.ndarray, stiffness: np.ndarray, ratio: float | None,
     """The viscous damping matrix of a ratio (thesis / Rayleigh modes 1-2) or a spec.
 
     Raises:
-        ConfigError: the modes requested do not exist or cannot be matched.
+        ConfigError: the modes requested do not exist or cannot be matched; the message names
+            the test file's key (``structure.mass`` for a mass that is not positive definite,
+            ``structure.initial_stiffness`` for a stiffness that is not positive semi-definite).
     """
     try:
         if spec is None:
@@ -299,7 +312,14 @@ def damping_matrix(mass: np.ndarray, stiffness: np.ndarray, ratio: float | None,
             raise ConfigError(msg)
         return modal_damping(mass, stiffness, ratios)
     except ConfigError as err:
-        msg = f'{source}: structure.damping: {err}'
+        name, _, what = str(err).partition(': ')
+        key = _DAMPING_ERROR_KEYS.get(name)
+        msg = f'{source}: {key}: {what}' if key else f'{source}: structure.damping: {err}'
         raise ConfigError(msg) from None
+
+
+#: The test file key of a matrix named in an error of the damping functions (the other errors
+#: are about ``structure.damping``).
+_DAMPING_ERROR_KEYS = {'mass': 'structure.mass', 'stiffness': 'structure.initial_stiffness'}
 
 

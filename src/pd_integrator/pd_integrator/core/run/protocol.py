@@ -4,8 +4,10 @@ The integrator sends the command for step k and advances only on the feedback fo
 same test id. Everything else is ignored and counted by reason:
 
 * ``foreign``: another test id;
-* ``stale``: an older step (e.g. a late answer to a re-sent command);
-* ``duplicate``: a second answer to a step already accepted;
+* ``stale``: an older step than the last one answered (e.g. a late answer to a re-sent
+  command, or a delayed message), answered before or not;
+* ``duplicate``: a second answer to the step accepted last (a re-sent command answered twice,
+  or a message delivered twice);
 * ``unexpected``: a step that was never commanded (a future step, or no command pending).
 
 Feedback for the pending step whose status is not OK (a limit or a fault) is ``refused``: the
@@ -62,6 +64,7 @@ class StepProtocol:
     attempts: int = 0
     ignored: dict[Verdict, int] = field(default_factory=dict)
     _answered: set[tuple[str, int, int]] = field(default_factory=set)
+    _last_answered: tuple[str, int, int] | None = None
 
     @property
     def ignored_total(self) -> int:
@@ -86,6 +89,7 @@ class StepProtocol:
         verdict = self.verdict(feedback)
         if verdict is Verdict.ACCEPTED:
             self._answered.add((feedback.test_id, *feedback.key))
+            self._last_answered = (feedback.test_id, *feedback.key)
             self.pending = None
         else:
             self.ignore(verdict)
@@ -100,7 +104,8 @@ class StepProtocol:
         pending = self.pending
         key = feedback.key
         if (feedback.test_id, *key) in self._answered:
-            return Verdict.DUPLICATE
+            return (Verdict.DUPLICATE if (feedback.test_id, *key) == self._last_answered
+                    else Verdict.STALE)
         if pending is None:
             return Verdict.UNEXPECTED
         if feedback.test_id != pending.test_id:

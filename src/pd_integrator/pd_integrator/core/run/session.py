@@ -107,7 +107,8 @@ class TestSession:
     def next_command(self) -> Command | None:
         """The next command to send, or ``None`` (finished, holding, or one pending)."""
         if self.state in (TestState.FINISHED, TestState.ABORTED, TestState.HOLDING,
-                          TestState.PAUSED) or self.protocol.pending is not None:
+                          TestState.PAUSED, TestState.INTERRUPTED) or (
+                              self.protocol.pending is not None):
             return None
         if self.probing:
             index = len(self._probe_forces)
@@ -152,6 +153,10 @@ class TestSession:
             return Verdict.REFUSED
         pending = self.protocol.pending
         assert pending is not None
+        implausible = self._implausible(pending, feedback)
+        if implausible is not None:
+            self._hold(implausible)
+            return Verdict.REFUSED
         self.protocol.classify(feedback)
         if pending.test_id.endswith(PROBE_SUFFIX):
             self._on_probe_feedback(feedback)
@@ -193,7 +198,7 @@ class TestSession:
         After a numerical failure (see :attr:`failure`) the test cannot go on: it stays on hold
         (abort it); the record up to the last committed step is intact.
         """
-        if self.state not in (TestState.HOLDING, TestState.PAUSED):
+        if self.state not in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
             return None
         if self._failure is not None:
             self.message = f'cannot resume: {self._failure}; abort the test'
@@ -202,6 +207,16 @@ class TestSession:
         self.message = 'resumed'
         self.protocol.attempts = 0
         return self.protocol.pending
+
+    def interrupt(self, reason: str) -> None:
+        """The integrator's process is being stopped (a signal): the test can be resumed.
+
+        Nothing more is commanded; the record up to the last committed step is intact and
+        ``./pd run --resume`` continues from it.
+        """
+        if self.state not in (TestState.FINISHED, TestState.ABORTED):
+            self.state = TestState.INTERRUPTED
+            self.message = reason
 
     def abort(self, reason: str) -> None:
         """End the test now (operator request or fatal error); nothing more is commanded."""
@@ -222,6 +237,28 @@ class TestSession:
         return self._failure
 
     # -- internals ----------------------------------------------------------------------------
+    def _implausible(self, pending: Command, feedback: Feedback) -> str | None:
+        """Why the measured displacement cannot be committed (non-finite, or too far from the
+        command: ``protocol.tracking_tolerance``), or ``None``."""
+        measured = feedback.measured_displacement
+        if len(measured) != self.definition.n_dof or not _all_finite(measured):
+            return (f'step {feedback.step}: invalid measured displacement {list(measured)!r} '
+                    '(a fault of the measurement): not committed')
+        tolerance = self.definition.protocol.tracking_tolerance
+        if tolerance <= 0.0:
+            return None
+        target = pending.target_displacement
+        errors = [abs(m - t) for m, t in zip(measured, target, strict=True)]
+        worst = max(range(len(errors)), key=errors.__getitem__)
+        if errors[worst] <= tolerance:
+            return None
+        name = self.definition.dof_names[worst] if worst < len(self.definition.dof_names) \
+            else str(worst)
+        return (f'step {feedback.step}: measured displacement of {name} {measured[worst]:.6g} m '
+                f'is {errors[worst]:.3g} m from the commanded {target[worst]:.6g} m '
+                f'(protocol.tracking_tolerance {tolerance:g} m): not committed; check the '
+                'actuator, then resume (or abort)')
+
     def _hold(self, reason: str) -> None:
         self.state = TestState.HOLDING
         self.message = reason

@@ -22,11 +22,13 @@ import numpy as np
 import yaml
 
 from pd_common.config import load_yaml
+from pd_common.specimen import SpecimenError, specimen_from_config
 
 from ..dynamics.ground_motion import GroundMotion
 from ..dynamics.record_readers import read_ground_motion
+from ..dynamics.structure import SYMMETRY_RTOL
 from ..errors import ConfigError, GroundMotionError
-from ..matrices import as_matrix
+from ..matrices import as_float_array, as_matrix
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
 from .definition import (
@@ -62,9 +64,14 @@ PARAMETER_PATHS: dict[str, tuple[str, str]] = {
     'direction': ('ground_motion', 'direction'),
     'feedback_timeout': ('protocol', 'feedback_timeout'),
     'max_retries': ('protocol', 'max_retries'),
+    'tracking_tolerance': ('protocol', 'tracking_tolerance'),
 }
 
 _TEST_ID = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
+
+#: Relative (Frobenius) difference between ``structure.initial_stiffness`` and the specimen's own
+#: initial stiffness above which the definition carries a warning.
+STIFFNESS_WARNING_RTOL = 0.01
 
 
 class _Reader:
@@ -168,6 +175,9 @@ def from_json(text: str, *, source: str = 'bag') -> TestDefinition:
     except json.JSONDecodeError as err:
         msg = f'{source}: test definition is not valid JSON ({err.msg} at char {err.pos})'
         raise ConfigError(msg) from err
+    protocol = raw.get('protocol') if isinstance(raw, dict) else None
+    if isinstance(protocol, dict) and 'tracking_tolerance' not in protocol:
+        protocol['tracking_tolerance'] = 0.0  # recorded before the check existed: as it ran
     return from_dict(raw, source=source, base_dir=Path.cwd())
 
 
@@ -265,7 +275,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         error = structure.error('initial_stiffness', "is required (a value or 'probe')")
         raise error
     else:
-        stiffness = _matrix(structure, 'initial_stiffness', n, required=True)
+        stiffness = _stiffness(structure, stiffness_raw, n)
+    _check_mass(structure, mass, [dof_names[i] for i in retained])
     damping, damping_ratio, damping_spec = _damping(structure, n)
     if damping is not None and model is not None:
         error = structure.error('damping', 'give a ratio, rayleigh or modal damping with '
@@ -290,6 +301,7 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         feedback_timeout=proto.number('feedback_timeout', 2.0, positive=True) or 2.0,
         max_retries=proto.integer('max_retries', 3),
         start_timeout=proto.number('start_timeout', 30.0, positive=True) or 30.0,
+        tracking_tolerance=_non_negative(proto, 'tracking_tolerance', 0.005),
     )
     proto.finish()
     probe_reader = _Reader(raw.get('probe', {}), 'probe', source)
@@ -314,9 +326,13 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
                      if used else 'only a test with experimental elements has sites')
             msg = f'{source}: sites.{unknown[0]}: {where}'
             raise ConfigError(msg)
+    warnings: tuple[str, ...] = ()
     if model is not None:
         stiffness = model.initial_stiffness()
         dof_names = model.dof_names
+    elif stiffness is not None and specimen is not None:
+        warnings = _specimen_stiffness_warnings(stiffness, specimen, source=source,
+                                                base_dir=base_dir, dof_names=dof_names)
 
     definition = TestDefinition(
         test_id=test_id, scheme=scheme, dt=dt, n_steps=n_steps, dof_names=dof_names, mass=mass,
@@ -327,7 +343,7 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         scheme_parameters={key: float(value) for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
         structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None
-        else None, sites=sites)
+        else None, sites=sites, warnings=warnings)
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)
@@ -379,6 +395,100 @@ def _matrix(reader: _Reader, key: str, n: int, *, required: bool = False,
     if not np.all(np.isfinite(matrix)):
         raise reader.error(key, 'must contain finite numbers only')
     return matrix
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _stiffness(reader: _Reader, value: Any, n: int) -> np.ndarray:
+    """``structure.initial_stiffness`` given as numbers: a scalar (SDOF) or the n×n matrix.
+
+    For an MDOF a scalar or a flat list is refused: ``[k1, k2, k3]`` may be a diagonal or the
+    story stiffnesses of a shear building, whose matrices (and periods) differ.
+    """
+    key = 'initial_stiffness'
+    if n == 1:
+        matrix = _matrix(reader, key, n, required=True)
+        assert matrix is not None
+        if matrix[0, 0] < 0.0:
+            raise reader.error(key, f'must not be negative, got {float(matrix[0, 0])!r}')
+        return matrix
+    give = f"give the {n}x{n} matrix (one row per DOF) or 'probe'"
+    if _is_number(value):
+        raise reader.error(key, f'a single value is ambiguous for {n} DOFs; {give}, '
+                           f'got {value!r}')
+    if isinstance(value, list) and value and all(_is_number(item) for item in value):
+        if len(value) != n:
+            raise reader.error(key, f'{give}, got a list of {len(value)} values')
+        raise reader.error(key, f'a list of {n} values is ambiguous for {n} DOFs (a diagonal? '
+                           f'the story stiffnesses of a shear building?); {give}, '
+                           f'got {value!r}')
+    try:
+        matrix = as_float_array(value, key)
+    except ConfigError as err:
+        raise reader.error(key, str(err).split(': ', 1)[-1]) from err
+    if matrix.shape != (n, n):
+        raise reader.error(key, f'{give}, got shape {matrix.shape}')
+    scale = float(np.max(np.abs(matrix)))
+    if np.any(np.abs(matrix - matrix.T) > SYMMETRY_RTOL * scale):
+        raise reader.error(key, 'must be a symmetric matrix')
+    eigenvalues = np.linalg.eigvalsh(matrix)
+    if eigenvalues[0] < -1e-10 * float(np.max(np.abs(eigenvalues))):
+        raise reader.error(key, 'must be positive semi-definite, it has a negative eigenvalue '
+                           f'({eigenvalues[0]:.6g})')
+    return matrix
+
+
+def _check_mass(reader: _Reader, mass: np.ndarray, names: list[str]) -> None:
+    """``structure.mass``: symmetric positive definite (every retained DOF has a mass > 0)."""
+    key = 'mass'
+    for name, value in zip(names, np.diag(mass)):
+        if not value > 0.0:
+            where = f' for DOF {name!r}' if len(names) > 1 else ''
+            raise reader.error(key, f'must be positive, got {float(value)!r}{where}')
+    scale = float(np.max(np.abs(mass)))
+    if np.any(np.abs(mass - mass.T) > SYMMETRY_RTOL * scale):
+        raise reader.error(key, 'must be a symmetric matrix')
+    try:
+        np.linalg.cholesky(mass)
+    except np.linalg.LinAlgError:
+        raise reader.error(key, 'must be positive definite') from None
+
+
+def _specimen_stiffness_warnings(stiffness: np.ndarray, specimen: dict[str, Any], *,
+                                 source: str, base_dir: Path, dof_names: tuple[str, ...]
+                                 ) -> tuple[str, ...]:
+    """A warning when ``structure.initial_stiffness`` is not the specimen's own (> 1 %).
+
+    A specimen that cannot be built is not this check's business: the simulator reports it.
+    """
+    try:
+        built = specimen_from_config(specimen, base_dir=base_dir, source=source,
+                                     dof_names=dof_names)
+        own = np.asarray(built.initial_stiffness_matrix(), dtype=float)
+    except (SpecimenError, OSError, ValueError, TypeError):
+        return ()
+    if own.shape != stiffness.shape:
+        return ()
+    reference = float(np.linalg.norm(own))
+    difference = float(np.linalg.norm(stiffness - own))
+    if difference <= STIFFNESS_WARNING_RTOL * reference:
+        return ()
+    by = (f'by {100.0 * difference / reference:.3g} % (relative Frobenius norm)'
+          if reference > 0.0 else '(which is zero)')
+    warning = (f"{source}: structure.initial_stiffness differs from the specimen's initial "
+               f'stiffness {by}: {_show_matrix(stiffness)} N/m in the structure, '
+               f'{_show_matrix(own)} N/m from the specimen')
+    return (warning,)
+
+
+def _show_matrix(matrix: np.ndarray) -> str:
+    """A matrix on one line, e.g. ``[[3.5e+08, -1.5e+08], [-1.5e+08, 1.5e+08]]``."""
+    if matrix.shape == (1, 1):
+        return f'{matrix[0, 0]:.6g}'
+    return '[' + ', '.join('[' + ', '.join(f'{value:.6g}' for value in row) + ']'
+                           for row in matrix) + ']'
 
 
 def _vector(reader: _Reader, key: str, value: Any, n: int) -> np.ndarray:
@@ -494,6 +604,13 @@ def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tupl
             info={**info, 'name': name} if isinstance(raw, list) else info))
     record_steps = max(math.floor(c.motion.duration / dt + 1e-9) for c in components)
     return tuple(components), record_steps
+
+
+def _non_negative(reader: _Reader, key: str, default: float) -> float:
+    value = reader.number(key, default)
+    if value is None or value < 0.0:
+        raise reader.error(key, f'must be 0 (off) or a positive number, got {value!r}')
+    return value
 
 
 def _padded(component: GroundComponent, n_steps: int) -> GroundComponent:
