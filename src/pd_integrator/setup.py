@@ -29,6 +29,7 @@ setup(
             'main = pd_integrator.node:main',
             'offline = pd_integrator.offline:main',
             'replay = pd_integrator.replay:main',
+            'recover = pd_integrator.recover:main',
             'analyze = pd_integrator.analyze:main',
             'study_ch5 = pd_integrator.study_ch5:main',
             'study_errors = pd_integrator.study_errors:main',

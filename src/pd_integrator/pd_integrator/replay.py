@@ -1,6 +1,8 @@
 """Rebuild a run's outputs from its bag alone: ``ros2 run pd_integrator replay BAG``.
 
-Reads the bag with ``rosbags``, re-runs the recorded commands and feedback through the same
+``BAG`` is a run's bag folder, its run folder, or its journal: a killed run (no bag, or an
+unfinished one) is read from its journal, up to its last committed step. Reads the bag with
+``rosbags``, re-runs the recorded commands and feedback through the same
 step protocol and integrator (checking every recomputed command against the recorded one) and
 writes ``response.csv``, ``summary.json`` and the figures. With ``--key FILE`` it also checks
 every recorded authentication code (exit 1 if any fails); without it the bag is analysed all
@@ -22,13 +24,15 @@ from .core.run.runner import rebuild_outputs
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns 0 on success, 2 if the bag cannot be replayed."""
     parser = argparse.ArgumentParser(prog='replay', description=__doc__.splitlines()[0])
-    parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag)")
-    parser.add_argument('--out', help='output folder (default: <bag>/../replay)')
+    parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag), its run "
+                        'folder or its journal.jsonl')
+    parser.add_argument('--out', help='output folder (default: <run folder>/replay)')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
     parser.add_argument('--key', help="the test's key file: check the recorded signatures")
     args = parser.parse_args(argv)
     bag = Path(args.bag)
-    out = Path(args.out) if args.out else bag.resolve().parent / 'replay'
+    run_dir = bag.resolve() if bag.is_dir() and bag.name != 'bag' else bag.resolve().parent
+    out = Path(args.out) if args.out else run_dir / 'replay'
     try:
         key = load_key(args.key) if args.key else None
         result = rebuild_outputs(bag, out, figures=not args.no_figures, key=key)

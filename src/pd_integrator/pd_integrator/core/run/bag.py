@@ -11,6 +11,8 @@ topic                      type                        content
 ``/pd/test_status``        ``pd_msgs/msg/TestStatus``  every status published by the integrator
 ``/pd/bridge/status``      ``pd_msgs/msg/TestStatus``  the actuator bridge's status (if any)
 ``/pd/bridge/trajectory``  ``ActuatorTrajectory``      sub-step actuator trajectories (if any)
+``/pd/run_events``         ``std_msgs/msg/String``     events of the run as JSON: resumed, a
+                                                       process restarted, a state epoch changed
 =========================  ==========================  ======================================
 
 A substructured test (``structure.elements`` with experimental elements at named sites) has
@@ -29,6 +31,7 @@ one definition for ROS and for the bag.
 from __future__ import annotations
 
 import functools
+import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,6 +69,7 @@ TOPIC_BRIDGE_STATUS = '/pd/bridge/status'
 TOPIC_TRAJECTORY = '/pd/bridge/trajectory'
 TOPIC_STRUCTURE_COMMAND = '/pd/structure/step_command'
 TOPIC_STRUCTURE_FEEDBACK = '/pd/structure/step_feedback'
+TOPIC_EVENTS = '/pd/run_events'
 
 MSG_COMMAND = 'pd_msgs/msg/StepCommand'
 MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
@@ -81,6 +85,7 @@ _TOPICS = {
     TOPIC_STATUS: MSG_STATUS,
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
     TOPIC_TRAJECTORY: MSG_TRAJECTORY,
+    TOPIC_EVENTS: MSG_STRING,
 }
 
 
@@ -187,6 +192,9 @@ class BagRecorder:
     def __enter__(self) -> BagRecorder:
         return self.open()
 
+    def flush(self) -> None:
+        """Nothing to do: the writer buffers until :meth:`close` (the journal is durable)."""
+
     def __exit__(self, *exc: object) -> None:
         self.close()
 
@@ -227,6 +235,11 @@ class BagRecorder:
     def write_definition(self, text: str, t_ns: int) -> None:
         """Record the resolved test definition (JSON)."""
         self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
+
+    def write_event(self, what: str, t_ns: int, **info: Any) -> None:
+        """Record an event of the run (JSON text on ``/pd/run_events``)."""
+        text = json.dumps({'what': what, **info}, sort_keys=True)
+        self._write(TOPIC_EVENTS, t_ns, self._store.types[MSG_STRING](data=text))
 
     def _signature(self, signature: Signature | None) -> Any:
         signature = signature or _UNSIGNED
@@ -279,6 +292,11 @@ class RecordedRun:
         site_events: per site of a substructured test, ``(t_ns, item)`` of its own stream.
         signatures: the signature of each item of ``events`` (unsigned ones empty).
         site_signatures: the same for ``site_events``.
+        ordered: every command, feedback and integrator status as ``(topic, t_ns, item,
+            signature)``, in recorded order across all topics (what a resume re-runs).
+        notes: what reading found worth saying (e.g. a journal's last record cut short).
+        run_events: the run's events (``/pd/run_events``: resumed, restarted, epoch changes),
+            each a mapping with ``what`` and ``t_ns``.
     """
 
     definition_json: str
@@ -289,6 +307,10 @@ class RecordedRun:
     site_events: dict[str, list[tuple[int, Command | Feedback]]] = field(default_factory=dict)
     signatures: list[Signature] = field(default_factory=list)
     site_signatures: dict[str, list[Signature]] = field(default_factory=dict)
+    ordered: list[tuple[str, int, Command | Feedback | Status, Signature]] = field(
+        default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    run_events: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def commands(self) -> list[Command]:
@@ -301,6 +323,71 @@ class RecordedRun:
         return [item for _, item in self.events if isinstance(item, Feedback)]
 
 
+class RunIndex:
+    """Sorts a run's recorded messages into a :class:`RecordedRun` (bag or journal alike)."""
+
+    def __init__(self) -> None:
+        self._definition: str | None = None
+        self._run = RecordedRun(definition_json='')
+        self._messages: list[tuple[str, int, Command | Feedback, Signature]] = []
+
+    def definition(self, text: str) -> None:
+        """The recorded definition (the first one counts)."""
+        self._definition = self._definition or text
+
+    def message(self, topic: str, t_ns: int, item: Command | Feedback,
+                signature: Signature) -> None:
+        """A command or feedback on ``topic``."""
+        self._messages.append((topic, t_ns, item, signature))
+        self._run.ordered.append((topic, t_ns, item, signature))
+
+    def status(self, topic: str, t_ns: int, status: Status) -> None:
+        """A status: the integrator's on ``/pd/test_status``, a bridge's on its own topic."""
+        if topic == TOPIC_STATUS:
+            self._run.statuses.append((t_ns, status))
+            self._run.ordered.append((topic, t_ns, status, _UNSIGNED))
+        else:
+            self._run.bridge_statuses.append((t_ns, status))
+
+    def trajectory(self, t_ns: int, message: Any) -> None:
+        """An actuator trajectory."""
+        self._run.trajectories.append((t_ns, message))
+
+    def event(self, t_ns: int, event: dict[str, Any]) -> None:
+        """An event of the run."""
+        self._run.run_events.append({**event, 't_ns': t_ns})
+
+    def result(self, source: str) -> RecordedRun:
+        """The run.
+
+        Raises:
+            BagError: no definition was recorded.
+        """
+        if self._definition is None:
+            msg = f'{source}: no {TOPIC_DEFINITION} record (not a run record?)'
+            raise BagError(msg)
+        run = self._run
+        run.definition_json = self._definition
+        structured = any(topic == TOPIC_STRUCTURE_COMMAND for topic, *_ in self._messages)
+        main_topics = ((TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK) if structured
+                       else (TOPIC_COMMAND, TOPIC_FEEDBACK))
+        for topic, t_ns, item, signature in self._messages:
+            if topic in main_topics:
+                run.events.append((t_ns, item))
+                run.signatures.append(signature)
+            else:
+                site = site_of(topic)
+                run.site_events.setdefault(site, []).append((t_ns, item))
+                run.site_signatures.setdefault(site, []).append(signature)
+        return run
+
+
+def site_of(topic: str) -> str:
+    """The site of a per-site topic (``/pd/lab1/step_command`` → ``lab1``; ``/pd/...`` → '')."""
+    head = topic.removeprefix('/pd/').rsplit('/', 1)[0]
+    return '' if head in ('step_command', 'step_feedback') else head
+
+
 def read_bag(path: str | Path) -> RecordedRun:
     """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
 
@@ -308,47 +395,33 @@ def read_bag(path: str | Path) -> RecordedRun:
         BagError: the bag cannot be read or has no test definition.
     """
     path = Path(path)
-    definition: str | None = None
-    run = RecordedRun(definition_json='')
+    index = RunIndex()
     try:
         with AnyReader([path], default_typestore=typestore()) as reader:
             connections = [c for c in reader.connections if _message_type(c.topic) is not None]
-            structured = any(c.topic == TOPIC_STRUCTURE_COMMAND for c in connections)
-            main_topics = ((TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK) if structured
-                           else (TOPIC_COMMAND, TOPIC_FEEDBACK))
             for connection, t_ns, raw in reader.messages(connections=connections):
                 message = reader.deserialize(raw, connection.msgtype)
                 topic = connection.topic
                 msgtype = connection.msgtype
-                if topic == TOPIC_DEFINITION:
+                if topic == TOPIC_EVENTS:
+                    index.event(t_ns, json.loads(cast('_StringMessage', message).data))
+                elif topic == TOPIC_DEFINITION:
                     # rosbags types a deserialised message as ``object``; the definition topic
                     # carries a std_msgs/msg/String (the resolved test as JSON text).
-                    definition = definition or cast('_StringMessage', message).data
+                    index.definition(cast('_StringMessage', message).data)
                 elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
                     item = (command_from_message(message) if msgtype == MSG_COMMAND
                             else feedback_from_message(message))
                     signature = signature_from_message(
                         message.signature)  # type: ignore[attr-defined]  # rosbags: ``object``
-                    if topic in main_topics:
-                        run.events.append((t_ns, item))
-                        run.signatures.append(signature)
-                    else:
-                        site = topic.removeprefix('/pd/').rsplit('/', 1)[0]
-                        run.site_events.setdefault(site, []).append((t_ns, item))
-                        run.site_signatures.setdefault(site, []).append(signature)
-                elif topic == TOPIC_STATUS:
-                    run.statuses.append((t_ns, status_from_message(message)))
+                    index.message(topic, t_ns, item, signature)
                 elif msgtype == MSG_TRAJECTORY:
-                    run.trajectories.append((t_ns, message))
+                    index.trajectory(t_ns, message)
                 else:
-                    run.bridge_statuses.append((t_ns, status_from_message(message)))
+                    index.status(topic, t_ns, status_from_message(message))
     except BagError:
         raise
     except Exception as err:
         msg = f'{path}: cannot read the bag ({err})'
         raise BagError(msg) from err
-    if definition is None:
-        msg = f'{path}: the bag has no {TOPIC_DEFINITION} message'
-        raise BagError(msg)
-    run.definition_json = definition
-    return run
+    return index.result(str(path))

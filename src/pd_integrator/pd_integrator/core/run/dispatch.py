@@ -23,13 +23,14 @@ from pd_common.protocol import Command, Feedback, Signature, Status, TestState, 
 
 from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from .coordinator import SiteCoordinator
+from .epochs import EpochGuard
 from .protocol import Verdict
 
 if TYPE_CHECKING:
-    from .bag import BagRecorder
+    from .journal import RunRecorder
     from .session import TestSession
 
-__all__ = ['SendFunction', 'StepDispatcher']
+__all__ = ['SendFunction', 'StepDispatcher', 'refuse_fresh_state']
 
 SendFunction = Callable[[str, Command], Signature | None]
 """``send(site, command)``: deliver a site command (publish it, or call a specimen); returns the
@@ -46,19 +47,22 @@ class StepDispatcher:
     Args:
         session: the test.
         send: delivers one site command.
-        bag: where commands and feedback are recorded (``None``: not recorded).
+        bag: where commands and feedback are recorded (``None``: not recorded): the run's
+            journal, flushed to the operating system after every step.
         clock: time stamps for the bag [ns].
     """
 
     def __init__(self, session: TestSession, send: SendFunction,
-                 bag: BagRecorder | None = None,
+                 bag: RunRecorder | None = None,
                  clock: Callable[[], int] = time.time_ns) -> None:
         self.session = session
         self.coordinator = SiteCoordinator(session.definition.model,
                                            session.definition.protocol.max_retries)
-        self._send = send
+        self.send = send
         self.bag = bag
         self._clock = clock
+        self.epochs = EpochGuard()
+        self._epochs_noted = 0
         self._topics = {site: (site_topic_name(site, 'step_command'),
                                site_topic_name(site, 'step_feedback'))
                         for site in self.coordinator.sites}
@@ -89,6 +93,16 @@ class StepDispatcher:
                     signature: Signature | None = None) -> Verdict:
         """One site's feedback: advance the test if the step is complete; send what follows."""
         received = self._clock()
+        reason = self.epochs.check(site, feedback)
+        if reason is not None:  # a fresh specimen replaced the one the test drove
+            refuse_fresh_state(self.session, reason)
+            self._record_feedback(site, feedback, received, signature)
+            self._note_epochs()
+            if self.bag is not None:
+                self.bag.flush()
+            return Verdict.REFUSED
+        if self.epochs.changes and len(self.epochs.changes) != self._epochs_noted:
+            self._note_epochs()
         if not self.coordinator.passthrough and not self.session.accepting:
             # Holding, paused or finished: the site's answer is not taken (as the session
             # itself does); the held step is re-sent to every site on resume.
@@ -106,6 +120,8 @@ class StepDispatcher:
         if assembled is not None and not self.coordinator.passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
         self._record_batch(batch, signatures)
+        if self.bag is not None:
+            self.bag.flush()  # the committed step and the next command are on disk now
         return verdict
 
     def on_timeout(self) -> bool:
@@ -129,6 +145,13 @@ class StepDispatcher:
             self.start()
 
     # -- internals ----------------------------------------------------------------------------
+    def _note_epochs(self) -> None:
+        """Record the epoch changes not recorded yet (a site's process restarted)."""
+        for change in self.epochs.changes[self._epochs_noted:]:
+            if self.bag is not None:
+                self.bag.write_event('epoch_change', self._clock(), **change.as_dict())
+        self._epochs_noted = len(self.epochs.changes)
+
     def _deliver(self, feedback: Feedback) -> Verdict:
         """Hand structure feedback to the session; commit the numerical model with it."""
         committed = self.session.history.n_committed
@@ -156,11 +179,13 @@ class StepDispatcher:
 
     def _send_batch(self, batch: list[_BatchItem]) -> list[Signature | None]:
         """Send the batch's site commands; their signatures, in order."""
-        return [self._send(site, site_command)
+        return [self.send(site, site_command)
                 for _, site_commands in batch for site, site_command in site_commands]
 
     def _flush(self, batch: list[_BatchItem]) -> None:
         self._record_batch(batch, self._send_batch(batch))
+        if self.bag is not None:
+            self.bag.flush()
 
     def _record_batch(self, batch: list[_BatchItem], signatures: list[Signature | None]
                       ) -> None:
@@ -192,3 +217,11 @@ class StepDispatcher:
             self.bag.write_command(item, t_ns, topic, signature)
         else:
             self.bag.write_feedback(item, t_ns, topic, signature)
+
+
+def refuse_fresh_state(session: TestSession, reason: str) -> None:
+    """A site answered from a fresh specimen state: not taken, and the test holds."""
+    session.protocol.ignore(Verdict.REFUSED)
+    session.hold(reason)
+    if session.state is TestState.HOLDING:
+        session.message = reason

@@ -1,14 +1,18 @@
-"""Running a test without ROS, and rebuilding a run's outputs from its bag alone.
+"""Running a test without ROS, and rebuilding or resuming a run from its record alone.
 
 :func:`run_offline` drives the same :class:`~.session.TestSession` as the integrator node, with
 the same specimen models as the ``pd_specimen_sim`` node, in one process, and writes the same
-run folder (bag, ``response.csv``, ``summary.json``, figures). :func:`replay_bag` feeds a bag's
-recorded commands and feedback through the same step protocol and integrator: it checks that
-every recomputed command equals the recorded one (bit for bit) and returns the history.
+run folder (journal, bag, ``response.csv``, ``summary.json``, figures). :func:`replay_run`
+feeds a record's commands and feedback through the same step protocol and integrator: it
+checks that every recomputed command equals the recorded one (bit for bit) and returns the
+history. :func:`restore_dispatcher` does the same through the whole step loop (sites and
+numerical elements included) to continue a killed run; :func:`load_run` reads a complete bag,
+or the journal of a run whose bag was never finished.
 """
 
 from __future__ import annotations
 
+import shutil
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -20,11 +24,13 @@ from pd_common.protocol import Command, Feedback, TestState
 from pd_common.specimen import SpecimenError, SpecimenServer, server_from_config
 
 from ..errors import BagError, ConfigError
-from .bag import TOPIC_BRIDGE_STATUS, BagRecorder, read_bag
+from .bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
 from .definition import TestDefinition
-from .dispatch import StepDispatcher
+from .dispatch import StepDispatcher, refuse_fresh_state
 from .energy import energy_balance
-from .outputs import summarize, tracking_history, write_run_outputs
+from .epochs import EpochGuard
+from .journal import JOURNAL_FILE, Journal, journal_to_bag, read_journal
+from .outputs import summarize, tracking_history, write_run_outputs, write_summary
 from .progress import ProgressMeter
 from .session import TestSession
 from .signatures import check_signatures
@@ -72,9 +78,11 @@ def prepare_run_directory(directory: str | Path) -> Path:
         ConfigError: the folder already holds a run.
     """
     directory = Path(directory)
-    if (directory / BAG_DIRECTORY).exists():
-        msg = f'{directory}: already holds a run (bag/); choose a new output folder'
-        raise ConfigError(msg)
+    for held in (BAG_DIRECTORY, JOURNAL_FILE):
+        if (directory / held).exists():
+            msg = (f'{directory}: already holds a run ({held}); choose a new output folder '
+                   '(or resume it: ./pd run --resume)')
+            raise ConfigError(msg)
     directory.mkdir(parents=True, exist_ok=True)
     return directory
 
@@ -89,6 +97,9 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
         energy = energy_balance(session.history, structure.mass, structure.damping,
                                 structure.influence, loads=definition.loads())
     tracking = tracking_history(session.history)
+    # A test that did not finish (a fault, an abort, a crash) still gets its outputs, up to
+    # its last committed step, marked partial.
+    extra.setdefault('partial', session.state is not TestState.FINISHED)
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
                         energy=energy.summary() if energy is not None else None,
                         tracking=tracking.summary(), **extra)
@@ -112,9 +123,11 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
     meter = ProgressMeter(definition.n_steps)
     start = time.perf_counter()
     queue: deque[tuple[str, Command]] = deque()
-    with BagRecorder(directory / BAG_DIRECTORY) as bag:
-        dispatcher = StepDispatcher(session, lambda site, command: queue.append((site, command)),
-                                    bag)
+    def send(site: str, command: Command) -> None:
+        queue.append((site, command))
+
+    with Journal(directory / JOURNAL_FILE) as bag:
+        dispatcher = StepDispatcher(session, send, bag)
         bag.write_definition(definition.to_json(), time.time_ns())
         bag.write_status(session.status(), time.time_ns())
         dispatcher.start()
@@ -131,6 +144,7 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
                 progress(line)
         bag.write_status(dispatcher.status(), time.time_ns())
     wall_time = time.perf_counter() - start
+    journal_to_bag(directory / JOURNAL_FILE, directory / BAG_DIRECTORY)
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
                              mode='offline', site_protocol=dispatcher.coordinator.summary())
     return RunResult(session=session, directory=directory, summary=summary)
@@ -175,42 +189,141 @@ def _same_command(recorded: Command, computed: Command) -> bool:
             and recorded.target_displacement == computed.target_displacement)
 
 
-def replay_bag(bag_path: str | Path) -> TestSession:
-    """Re-run a recorded test from its bag: same protocol, same integrator, recorded forces.
+def load_run(path: str | Path) -> RecordedRun:
+    """A run's record: its bag if complete, else its journal (a killed run).
+
+    ``path`` is a run folder, its bag folder or its journal file.
 
     Raises:
-        BagError: the bag is unreadable, or a recomputed command differs from the recorded one
-            (the bag does not belong to this code or was altered).
+        BagError: neither a complete bag nor a journal is there.
     """
-    run = read_bag(bag_path)
-    definition = from_json(run.definition_json, source=f'{Path(bag_path).name}')
+    path = Path(path)
+    if path.is_file():
+        return read_journal(path)
+    run_dir = path.parent if path.name == BAG_DIRECTORY else path
+    bag = run_dir / BAG_DIRECTORY if path == run_dir else path
+    if (bag / 'metadata.yaml').is_file():
+        return read_bag(bag)
+    journal = run_dir / JOURNAL_FILE
+    if journal.is_file():
+        return read_journal(journal)
+    msg = f'{path}: no complete bag and no journal ({JOURNAL_FILE}): not a run folder'
+    raise BagError(msg)
+
+
+def replay_bag(bag_path: str | Path) -> TestSession:
+    """:func:`replay_run` of :func:`load_run` (a bag, a run folder or a journal)."""
+    return replay_run(load_run(bag_path), str(bag_path))
+
+
+def replay_run(run: RecordedRun, source: str = 'record') -> TestSession:
+    """Re-run a recorded test: same protocol, same integrator, recorded forces.
+
+    Raises:
+        BagError: a recomputed command differs from the recorded one (the record does not
+            belong to this code or was altered).
+    """
+    definition = from_json(run.definition_json, source=Path(source).name)
     session = TestSession(definition)
+    epochs = EpochGuard()  # as the dispatcher: a fresh specimen's answers were refused
     for _, item in run.events:
         if isinstance(item, Feedback):
-            session.on_feedback(item)
+            reason = epochs.check('', item)
+            if reason is not None:
+                refuse_fresh_state(session, reason)
+            else:
+                session.on_feedback(item)
             continue
         pending = session.protocol.pending
         if pending is not None and _same_command(item, pending):
-            if session.state in (TestState.HOLDING, TestState.PAUSED):
+            if session.state in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
                 session.resume()  # the operator resumed: the pending command went out again
             else:
                 session.protocol.on_timeout()  # a re-send after a feedback timeout
             continue
-        if session.state in (TestState.HOLDING, TestState.PAUSED):
+        if session.state in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
             session.resume()
         computed = session.next_command()
         if computed is None or not _same_command(item, computed):
-            msg = (f'{bag_path}: recorded command for step {item.step} of {item.test_id!r} '
+            msg = (f'{source}: recorded command for step {item.step} of {item.test_id!r} '
                    f'differs from the recomputed one ({computed!r})')
             raise BagError(msg)
-    last_status = run.statuses[-1][1] if run.statuses else None
-    if last_status is not None and last_status.state is TestState.ABORTED:
-        session.abort(last_status.message)
-    elif (last_status is not None and last_status.state is TestState.HOLDING
-          and session.state is not TestState.FINISHED):
-        session.state = TestState.HOLDING
-        session.message = last_status.message
+    _apply_last_status(session, run)
     return session
+
+
+def _apply_last_status(session: TestSession, run: RecordedRun) -> None:
+    """End the re-run in the recorded final state (aborted, holding, interrupted)."""
+    last_status = run.statuses[-1][1] if run.statuses else None
+    if last_status is None or session.state is TestState.FINISHED:
+        return
+    if last_status.state is TestState.ABORTED:
+        session.abort(last_status.message)
+    elif last_status.state in (TestState.HOLDING, TestState.INTERRUPTED):
+        session.state = last_status.state
+        session.message = last_status.message
+
+
+def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str = 'record'
+                       ) -> list[tuple[str, Command]]:
+    """Bring a new dispatcher (and its session) to where a recorded run stopped.
+
+    The recorded site feedback is fed through the whole step loop — the session, the sites'
+    protocols, the numerical elements — in the recorded order, and every command the loop
+    computes is checked against the recorded one; re-sent commands (a timeout, a resume) are
+    recognised as the pending ones. Nothing is sent: the dispatcher's ``send`` and ``bag`` are
+    set aside while it runs.
+
+    Returns:
+        The site commands the restored loop still owes (pending, unanswered): what a resumed
+        run sends first.
+
+    Raises:
+        BagError: a recomputed command differs from the recorded one.
+    """
+    expected: deque[tuple[str, Command]] = deque()
+    send, bag = dispatcher.send, dispatcher.bag
+
+    def capture(site: str, command: Command) -> None:
+        expected.append((site, command))
+
+    dispatcher.send, dispatcher.bag = capture, None
+    structured = not dispatcher.coordinator.passthrough
+    session = dispatcher.session
+    try:
+        dispatcher.start()
+        for topic, _, item, _ in run.ordered:
+            if topic == TOPIC_STATUS or (structured and '/structure/' in topic):
+                continue
+            site = site_of(topic) if structured else ''
+            if isinstance(item, Feedback):
+                dispatcher.on_feedback(site, item)
+                continue
+            if not isinstance(item, Command):
+                continue
+            if expected and expected[0][0] == site and _same_command(item, expected[0][1]):
+                expected.popleft()
+                continue
+            owed = session.protocol.pending
+            if owed is None:
+                msg = (f'{source}: recorded command for step {item.step} of {item.test_id!r} '
+                       'is not one the restored run owes')
+                raise BagError(msg)
+            if session.state in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
+                dispatcher.resume()
+            else:
+                dispatcher.on_timeout()
+            matches = [i for i, (s, c) in enumerate(expected)
+                       if s == site and _same_command(item, c)]
+            if not matches:
+                msg = (f'{source}: recorded command for step {item.step} of {item.test_id!r} '
+                       'differs from the recomputed one')
+                raise BagError(msg)
+            del expected[matches[0]]
+        _apply_last_status(session, run)
+    finally:
+        dispatcher.send, dispatcher.bag = send, bag
+    return list(expected)
 
 
 def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: bool = True,
@@ -221,11 +334,17 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
     ``signature_check``).
     """
     bag_path = Path(bag_path)
-    run = read_bag(bag_path)
+    run = load_run(bag_path)
     extra: dict[str, Any] = {}
     if key is not None:
         extra['signature_check'] = check_signatures(run, key).as_dict()
-    session = replay_bag(bag_path)
+    if run.notes:
+        extra['record_notes'] = run.notes
+    if run.run_events:
+        extra['run_events'] = run.run_events
+        extra['restarts'] = sum(event.get('what') in ('restart', 'resumed')
+                                for event in run.run_events)
+    session = replay_run(run, str(bag_path))
     times = [t for t, _ in run.events]
     wall_time = (max(times) - min(times)) / 1e9 if times else 0.0
     directory = Path(directory)
@@ -236,3 +355,29 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
                              bridge_messages=bridge[-5:], bridge_topic=TOPIC_BRIDGE_STATUS,
                              **extra)
     return RunResult(session=session, directory=directory, summary=summary)
+
+
+def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
+    """A killed run's folder made whole from its journal: the bag, and the outputs so far.
+
+    Writes ``bag/`` (replacing a bag the crash left unfinished) and, in the run folder,
+    ``response.csv``, ``summary.json`` (``recovered``: true) and the figures, up to the last
+    committed step. The run can still be resumed afterwards (``./pd run --resume``).
+
+    Raises:
+        BagError: the folder has no journal, or it cannot be read.
+    """
+    run_dir = Path(run_dir)
+    journal = run_dir / JOURNAL_FILE
+    if not journal.is_file():
+        msg = f'{run_dir}: no {JOURNAL_FILE}: nothing to recover from'
+        raise BagError(msg)
+    bag = run_dir / BAG_DIRECTORY
+    if bag.exists() and not (bag / 'metadata.yaml').is_file():
+        shutil.rmtree(bag)  # a bag the crash left unfinished: the journal has all of it
+    if not bag.exists():
+        journal_to_bag(journal, bag)
+    result = rebuild_outputs(journal, run_dir, figures=figures)
+    result.summary['recovered'] = True
+    write_summary(result.summary, run_dir / 'summary.json')
+    return result

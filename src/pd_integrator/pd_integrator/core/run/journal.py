@@ -1,0 +1,365 @@
+"""The run's journal: an append-only record, on disk step by step, that survives a crash.
+
+A pseudo-dynamic test on a real specimen cannot be repeated, so its record must not depend on
+the recording process ending well. While a test runs, everything the bag will hold (the
+definition, every command sent and feedback received with their signatures, every status,
+the actuator trajectories) is appended to ``journal.jsonl`` in the run folder, one JSON record
+per line, in the order the integrator saw it:
+
+* after every step (the feedback that committed it and the next command) the new records are
+  written to the operating system: a process killed at any moment (SIGKILL) loses nothing
+  that was committed;
+* at most every ``sync_interval`` seconds (default 1 s) the file is also ``fsync``-ed: a power
+  loss loses at most that window.
+
+When the test ends the journal is converted to the run's rosbag2 (MCAP) bag
+(:func:`journal_to_bag`); after a crash ``./pd recover RUN`` (or ``./pd replay`` and
+``./pd run --resume``, which read the journal directly) does the same. The floats are written
+with ``repr`` (exact round trip): a journal and its bag give the same history bit for bit. A
+last line cut by the crash is ignored (and reported).
+
+Record kinds (``k``): ``def`` (the resolved definition), ``cmd``, ``fb``, ``st`` (a status),
+``raw`` (a serialised message, base64), ``ev`` (an event: resumed, restarted, ...).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, Protocol
+
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    FeedbackStatus,
+    Signature,
+    StateOrigin,
+    Status,
+    TestState,
+)
+
+from ..errors import BagError
+from .bag import (
+    MSG_TRAJECTORY,
+    TOPIC_COMMAND,
+    TOPIC_FEEDBACK,
+    TOPIC_STATUS,
+    BagRecorder,
+    RecordedRun,
+    RunIndex,
+    typestore,
+)
+
+__all__ = ['JOURNAL_FILE', 'Journal', 'JournalRecord', 'RunRecorder', 'journal_to_bag',
+           'read_journal', 'read_journal_records']
+
+#: The journal's file name in a run folder.
+JOURNAL_FILE = 'journal.jsonl'
+_VERSION = 1
+
+
+class RunRecorder(Protocol):
+    """What records a run (the journal during a test; a bag when converting)."""
+
+    def write_definition(self, text: str, t_ns: int) -> None: ...
+
+    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
+                      signature: Signature | None = None) -> None: ...
+
+    def write_feedback(self, feedback: Feedback, t_ns: int,
+                       topic: str = TOPIC_FEEDBACK,
+                       signature: Signature | None = None) -> None: ...
+
+    def write_status(self, status: Status, t_ns: int, *,
+                     topic: str = TOPIC_STATUS) -> None: ...
+
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None: ...
+
+    def write_event(self, what: str, t_ns: int, **info: Any) -> None: ...
+
+    def flush(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def _signature(signature: Signature | None) -> list[Any] | None:
+    if signature is None or not signature.signed:
+        return None
+    return [signature.key_id, signature.session, signature.sequence, signature.mac.hex()]
+
+
+def _unsignature(value: Any) -> Signature:
+    if not value:
+        return Signature()
+    key_id, session, sequence, mac = value
+    return Signature(key_id=key_id, session=session, sequence=int(sequence),
+                     mac=bytes.fromhex(mac))
+
+
+def _floats(values: Any) -> list[float]:
+    return [float(x) for x in values]
+
+
+class Journal:
+    """Appends a run's records to ``journal.jsonl``; durable per step (see the module).
+
+    Args:
+        path: the journal file (created, or appended to when ``append``).
+        sync_interval: most seconds between two ``fsync`` calls (0: every flush).
+        append: continue an existing journal (a resumed run).
+        clock: monotonic clock for the sync interval.
+    """
+
+    def __init__(self, path: str | Path, *, sync_interval: float = 1.0, append: bool = False,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.path = Path(path)
+        self.sync_interval = sync_interval
+        self._append = append
+        self._clock = clock
+        self._file: IO[str] | None = None
+        self._pending: list[str] = []
+        self._synced = 0.0
+        self.records = 0
+        self.events: list[dict[str, Any]] = []
+
+    def open(self) -> Journal:
+        """Create (or reopen for appending) the journal.
+
+        Raises:
+            BagError: it exists (and ``append`` is false), or cannot be written.
+        """
+        if self._file is not None:
+            return self
+        try:
+            if self._append:
+                self._file = self.path.open('a', encoding='utf-8')
+            else:
+                self._file = self.path.open('x', encoding='utf-8')
+                self._add({'k': 'journal', 'version': _VERSION})
+        except FileExistsError:
+            msg = f'{self.path}: a journal exists already (resume the run, or use a new folder)'
+            raise BagError(msg) from None
+        except OSError as err:
+            msg = f'{self.path}: cannot write the journal ({err.strerror})'
+            raise BagError(msg) from None
+        self._synced = self._clock()
+        return self
+
+    def __enter__(self) -> Journal:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _add(self, record: dict[str, Any]) -> None:
+        self._pending.append(json.dumps(record, separators=(',', ':'), allow_nan=True))
+        self.records += 1
+
+    # -- records --------------------------------------------------------------------------
+    def write_definition(self, text: str, t_ns: int) -> None:
+        """Record the resolved test definition (JSON text)."""
+        self._add({'k': 'def', 't': t_ns, 'json': text})
+
+    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
+                      signature: Signature | None = None) -> None:
+        """Record a command (with its signature)."""
+        self._add({'k': 'cmd', 't': t_ns, 'topic': topic, 'id': command.test_id,
+                   'step': command.step, 'it': command.iteration,
+                   'time': float(command.test_time), 'dofs': list(command.dof_names),
+                   'x': _floats(command.target_displacement), 'sig': _signature(signature)})
+
+    def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
+                       signature: Signature | None = None) -> None:
+        """Record a feedback (with its signature)."""
+        self._add({'k': 'fb', 't': t_ns, 'topic': topic, 'id': feedback.test_id,
+                   'step': feedback.step, 'it': feedback.iteration,
+                   'xm': _floats(feedback.measured_displacement),
+                   'r': _floats(feedback.restoring_force), 'status': int(feedback.status),
+                   'msg': feedback.message, 'epoch': feedback.epoch,
+                   'origin': int(feedback.state_origin), 'sig': _signature(signature)})
+
+    def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
+        """Record a status (the integrator's, or a bridge's on its topic)."""
+        self._add({'k': 'st', 't': t_ns, 'topic': topic, 'id': status.test_id,
+                   'state': int(status.state), 'step': status.step,
+                   'total': status.total_steps, 'omega_dt': float(status.omega_dt),
+                   'retries': status.retries, 'ignored': status.ignored_messages,
+                   'msg': status.message, 'refused': status.refused_messages,
+                   'refused_by': status.refused_by_reason})
+
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+        """Record an already serialised (CDR) message (e.g. an actuator trajectory)."""
+        self._add({'k': 'raw', 't': t_ns, 'topic': topic,
+                   'cdr': base64.b64encode(data).decode('ascii')})
+
+    def write_event(self, what: str, t_ns: int, **info: Any) -> None:
+        """Record an event of the run (resumed, a process restarted, ...); kept in
+        :attr:`events` too."""
+        self._add({'k': 'ev', 't': t_ns, 'what': what, **info})
+        self.events.append({'what': what, **info, 't_ns': t_ns})
+
+    # -- durability ---------------------------------------------------------------------------
+    def flush(self) -> None:
+        """Hand the new records to the operating system; ``fsync`` if the interval is over."""
+        file = self._file
+        if file is None or not self._pending:
+            return
+        file.write('\n'.join(self._pending) + '\n')
+        self._pending.clear()
+        file.flush()
+        now = self._clock()
+        if now - self._synced >= self.sync_interval:
+            os.fsync(file.fileno())
+            self._synced = now
+
+    def close(self) -> None:
+        """Write and sync what is pending; close the file."""
+        if self._file is None:
+            return
+        self.flush()
+        os.fsync(self._file.fileno())
+        self._file.close()
+        self._file = None
+
+
+@dataclass(frozen=True)
+class JournalRecord:
+    """One record read back: its kind, and the item it holds."""
+
+    kind: str
+    t_ns: int
+    topic: str
+    item: Any
+    signature: Signature
+
+
+def _status(record: dict[str, Any]) -> Status:
+    try:
+        state = TestState(record['state'])
+    except ValueError:
+        state = TestState.IDLE
+    return Status(test_id=record['id'], state=state, step=record['step'],
+                  total_steps=record['total'], omega_dt=record['omega_dt'],
+                  retries=record['retries'], ignored_messages=record['ignored'],
+                  message=record['msg'], refused_messages=record.get('refused', 0),
+                  refused_by_reason=record.get('refused_by', ''))
+
+
+def _record(raw: dict[str, Any]) -> JournalRecord:
+    kind = raw['k']
+    t_ns = int(raw.get('t', 0))
+    topic = raw.get('topic', '')
+    signature = _unsignature(raw.get('sig'))
+    item: Any
+    if kind == 'cmd':
+        item = Command(test_id=raw['id'], step=raw['step'], test_time=raw['time'],
+                       dof_names=tuple(raw['dofs']), target_displacement=tuple(raw['x']),
+                       iteration=raw['it'])
+    elif kind == 'fb':
+        item = Feedback(test_id=raw['id'], step=raw['step'],
+                        measured_displacement=tuple(raw['xm']), restoring_force=tuple(raw['r']),
+                        status=FeedbackStatus(raw['status']), message=raw['msg'],
+                        iteration=raw['it'], epoch=raw.get('epoch', ''),
+                        state_origin=StateOrigin(raw.get('origin', 0)))
+    elif kind == 'st':
+        item = _status(raw)
+    elif kind == 'def':
+        item = raw['json']
+    elif kind == 'raw':
+        item = base64.b64decode(raw['cdr'])
+    else:
+        item = raw
+    return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature)
+
+
+def read_journal_records(path: str | Path) -> tuple[list[JournalRecord], str]:
+    """Every complete record of a journal, and a note ('' or what was ignored at its end).
+
+    Raises:
+        BagError: the file cannot be read, or a record before the last line is malformed.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text(encoding='utf-8').split('\n')
+    except OSError as err:
+        msg = f'{path}: cannot read the journal ({err.strerror})'
+        raise BagError(msg) from None
+    records = []
+    note = ''
+    last = len(lines) - 1
+    for number, line in enumerate(lines):
+        if not line:
+            continue
+        try:
+            raw = json.loads(line)
+            if raw.get('k') == 'journal':
+                continue
+            records.append(_record(raw))
+        except (ValueError, KeyError, TypeError) as err:
+            if number == last:  # the line a crash cut short
+                note = f'ignored the last record of {path.name}, cut short ({len(line)} bytes)'
+                break
+            msg = f'{path}: line {number + 1}: malformed journal record ({err})'
+            raise BagError(msg) from None
+    return records, note
+
+
+def read_journal(path: str | Path) -> RecordedRun:
+    """The run a journal records (the same structure :func:`.bag.read_bag` returns).
+
+    Raises:
+        BagError: unreadable, or no test definition in it.
+    """
+    records, note = read_journal_records(path)
+    index = RunIndex()
+    store = typestore()
+    for record in records:
+        if record.kind == 'def':
+            index.definition(record.item)
+        elif record.kind in ('cmd', 'fb'):
+            index.message(record.topic, record.t_ns, record.item, record.signature)
+        elif record.kind == 'st':
+            index.status(record.topic, record.t_ns, record.item)
+        elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
+            index.trajectory(record.t_ns, store.deserialize_cdr(record.item, MSG_TRAJECTORY))
+        elif record.kind == 'ev':
+            index.event(record.t_ns, _event(record.item))
+    run = index.result(str(path))
+    run.notes = [note] if note else []
+    return run
+
+
+def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
+    """Write the rosbag2 bag of a journal (what the recorder would have written); its records.
+
+    Raises:
+        BagError: unreadable journal, or the bag cannot be written.
+    """
+    records, _ = read_journal_records(journal)
+    with BagRecorder(bag) as recorder:
+        for record in records:
+            if record.kind == 'def':
+                recorder.write_definition(record.item, record.t_ns)
+            elif record.kind == 'cmd':
+                recorder.write_command(record.item, record.t_ns, record.topic, record.signature)
+            elif record.kind == 'fb':
+                recorder.write_feedback(record.item, record.t_ns, record.topic,
+                                        record.signature)
+            elif record.kind == 'st':
+                recorder.write_status(record.item, record.t_ns, topic=record.topic)
+            elif record.kind == 'raw':
+                recorder.write_raw(record.topic, record.t_ns, record.item)
+            elif record.kind == 'ev':
+                event = _event(record.item)
+                recorder.write_event(event.pop('what', 'event'), record.t_ns, **event)
+    return len(records)
+
+
+def _event(raw: dict[str, Any]) -> dict[str, Any]:
+    """An event record's content (its kind and time stamp left out)."""
+    return {key: value for key, value in raw.items() if key not in ('k', 't')}

@@ -1,0 +1,149 @@
+"""Continuing a stopped run: which runs can be, and whether the specimen side is where it was.
+
+A run stopped by a crash or a signal is continued from its record (the journal) by
+re-running it through a new step loop (:func:`.runner.restore_dispatcher`), bit for bit. Before
+anything moves again, each site's specimen side is compared with the record
+(:func:`check_sites`):
+
+* its state must be the specimen the test drove: the same epoch (the process never stopped),
+  or a restored simulator (``RESTORED``), or the hardware's own state (``HARDWARE``) — a
+  ``FRESH`` state that replaced it is refused (see :mod:`.epochs`);
+* its position (from its session offer) must be within the tolerance of the last measured
+  displacement on record, or of the target of the command still owed (the specimen may have
+  executed it before the crash);
+* a physical site (``HARDWARE``) stood still, unsupervised by this test, for the gap: its
+  position and the gap are reported and motion waits for the operator's confirmation (a signed
+  ``resume``, or the integrator's ``confirm_resume`` parameter).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pd_common.protocol import Command, Feedback, FeedbackStatus, StateOrigin, TestState
+
+from ..errors import ConfigError
+from .bag import TOPIC_STATUS, RecordedRun, site_of
+from .definition import TestDefinition
+from .epochs import EpochGuard
+from .journal import JOURNAL_FILE
+from .runner import DEFINITION_JSON, load_run
+from .test_file import from_json
+
+__all__ = ['RESUMABLE', 'ResumeCheck', 'SiteState', 'check_sites', 'last_measured',
+           'load_resumable']
+
+#: States a record can be resumed from (a killed run's last status is RUNNING).
+RESUMABLE = (TestState.IDLE, TestState.RUNNING, TestState.PAUSED, TestState.HOLDING,
+             TestState.INTERRUPTED)
+
+
+@dataclass(frozen=True)
+class SiteState:
+    """A site's specimen side as it offers itself now (its session offer)."""
+
+    epoch: str
+    origin: StateOrigin
+    position: tuple[float, ...]
+
+
+@dataclass
+class ResumeCheck:
+    """What :func:`check_sites` found.
+
+    Attributes:
+        refused: why the run cannot go on (a fresh specimen, a position off the record).
+        confirm: why the operator must confirm before anything moves (a physical site).
+        report: one line per site: its state and position against the record.
+    """
+
+    refused: list[str] = field(default_factory=list)
+    confirm: list[str] = field(default_factory=list)
+    report: list[str] = field(default_factory=list)
+
+
+def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedRun]:
+    """The folder, test and record of a run that can be resumed.
+
+    Raises:
+        ConfigError: no such run, no journal, or the test finished or was aborted.
+    """
+    directory = Path(run_dir)
+    definition_file = directory / DEFINITION_JSON
+    if not definition_file.is_file():
+        msg = f'{directory}: not a run folder (no {DEFINITION_JSON})'
+        raise ConfigError(msg)
+    if not (directory / JOURNAL_FILE).is_file():
+        msg = f'{directory}: no {JOURNAL_FILE} (a run recorded before journals cannot resume)'
+        raise ConfigError(msg)
+    definition = from_json(definition_file.read_text(encoding='utf-8'),
+                           source=definition_file.name)
+    record = load_run(directory / JOURNAL_FILE)
+    last = record.statuses[-1][1] if record.statuses else None
+    if last is not None and last.state not in RESUMABLE:
+        msg = (f'{directory}: the test is {last.state.name.lower()} ({last.message}); nothing '
+               'to resume')
+        raise ConfigError(msg)
+    return directory, definition, record
+
+
+def last_measured(run: RecordedRun, structured: bool) -> dict[str, tuple[float, ...]]:
+    """Per site, the last measured displacement an OK feedback on record reported."""
+    measured: dict[str, tuple[float, ...]] = {}
+    for topic, _, item, _ in run.ordered:
+        if (topic == TOPIC_STATUS or not isinstance(item, Feedback)
+                or item.status is not FeedbackStatus.OK
+                or (structured and '/structure/' in topic)):
+            continue
+        measured[site_of(topic) if structured else ''] = tuple(item.measured_displacement)
+    return measured
+
+
+def _distance(a: Sequence[float], b: Sequence[float]) -> float:
+    if len(a) != len(b):
+        return math.inf
+    return max((abs(x - y) for x, y in zip(a, b, strict=True)), default=0.0)
+
+
+def check_sites(sites: Mapping[str, SiteState], guard: EpochGuard,
+                measured: Mapping[str, tuple[float, ...]],
+                owed: Sequence[tuple[str, Command]], tolerance: float) -> ResumeCheck:
+    """Compare each site's specimen side with the record (see the module).
+
+    Args:
+        sites: each site's offered state.
+        guard: the restored run's epochs (the record's last per site).
+        measured: :func:`last_measured` of the record.
+        owed: the site commands the restored loop still owes.
+        tolerance: largest position difference [m] (0: not checked).
+    """
+    check = ResumeCheck()
+    targets = {site: tuple(command.target_displacement) for site, command in owed}
+    for site, state in sites.items():
+        name = site or 'default'
+        recorded = guard.epochs.get(site)
+        same = recorded is None or not state.epoch or state.epoch == recorded
+        origin = state.origin.name.lower()
+        if not same and state.origin is StateOrigin.FRESH:
+            check.refused.append(
+                f'site {name}: a fresh specimen state (epoch {state.epoch}, the record has '
+                f'{recorded}): its process restarted without its state; restart it with its '
+                'state (state_file) or abort')
+        position = ', '.join(f'{x:.6g}' for x in state.position)
+        line = f'site {name}: {"same process" if same else origin} state, at [{position}] m'
+        candidates = [value for value in (measured.get(site), targets.get(site))
+                      if value is not None]
+        if candidates:
+            gap = min(_distance(state.position, value) for value in candidates)
+            line += f', {gap:.3g} m from the record'
+            if tolerance > 0.0 and gap > tolerance:
+                check.refused.append(
+                    f'site {name}: at [{position}] m, {gap:.3g} m from where the record leaves '
+                    f'it (tolerance {tolerance:g} m): not the state the test left')
+        check.report.append(line)
+        if state.origin is StateOrigin.HARDWARE:
+            check.confirm.append(f'site {name}: physical specimen, {line.split(": ", 1)[1]}')
+    return check

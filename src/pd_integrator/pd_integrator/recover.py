@@ -1,0 +1,40 @@
+"""Make a killed run's folder whole again: ``ros2 run pd_integrator recover RUN_DIR``.
+
+A run whose integrator was killed (SIGKILL, a power loss) has its journal, on disk up to its
+last committed step, but no bag and no outputs. This writes the bag from the journal and the
+outputs (``response.csv``, ``summary.json`` marked ``recovered`` and ``partial``, figures) up
+to the last committed step, in the run folder itself. The run can still be continued
+afterwards (``./pd run --resume RUN_DIR``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .core.errors import PdIntegratorError
+from .core.run.runner import recover_run
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns 0 on success, 2 if the folder cannot be recovered."""
+    parser = argparse.ArgumentParser(prog='recover', description=__doc__.splitlines()[0])
+    parser.add_argument('run_dir', help='the run folder (with its journal.jsonl)')
+    parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    args = parser.parse_args(argv)
+    try:
+        result = recover_run(Path(args.run_dir), figures=not args.no_figures)
+    except (PdIntegratorError, ValueError) as err:
+        print(f'recover: error: {err}', file=sys.stderr)
+        return 2
+    summary = result.summary
+    notes = ''.join(f'; {note}' for note in summary.get('record_notes', []))
+    print(f'recovered {summary["steps"]} committed steps ({summary["state"]}) of '
+          f'{summary.get("test_id", "the test")}: bag and outputs in {result.directory}'
+          f'{notes}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
