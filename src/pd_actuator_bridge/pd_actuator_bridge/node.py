@@ -418,6 +418,8 @@ class ActuatorBridgeNode(LifecycleNode):
         key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
         self._target = (message.test_id, key, tuple(message.target_displacement.tolist()))
         was_holding = bridge.state == 'holding'
+        if isinstance(self.driver, SimServoDriver):
+            self.driver.move_test_id = message.test_id  # its moves are keyed like the command
         reply = bridge.handle_command(message.test_id, key,
                                       tuple(message.target_displacement.tolist()))
         if (reply is None and isinstance(self.driver, SimServoDriver)
@@ -442,6 +444,8 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge, driver = self.bridge, self.driver
         if bridge is None:
             return
+        if isinstance(driver, SimServoDriver) and not self._accept_when_ready:
+            driver.maintain()  # a restarted specimen node: re-open the session with it
         if self._accept_when_ready and (not isinstance(driver, SimServoDriver)
                                         or driver.ready()):
             self._accept_when_ready = False

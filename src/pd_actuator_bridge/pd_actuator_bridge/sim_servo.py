@@ -46,9 +46,12 @@ from .core import (
 class SimServoDriver(ActuatorDriver):
     """A simulated servo actuator: forwards each move to a specimen node over ROS 2.
 
-    Each move goes out as a ``StepCommand`` of the driver's own session (test id
-    ``bridge-<pid>``, a step counter of its own), so the specimen's repeat handling applies:
-    :meth:`repeat` re-sends the move in flight and the specimen answers it without moving.
+    Each move goes out as a ``StepCommand`` keyed like the command it executes (the test id the
+    bridge was sent, :attr:`move_test_id`, and its ``(step, iteration)``), in the driver's own
+    signed session (``bridge-<pid>``). So the specimen's repeat handling applies: :meth:`repeat`
+    re-sends the move in flight and the specimen answers it without moving, and a *restarted*
+    bridge that forwards a re-sent command the specimen already executed gets the specimen's
+    answer to it, not a second motion (nor a second noise draw).
 
     Attributes:
         sent_at: ``time.monotonic()`` of the last (re-)sent move.
@@ -70,8 +73,8 @@ class SimServoDriver(ActuatorDriver):
         self._subscription = node.create_subscription(
             StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS)
         self._position = [0.0] * n_dof
-        self._sequence = 0
-        self._in_flight: tuple[Any, int] | None = None  # (bridge step, driver sequence)
+        self._in_flight: tuple[Any, tuple[str, int, int]] | None = None  # (step, move key)
+        self.move_test_id = ''
         self._move: Command | None = None
         self._message = StepCommand()
         self.sent_at = 0.0
@@ -91,12 +94,25 @@ class SimServoDriver(ActuatorDriver):
         sender = self._sender
         sender.open(self._session)
         offer = sender.offer
-        if offer is not None and not self._positioned and len(offer.position) == self._n_dof:
+        if (offer is not None and len(offer.position) == self._n_dof
+                and (not self._positioned or offer.epoch != self._specimen_epoch)):
+            # The first offer, or a restarted specimen node: it is where it says it is.
             self._position = [float(x) for x in offer.position]
             self._specimen_epoch = offer.epoch
             self._specimen_origin = StateOrigin(offer.state_origin)
             self._positioned = True
         return self.connected() and sender.opened
+
+    def maintain(self) -> None:
+        """Keep the session with the specimen node open (called by the bridge's loop).
+
+        A specimen node that restarted offers a new challenge: the session is re-opened and
+        the move in flight re-sent at once (the specimen answers it from its restored record,
+        or moves if it never got it).
+        """
+        was_open = self._sender.opened
+        if self.ready() and not was_open and self._in_flight is not None:
+            self.repeat()
 
     def connected(self) -> bool:
         """Whether a specimen node listens and talks back (its session may not be open yet)."""
@@ -119,12 +135,15 @@ class SimServoDriver(ActuatorDriver):
         return self._in_flight is not None
 
     def command(self, step: Any, target: Sequence[float]) -> None:
-        """Forward a checked move to the specimen."""
-        self._sequence += 1
-        self._move = Command(test_id=self._session, step=self._sequence, test_time=0.0,
+        """Forward a checked move to the specimen, keyed like the command it executes."""
+        number, iteration = (int(step[0]), int(step[1])) if isinstance(step, tuple) else (
+            int(step), 0)
+        test_id = self.move_test_id or self._session
+        self._move = Command(test_id=test_id, step=number, test_time=0.0,
                              dof_names=tuple(f'dof{i}' for i in range(self._n_dof)),
-                             target_displacement=tuple(float(value) for value in target))
-        self._in_flight = (step, self._sequence)
+                             target_displacement=tuple(float(value) for value in target),
+                             iteration=iteration)
+        self._in_flight = (step, (test_id, number, iteration))
         self.repeat()
 
     def repeat(self) -> None:
@@ -155,8 +174,8 @@ class SimServoDriver(ActuatorDriver):
 
     def _on_feedback(self, message: StepFeedback) -> None:
         """Report the specimen's answer to the move in flight (ignore anything else)."""
-        if (self._in_flight is None or message.test_id != self._session
-                or message.step != self._in_flight[1]):
+        if self._in_flight is None or (
+                message.test_id, message.step, message.iteration) != self._in_flight[1]:
             return
         if self._sender.admit(feedback_from_message(message),
                               signature_from_message(message.signature)) is not None:

@@ -24,6 +24,7 @@ Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing 
 from __future__ import annotations
 
 import dataclasses
+import shutil
 import signal
 import sys
 import threading
@@ -53,6 +54,7 @@ from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Command,
     Signature,
+    StateOrigin,
     Status,
     TestState,
     control_from_message,
@@ -79,15 +81,18 @@ from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatu
 from pd_msgs.msg import Control as ControlMessage
 
 from .core.errors import PdIntegratorError
-from .core.run.bag import BagRecorder
+from .core.run.bag import RecordedRun
 from .core.run.dispatch import StepDispatcher
+from .core.run.journal import JOURNAL_FILE, Journal, journal_to_bag
 from .core.run.progress import ProgressMeter
+from .core.run.resume import SiteState, check_sites, last_measured, load_resumable
 from .core.run.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
     default_run_directory,
     finish_outputs,
     prepare_run_directory,
+    restore_dispatcher,
 )
 from .core.run.session import TestSession
 from .core.run.test_file import PARAMETER_PATHS, load_test_file
@@ -139,6 +144,16 @@ class IntegratorNode(Node):
             description='write PNG figures at the end of the test'))
         self.declare_parameter('progress_interval', 2.0, ParameterDescriptor(
             description='seconds between progress lines on the console'))
+        self.declare_parameter('resume_from', '', ParameterDescriptor(
+            description='run folder of a stopped run to continue from its last committed step '
+                        '(its test, its record; test_file and output_dir are not used)'))
+        self.declare_parameter('sync_interval', 1.0, ParameterDescriptor(
+            description='most seconds between two fsync of the journal (0: every step)'))
+        self.declare_parameter('confirm_resume', False, ParameterDescriptor(
+            description='resume_from with a physical site: move without waiting for the '
+                        "operator's signed resume (the gap and positions are still reported)"))
+        self.declare_parameter('resume_note', '', ParameterDescriptor(
+            description='why the run is resumed (recorded; run_test notes its restarts)'))
         overrides: dict[str, Any] = {}
         for name in PARAMETER_PATHS:
             self.declare_parameter(name, None, ParameterDescriptor(
@@ -146,16 +161,26 @@ class IntegratorNode(Node):
             value = self.get_parameter(name).value
             if value is not None:
                 overrides[name] = list(value) if isinstance(value, (list, tuple)) else value
-        test_file = self.get_parameter('test_file').value
-        if not test_file:
-            msg = 'parameter test_file: a YAML test file is required'
-            raise PdIntegratorError(msg)
-        definition = load_test_file(test_file, overrides)
+        resume_from = str(self.get_parameter('resume_from').value)
+        self.record: RecordedRun | None = None
+        if resume_from:
+            try:
+                self.directory, definition, self.record = load_resumable(resume_from)
+            except PdIntegratorError as err:
+                msg = f'parameter resume_from: {err}'
+                raise PdIntegratorError(msg) from None
+        else:
+            test_file = self.get_parameter('test_file').value
+            if not test_file:
+                msg = 'parameter test_file: a YAML test file is required'
+                raise PdIntegratorError(msg)
+            definition = load_test_file(test_file, overrides)
         self.session = TestSession(definition)  # refuses an unstable test before any motion
         self.key = declare_key(self)  # refuses a missing or readable key before any output
-        output = self.get_parameter('output_dir').value
-        self.directory = prepare_run_directory(
-            Path(output) if output else default_run_directory('runs', definition.test_id))
+        if not resume_from:
+            output = self.get_parameter('output_dir').value
+            self.directory = prepare_run_directory(
+                Path(output) if output else default_run_directory('runs', definition.test_id))
         self.figures = bool(self.get_parameter('figures').value)
         self.meter = ProgressMeter(definition.n_steps,
                                    float(self.get_parameter('progress_interval').value))
@@ -165,8 +190,11 @@ class IntegratorNode(Node):
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
         self._resume_requested = False
         self._session_lost: set[str] = set()
+        self.owed: list[tuple[str, Command]] = []
+        self._gap = 0.0
 
-        self.bag = BagRecorder(self.directory / BAG_DIRECTORY).open()
+        self.bag = Journal(self.directory / JOURNAL_FILE, append=bool(resume_from),
+                           sync_interval=float(self.get_parameter('sync_interval').value)).open()
         self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
         self.senders = {site: SessionSender(self, f'{site}/' if site else '', self.signer,
                                             self.key)
@@ -199,8 +227,18 @@ class IntegratorNode(Node):
                                  CONTROL_DEPTH)
 
         text = definition.to_json()
-        (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
-        self.bag.write_definition(text, time.time_ns())
+        if self.record is None:
+            (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
+            self.bag.write_definition(text, time.time_ns())
+        else:  # the step loop as it was when the run stopped (nothing is sent)
+            self.owed = restore_dispatcher(self.record, self.dispatcher, str(self.directory))
+            last_t = max((t for _, t, _, _ in self.record.ordered), default=time.time_ns())
+            self._gap = max(0.0, (time.time_ns() - last_t) / 1e9)
+            self.get_logger().warning(
+                f'resuming {self.directory}: restored up to step {self.session.committed_step} '
+                f'({self.session.state.name.lower()}: {self.session.message}); '
+                f'{self._gap:.1f} s since the last record')
+        self.bag.flush()
         self._definition_pub.publish(String(data=text))
         self._command_message = StepCommand()
         self._sent_at = 0.0
@@ -291,11 +329,49 @@ class IntegratorNode(Node):
             self.publish_status()
 
     def start(self) -> None:
-        """Send the first command."""
+        """Send the first command (a resumed run: check the sites, then what it owes)."""
         self._started = time.perf_counter()
         self.meter = ProgressMeter(self.session.total_steps, self.meter.interval)
-        self.dispatcher.start()
+        if self.record is None:
+            self.dispatcher.start()
+        else:
+            self._start_resumed()
         self.publish_status()
+
+    def _start_resumed(self) -> None:
+        """Compare every site with the record; go on, or hold for the operator, or refuse."""
+        session = self.session
+        structured = not self.dispatcher.coordinator.passthrough
+        sites = {site: SiteState(epoch=str(sender.offer.epoch),
+                                 origin=_origin(sender.offer.state_origin),
+                                 position=tuple(float(x) for x in sender.offer.position))
+                 for site, sender in self.senders.items() if sender.offer is not None}
+        check = check_sites(sites, self.dispatcher.epochs,
+                            last_measured(self.record, structured) if self.record else {},
+                            self.owed, session.definition.protocol.tracking_tolerance)
+        note = str(self.get_parameter('resume_note').value)
+        self.bag.write_event('resumed', time.time_ns(), committed_step=session.committed_step,
+                             recorded_state=session.state.name.lower(), gap_s=self._gap,
+                             sites=check.report, refused=check.refused, confirm=check.confirm,
+                             note=note)
+        for line in check.report:
+            self.get_logger().info(f'resume: {line}')
+        was = session.state
+        if session.state in (TestState.RUNNING, TestState.INTERRUPTED):
+            session.state = TestState.HOLDING  # it goes on from where the record stops
+            session.message = 'resumed from the record'
+        if check.refused:
+            session.hold('cannot resume: ' + '; '.join(check.refused))
+            session.message = 'cannot resume: ' + '; '.join(check.refused)
+            return
+        if check.confirm and not bool(self.get_parameter('confirm_resume').value):
+            session.message = (f'resumed after a gap of {self._gap:.0f} s: '
+                               + '; '.join(check.confirm)
+                               + '; check the specimen, then confirm with ./pd control resume')
+            return
+        if was in (TestState.RUNNING, TestState.INTERRUPTED):
+            self.dispatcher.resume()
+        # A run held or paused on record stays so: the operator resumes it.
 
     # -- callbacks ----------------------------------------------------------------------------
     def _on_feedback(self, site: str, message: StepFeedback) -> None:
@@ -350,9 +426,14 @@ class IntegratorNode(Node):
             self.session.abort(f'aborted by operator{why}')
         elif request == 'hold':
             self.session.hold(f'held by operator{why}')
+        elif request == 'restarted':  # run_test restarted a process of the test
+            self.bag.write_event('restart', time.time_ns(), process=control.reason,
+                                 step=self.session.committed_step)
+            self.bag.flush()
+            self.get_logger().warning(f'restarted: {control.reason}')
         else:
             self.get_logger().warning(f'test_control: unknown request {control.command!r} '
-                                      '(pause, resume, hold or abort)')
+                                      '(pause, resume, hold, abort or restarted)')
             return
         self.publish_status()
 
@@ -374,14 +455,24 @@ class IntegratorNode(Node):
 
     def finish(self) -> dict[str, Any]:
         """Close the bag and write the run's outputs."""
-        if self.session.state not in (TestState.FINISHED, TestState.ABORTED):
+        if self.session.state not in (TestState.FINISHED, TestState.ABORTED,
+                                      TestState.INTERRUPTED):
             reason = f'stopped while {self.session.state.name.lower()}: {self.session.message}'
             self.session.abort(reason)
         self.publish_status()
         self.bag.close()
+        bag = self.directory / BAG_DIRECTORY
+        if bag.exists():  # the bag of an earlier recovery: the journal has all of it now
+            shutil.rmtree(bag)
+        journal_to_bag(self.directory / JOURNAL_FILE, bag)
         wall_time = time.perf_counter() - self._started if self._started else 0.0
+        events = [*(self.record.run_events if self.record is not None else []),
+                  *self.bag.events]
         summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
                                  figures=self.figures, mode='graph',
+                                 run_events=events,
+                                 restarts=sum(event['what'] in ('restart', 'resumed')
+                                              for event in events),
                                  step_round_trip=round_trip_statistics(self._round_trips),
                                  site_protocol=self.dispatcher.coordinator.summary(),
                                  authentication={
@@ -390,6 +481,13 @@ class IntegratorNode(Node):
                                      'refused_messages': self.refusals()})
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
+
+
+def _origin(value: int) -> StateOrigin:
+    try:
+        return StateOrigin(value)
+    except ValueError:
+        return StateOrigin.FRESH
 
 
 def _describe(node: IntegratorNode) -> None:
@@ -401,6 +499,8 @@ def _describe(node: IntegratorNode) -> None:
     if definition.site_names:
         logger.info(f'sites: {", ".join(definition.site_names)} (namespaces '
                     f'{", ".join("/pd/" + site for site in definition.site_names)})')
+    for warning in definition.warnings:
+        logger.warning(warning)
     if report := definition.modal_report():
         logger.info('modal analysis (initial stiffness):\n' + report)
     if stability is not None:
@@ -412,29 +512,34 @@ def _describe(node: IntegratorNode) -> None:
 def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
     """Wait for the specimen side, run the test, write the outputs; returns the exit code.
 
-    ``stop`` (set by SIGINT/SIGTERM) aborts the test cleanly: the final status is published
-    and the outputs are written while the node is still alive.
+    ``stop`` (set by SIGINT/SIGTERM) interrupts the test cleanly: the final status is
+    published and the outputs so far are written while the node is still alive; the run can be
+    resumed (``./pd run --resume``).
     """
     _describe(node)
     deadline = time.monotonic() + node.session.definition.protocol.start_timeout
+    # A resumed run is never aborted for want of its specimen side: it stays resumable.
+    end = node.session.interrupt if node.record is not None else node.session.abort
     while not node.peers_ready():
         if stop.is_set():
-            node.session.abort('interrupted before the test started')
+            end('interrupted before the test started')
             node.finish()
             return 1
         executor.spin_once(timeout_sec=0.05)
         if time.monotonic() > deadline:
-            node.session.abort('no specimen side (bridge or simulator) answered on '
-                               f'{", ".join(node.missing_sites())} within '
-                               f'{node.session.definition.protocol.start_timeout} s')
+            end('no specimen side (bridge or simulator) answered on '
+                f'{", ".join(node.missing_sites())} within '
+                f'{node.session.definition.protocol.start_timeout} s')
             node.finish()
             return 1
     node.start()
     probing = node.session.probing
-    while node.session.state not in (TestState.FINISHED, TestState.ABORTED):
+    while node.session.state not in (TestState.FINISHED, TestState.ABORTED,
+                                     TestState.INTERRUPTED):
         if stop.is_set():
-            node.session.abort(f'interrupted (signal) while {node.session.state.name.lower()}'
-                               f': {node.session.message}')
+            node.session.interrupt(f'interrupted (signal) while '
+                                   f'{node.session.state.name.lower()}: {node.session.message}; '
+                                   'resume with ./pd run --resume')
             break
         executor.spin_once(timeout_sec=0.05)
         node.check_timeout()
@@ -467,7 +572,7 @@ def main(args: list[str] | None = None) -> int:
         code = run(node, executor, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         if node is not None:
-            node.session.abort('interrupted (SIGINT)')
+            node.session.interrupt('interrupted (SIGINT); resume with ./pd run --resume')
             node.finish()
         code = 1
     finally:

@@ -11,6 +11,11 @@ Topics (relative; namespace ``/pd`` by default, ``/pd/specimen`` behind a bridge
 Parameters: ``test_file`` — the YAML test file; its ``specimen`` section and
 ``structure.dof_names`` define the specimen, and the optional ``specimen.errors`` mapping the
 experimental errors injected into every step (see :mod:`pd_common.specimen.server`).
+``state_file`` — the specimen's own record (see :mod:`pd_common.specimen.served`): every
+command served as a new move is appended to it before the answer goes out; a simulator
+started with an existing state file replays it first, so a restarted simulator is the *same*
+specimen (its offer and answers say ``restored``), never a silently new one. Without it the
+state is ``fresh`` (the integrator refuses a fresh specimen that replaces the one it drove).
 ``site`` — in a substructured test, the site this node simulates: the specimen is then
 ``sites.<site>.specimen`` and the node runs in the namespace ``/pd/<site>`` (``-r
 __ns:=/pd/<site>``; ``/pd/<site>/specimen`` behind that site's bridge). ``dof_names`` — the
@@ -24,7 +29,6 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -36,6 +40,7 @@ from pd_common.auth import AuthError
 from pd_common.protocol import (
     FeedbackStatus,
     StateOrigin,
+    StepKey,
     command_from_message,
     signature_from_message,
 )
@@ -48,7 +53,13 @@ from pd_common.ros import (
     feedback_message,
     new_epoch,
 )
-from pd_common.specimen import SpecimenError, load_specimen_section, server_from_config
+from pd_common.specimen import (
+    ServedRecord,
+    SpecimenError,
+    load_site_server,
+    restore_served,
+    specimen_fingerprint,
+)
 from pd_msgs.msg import StepCommand, StepFeedback
 
 
@@ -63,33 +74,24 @@ class SpecimenSimNode(Node):
             description='site of a substructured test (its specimen: sites.<site>.specimen)'))
         self.declare_parameter('dof_names', [''], ParameterDescriptor(
             description='names of the specimen DOFs (default: from the test file)'))
+        self.declare_parameter('state_file', '', ParameterDescriptor(
+            description='the specimen\'s own record: appended per served move; restored '
+                        'from at start when it exists (a restarted simulator is the same '
+                        'specimen)'))
         test_file = self.get_parameter('test_file').value
         if not test_file:
             msg = 'parameter test_file: a YAML test file is required'
             raise SpecimenError(msg)
         site = str(self.get_parameter('site').value)
-        section, dof_names = load_specimen_section(test_file, site)
         given = [name for name in self.get_parameter('dof_names').value if name]
-        if given:
-            dof_names = given
-        elif dof_names is None:
-            elements = section.get('elements')
-            dof_names = [f'a{i + 1}' for i in range(len(elements) if isinstance(
-                elements, list) else 1)]
-        source = Path(test_file).name
-        try:
-            self.server = server_from_config(section, base_dir=Path(test_file).resolve().parent,
-                                             source=source, dof_names=dof_names)
-        except SpecimenError as err:
-            if not site:
-                raise
-            msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
-            raise SpecimenError(msg) from None
+        self.server, section, dof_names = load_site_server(test_file, site, given or None)
         self.key = declare_key(self)
         self.epoch = new_epoch()
+        origin, restored, self.record = self._restore(section, list(dof_names))
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'command')
         self.receiver = SessionReceiver(self, self.key, len(dof_names), self.epoch,
-                                        StateOrigin.FRESH, on_refused=self._refusal_log)
+                                        origin, on_refused=self._refusal_log)
+        self.receiver.restored = restored
         self.receiver.set_state(self.server.position, self.server.force)
         self.receiver.publish_offer()
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
@@ -102,6 +104,29 @@ class SpecimenSimNode(Node):
         if errors is not None and not errors.is_ideal:
             self.get_logger().warning(f'injecting experimental errors: {errors}')
 
+    def _restore(self, section: Any, dof_names: list[str]
+                 ) -> tuple[StateOrigin, tuple[str, StepKey] | None, ServedRecord | None]:
+        """Replay the state file, if any, into the new specimen; open it for appending."""
+        state_file = str(self.get_parameter('state_file').value)
+        if not state_file:
+            return StateOrigin.FRESH, None, None
+        fingerprint = specimen_fingerprint(section, dof_names)
+        restored = restore_served(state_file, self.server, fingerprint)
+        record = ServedRecord(state_file, fingerprint)
+        if restored is None:
+            return StateOrigin.FRESH, None, record
+        test_id, key = restored
+        self.get_logger().warning(
+            f'restored the specimen from {state_file}: {self.server.steps_served} moves '
+            f'replayed, through step {key.step} (iteration {key.iteration}) of {test_id}; at '
+            f'{list(self.server.position)} m')
+        return StateOrigin.RESTORED, restored, record
+
+    def close(self) -> None:
+        """Close the state file."""
+        if self.record is not None:
+            self.record.close()
+
     def _on_command(self, message: StepCommand) -> None:
         command = command_from_message(message)
         signature = signature_from_message(message.signature)
@@ -109,10 +134,14 @@ class SpecimenSimNode(Node):
         if reason is not None:  # not obeyed: nothing moves, no answer
             self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
             return
+        before = self.server.last
         answer = self.server.handle(command.test_id, command.step, command.target_displacement,
                                     iteration=command.iteration)
         if answer is None:
             return
+        if answer is not before and self.record is not None:  # a new move: on record first
+            self.record.add(command.test_id, command.step, command.iteration,
+                            command.target_displacement)
         answer = dataclasses.replace(answer, epoch=self.epoch, state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
         self._feedback_pub.publish(feedback_message(answer, message=self._feedback,
@@ -142,6 +171,7 @@ def main(args: list[str] | None = None) -> int:
         if executor is not None:
             executor.shutdown()
         if node is not None:
+            node.close()
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

@@ -23,7 +23,8 @@ from .hysteresis import (
     HysteresisModel,
     PushoverHysteresis,
 )
-from .server import SpecimenServer, server_from_config
+from .served import ServedRecord, restore_served, specimen_fingerprint
+from .server import SpecimenServer, load_site_server, server_from_config
 from .specimen import TOPOLOGIES, Specimen
 
 __all__ = [
@@ -37,6 +38,7 @@ __all__ = [
     'HysteresisError',
     'HysteresisModel',
     'PushoverHysteresis',
+    'ServedRecord',
     'Specimen',
     'SpecimenConfigError',
     'SpecimenError',
@@ -45,7 +47,10 @@ __all__ = [
     'hysteresis_from_config',
     'load_backbone_csv',
     'load_opensees_pushover',
+    'load_site_server',
     'load_specimen_section',
+    'restore_served',
     'server_from_config',
+    'specimen_fingerprint',
     'specimen_from_config',
 ]

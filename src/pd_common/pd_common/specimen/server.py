@@ -46,7 +46,7 @@ import numpy as np
 from ..errors import SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..protocol.messages import Feedback, FeedbackStatus
-from .config import specimen_from_config
+from .config import load_specimen_section, specimen_from_config
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -98,6 +98,42 @@ def server_from_config(section: Mapping[str, Any], *, base_dir: Path, source: st
     return SpecimenServer(specimen, errors=errors)
 
 
+def load_site_server(test_file: str | Path, site: str = '',
+                     dof_names: Sequence[str] | None = None
+                     ) -> tuple[SpecimenServer, dict[str, Any], list[str]]:
+    """The simulated specimen of a test file (or of one of its sites), as the simulator runs it.
+
+    Args:
+        test_file: the YAML test file.
+        site: a site of a substructured test ('' for the test's ``specimen`` section).
+        dof_names: the specimen's DOF names (default: ``structure.dof_names``, or ``a1, a2,
+            ...`` for a site).
+
+    Returns:
+        The server, the specimen section and the DOF names.
+
+    Raises:
+        SpecimenError: one line naming the file and the key.
+    """
+    section, names = load_specimen_section(test_file, site)
+    if dof_names:
+        names = list(dof_names)
+    elif names is None:
+        elements = section.get('elements')
+        names = [f'a{i + 1}' for i in range(len(elements) if isinstance(elements, list)
+                                              else 1)]
+    path = Path(test_file)
+    try:
+        server = server_from_config(section, base_dir=path.resolve().parent, source=path.name,
+                                    dof_names=names)
+    except SpecimenError as err:
+        if not site:
+            raise
+        msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
+        raise SpecimenError(msg) from None
+    return server, section, names
+
+
 class SpecimenServer:
     """Moves a simulated specimen to commanded displacements and reports its forces.
 
@@ -136,6 +172,11 @@ class SpecimenServer:
         self._inject = errors is not None and not errors.is_ideal
         self._injector = (ErrorInjector(errors, np.zeros(specimen.n_dof))
                           if errors is not None else None)
+
+    @property
+    def last(self) -> Feedback | None:
+        """The answer to the command served last (what a repeat of it gets)."""
+        return self._last
 
     @property
     def imposed(self) -> tuple[float, ...]:

@@ -1,0 +1,133 @@
+"""A simulated specimen's own record: the commands it served, to restore it after a restart.
+
+The models are displacement-driven: driving a new specimen through the same sequence of
+served commands (the same ``(test id, step, iteration)`` and targets, in the same order) gives
+the same state bit for bit — the injected errors' random draws included. The simulator
+appends every command it serves as a new move (not a repeat answered from the last reply, not
+a stale one it ignored) to a JSON-lines *state file*, handed to the operating system before
+the answer is published; a restarted simulator given the same file replays it into its fresh
+server before it answers anything, and declares its state restored through the last command
+(never a silently new specimen).
+
+The file's first line names the specimen (a fingerprint of its definition): a state file of
+another specimen is refused.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from pathlib import Path
+from typing import IO, Any
+
+from ..errors import SpecimenError
+from ..protocol.messages import StepKey
+from .server import SpecimenServer
+
+__all__ = ['ServedRecord', 'restore_served', 'specimen_fingerprint']
+
+_KIND = 'pd-specimen-state'
+
+
+def specimen_fingerprint(section: Any, dof_names: list[str]) -> str:
+    """A short fingerprint of a specimen definition (its section and DOF names)."""
+    text = json.dumps([section, dof_names], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode('utf-8')).hexdigest()[:16]
+
+
+class ServedRecord:
+    """Appends the commands a server served as new moves (one JSON line each).
+
+    Args:
+        path: the state file (appended to; created with its header if missing or empty).
+        fingerprint: the specimen's :func:`specimen_fingerprint`.
+        sync_interval: most seconds between two ``fsync`` calls (0: every line).
+    """
+
+    def __init__(self, path: str | Path, fingerprint: str, *, sync_interval: float = 1.0
+                 ) -> None:
+        self.path = Path(path)
+        self.sync_interval = sync_interval
+        self._synced = time.monotonic()
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file: IO[str] = self.path.open('a', encoding='utf-8')
+        except OSError as err:
+            msg = f'{self.path}: cannot write the specimen state file ({err.strerror})'
+            raise SpecimenError(msg) from None
+        if self._file.tell() == 0:
+            self._write({'k': _KIND, 'specimen': fingerprint})
+
+    def _write(self, value: Any) -> None:
+        self._file.write(json.dumps(value, separators=(',', ':')) + '\n')
+        self._file.flush()
+        now = time.monotonic()
+        if now - self._synced >= self.sync_interval:
+            os.fsync(self._file.fileno())
+            self._synced = now
+
+    def add(self, test_id: str, step: int, iteration: int, target: tuple[float, ...]) -> None:
+        """Record one served command (handed to the operating system at once)."""
+        self._write([test_id, step, iteration, [float(x) for x in target]])
+
+    def close(self) -> None:
+        """Sync and close the file."""
+        if not self._file.closed:
+            os.fsync(self._file.fileno())
+            self._file.close()
+
+
+def restore_served(path: str | Path, server: SpecimenServer, fingerprint: str
+                   ) -> tuple[str, StepKey] | None:
+    """Drive ``server`` (a new specimen) through the commands recorded in ``path``.
+
+    Returns:
+        The last command replayed, ``(test id, (step, iteration))``; ``None`` if none (no
+        file, or an empty one).
+
+    Raises:
+        SpecimenError: the file cannot be read, belongs to another specimen, or a line before
+            the last is malformed (a last line cut by a crash is ignored: that move was not
+            answered).
+    """
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        lines = path.read_text(encoding='utf-8').split('\n')
+    except OSError as err:
+        msg = f'{path}: cannot read the specimen state file ({err.strerror})'
+        raise SpecimenError(msg) from None
+    last: tuple[str, StepKey] | None = None
+    final = len(lines) - 1
+    for number, line in enumerate(lines):
+        if not line:
+            continue
+        try:
+            value = json.loads(line)
+            if number > 0:
+                test_id, step, iteration, target = value
+                values = tuple(float(x) for x in target)
+        except (ValueError, TypeError) as err:
+            if number == final and number > 0:
+                break  # the line a crash cut short: that move was not answered
+            msg = f'{path}: line {number + 1}: malformed specimen state record ({err})'
+            raise SpecimenError(msg) from None
+        if number == 0:
+            _check_header(path, value, fingerprint)
+            continue
+        server.handle(str(test_id), int(step), values, iteration=int(iteration))
+        last = (str(test_id), StepKey(int(step), int(iteration)))
+    return last
+
+
+def _check_header(path: Path, value: Any, fingerprint: str) -> None:
+    if not isinstance(value, dict) or value.get('k') != _KIND:
+        msg = f'{path}: not a specimen state file (no header line)'
+        raise SpecimenError(msg)
+    if value.get('specimen') != fingerprint:
+        msg = (f'{path}: the state file belongs to another specimen (its definition '
+               'changed): refusing to restore from it')
+        raise SpecimenError(msg)
