@@ -7,16 +7,22 @@ from pathlib import Path
 
 import pytest
 
-from pd_bringup.launcher import LaunchError, opensees_command, site_commands
+from pd_bringup.plan import LaunchError, opensees_command, site_commands
 from pd_integrator.core.run.test_file import load_test_file
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
            / 'three_story_two_sites.yaml')
 
 
-def test_each_site_gets_its_namespace_its_names_and_its_bridge_limits() -> None:
+def _commands(mode: str, out: Path) -> dict[str, list[str]]:
+    children, physical = site_commands(load_test_file(EXAMPLE), EXAMPLE, mode, None, out)
+    assert not physical  # every site is simulated
+    return {child.name: child.command for child in children}
+
+
+def test_each_site_gets_its_namespace_its_names_and_its_bridge_limits(tmp_path: Path) -> None:
     definition = load_test_file(EXAMPLE)
-    commands = dict(site_commands(definition, EXAMPLE, 'bridge', None))
+    commands = _commands('bridge', tmp_path)
     assert set(commands) == {'pd_specimen_sim[lab1]', 'pd_actuator_bridge[lab1]',
                              'pd_specimen_sim[lab3]', 'pd_actuator_bridge[lab3]'}
     simulator = commands['pd_specimen_sim[lab3]']
@@ -26,10 +32,16 @@ def test_each_site_gets_its_namespace_its_names_and_its_bridge_limits() -> None:
     bridge = commands['pd_actuator_bridge[lab1]']
     assert '__ns:=/pd/lab1' in bridge
     assert 'max_force:=1000000.0' in bridge and 'max_displacement:=0.1' in bridge
-    direct = dict(site_commands(definition, EXAMPLE, 'direct', None))
+    direct = _commands('direct', tmp_path)
     assert set(direct) == {'pd_specimen_sim[lab1]', 'pd_specimen_sim[lab3]'}
     assert '__ns:=/pd/lab1' in direct['pd_specimen_sim[lab1]']
-    assert site_commands(definition, EXAMPLE, 'none', None) == []
+    # Each simulated site keeps its own state file in the run folder (restored on restart).
+    state_files = {name: [a for a in command if a.startswith('state_file:=')]
+                   for name, command in direct.items()}
+    assert state_files == {
+        'pd_specimen_sim[lab1]': [f'state_file:={tmp_path / "specimen-lab1.state.jsonl"}'],
+        'pd_specimen_sim[lab3]': [f'state_file:={tmp_path / "specimen-lab3.state.jsonl"}']}
+    assert site_commands(definition, EXAMPLE, 'none', None, tmp_path) == ([], True)
 
 
 def test_opensees_site_options_and_errors() -> None:

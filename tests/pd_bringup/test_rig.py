@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from pd_bringup.launcher import LaunchError, resolve_key, with_key
+from pd_bringup.launcher import resolve_key
+from pd_bringup.plan import LaunchError, with_key
 from pd_bringup.rig import RigError, RigSettings, load_rig
 from pd_common.auth import generate_key, load_key
 

@@ -1,6 +1,7 @@
 """Send a signed operator control: ``./pd control COMMAND [options]``.
 
-To the integrator (``/pd/test_control``): ``pause``, ``resume``, ``hold``, ``abort``. To a
+To the integrator (``/pd/test_control``): ``pause``, ``resume``, ``hold``, ``abort``, and
+``restarted --reason WHAT`` (records in the run that a process was restarted by hand). To a
 bridge (``--bridge``, ``/pd/[<site>/]bridge/control``): ``reset``, ``reset_emergency_stop``,
 ``hold``. The control is signed with the rig's or test's key, stamped now and sent once; the
 receiver obeys it only if the signature, the stamp (within 30 s of its clock) and the sequence
@@ -20,14 +21,15 @@ import rclpy
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from pd_common.auth import KEY_FILE_ENV, AuthError, Signer, control_payload, load_key
-from pd_common.protocol import GLOBAL_EMERGENCY_STOP, Control, site_topic_name
-from pd_common.ros import CONTROL_DEPTH, control_message
+from pd_common.auth import KEY_FILE_ENV, AuthError, Signer, load_key
+from pd_common.protocol import GLOBAL_EMERGENCY_STOP, site_topic_name
+from pd_common.ros import CONTROL_DEPTH
 from pd_msgs.msg import Control as ControlMessage
 
+from .operator import signed_control
 from .rig import default_rig_key
 
-TEST_COMMANDS = ('pause', 'resume', 'hold', 'abort')
+TEST_COMMANDS = ('pause', 'resume', 'hold', 'abort', 'restarted')
 BRIDGE_COMMANDS = ('reset', 'reset_emergency_stop', 'hold')
 
 
@@ -76,9 +78,7 @@ def main(argv: list[str] | None = None) -> int:
             topic = (site_topic_name(args.site, 'bridge/control') if args.bridge
                      else site_topic_name('', 'test_control'))
             publisher = node.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
-            control = Control(command=command, target=args.site, reason=args.reason,
-                              stamp=time.time())
-            message = control_message(control, signer.sign(control_payload(control)))
+            message = signed_control(signer, command, args.site, args.reason)
         deadline = time.monotonic() + args.timeout
         while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.05)

@@ -1,7 +1,6 @@
 """Run a complete test through the node graph: ``ros2 run pd_bringup run_test [TEST_FILE]``.
 
-Starts each node as its own process, exactly as ``ros2 run`` would (the executable
-``lib/<package>/main`` of the package's ament prefix):
+Starts each node as its own process, exactly as ``ros2 run`` would (see :mod:`.plan`):
 
 * ``--site bridge`` (default): integrator → ``pd_actuator_bridge`` (namespace ``/pd``, with its
   own limits) → ``pd_specimen_sim`` (namespace ``/pd/specimen``);
@@ -18,56 +17,50 @@ substructure instead: ``opensees_site`` runs it behind an ``adapter`` element on
 port and the site's bridge drives it with the ``opensees_adapter`` driver (with ``--site
 direct`` too: the adapter's client is the bridge).
 
-It waits for the integrator to finish, then stops the other nodes (SIGINT, then SIGKILL) and
-prints where the run folder is. DDS discovery stays on this host unless
-``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set.
+Everything that can be checked is checked before any process starts (the test, its specimen
+sections, stability, the key, the run folder). The plan is written to ``launch.json`` in the run
+folder; the processes are supervised (:mod:`.supervisor`: a death holds the test and, by
+default for a simulated specimen, the process is restarted with its state and the test
+resumed); ``--resume RUN_DIR`` continues a stopped run from its record. When the integrator
+ends, the other nodes are stopped and the run folder is printed. DDS discovery stays on this
+host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
-import socket
-import subprocess
 import sys
-import time
+import threading
 from pathlib import Path
 from typing import Any
 
+import rclpy
 import yaml
+from rclpy.signals import SignalHandlerOptions
 
-from pd_common.auth import KEY_FILE_ENV, AuthError, load_key
-from pd_common.config import read_yaml_file
+from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
+from pd_common.config import load_yaml, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
+from pd_common.ros import events_executor
+from pd_common.specimen import SpecimenError, load_site_server
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
-from pd_integrator.core.run.runner import default_run_directory
+from pd_integrator.core.run.journal import JOURNAL_FILE
+from pd_integrator.core.run.resume import load_resumable
+from pd_integrator.core.run.runner import BAG_DIRECTORY, default_run_directory
 from pd_integrator.core.run.session import TestSession
 from pd_integrator.core.run.test_file import load_test_file
 
+from .operator import Operator
+from .plan import LAUNCH_FILE, LaunchError, LaunchPlan, site_commands, with_key
 from .rig import RigError, RigSettings, default_rig_key, load_rig, test_key_path
+from .supervisor import POLICIES, Supervisor
 
-STOP_TIMEOUT = 10.0
-
-
-class LaunchError(PdIntegratorError):
-    """A node could not be found or started, or the launch options are wrong."""
-
-
-def _stop(process: subprocess.Popen[bytes], name: str) -> None:
-    if process.poll() is not None:
-        return
-    try:
-        os.killpg(process.pid, signal.SIGINT)
-        process.wait(timeout=STOP_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        print(f'run_test: {name} did not stop on SIGINT; killing it', file=sys.stderr)
-        os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
-    except ProcessLookupError:
-        pass
+__all__ = ['LaunchError', 'main', 'parse_overrides', 'resolve_key']
 
 
 def parse_overrides(items: list[str]) -> dict[str, object]:
@@ -82,99 +75,12 @@ def parse_overrides(items: list[str]) -> dict[str, object]:
         if not sep or not name:
             msg = f'--param {item!r}: expected NAME:=VALUE'
             raise LaunchError(msg)
-        overrides[name] = yaml.safe_load(value)
+        try:
+            overrides[name] = load_yaml(value)
+        except yaml.YAMLError as err:
+            msg = f'--param {item!r}: not a YAML value ({str(err).splitlines()[0]})'
+            raise LaunchError(msg) from None
     return overrides
-
-
-def site_commands(definition: TestDefinition, test_file: Path, mode: str,
-                  bridge_params: Path | None) -> list[tuple[str, list[str]]]:
-    """The processes of the specimen side: per site a simulator (and its bridge)."""
-    if mode == 'none':
-        return []
-    params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
-    # Per site: name, namespace, actuator (DOF) names and extra bridge parameters.
-    sites: list[tuple[str, str, list[str], dict[str, Any]]]
-    if definition.model is None:
-        sites = [('', '/pd', list(definition.dof_names), {})]
-    else:
-        settings = definition.sites or {}
-        sites = []
-        for site in definition.model.site_names:
-            extra = settings.get(site, {}).get('bridge', {}) if isinstance(
-                settings.get(site), dict) else {}
-            if not isinstance(extra, dict):
-                msg = f'{definition.source}: sites.{site}.bridge: must be a mapping of parameters'
-                raise LaunchError(msg)
-            sites.append((site, f'/pd/{site}', list(definition.model.actuator_names(site)),
-                          extra))
-    commands: list[tuple[str, list[str]]] = []
-    for site, namespace, names, extra in sites:
-        label = f'[{site}]' if site else ''
-        opensees = (definition.sites or {}).get(site, {}).get('opensees') if site else None
-        if opensees is not None:
-            port = _free_port()
-            commands.append((f'opensees_site{label}', opensees_command(
-                opensees, port, definition, f'sites.{site}.opensees')))
-            bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
-                      '--params-file', str(params), '-r', f'__ns:={namespace}',
-                      '-p', f'dof_names:={json.dumps(names)}', '-p', 'driver:=opensees_adapter',
-                      '-p', 'tcp_host:=127.0.0.1', '-p', f'tcp_port:={port}']
-            for name, value in extra.items():
-                bridge += ['-p', f'{name}:={json.dumps(value)}']
-            commands.append((f'pd_actuator_bridge{label}', bridge))
-            continue
-        specimen_ns = f'{namespace}/specimen' if mode == 'bridge' else namespace
-        simulator = [str(find_executable('pd_specimen_sim')), '--ros-args',
-                     '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file}']
-        if site:
-            simulator += ['-p', f'site:={site}', '-p', f'dof_names:={json.dumps(names)}']
-        commands.append((f'pd_specimen_sim{label}', simulator))
-        if mode == 'bridge':
-            bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
-                      '--params-file', str(params), '-r', f'__ns:={namespace}',
-                      '-p', f'dof_names:={json.dumps(names)}']
-            for name, value in extra.items():
-                bridge += ['-p', f'{name}:={json.dumps(value)}']
-            commands.append((f'pd_actuator_bridge{label}', bridge))
-    return commands
-
-
-def _free_port() -> int:
-    """A TCP port free on loopback now (for a local OpenSees adapter element)."""
-    with socket.socket() as sock:
-        sock.bind(('127.0.0.1', 0))
-        return int(sock.getsockname()[1])
-
-
-#: ``sites.<site>.opensees`` keys -> ``opensees_site`` options.
-_OPENSEES_OPTIONS = {'model': '--model', 'stiffness': '--stiffness',
-                     'yield_force': '--yield-force', 'penalty': '--penalty',
-                     'script': '--script', 'tolerance': '--tolerance'}
-
-
-def opensees_command(settings: Any, port: int, definition: TestDefinition, where: str
-                     ) -> list[str]:
-    """The ``opensees_site`` command line of a site's ``opensees`` mapping.
-
-    Raises:
-        LaunchError: the mapping is not one, or has an unknown key.
-    """
-    if not isinstance(settings, dict):
-        msg = f'{definition.source}: {where}: must be a mapping (model, stiffness, ...)'
-        raise LaunchError(msg)
-    command = [str(find_executable('pd_actuator_bridge', 'opensees_site')), '--port', str(port),
-               '--quiet']
-    if 'script' in settings and 'model' not in settings:
-        settings = {**settings, 'model': 'script'}
-    for key, value in settings.items():
-        if key not in _OPENSEES_OPTIONS:
-            msg = (f'{definition.source}: {where}.{key}: unknown (expected '
-                   f'{", ".join(_OPENSEES_OPTIONS)})')
-            raise LaunchError(msg)
-        if key == 'script':
-            value = (definition.base_dir / str(value)).resolve()
-        command += [_OPENSEES_OPTIONS[key], str(value)]
-    return command
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -197,6 +103,18 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--rig', help='rig file: domain_id, discovery, static_peers, key_file')
     parser.add_argument('--no-authentication', action='store_true',
                         help='run every node without a key (an isolated machine only)')
+    parser.add_argument('--resume', metavar='RUN_DIR', help='continue a stopped run (its '
+                        'launch.json, journal and specimen state files) from its last '
+                        'committed step')
+    parser.add_argument('--confirm', action='store_true', help='with --resume and a physical '
+                        'specimen: move without waiting for ./pd control resume')
+    parser.add_argument('--on-child-exit', choices=POLICIES, default=None,
+                        help='when a process of the test dies: restart it with its state and '
+                        'resume (default for a simulated specimen), hold the test (default for '
+                        'a physical one), or abort')
+    parser.add_argument('--max-restarts', type=int, default=3, metavar='N',
+                        help='restarts of one process before the test is left holding '
+                        '(default 3)')
     return parser.parse_args(argv)
 
 
@@ -232,13 +150,137 @@ def resolve_key(args: argparse.Namespace, rig: RigSettings, test_id: str) -> Pat
     return path.resolve()
 
 
-def with_key(command: list[str], key_file: Path | None) -> list[str]:
-    """A node's command line with its key parameter (unchanged for a non-ROS process)."""
-    if '--ros-args' not in command:
-        return command
-    if key_file is None:
-        return [*command, '-p', 'authentication:=false']
-    return [*command, '-p', f'key_file:={key_file}']
+def check_run_folder(out: Path) -> None:
+    """Refuse a folder that holds a run already (before any process starts).
+
+    Raises:
+        LaunchError: it holds a journal, a bag, a launch plan or a specimen state file.
+    """
+    if not out.is_dir():
+        return
+    held = [name for name in (JOURNAL_FILE, BAG_DIRECTORY, LAUNCH_FILE) if (out / name).exists()]
+    held += sorted(path.name for path in out.glob('specimen*.state.jsonl'))
+    if held:
+        msg = (f'--out {out}: already holds a run ({", ".join(held)}); choose a new folder, '
+               f'or continue it: ./pd run --resume {out}')
+        raise LaunchError(msg)
+
+
+def check_specimens(plan: LaunchPlan, test_file: Path) -> None:
+    """Build every simulated specimen as its simulator will (a bad section is one line now,
+    before anything starts).
+
+    Raises:
+        LaunchError: a specimen section or one of its files is invalid.
+    """
+    for child in plan.children:
+        if child.kind != 'simulator':
+            continue
+        try:
+            load_site_server(test_file, child.site, child.dof_names or None)
+        except SpecimenError as err:
+            raise LaunchError(str(err)) from None
+
+
+def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, RigSettings]:
+    """The plan of a new run, every input checked.
+
+    Raises:
+        PdIntegratorError, ResourceError, RigError: one line naming the file and the key.
+    """
+    test_file = Path(args.test_file) if args.test_file else _default_test()
+    overrides = parse_overrides(args.param)
+    definition = load_test_file(test_file, overrides)  # fail early, before any process
+    if not definition.needs_probe:
+        TestSession(definition)  # refuses an unstable test (omega*dt above the limit)
+    out = Path(args.out) if args.out else default_run_directory('runs', definition.test_id)
+    check_run_folder(out)
+    integrator = [str(find_executable('pd_integrator')), '--ros-args',
+                  '-p', f'test_file:={test_file.resolve()}',
+                  '-p', f'output_dir:={out.resolve()}',
+                  '-p', f'figures:={"false" if args.no_figures else "true"}']
+    for item in args.param:
+        integrator += ['-p', item]
+    children, physical = site_commands(
+        definition, test_file.resolve(), args.site,
+        Path(args.bridge_params) if args.bridge_params else None, out)
+    rig = load_rig(read_yaml_file(test_file) or {}, test_file,
+                   Path(args.rig) if args.rig else None)
+    key_file = resolve_key(args, rig, definition.test_id)
+    for child in children:
+        child.command = with_key(child.command, key_file)
+    plan = LaunchPlan(test_id=definition.test_id, n_steps=definition.n_steps, out=out,
+                      site_mode=args.site, physical=physical, key_file=key_file,
+                      environment=rig.environment({}), children=children,
+                      integrator=with_key(integrator, key_file), figures=not args.no_figures)
+    check_specimens(plan, test_file)
+    return plan, definition, rig
+
+
+def _default_test() -> Path:
+    return share_file('pd_integrator', 'config', 'default_test.yaml')
+
+
+def plan_resumed_run(args: argparse.Namespace) -> LaunchPlan:
+    """The plan of the run to continue, checked.
+
+    Raises:
+        PdIntegratorError: not a resumable run folder, or options that do not go with it.
+    """
+    if args.test_file or args.out or args.param or args.bridge_params:
+        msg = ('--resume: takes no test file, --out, --param or --bridge-params (the run '
+               'folder has them)')
+        raise LaunchError(msg)
+    run_dir = Path(args.resume)
+    plan = LaunchPlan.load(run_dir)
+    try:
+        load_resumable(run_dir)
+    except PdIntegratorError as err:
+        msg = f'--resume: {err}'
+        raise LaunchError(msg) from None
+    if plan.key_file is not None:
+        try:
+            load_key(plan.key_file)
+        except AuthError as err:
+            raise LaunchError(str(err)) from None
+    return plan
+
+
+def print_summary(out: Path) -> None:
+    """The run's peaks and state, from its summary.json (if written)."""
+    path = out / 'summary.json'
+    if not path.is_file():
+        print(f'run_test: no summary.json in {out} (the integrator did not finish its outputs;'
+              f' ./pd recover {out} rebuilds them from the journal)')
+        return
+    try:
+        data = json.loads(path.read_text(encoding='utf-8'))
+    except ValueError as err:
+        print(f'run_test: {path}: unreadable ({err})')
+        return
+    for dof, values in (data.get('dofs') or {}).items():
+        peaks = values.get('peaks') or {}
+        peak = peaks.get('displacement') or {}
+        force = peaks.get('restoring_force') or {}
+        print(f'run_test: {dof}: peak displacement {_number(peak.get("value"), ".5f")} m at '
+              f'{_number(peak.get("time"), ".2f")} s, peak force '
+              f'{_number(_scaled(force.get("value"), 1e-3), ".3f")} kN, residual '
+              f'{_number(values.get("residual_displacement"), ".5f")} m')
+    restarts = data.get('restarts')
+    extra = f', {restarts} restart(s)' if restarts else ''
+    print(f'run_test: {data.get("state")}: {data.get("steps")} steps in '
+          f'{_number(data.get("wall_time"), ".2f")} s{extra}; outputs in {out}')
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    return value * factor if isinstance(value, (int, float)) else value
+
+
+def _number(value: Any, spec: str) -> str:
+    """``value`` formatted, or ``n/a`` (no committed step: no peak)."""
+    if isinstance(value, (int, float)) and math.isfinite(value):
+        return format(value, spec)
+    return 'n/a'
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -246,75 +288,95 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     try:
-        test_file = Path(args.test_file) if args.test_file else share_file(
-            'pd_integrator', 'config', 'default_test.yaml')
-        overrides = parse_overrides(args.param)
-        definition = load_test_file(test_file, overrides)  # fail early, before any process
-        if not definition.needs_probe:
-            TestSession(definition)  # refuses an unstable test (omega*dt above the limit)
-        out = Path(args.out) if args.out else default_run_directory('runs',
-                                                                      definition.test_id)
-        integrator = [str(find_executable('pd_integrator')), '--ros-args',
-                      '-p', f'test_file:={test_file.resolve()}',
-                      '-p', f'output_dir:={out.resolve()}',
-                      '-p', f'figures:={"false" if args.no_figures else "true"}']
-        for item in args.param:
-            integrator += ['-p', item]
-        commands = site_commands(definition, test_file.resolve(), args.site,
-                                 Path(args.bridge_params) if args.bridge_params else None)
-        rig = load_rig(read_yaml_file(test_file) or {}, test_file,
-                       Path(args.rig) if args.rig else None)
-        key_file = resolve_key(args, rig, definition.test_id)
-    except (PdIntegratorError, ResourceError, RigError) as err:
+        if args.max_restarts < 0:
+            msg = f'--max-restarts: must be 0 or more, got {args.max_restarts}'
+            raise LaunchError(msg)
+        if args.resume:
+            plan = plan_resumed_run(args)
+        else:
+            if args.confirm:
+                msg = '--confirm: only with --resume'
+                raise LaunchError(msg)
+            plan, definition, _ = plan_new_run(args)
+            for warning in definition.warnings:
+                print(f'run_test: warning: {warning}', file=sys.stderr)
+    except (PdIntegratorError, ResourceError, RigError, SpecimenError) as err:
         print(f'run_test: error: {err}', file=sys.stderr)
         return 2
-    integrator = with_key(integrator, key_file)
-    commands = [(name, with_key(command, key_file)) for name, command in commands]
-    env = rig.environment(os.environ)
-    if key_file is not None:
-        print(f'run_test: key {key_file} (id {load_key(key_file).key_id})', flush=True)
-    if rig.domain_id is not None:
-        print(f'run_test: rig ROS_DOMAIN_ID={rig.domain_id}, discovery {rig.discovery}',
+    policy = args.on_child_exit or ('hold' if plan.physical else 'restart')
+    env = {**os.environ, **plan.environment}
+    key = load_key(plan.key_file) if plan.key_file is not None else None
+    if key is not None:
+        print(f'run_test: key {plan.key_file} (id {key.key_id})', flush=True)
+    if 'ROS_DOMAIN_ID' in plan.environment:
+        print(f'run_test: rig ROS_DOMAIN_ID={plan.environment["ROS_DOMAIN_ID"]}, discovery '
+              f'{plan.environment.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").lower()}',
               flush=True)
+    verb = 'resuming' if args.resume else 'run folder:'
+    print(f'run_test: {plan.test_id} ({plan.n_steps} steps), site: {plan.site_mode}, '
+          f'{verb} {plan.out}; on child exit: {policy}', flush=True)
+    if not args.resume:
+        plan.save()
+    return _supervise(plan, policy, env, key, args)
 
-    print(f'run_test: {definition.test_id} ({definition.n_steps} steps), site: {args.site}, '
-          f'run folder: {out}', flush=True)
-    processes: list[tuple[str, subprocess.Popen[bytes]]] = []
-    code: int | None = 1
+
+def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | None,
+               args: argparse.Namespace) -> int:
+    """Start the processes, supervise them until the integrator ends, stop everything."""
+    stop = threading.Event()
+    previous = {number: signal.signal(number, lambda *_: stop.set())
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    ros = _OperatorNode(env, key)
+    supervisor = Supervisor(plan, policy, env, ros.operator, ros.spin_checked(stop),
+                            max_restarts=args.max_restarts,
+                            log=lambda line: print(line, file=sys.stderr, flush=True))
+    code = 1
     try:
-        for name, command in commands:
-            processes.append((name, subprocess.Popen(command, start_new_session=True,
-                                                     env=env)))
-        process = subprocess.Popen(integrator, start_new_session=True, env=env)
-        processes.append(('pd_integrator', process))
-        while (code := process.poll()) is None:
-            failed = [(name, other) for name, other in processes[:-1]
-                      if other.poll() is not None]
-            if failed:
-                name, other = failed[0]
-                print(f'run_test: {name} exited with code {other.returncode}; stopping the '
-                      'test', file=sys.stderr)
-                break
-            time.sleep(0.1)
-    except KeyboardInterrupt:
-        print('run_test: interrupted; stopping the integrator first', file=sys.stderr)
+        supervisor.start(resume=bool(args.resume), confirm=args.confirm,
+                         note='resumed by ./pd run --resume' if args.resume else '')
+        code = supervisor.run()
+    except _InterruptedError:
+        print('run_test: interrupted; stopping the integrator first (the run stays '
+              f'resumable: ./pd run --resume {plan.out})', file=sys.stderr)
     finally:
-        for name, other in reversed(processes):  # integrator first: it writes the outputs
-            _stop(other, name)
-        if code is None:
-            code = processes[-1][1].returncode if processes else 1
-    summary = out / 'summary.json'
-    if summary.is_file():
-        data = json.loads(summary.read_text(encoding='utf-8'))
-        for dof, values in data.get('dofs', {}).items():
-            peak = values['peaks']['displacement']
-            force = values['peaks']['restoring_force']
-            print(f'run_test: {dof}: peak displacement {peak["value"]:.5f} m at '
-                  f'{peak["time"]:.2f} s, peak force {force["value"] / 1e3:.3f} kN, residual '
-                  f'{values["residual_displacement"]:.5f} m')
-        print(f'run_test: {data.get("state")}: {data.get("steps")} steps in '
-              f'{data.get("wall_time", 0):.2f} s; outputs in {out}')
-    return int(code)
+        supervisor.stop()
+        ros.close()
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    print_summary(plan.out)
+    return code
+
+
+class _InterruptedError(Exception):
+    """The launcher got SIGINT or SIGTERM."""
+
+
+class _OperatorNode:
+    """The launcher's own rclpy node (its signed controls), in the test's domain."""
+
+    def __init__(self, env: dict[str, str], key: Key | None) -> None:
+        for name in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_STATIC_PEERS'):
+            if name in env:
+                os.environ[name] = env[name]
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node('run_test', namespace='pd')
+        self.executor = events_executor(self.node)
+        self.operator = Operator(self.node, key)
+
+    def spin_checked(self, stop: threading.Event) -> Any:
+        def spin(seconds: float) -> None:
+            if stop.is_set():
+                raise _InterruptedError
+            self.executor.spin_once(timeout_sec=seconds)
+            if stop.is_set():
+                raise _InterruptedError
+
+        return spin
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
 
 
 if __name__ == '__main__':

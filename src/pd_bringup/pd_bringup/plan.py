@@ -1,0 +1,284 @@
+"""What ``run_test`` starts: the processes of a test, and the plan kept in its run folder.
+
+Every node is its own process, started exactly as ``ros2 run`` would (the executable
+``lib/<package>/main`` of the package's ament prefix). The plan (:class:`LaunchPlan`) is written
+to ``launch.json`` in the run folder before anything starts, so ``./pd run --resume RUN_DIR``
+starts the same graph again (the integrator continuing from its journal, every simulator from
+its state file) without the original command line.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pd_common.config import read_yaml_file
+from pd_common.resources import find_executable, share_file
+from pd_integrator.core.errors import PdIntegratorError
+from pd_integrator.core.run.definition import TestDefinition
+
+__all__ = ['LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child', 'LaunchError', 'LaunchPlan',
+           'bridge_driver', 'opensees_command', 'site_commands', 'with_key']
+
+#: The plan's file name in a run folder.
+LAUNCH_FILE = 'launch.json'
+_VERSION = 1
+#: Bridge drivers whose actuator and specimen are simulated (anything else is physical).
+SIMULATED_DRIVERS = ('sim_servo', 'emulator', 'opensees_adapter')
+
+
+class LaunchError(PdIntegratorError):
+    """A node could not be found or started, or the launch options are wrong."""
+
+
+@dataclass
+class Child:
+    """One process of the test.
+
+    Attributes:
+        name: its name in messages (``pd_actuator_bridge[lab1]``).
+        kind: ``integrator``, ``simulator``, ``bridge``, ``opensees`` or ``proxy``.
+        site: its site ('' for the test's single site).
+        namespace: the namespace of the step receiver it is (its session offer), if any.
+        command: its command line.
+        state_file: a simulator's own state file (restored from when it restarts).
+        dof_names: a site simulator's DOF names (the site's actuators).
+    """
+
+    name: str
+    kind: str
+    site: str
+    namespace: str
+    command: list[str]
+    state_file: str = ''
+    dof_names: list[str] = field(default_factory=list)
+
+    @property
+    def restorable(self) -> bool:
+        """Whether restarting it gives back the same state (else the test holds for the
+        operator): the integrator (journal), a simulator (state file), a bridge (its state is
+        the actuator's, read back when it configures). An OpenSees site restarts fresh."""
+        return self.kind in ('integrator', 'bridge', 'proxy') or bool(self.state_file)
+
+
+@dataclass
+class LaunchPlan:
+    """The processes of a test and how they were started.
+
+    Attributes:
+        test_id: the test.
+        n_steps: its steps.
+        out: the run folder.
+        site_mode: ``bridge``, ``direct`` or ``none``.
+        physical: whether a physical specimen is driven (a bridge with a hardware driver, or
+            the specimen side started elsewhere).
+        key_file: the key every node has (``None``: authentication off).
+        environment: the rig's environment settings (domain, discovery).
+        children: the specimen side's processes, in start order.
+        integrator: the integrator's command line for a new run (its ``resume_from`` form is
+            made from it).
+        figures: whether figures are written.
+    """
+
+    test_id: str
+    n_steps: int
+    out: Path
+    site_mode: str
+    physical: bool
+    key_file: Path | None
+    environment: dict[str, str]
+    children: list[Child]
+    integrator: list[str]
+    figures: bool = True
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def save(self) -> Path:
+        """Write ``launch.json`` into the run folder (created); its path."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        data = asdict(self)
+        data['out'] = str(self.out)
+        data['key_file'] = str(self.key_file) if self.key_file is not None else None
+        data['version'] = _VERSION
+        path = self.out / LAUNCH_FILE
+        path.write_text(json.dumps(data, indent=1) + '\n', encoding='utf-8')
+        return path
+
+    @classmethod
+    def load(cls, run_dir: Path) -> LaunchPlan:
+        """The plan of a run folder.
+
+        Raises:
+            LaunchError: no readable ``launch.json`` there.
+        """
+        path = run_dir / LAUNCH_FILE
+        try:
+            data = json.loads(path.read_text(encoding='utf-8'))
+            data.pop('version', None)
+            data['out'] = Path(data['out'])
+            data['key_file'] = Path(data['key_file']) if data['key_file'] else None
+            data['children'] = [Child(**child) for child in data['children']]
+            return cls(**data)
+        except FileNotFoundError:
+            msg = (f'{run_dir}: no {LAUNCH_FILE}: not a run folder of run_test (an integrator '
+                   'run alone resumes with: ros2 run pd_integrator main --ros-args -p '
+                   'resume_from:=RUN_DIR)')
+            raise LaunchError(msg) from None
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            msg = f'{path}: unreadable launch plan ({err})'
+            raise LaunchError(msg) from None
+
+    def integrator_command(self, *, resume: bool, note: str = '',
+                           confirm: bool = False) -> list[str]:
+        """The integrator's command line: a new run, or continuing this folder's run."""
+        if not resume:
+            return list(self.integrator)
+        command: list[str] = []
+        skip = False
+        for item in self.integrator:  # the same node without test_file/output_dir
+            if skip:
+                skip = False
+                if item.startswith(('test_file:=', 'output_dir:=')):
+                    command.pop()  # the '-p' before it
+                    continue
+            command.append(item)
+            skip = item == '-p'
+        command += ['-p', f'resume_from:={self.out.resolve()}']
+        if note:
+            command += ['-p', f'resume_note:={json.dumps(note)}']
+        if confirm:
+            command += ['-p', 'confirm_resume:=true']
+        return command
+
+
+def bridge_driver(params: Path | None, extra: dict[str, Any]) -> str:
+    """The driver a bridge will use: its site's override, its parameter file's, or sim_servo."""
+    if 'driver' in extra:
+        return str(extra['driver'])
+    if params is not None:
+        try:
+            raw = read_yaml_file(params) or {}
+        except (OSError, ValueError):
+            return 'sim_servo'
+        for section in raw.values() if isinstance(raw, dict) else ():
+            parameters = section.get('ros__parameters') if isinstance(section, dict) else None
+            if isinstance(parameters, dict) and 'driver' in parameters:
+                return str(parameters['driver'])
+    return 'sim_servo'
+
+
+def _state_file(out: Path, site: str) -> str:
+    return str((out / (f'specimen-{site}.state.jsonl' if site else 'specimen.state.jsonl'))
+               .resolve())
+
+
+def site_commands(definition: TestDefinition, test_file: Path, mode: str,
+                  bridge_params: Path | None, out: Path) -> tuple[list[Child], bool]:
+    """The processes of the specimen side: per site a simulator (and its bridge); whether a
+    physical specimen is driven."""
+    if mode == 'none':
+        return [], True
+    params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+    # Per site: name, namespace, actuator (DOF) names and extra bridge parameters.
+    sites: list[tuple[str, str, list[str], dict[str, Any]]]
+    if definition.model is None:
+        sites = [('', '/pd', list(definition.dof_names), {})]
+    else:
+        settings = definition.sites or {}
+        sites = []
+        for site in definition.model.site_names:
+            extra = settings.get(site, {}).get('bridge', {}) if isinstance(
+                settings.get(site), dict) else {}
+            if not isinstance(extra, dict):
+                msg = f'{definition.source}: sites.{site}.bridge: must be a mapping of parameters'
+                raise LaunchError(msg)
+            sites.append((site, f'/pd/{site}', list(definition.model.actuator_names(site)),
+                          extra))
+    children: list[Child] = []
+    physical = False
+    for site, namespace, names, extra in sites:
+        label = f'[{site}]' if site else ''
+        opensees = (definition.sites or {}).get(site, {}).get('opensees') if site else None
+        bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
+                  '--params-file', str(params), '-r', f'__ns:={namespace}',
+                  '-p', f'dof_names:={json.dumps(names)}']
+        if opensees is not None:
+            port = _free_port()
+            children.append(Child(f'opensees_site{label}', 'opensees', site, '',
+                                  opensees_command(opensees, port, definition,
+                                                   f'sites.{site}.opensees')))
+            bridge += ['-p', 'driver:=opensees_adapter', '-p', 'tcp_host:=127.0.0.1',
+                       '-p', f'tcp_port:={port}']
+            for name, value in extra.items():
+                bridge += ['-p', f'{name}:={json.dumps(value)}']
+            children.append(Child(f'pd_actuator_bridge{label}', 'bridge', site, namespace,
+                                  bridge))
+            continue
+        specimen_ns = f'{namespace}/specimen' if mode == 'bridge' else namespace
+        state_file = _state_file(out, site)
+        simulator = [str(find_executable('pd_specimen_sim')), '--ros-args',
+                     '-r', f'__ns:={specimen_ns}', '-p', f'test_file:={test_file}',
+                     '-p', f'state_file:={state_file}']
+        if site:
+            simulator += ['-p', f'site:={site}', '-p', f'dof_names:={json.dumps(names)}']
+        if mode == 'bridge' and bridge_driver(params, extra) not in SIMULATED_DRIVERS:
+            physical = True  # the bridge drives hardware: no simulator for this site
+        else:
+            children.append(Child(f'pd_specimen_sim{label}', 'simulator', site, specimen_ns,
+                                  simulator, state_file=state_file,
+                                  dof_names=names if site else []))
+        if mode == 'bridge':
+            for name, value in extra.items():
+                bridge += ['-p', f'{name}:={json.dumps(value)}']
+            children.append(Child(f'pd_actuator_bridge{label}', 'bridge', site, namespace,
+                                  bridge))
+    return children, physical
+
+
+def _free_port() -> int:
+    """A TCP port free on loopback now (for a local OpenSees adapter element)."""
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        return int(sock.getsockname()[1])
+
+
+#: ``sites.<site>.opensees`` keys -> ``opensees_site`` options.
+_OPENSEES_OPTIONS = {'model': '--model', 'stiffness': '--stiffness',
+                     'yield_force': '--yield-force', 'penalty': '--penalty',
+                     'script': '--script', 'tolerance': '--tolerance'}
+
+
+def opensees_command(settings: Any, port: int, definition: TestDefinition, where: str
+                     ) -> list[str]:
+    """The ``opensees_site`` command line of a site's ``opensees`` mapping.
+
+    Raises:
+        LaunchError: the mapping is not one, or has an unknown key.
+    """
+    if not isinstance(settings, dict):
+        msg = f'{definition.source}: {where}: must be a mapping (model, stiffness, ...)'
+        raise LaunchError(msg)
+    command = [str(find_executable('pd_actuator_bridge', 'opensees_site')), '--port', str(port),
+               '--quiet']
+    if 'script' in settings and 'model' not in settings:
+        settings = {**settings, 'model': 'script'}
+    for key, value in settings.items():
+        if key not in _OPENSEES_OPTIONS:
+            msg = (f'{definition.source}: {where}.{key}: unknown (expected '
+                   f'{", ".join(_OPENSEES_OPTIONS)})')
+            raise LaunchError(msg)
+        if key == 'script':
+            value = (definition.base_dir / str(value)).resolve()
+        command += [_OPENSEES_OPTIONS[key], str(value)]
+    return command
+
+
+def with_key(command: list[str], key_file: Path | None) -> list[str]:
+    """A node's command line with its key parameter (unchanged for a non-ROS process)."""
+    if '--ros-args' not in command:
+        return command
+    if key_file is None:
+        return [*command, '-p', 'authentication:=false']
+    return [*command, '-p', f'key_file:={key_file}']
