@@ -82,6 +82,7 @@ from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
     MONITOR_QOS,
+    OFFER_REFRESH_S,
     STEP_QOS,
     RefusalLog,
     SessionReceiver,
@@ -90,6 +91,7 @@ from pd_common.ros import (
     feedback_message,
     new_epoch,
     now_stamp,
+    spin_until_shutdown,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Control as ControlMessage
@@ -143,8 +145,9 @@ class ActuatorBridgeNode(LifecycleNode):
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
         self._control_gate = ControlGate(self.key)
         self.receiver = SessionReceiver(self, self.key, len(self.get_parameter('dof_names').value),
-                                        self.epoch, on_refused=self._on_refused_start)
-        self.receiver.set_accepting(False)  # sessions only while active
+                                        self.epoch, on_refused=self._on_refused_start,
+                                        accepting=False)  # sessions only while active
+        self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
         self._request = Signature()  # the signature of the command being answered
         self._accept_when_ready = False
         self.bridge: ActuatorBridge | None = None
@@ -255,8 +258,12 @@ class ActuatorBridgeNode(LifecycleNode):
         self.bridge.set_reply_callback(self._publish_reply)
         if self._emergency is not None:
             self.bridge.emergency_stop(self._emergency)
-        position = ', '.join(f'{x:.6g}' for x in self.driver.position())
-        self.publish_status(TestStatus.STATE_IDLE, f'configured: position [{position}] m')
+        if isinstance(self.driver, SimServoDriver) and not self.driver.ready():
+            text = 'configured: position read from the specimen node once it answers'
+        else:
+            text = f'configured: position [{_positions(self.driver.position())}] m'
+        self.get_logger().info(text)
+        self.publish_status(TestStatus.STATE_IDLE, text)
 
     def _make_driver(self, name: str, n_dof: int) -> ActuatorDriver:
         """Build the registered driver ``name`` with its declared parameters' values."""
@@ -350,6 +357,8 @@ class ActuatorBridgeNode(LifecycleNode):
             signature=self.receiver.sign(feedback, self._request)))
         if reply.status is FeedbackStatus.OK:
             self.receiver.set_state(reply.displacement, reply.force)
+            # The state behind the bridge (a restarted specimen node's epoch) for its offer.
+            self.receiver.epoch, self.receiver.origin = feedback.epoch, feedback.state_origin
         if reply.status is FeedbackStatus.OK and self._monitor_pub is not None:
             try:
                 self._publish_monitor(reply)
@@ -450,6 +459,8 @@ class ActuatorBridgeNode(LifecycleNode):
                                         or driver.ready()):
             self._accept_when_ready = False
             self._offer_state()
+            self.get_logger().info(f'ready: actuator at [{_positions(self.receiver.position)}] '
+                                   'm (measured; every limit starts from it)')
             self.receiver.set_accepting(True)  # a new challenge: motion needs a signed start
         timeout = float(self.get_parameter('driver_timeout').value)
         if (isinstance(driver, SimServoDriver) and driver.in_flight and bridge.state == 'busy'
@@ -546,6 +557,10 @@ class ActuatorBridgeNode(LifecycleNode):
             self.get_logger().warning(f'bridge/control {request}: {text}')
 
 
+def _positions(values: Any) -> str:
+    return ', '.join(f'{float(x):.6g}' for x in values)
+
+
 def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
     """Configure, wait for the driver, activate (simulated set-ups)."""
     if node.trigger_configure() != SUCCESS:
@@ -571,9 +586,7 @@ def main(args: list[str] | None = None) -> int:
         executor = events_executor(node)
         if node.get_parameter('autostart').value:
             _autostart(node, executor)
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.05)
-            node.check_driver()
+        spin_until_shutdown(executor, 0.05, node.check_driver)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

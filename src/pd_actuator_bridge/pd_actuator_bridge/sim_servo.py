@@ -89,12 +89,14 @@ class SimServoDriver(ActuatorDriver):
         """Whether a specimen node listens, talks back and obeys this driver's session.
 
         Opens the session when the specimen offers one; takes the specimen's position (and
-        its state's epoch) from the offer the first time.
+        its state's epoch) from its offer the first time — the offer it publishes once it obeys
+        this driver's session, which carries its state *now* (an older latched offer may carry
+        the position of an earlier session's start).
         """
         sender = self._sender
         sender.open(self._session)
         offer = sender.offer
-        if (offer is not None and len(offer.position) == self._n_dof
+        if (offer is not None and sender.opened and len(offer.position) == self._n_dof
                 and (not self._positioned or offer.epoch != self._specimen_epoch)):
             # The first offer, or a restarted specimen node: it is where it says it is.
             self._position = [float(x) for x in offer.position]

@@ -45,6 +45,7 @@ from pd_common.protocol import (
     signature_from_message,
 )
 from pd_common.ros import (
+    OFFER_REFRESH_S,
     STEP_QOS,
     RefusalLog,
     SessionReceiver,
@@ -52,6 +53,7 @@ from pd_common.ros import (
     events_executor,
     feedback_message,
     new_epoch,
+    spin_until_shutdown,
 )
 from pd_common.specimen import (
     ServedRecord,
@@ -94,6 +96,7 @@ class SpecimenSimNode(Node):
         self.receiver.restored = restored
         self.receiver.set_state(self.server.position, self.server.force)
         self.receiver.publish_offer()
+        self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
         self._feedback = StepFeedback()
@@ -163,8 +166,7 @@ def main(args: list[str] | None = None) -> int:
             print(f'pd_specimen_sim: error: {err}', file=sys.stderr)
             return 2
         executor = events_executor(node)
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
+        spin_until_shutdown(executor, 0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .executor import events_executor
+from .executor import events_executor, spin_until_shutdown
 from .keys import declare_key
 from .messages import (
     command_message,
@@ -14,12 +14,13 @@ from .messages import (
     status_message,
 )
 from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
-from .session import RefusalLog, SessionReceiver, SessionSender, new_epoch
+from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender, new_epoch
 
 __all__ = [
     'CONTROL_DEPTH',
     'LATCHED_QOS',
     'MONITOR_QOS',
+    'OFFER_REFRESH_S',
     'STEP_QOS',
     'RefusalLog',
     'SessionReceiver',
@@ -32,6 +33,7 @@ __all__ = [
     'fill_signature',
     'new_epoch',
     'now_stamp',
+    'spin_until_shutdown',
     'stamp_from_ns',
     'status_message',
 ]

@@ -7,15 +7,17 @@ them poll timeouts and stop flags between events).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+import rclpy
 from rclpy.experimental.events_executor import EventsExecutor
 
 if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
 
-__all__ = ['events_executor']
+__all__ = ['events_executor', 'spin_until_shutdown']
 
 
 def events_executor(node: Node) -> Executor:
@@ -23,3 +25,23 @@ def events_executor(node: Node) -> Executor:
     executor = EventsExecutor()
     executor.add_node(node)
     return executor
+
+
+def spin_until_shutdown(executor: Executor, timeout_sec: float,
+                        between: Callable[[], None] | None = None) -> None:
+    """Spin ``executor`` until the context shuts down (SIGINT/SIGTERM), calling ``between``
+    after every ``spin_once``.
+
+    A callback that was running when a signal shut the context down fails to publish
+    ("publisher's context is invalid"): that is the shutdown, not an error, and ends the loop
+    quietly; the same failure while the context is still up is raised.
+    """
+    while rclpy.ok():
+        try:
+            executor.spin_once(timeout_sec=timeout_sec)
+        except Exception:
+            if rclpy.ok():
+                raise
+            return
+        if between is not None:
+            between()

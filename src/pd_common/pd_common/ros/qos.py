@@ -4,10 +4,15 @@ from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ['CONTROL_DEPTH', 'LATCHED_QOS', 'MONITOR_QOS', 'STEP_QOS']
+__all__ = ['CONTROL_DEPTH', 'LATCHED_QOS', 'MONITOR_QOS', 'STEP_DEPTH', 'STEP_QOS']
 
-#: Commands and feedback: reliable, keep-all: every message must arrive, in order.
-STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+#: Commands and feedback: reliable and in order. Keep-last with a depth far above the
+#: stop-and-wait protocol's few messages in flight, not keep-all: a reader that was killed stays
+#: matched until its lease expires, and a keep-all writer then fills its history with samples
+#: the dead reader never acknowledges until ``publish`` fails; keep-last never blocks.
+STEP_DEPTH = 256
+STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=STEP_DEPTH,
+                      reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 #: Statuses and the test definition: latched, a late joiner gets the last one.
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,

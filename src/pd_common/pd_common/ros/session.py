@@ -31,7 +31,10 @@ from ..types import FloatArray
 from .messages import fill_signature, now_stamp
 from .qos import LATCHED_QOS, STEP_QOS
 
-__all__ = ['RefusalLog', 'SessionReceiver', 'SessionSender', 'new_epoch']
+__all__ = ['OFFER_REFRESH_S', 'RefusalLog', 'SessionReceiver', 'SessionSender', 'new_epoch']
+
+#: Seconds between checks whether a receiver's offer must be published again (its state moved).
+OFFER_REFRESH_S = 1.0
 
 _UNSIGNED = Signature()
 
@@ -75,11 +78,15 @@ class SessionReceiver:
         epoch: the specimen state's epoch (:func:`new_epoch`).
         origin: where the state comes from.
         on_refused: called for each refused session start.
+        accepting: whether sessions are offered from the start (a lifecycle node offers none
+            until it is active: its very first offer then carries no challenge, so no sender
+            can open a session that is closed a moment later).
     """
 
     def __init__(self, node: Node, key: Key | None, n_dof: int, epoch: str,
                  origin: StateOrigin = StateOrigin.FRESH,
-                 on_refused: Callable[[Refusal, Signature], None] | None = None) -> None:
+                 on_refused: Callable[[Refusal, Signature], None] | None = None,
+                 accepting: bool = True) -> None:
         self._node = node
         self.key = key
         self.gate = CommandGate(key)
@@ -89,7 +96,8 @@ class SessionReceiver:
         self.position: list[float] = [0.0] * n_dof
         self.force: list[float] = [0.0] * n_dof
         self._on_refused = on_refused
-        self.accepting = True
+        self._published: tuple[str, int, tuple[float, ...], tuple[float, ...]] = ('', 0, (), ())
+        self.accepting = accepting
         self._offer_pub = node.create_publisher(SessionOffer, 'session/offer', LATCHED_QOS)
         node.create_subscription(SessionStartMessage, 'session/start', self._on_start,
                                  QoSProfile(depth=10, reliability=STEP_QOS.reliability))
@@ -115,7 +123,17 @@ class SessionReceiver:
             offer.restored_step, offer.restored_iteration = self.restored[1]
         offer.position = [float(x) for x in self.position]
         offer.force = [float(f) for f in self.force]
+        self._published = (self.epoch, int(self.origin), tuple(offer.position),
+                           tuple(offer.force))
         self._offer_pub.publish(offer)
+
+    def refresh(self) -> None:
+        """Publish the offer again if the state (epoch, origin, position, force) changed since
+        it was last published (called on a timer: a late joiner, such as a restarted bridge,
+        reads where the specimen is now, and whose state it is)."""
+        if self._published != (self.epoch, int(self.origin), tuple(self.position),
+                               tuple(self.force)):
+            self.publish_offer()
 
     def set_state(self, position: Sequence[float] | FloatArray,
                   force: Sequence[float] | FloatArray) -> None:
