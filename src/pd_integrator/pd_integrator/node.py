@@ -189,6 +189,7 @@ class IntegratorNode(Node):
         self._control_gate = ControlGate(self.key)
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
         self._resume_requested = False
+        self._offers_refused: set[str] = set()
         self._session_lost: set[str] = set()
         self.owed: list[tuple[str, Command]] = []
         self._gap = 0.0
@@ -319,7 +320,13 @@ class IntegratorNode(Node):
                               'restarted or was re-activated); a signed resume re-opens it')
             self.publish_status()
         self._session_lost = lost
+        refused = self._check_offers()
         if not self._resume_requested:
+            return
+        if refused:
+            self._resume_requested = False
+            self.get_logger().warning('resume refused: ' + '; '.join(refused))
+            self.publish_status()
             return
         for site in lost:
             self.senders[site].open(self.session.definition.test_id)
@@ -328,10 +335,31 @@ class IntegratorNode(Node):
             self.dispatcher.resume()
             self.publish_status()
 
+    def _check_offers(self) -> list[str]:
+        """Why the sites' announced states may not be driven (a fresh specimen state in the
+        middle of the test), once the test has started."""
+        if not self._started:
+            return []
+        refused = []
+        for site, sender in self.senders.items():
+            offer = sender.offer
+            if offer is None:
+                continue
+            reason = self.dispatcher.on_offer(site, str(offer.epoch),
+                                              _origin(offer.state_origin))
+            if reason is not None:
+                refused.append(reason)
+                if reason not in self._offers_refused:
+                    self._offers_refused.add(reason)
+                    self.get_logger().error(f'holding: {reason}')
+                    self.publish_status()
+        return refused
+
     def start(self) -> None:
         """Send the first command (a resumed run: check the sites, then what it owes)."""
         self._started = time.perf_counter()
-        self.meter = ProgressMeter(self.session.total_steps, self.meter.interval)
+        self.meter = ProgressMeter(self.session.total_steps, self.meter.interval,
+                                   first_step=max(self.session.committed_step, 0))
         if self.record is None:
             self.dispatcher.start()
         else:

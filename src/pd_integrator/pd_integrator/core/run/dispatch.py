@@ -19,7 +19,15 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from pd_common.protocol import Command, Feedback, Signature, Status, TestState, site_topic_name
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    Signature,
+    StateOrigin,
+    Status,
+    TestState,
+    site_topic_name,
+)
 
 from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from .coordinator import SiteCoordinator
@@ -143,6 +151,24 @@ class StepDispatcher:
             self._flush([(command, self.coordinator.resend(command))])
         else:
             self.start()
+
+    def on_offer(self, site: str, epoch: str, origin: StateOrigin) -> str | None:
+        """A site announces its specimen state (its session offer): a fresh state that replaced
+        the test's specimen holds the test before any answer of it is taken; ``None`` if the
+        state may be driven, else why not."""
+        noted = len(self.epochs.changes)
+        reason = self.epochs.check_state(site, epoch, origin, self.session.committed_step + 1,
+                                         announced=True)
+        if reason is not None and len(self.epochs.changes) != noted:
+            if self.session.state in (TestState.RUNNING, TestState.HOLDING, TestState.PAUSED):
+                self.session.hold(reason)
+                self.session.message = reason
+            self._note_epochs()
+            if self.bag is not None:
+                self.bag.flush()
+        elif len(self.epochs.changes) != self._epochs_noted:
+            self._note_epochs()
+        return reason
 
     # -- internals ----------------------------------------------------------------------------
     def _note_epochs(self) -> None:

@@ -56,33 +56,41 @@ class EpochGuard:
     epochs: dict[str, str] = field(default_factory=dict)
     changes: list[EpochChange] = field(default_factory=list)
     _refused: set[tuple[str, str]] = field(default_factory=set)
+    _accepted: set[tuple[str, str]] = field(default_factory=set)
 
     def check(self, site: str, feedback: Feedback) -> str | None:
         """``None`` if ``feedback`` may be taken, else why not (the test must hold).
 
         A refused epoch stays refused (its every answer), and is recorded once.
         """
-        epoch = feedback.epoch
+        return self.check_state(site, feedback.epoch, feedback.state_origin, feedback.step)
+
+    def check_state(self, site: str, epoch: str, origin: StateOrigin, step: int, *,
+                    announced: bool = False) -> str | None:
+        """:meth:`check` of a state a site answers from, or (``announced``) one its session
+        offer announces — an offer may lag behind the answers, so an epoch this site already
+        answered from is not a change."""
         if not epoch:
             return None
         known = self.epochs.get(site)
         if known is None:
             self.epochs[site] = epoch
+            self._accepted.add((site, epoch))
             return None
-        if epoch == known:
+        if epoch == known or (announced and (site, epoch) in self._accepted):
             return None
         name = site or 'default'
-        if feedback.state_origin is StateOrigin.FRESH:
+        if origin is StateOrigin.FRESH:
             if (site, epoch) not in self._refused:
                 self._refused.add((site, epoch))
-                self.changes.append(EpochChange(site, feedback.step, known, epoch,
-                                                feedback.state_origin, accepted=False))
+                self.changes.append(EpochChange(site, step, known, epoch, origin,
+                                                accepted=False))
             return (f'site {name}: answered from a fresh specimen state (epoch {epoch}; it was '
                     f'{known}): its process restarted without its state, a different specimen'
                     '; refusing its answers — restart it with its state (state_file) or abort')
         self.epochs[site] = epoch
-        self.changes.append(EpochChange(site, feedback.step, known, epoch,
-                                        feedback.state_origin, accepted=True))
+        self._accepted.add((site, epoch))
+        self.changes.append(EpochChange(site, step, known, epoch, origin, accepted=True))
         return None
 
     @property

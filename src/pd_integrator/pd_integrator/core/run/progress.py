@@ -13,12 +13,15 @@ class ProgressMeter:
         total: number of steps of the test.
         interval: minimum seconds between two lines.
         clock: monotonic clock (injectable for tests).
+        first_step: the step the meter starts at (a resumed run: its first step after the
+            record), so the rate counts only the steps stepped since.
     """
 
     def __init__(self, total: int, interval: float = 1.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, first_step: int = 0) -> None:
         self.total = total
         self.interval = interval
+        self.first_step = first_step
         self._clock = clock
         self._start = clock()
         self._last_time = -float('inf')
@@ -31,7 +34,7 @@ class ProgressMeter:
     def line(self, step: int) -> str:
         """The progress line for ``step`` (unconditionally)."""
         elapsed = self.elapsed
-        rate = step / elapsed if elapsed > 0 else 0.0
+        rate = (step - self.first_step) / elapsed if elapsed > 0 else 0.0
         remaining = (self.total - step) / rate if rate > 0 else float('nan')
         percent = 100.0 * step / self.total if self.total else 100.0
         eta = f'{remaining:6.1f} s' if remaining == remaining else '     ? s'

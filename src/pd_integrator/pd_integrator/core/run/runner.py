@@ -323,7 +323,22 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
         _apply_last_status(session, run)
     finally:
         dispatcher.send, dispatcher.bag = send, bag
-    return list(expected)
+    return _owed(dispatcher, list(expected))
+
+
+def _owed(dispatcher: StepDispatcher, unrecorded: list[tuple[str, Command]]
+          ) -> list[tuple[str, Command]]:
+    """The site commands still unanswered: those never recorded, and those recorded (sent:
+    the specimen may have executed them) whose answer is not on record."""
+    owed = list(unrecorded)
+    coordinator = dispatcher.coordinator
+    for site in dispatcher.sites:
+        pending = (dispatcher.session.protocol.pending if coordinator.passthrough
+                   else coordinator.protocols[site].pending)
+        if pending is not None and not any(s == site and _same_command(c, pending)
+                                           for s, c in owed):
+            owed.append((site, pending))
+    return owed
 
 
 def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: bool = True,
