@@ -24,6 +24,7 @@ setup(
             'run_test = pd_bringup.launcher:main',
             'keygen = pd_bringup.keygen:main',
             'control = pd_bringup.control:main',
+            'fault_proxy = pd_bringup.fault_proxy:main',
         ],
     },
 )

@@ -15,7 +15,9 @@ parameters (e.g. its limits) for that site only. A site with an ``opensees`` map
 (``{model: epp|elastic, stiffness, yield_force, penalty}`` or ``{script: FILE}``) is an OpenSees
 substructure instead: ``opensees_site`` runs it behind an ``adapter`` element on a free local
 port and the site's bridge drives it with the ``opensees_adapter`` driver (with ``--site
-direct`` too: the adapter's client is the bridge).
+direct`` too: the adapter's client is the bridge). ``--faults PLAN`` puts a fault proxy
+(:mod:`.fault_proxy`) between the integrator and each site's step receiver (the receiver's step
+topics moved to ``<namespace>/behind``); its counters end up in ``summary.json`` (``faults``).
 
 Everything that can be checked is checked before any process starts (the test, its specimen
 sections, stability, the key, the run folder). The plan is written to ``launch.json`` in the run
@@ -56,7 +58,15 @@ from pd_integrator.core.run.session import TestSession
 from pd_integrator.core.run.test_file import load_test_file
 
 from .operator import Operator
-from .plan import LAUNCH_FILE, LaunchError, LaunchPlan, site_commands, with_key
+from .plan import (
+    LAUNCH_FILE,
+    LaunchError,
+    LaunchPlan,
+    attach_fault_reports,
+    insert_fault_proxies,
+    site_commands,
+    with_key,
+)
 from .rig import RigError, RigSettings, default_rig_key, load_rig, test_key_path
 from .supervisor import POLICIES, Supervisor
 
@@ -112,6 +122,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help='when a process of the test dies: restart it with its state and '
                         'resume (default for a simulated specimen), hold the test (default for '
                         'a physical one), or abort')
+    parser.add_argument('--faults', metavar='PLAN', help='put a fault proxy between the '
+                        'integrator and each site\'s step receiver, e.g. drop=0.1,duplicate=0.1,'
+                        'delay=0.1,reorder=0.1,delay_s=0.05,seed=1 (its counters go to '
+                        'faults.json and summary.json: faults)')
     parser.add_argument('--max-restarts', type=int, default=3, metavar='N',
                         help='restarts of one process before the test is left holding '
                         '(default 3)')
@@ -209,6 +223,8 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     key_file = resolve_key(args, rig, definition.test_id)
     for child in children:
         child.command = with_key(child.command, key_file)
+    if args.faults:  # after the keys: the proxy holds none
+        children = insert_fault_proxies(children, args.faults, out)
     plan = LaunchPlan(test_id=definition.test_id, n_steps=definition.n_steps, out=out,
                       site_mode=args.site, physical=physical, key_file=key_file,
                       environment=rig.environment({}), children=children,
@@ -227,9 +243,9 @@ def plan_resumed_run(args: argparse.Namespace) -> LaunchPlan:
     Raises:
         PdIntegratorError: not a resumable run folder, or options that do not go with it.
     """
-    if args.test_file or args.out or args.param or args.bridge_params:
-        msg = ('--resume: takes no test file, --out, --param or --bridge-params (the run '
-               'folder has them)')
+    if args.test_file or args.out or args.param or args.bridge_params or args.faults:
+        msg = ('--resume: takes no test file, --out, --param, --bridge-params or --faults (the '
+               'run folder has them)')
         raise LaunchError(msg)
     run_dir = Path(args.resume)
     plan = LaunchPlan.load(run_dir)
@@ -270,6 +286,20 @@ def print_summary(out: Path) -> None:
     extra = f', {restarts} restart(s)' if restarts else ''
     print(f'run_test: {data.get("state")}: {data.get("steps")} steps in '
           f'{_number(data.get("wall_time"), ".2f")} s{extra}; outputs in {out}')
+
+
+def _report_faults(plan: LaunchPlan) -> None:
+    """The fault proxies' counters into summary.json, and one line of them."""
+    try:
+        faults = attach_fault_reports(plan)
+    except LaunchError as err:
+        print(f'run_test: {err}', file=sys.stderr)
+        return
+    if faults is not None:
+        totals = faults['totals']
+        print(f'run_test: faults ({faults["plan"]}): {totals["received"]} step messages, '
+              f'{totals["dropped"]} dropped, {totals["duplicated"]} duplicated, '
+              f'{totals["delayed"]} delayed, {totals["reordered"]} reordered', flush=True)
 
 
 def _scaled(value: Any, factor: float) -> Any:
@@ -343,6 +373,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
         ros.close()
         for number, handler in previous.items():
             signal.signal(number, handler)
+    _report_faults(plan)
     print_summary(plan.out)
     return code
 

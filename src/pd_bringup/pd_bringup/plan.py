@@ -20,14 +20,21 @@ from pd_common.resources import find_executable, share_file
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
 
-__all__ = ['LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child', 'LaunchError', 'LaunchPlan',
-           'bridge_driver', 'opensees_command', 'site_commands', 'with_key']
+from .faults import FaultPlanError, attach_reports, proxy_command
+
+__all__ = ['BEHIND', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child', 'LaunchError', 'LaunchPlan',
+           'attach_fault_reports', 'bridge_driver', 'fault_report_name', 'insert_fault_proxies',
+           'opensees_command', 'site_commands', 'with_key']
 
 #: The plan's file name in a run folder.
 LAUNCH_FILE = 'launch.json'
 _VERSION = 1
 #: Bridge drivers whose actuator and specimen are simulated (anything else is physical).
 SIMULATED_DRIVERS = ('sim_servo', 'emulator', 'opensees_adapter')
+#: Where a step receiver's step-protocol topics go behind a fault proxy: ``<namespace>/behind``.
+BEHIND = 'behind'
+#: A step receiver's step-protocol topics (relative to its namespace).
+_RECEIVER_TOPICS = ('step_command', 'step_feedback', 'session/offer', 'session/start')
 
 
 class LaunchError(PdIntegratorError):
@@ -44,7 +51,8 @@ class Child:
         site: its site ('' for the test's single site).
         namespace: the namespace of the step receiver it is (its session offer), if any.
         command: its command line.
-        state_file: a simulator's own state file (restored from when it restarts).
+        state_file: a simulator's own state file (restored from when it restarts); a fault
+            proxy's report file (its counters, continued when it restarts).
         dof_names: a site simulator's DOF names (the site's actuators).
     """
 
@@ -273,6 +281,68 @@ def opensees_command(settings: Any, port: int, definition: TestDefinition, where
             value = (definition.base_dir / str(value)).resolve()
         command += [_OPENSEES_OPTIONS[key], str(value)]
     return command
+
+
+def fault_report_name(site: str) -> str:
+    """The file name of a site's fault proxy report in the run folder."""
+    return f'faults-{site}.json' if site else 'faults.json'
+
+
+def insert_fault_proxies(children: list[Child], faults: str, out: Path) -> list[Child]:
+    """The processes with a fault proxy (``fault_proxy``) in front of each site's step receiver.
+
+    A site's receiver (the process in the namespace the integrator talks to: ``/pd`` or
+    ``/pd/<site>``; a bridge, or a simulator with ``--site direct``) keeps its namespace (its
+    controls, status and name) but its step-protocol topics (commands, feedback, session offer
+    and start) are remapped to ``<namespace>/behind``; the proxy (kind ``proxy``, right after
+    it) forwards between the two with the faults of the plan, and writes its counters to
+    :func:`fault_report_name` in the run folder (its ``state_file``: a restarted proxy
+    continues them). The receiver's ``namespace`` stays the integrator's side: its offer as
+    the integrator sees it, through the proxy.
+
+    Raises:
+        LaunchError: the plan is invalid, or no step receiver is started (``--site none``).
+        pd_common.resources.ResourceError: the proxy is not built.
+    """
+    proxied: list[Child] = []
+    found = False
+    for child in children:
+        proxied.append(child)
+        front = f'/pd/{child.site}' if child.site else '/pd'
+        if child.kind not in ('simulator', 'bridge') or child.namespace != front:
+            continue
+        found = True
+        back = f'{front}/{BEHIND}'
+        for topic in _RECEIVER_TOPICS:
+            child.command = [*child.command, '-r', f'{topic}:={back}/{topic}']
+        report = str((out / fault_report_name(child.site)).resolve())
+        try:
+            command = proxy_command(front, back, faults, Path(report))
+        except FaultPlanError as err:
+            msg = f'--faults: {err}'
+            raise LaunchError(msg) from None
+        label = f'[{child.site}]' if child.site else ''
+        proxied.append(Child(f'fault_proxy{label}', 'proxy', child.site, front, command,
+                             state_file=report))
+    if not found:
+        msg = ('--faults: no step receiver is started here to put a proxy in front of '
+               '(--site none: start the fault proxy with the specimen side)')
+        raise LaunchError(msg)
+    return proxied
+
+
+def attach_fault_reports(plan: LaunchPlan) -> dict[str, Any] | None:
+    """Add the fault proxies' counters to the run's ``summary.json`` (``faults``); the block
+    (``None``: no proxy, or none wrote its report)."""
+    files = {child.name: Path(child.state_file) for child in plan.children
+             if child.kind == 'proxy' and child.state_file}
+    if not files:
+        return None
+    try:
+        return attach_reports(plan.out / 'summary.json', files)
+    except (OSError, ValueError) as err:
+        msg = f'{plan.out / "summary.json"}: cannot add the fault counters ({err})'
+        raise LaunchError(msg) from None
 
 
 def with_key(command: list[str], key_file: Path | None) -> list[str]:
