@@ -238,3 +238,90 @@ def test_a_fresh_specimen_in_mid_test_is_refused(
     rows = (out / 'response.csv').read_bytes().splitlines()
     assert rows == reference.splitlines()[:len(rows)]
     assert len(rows) == result['steps'] + 2
+
+
+def test_a_restarted_bridge_limits_increments_from_the_measured_position(
+        rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
+    """The owner walks the actuator to +0.04 m, the bridge is SIGKILLed and started again: a
+    command to −0.015 m (0.015 m from zero, within max_increment 0.02 m of an assumed zero, but
+    0.055 m from where the actuator is) is refused and never reaches the specimen."""
+    from test_graph import write_bridge_params
+
+    from pd_common.auth import Signer
+    from pd_common.protocol import Command, FeedbackStatus
+    from pd_common.protocol.convert import feedback_from_message
+    from pd_common.ros import SessionSender, command_message
+    from pd_msgs.msg import StepCommand, StepFeedback
+
+    test_file = write_test_file(tmp_path / 'walk.yaml', test__id='graph-walk')
+    params = write_bridge_params(tmp_path / 'bridge.yaml', max_increment=0.02)
+    bridge_command = [executable('pd_actuator_bridge'), '--ros-args', '--params-file',
+                      str(params)]
+    processes.start('specimen', [
+        executable('pd_specimen_sim'), '--ros-args', '-r', '__ns:=/pd/specimen',
+        '-p', f'test_file:={test_file}', '-p', f'state_file:={tmp_path / "state.jsonl"}'])
+    bridge = processes.start('bridge', bridge_command)
+    moves: list[float] = []
+    answers: list[Any] = []
+    observer.create_subscription(StepCommand, '/pd/specimen/step_command',
+                                 lambda m: moves.extend(m.target_displacement), 100)
+    observer.create_subscription(StepFeedback, '/pd/step_feedback',
+                                 lambda m: answers.append(feedback_from_message(m)), 100)
+    commands = observer.create_publisher(StepCommand, '/pd/step_command', 100)
+    sender = SessionSender(observer, 'pd/', Signer(rig_key), rig_key)
+
+    def open_session(not_challenge: str = '') -> str:
+        spin_until(observer, lambda: sender.offer is not None and bool(sender.offer.challenge)
+                   and sender.offer.challenge != not_challenge, 30.0, 'a bridge offer')
+        spin_until(observer, lambda: (sender.open('graph-walk'), sender.opened)[1], 10.0,
+                   'the session to open')
+        spin_until(observer, lambda: commands.get_subscription_count() > 0, 10.0, 'the bridge')
+        return str(sender.offer.challenge)
+
+    def move(step: int, target: float) -> Any:
+        command = Command(test_id='graph-walk', step=step, test_time=0.0, dof_names=('top',),
+                          target_displacement=(target,))
+        commands.publish(command_message(command, signature=sender.sign(command)))
+        spin_until(observer, lambda: any(a.step == step for a in answers), 15.0,
+                   f'the answer to step {step}')
+        return next(a for a in answers if a.step == step)
+
+    challenge = open_session()
+    for step, target in enumerate((0.0, 0.01, 0.02, 0.03, 0.04)):
+        assert move(step, target).status is FeedbackStatus.OK
+    assert moves[-1] == 0.04
+
+    Processes.signal(bridge, signal.SIGKILL)
+    bridge.wait(timeout=10)
+    processes.start('bridge2', bridge_command)
+    open_session(not_challenge=challenge)
+    assert list(sender.offer.position) == pytest.approx([0.04], abs=1e-9)
+    heard = len(moves)
+    answer = move(5, -0.015)
+    assert answer.status is FeedbackStatus.LIMIT, answer
+    assert 'max_increment' in answer.message
+    assert answer.measured_displacement == pytest.approx((0.04,), abs=1e-9)
+    time.sleep(0.5)
+    assert moves[heard:] == []  # nothing reached the specimen
+    assert 'ready: actuator at [0.04] m' in processes.log('bridge2')
+
+
+def test_killed_integrator_without_restart_then_resume_by_hand(
+        crash_test: Path, reference: bytes, processes: Processes, tmp_path: Path) -> None:
+    """The literal recipe: SIGKILL the integrator, ``./pd run --resume RUN_DIR``."""
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(crash_test), '--out', str(out),
+                                                    '--no-figures', '--on-child-exit', 'hold'])
+    wait_for_step(out, kill_step('by-hand'), launcher, processes)
+    os.kill(child_of(launcher, 'integrator'), signal.SIGKILL)
+    assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1
+    assert f'./pd run --resume {out}' in processes.log('run_test')
+    assert not (out / 'response.csv').exists()
+
+    resumed = run_launcher(processes, 'resume', ['--resume', str(out)])
+    code = wait_exit(resumed, RUN_TIMEOUT, lambda: processes.log('resume'))
+    assert code == 0, processes.log('resume')[-3000:]
+    assert (out / 'response.csv').read_bytes() == reference
+    result = summary(out)
+    assert result['state'] == 'finished' and result['steps'] == STEPS
+    assert [event['what'] for event in result['run_events']].count('resumed') == 1
