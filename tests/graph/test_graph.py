@@ -267,6 +267,45 @@ def test_invalid_test_file_is_refused_before_anything_moves(
     assert not (tmp_path / 'run').exists()
 
 
+@pytest.mark.parametrize('case', ['probe_unstable_dt', 'bad_backbone_csv', 'yaml_alias'])
+def test_bad_input_is_one_line_and_starts_nothing(
+        case: str, processes: Processes, tmp_path: Path) -> None:
+    """Checked before any process starts (so before the probe or anything else moves)."""
+    arguments: list[str]
+    if case == 'probe_unstable_dt':
+        test_file = write_test_file(tmp_path / 'probe.yaml')
+        arguments = ['-p', 'initial_stiffness:=probe', '-p', 'dt:=0.5']
+        expected = ("probe.yaml: structure.initial_stiffness: probe: with the simulated "
+                    "specimen's initial stiffness the test is unstable")
+    elif case == 'bad_backbone_csv':
+        (tmp_path / 'backbone.csv').write_text('0,0\n0.01,abc\n', encoding='utf-8')
+        raw = yaml.safe_load(DEFAULT_TEST.read_text(encoding='utf-8'))
+        raw['ground_motion']['file'] = str(RECORD)
+        raw['specimen']['elements'][0]['backbone'] = {'csv': str(tmp_path / 'backbone.csv')}
+        test_file = tmp_path / 'backbone.yaml'
+        test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
+        arguments = []
+        expected = 'backbone.yaml: specimen.elements[0].backbone.csv:'
+    else:
+        text = write_test_file(tmp_path / 'x.yaml').read_text(encoding='utf-8')
+        test_file = tmp_path / 'alias.yaml'
+        test_file.write_text('bomb: &a [1, 2, 3]\n' + text.replace(
+            'dof_names:\n  - top', 'dof_names: *a'), encoding='utf-8')
+        arguments = []
+        expected = 'alias.yaml: line 31: structure.dof_names: YAML aliases'
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--out', str(out),
+                                                    *arguments])
+    code = wait_exit(launcher, 30.0, lambda: processes.log('run_test'))
+    lines = [line for line in processes.log('run_test').splitlines()
+             if not line.startswith('run_test: key ')]
+    assert code == 2
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f'run_test: error: {expected}'), lines
+    assert 'Traceback' not in lines[0]
+    assert not out.exists()
+
+
 def call_service(observer: Any, service_type: Any, name: str, request: Any) -> Any:
     """Call a service from the observer node and wait for the answer."""
     client = observer.create_client(service_type, name)

@@ -230,7 +230,35 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
                       environment=rig.environment({}), children=children,
                       integrator=with_key(integrator, key_file), figures=not args.no_figures)
     check_specimens(plan, test_file)
+    if definition.needs_probe:
+        check_probe(plan, definition, test_file)
     return plan, definition, rig
+
+
+def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path) -> None:
+    """A probed stiffness is known only after the probe has moved the specimen: check the
+    stability limit now with the simulated specimen's own initial stiffness, or say how far
+    the probe moves a physical one.
+
+    Raises:
+        LaunchError: the simulated specimen's stiffness makes the test unstable.
+    """
+    amplitude = definition.probe.amplitude
+    simulators = [child for child in plan.children if child.kind == 'simulator']
+    if definition.model is None and simulators and not plan.physical:
+        server, _, _ = load_site_server(test_file, '', None)
+        stiffness = server.specimen.initial_stiffness_matrix()
+        try:
+            TestSession(definition.with_initial_stiffness(stiffness))
+        except PdIntegratorError as err:
+            msg = (f'{test_file.name}: structure.initial_stiffness: probe: with the simulated '
+                   f"specimen's initial stiffness the test is unstable, refused before the "
+                   f'probe moves: {err}')
+            raise LaunchError(msg) from None
+        return
+    print(f'run_test: the stiffness probe pushes each DOF by {amplitude:g} m and back before '
+          'the test; the stability limit is checked on the measured stiffness (an unstable dt '
+          'aborts the test before its first step)', file=sys.stderr)
 
 
 def _default_test() -> Path:
