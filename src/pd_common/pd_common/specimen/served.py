@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from ..errors import SpecimenError
+from ..jsonl import end_last_line
 from ..protocol.messages import StepKey
 from .server import SpecimenServer
 
@@ -53,7 +54,7 @@ class ServedRecord:
         self._synced = time.monotonic()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            _end_last_line(self.path)
+            end_last_line(self.path)
             self._file: IO[str] = self.path.open('a', encoding='utf-8')
         except OSError as err:
             msg = f'{self.path}: cannot write the specimen state file ({err.strerror})'
@@ -78,25 +79,6 @@ class ServedRecord:
         if not self._file.closed:
             os.fsync(self._file.fileno())
             self._file.close()
-
-
-def _end_last_line(path: Path) -> None:
-    """Before appending: drop a last line a crash cut short (:func:`restore_served` ignores
-    it), or end a complete one that lost only its newline, so that the next record starts a
-    line of its own."""
-    if not path.is_file():
-        return
-    with path.open('rb+') as file:
-        data = file.read()
-        end = data.rfind(b'\n') + 1
-        if end == len(data):
-            return
-        try:
-            json.loads(data[end:])
-        except ValueError:
-            file.truncate(end)
-        else:
-            file.write(b'\n')
 
 
 def restore_served(path: str | Path, server: SpecimenServer, fingerprint: str

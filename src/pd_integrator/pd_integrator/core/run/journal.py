@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from pd_common.jsonl import end_last_line
 from pd_common.protocol import (
     Command,
     Feedback,
@@ -137,7 +138,7 @@ class Journal:
             return self
         try:
             if self._append:
-                _end_last_line(self.path)
+                end_last_line(self.path)
                 self._file = self.path.open('a', encoding='utf-8')
             else:
                 self._file = self.path.open('x', encoding='utf-8')
@@ -226,25 +227,6 @@ class Journal:
         os.fsync(self._file.fileno())
         self._file.close()
         self._file = None
-
-
-def _end_last_line(path: Path) -> None:
-    """Before appending: drop a last line a crash cut short (the reader ignores it), or end a
-    complete one that lost only its newline, so that the next record starts a line of its own.
-    """
-    if not path.is_file():
-        return  # a new journal: created by the append
-    with path.open('rb+') as file:
-        data = file.read()
-        end = data.rfind(b'\n') + 1
-        if end == len(data):
-            return
-        try:
-            json.loads(data[end:])
-        except ValueError:
-            file.truncate(end)
-        else:
-            file.write(b'\n')
 
 
 @dataclass(frozen=True)
