@@ -637,6 +637,8 @@ def test_recover_run_writes_the_outputs_so_far(tmp_path: Path, reference: Any) -
     assert summary['recovered'] is True
     assert summary['partial'] is True
     assert summary['steps'] == step
+    assert summary['state'] == 'interrupted'  # the record stops mid-test: killed, resumable
+    assert 'after step 210' in summary['message']
     assert len(summary['record_notes']) == 1
     assert 'cut short' in summary['record_notes'][0]
     assert result.session.committed_step == step

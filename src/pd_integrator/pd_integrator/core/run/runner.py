@@ -394,5 +394,10 @@ def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
         journal_to_bag(journal, bag)
     result = rebuild_outputs(journal, run_dir, figures=figures)
     result.summary['recovered'] = True
+    if result.summary.get('state') in ('running', 'paused'):
+        # The record stops in the middle of the test: its process was killed.
+        result.summary['state'] = 'interrupted'
+        result.summary['message'] = (f'the run stopped after step {result.summary["steps"]} '
+                                     'without ending (its process was killed); resumable')
     write_summary(result.summary, run_dir / 'summary.json')
     return result
