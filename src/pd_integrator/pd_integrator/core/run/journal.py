@@ -28,7 +28,7 @@ import base64
 import json
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Protocol
@@ -56,8 +56,8 @@ from .bag import (
     typestore,
 )
 
-__all__ = ['JOURNAL_FILE', 'Journal', 'JournalRecord', 'RunRecorder', 'journal_to_bag',
-           'read_journal', 'read_journal_records']
+__all__ = ['JOURNAL_FILE', 'Journal', 'JournalRecord', 'RunRecorder', 'iter_journal_records',
+           'journal_to_bag', 'read_journal', 'read_journal_records']
 
 #: The journal's file name in a run folder.
 JOURNAL_FILE = 'journal.jsonl'
@@ -279,36 +279,50 @@ def _record(raw: dict[str, Any]) -> JournalRecord:
     return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature)
 
 
+def iter_journal_records(path: str | Path, notes: list[str] | None = None
+                         ) -> Iterator[JournalRecord]:
+    """The complete records of a journal, one at a time (a long run's journal is never held
+    in memory whole); a last line a crash cut short is skipped and described in ``notes``.
+
+    Raises:
+        BagError: the file cannot be read, or a complete line is malformed.
+    """
+    path = Path(path)
+    try:
+        with path.open('r', encoding='utf-8') as file:
+            for number, line in enumerate(file, start=1):
+                cut = not line.endswith('\n')  # only the very last line can lack it
+                line = line.rstrip('\n')
+                if not line:
+                    continue
+                try:
+                    raw = json.loads(line)
+                    if raw.get('k') == 'journal':
+                        continue
+                    record = _record(raw)
+                except (ValueError, KeyError, TypeError) as err:
+                    if cut:  # the line a crash cut short
+                        if notes is not None:
+                            notes.append(f'ignored the last record of {path.name}, cut short '
+                                         f'({len(line)} bytes)')
+                        return
+                    msg = f'{path}: line {number}: malformed journal record ({err})'
+                    raise BagError(msg) from None
+                yield record
+    except OSError as err:
+        msg = f'{path}: cannot read the journal ({err.strerror})'
+        raise BagError(msg) from None
+
+
 def read_journal_records(path: str | Path) -> tuple[list[JournalRecord], str]:
     """Every complete record of a journal, and a note ('' or what was ignored at its end).
 
     Raises:
         BagError: the file cannot be read, or a record before the last line is malformed.
     """
-    path = Path(path)
-    try:
-        lines = path.read_text(encoding='utf-8').split('\n')
-    except OSError as err:
-        msg = f'{path}: cannot read the journal ({err.strerror})'
-        raise BagError(msg) from None
-    records = []
-    note = ''
-    last = len(lines) - 1
-    for number, line in enumerate(lines):
-        if not line:
-            continue
-        try:
-            raw = json.loads(line)
-            if raw.get('k') == 'journal':
-                continue
-            records.append(_record(raw))
-        except (ValueError, KeyError, TypeError) as err:
-            if number == last:  # the line a crash cut short
-                note = f'ignored the last record of {path.name}, cut short ({len(line)} bytes)'
-                break
-            msg = f'{path}: line {number + 1}: malformed journal record ({err})'
-            raise BagError(msg) from None
-    return records, note
+    notes: list[str] = []
+    records = list(iter_journal_records(path, notes))
+    return records, notes[0] if notes else ''
 
 
 def read_journal(path: str | Path) -> RecordedRun:
@@ -317,10 +331,10 @@ def read_journal(path: str | Path) -> RecordedRun:
     Raises:
         BagError: unreadable, or no test definition in it.
     """
-    records, note = read_journal_records(path)
+    notes: list[str] = []
     index = RunIndex()
     store = typestore()
-    for record in records:
+    for record in iter_journal_records(path, notes):
         if record.kind == 'def':
             index.definition(record.item)
         elif record.kind in ('cmd', 'fb'):
@@ -332,7 +346,7 @@ def read_journal(path: str | Path) -> RecordedRun:
         elif record.kind == 'ev':
             index.event(record.t_ns, _event(record.item))
     run = index.result(str(path))
-    run.notes = [note] if note else []
+    run.notes = notes
     return run
 
 
@@ -342,9 +356,10 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
     Raises:
         BagError: unreadable journal, or the bag cannot be written.
     """
-    records, _ = read_journal_records(journal)
+    count = 0
     with BagRecorder(bag) as recorder:
-        for record in records:
+        for record in iter_journal_records(journal):
+            count += 1
             if record.kind == 'def':
                 recorder.write_definition(record.item, record.t_ns)
             elif record.kind == 'cmd':
@@ -359,7 +374,7 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
             elif record.kind == 'ev':
                 event = _event(record.item)
                 recorder.write_event(event.pop('what', 'event'), record.t_ns, **event)
-    return len(records)
+    return count
 
 
 def _event(raw: dict[str, Any]) -> dict[str, Any]:
