@@ -382,6 +382,14 @@ def test_tracking_error_and_incremental_monitor() -> None:
     np.testing.assert_allclose(monitor.indicators, tracking_indicator(both_c, both_m))
     np.testing.assert_allclose(sample.indicator, monitor.indicator)
     assert monitor.count == 201
+    # The live monitor (the bridge's) in constant memory: the same running indicator.
+    live = TrackingMonitor(n_dof=2, keep_history=False)
+    for c, m in zip(both_c, both_m):
+        live_sample = live.update(c, m)
+    assert live.count == 201
+    assert live.commands.shape == (1, 2)
+    np.testing.assert_allclose(live_sample.indicator, tracking_indicator(both_c, both_m)[-1])
+    np.testing.assert_allclose(live_sample.error, (both_m - both_c)[-1])
     with pytest.raises(ValueError, match='same shape'):
         tracking_indicator(command, measured[:-1])
     with pytest.raises(ValueError, match='finite'):

@@ -381,7 +381,7 @@ class ActuatorBridgeNode(LifecycleNode):
             return  # the same step answered again (a re-sent command): no new sample
         n = len(target[2])
         if self._monitor is None or self._monitor_key != (reply.test_id, n):
-            self._monitor = TrackingMonitor(n)  # a new test: a new indicator
+            self._monitor = TrackingMonitor(n, keep_history=False)  # a new test: a new indicator
             self._monitor_key = (reply.test_id, n)
         try:
             sample = self._monitor.update(target[2], reply.displacement)

@@ -101,11 +101,14 @@ class TrackingMonitor:
     series.
     """
 
-    def __init__(self, n_dof: int = 1) -> None:
+    def __init__(self, n_dof: int = 1, *, keep_history: bool = True) -> None:
         """Create an empty monitor.
 
         Args:
             n_dof: Number of DOF.
+            keep_history: keep every sample (the history properties); ``False`` keeps only
+                the last sample and the running indicator, in constant memory (a live monitor
+                of a test of any length, as the bridge's).
 
         Raises:
             ValueError: On a bad ``n_dof``.
@@ -114,6 +117,7 @@ class TrackingMonitor:
             msg = f'TrackingMonitor: n_dof must be a positive integer, got {n_dof!r}'
             raise ValueError(msg)
         self._n: int = int(n_dof)
+        self._keep: bool = keep_history
         self.reset()
 
     def reset(self) -> None:
@@ -123,6 +127,7 @@ class TrackingMonitor:
         self._errors: list[FloatArray] = []
         self._indicators: list[FloatArray] = []
         self._indicator = np.zeros(self._n)
+        self._count = 0
 
     def update(
         self, command: Sequence[float] | FloatArray, measured: Sequence[float] | FloatArray
@@ -145,16 +150,22 @@ class TrackingMonitor:
             c0, m0 = self._commands[-1], self._measured[-1]
             self._indicator = self._indicator + 0.5 * (m0 * c - m * c0)
         error = m - c
+        if not self._keep:  # only what the next sample needs
+            self._commands.clear()
+            self._measured.clear()
+            self._errors.clear()
+            self._indicators.clear()
         self._commands.append(c)
         self._measured.append(m)
         self._errors.append(error)
         self._indicators.append(self._indicator.copy())
+        self._count += 1
         return TrackingSample(error.copy(), self._indicator.copy())
 
     @property
     def count(self) -> int:
         """Number of samples."""
-        return len(self._commands)
+        return self._count
 
     @property
     def indicator(self) -> FloatArray:
@@ -163,7 +174,8 @@ class TrackingMonitor:
 
     @property
     def commands(self) -> FloatArray:
-        """Command history, shape ``(count, n_dof)``, m."""
+        """Command history, shape ``(count, n_dof)``, m (without ``keep_history``: the last
+        sample only)."""
         return _stack(self._commands, self._n)
 
     @property
