@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from pd_bringup.launcher import print_summary
 from pd_bringup.plan import LaunchError, opensees_command, site_commands
 from pd_integrator.core.run.test_file import load_test_file
 
@@ -56,3 +57,26 @@ def test_opensees_site_options_and_errors() -> None:
     with pytest.raises(LaunchError, match=r"^three_story_two_sites\.yaml: sites\.lab1\.opensees"
                                           r"\.stifness: unknown"):
         opensees_command({'stifness': 1.0}, 45001, definition, 'sites.lab1.opensees')
+
+
+def test_summary_lines_of_a_run_that_committed_nothing_and_of_one_that_did(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / 'summary.json').write_text(json.dumps({
+        'state': 'aborted', 'steps': 0, 'wall_time': 0.0, 'message': 'no specimen side',
+        'dofs': {'top': {'peaks': {}, 'residual_displacement': None}}}), encoding='utf-8')
+    print_summary(tmp_path)
+    assert capsys.readouterr().out.splitlines() == [
+        f'run_test: aborted (no specimen side): 0 steps in 0.00 s; outputs in {tmp_path}']
+    (tmp_path / 'summary.json').write_text(json.dumps({
+        'state': 'finished', 'steps': 10, 'wall_time': 1.5, 'restarts': 1,
+        'dofs': {'top': {'peaks': {'displacement': {'value': 0.0494, 'time': 4.97},
+                                   'restoring_force': {'value': 10085.0}},
+                         'residual_displacement': 0.00276}}}), encoding='utf-8')
+    print_summary(tmp_path)
+    assert capsys.readouterr().out.splitlines() == [
+        ('run_test: top: peak displacement 0.04940 m at 4.97 s, peak force 10.085 kN, '
+         'residual 0.00276 m'),
+        f'run_test: finished: 10 steps in 1.50 s, 1 restart(s); outputs in {tmp_path}']
+    (tmp_path / 'summary.json').unlink()
+    print_summary(tmp_path)
+    assert 'no summary.json' in capsys.readouterr().out

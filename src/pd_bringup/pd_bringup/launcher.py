@@ -302,7 +302,8 @@ def print_summary(out: Path) -> None:
     except ValueError as err:
         print(f'run_test: {path}: unreadable ({err})')
         return
-    for dof, values in (data.get('dofs') or {}).items():
+    committed = data.get('steps')
+    for dof, values in (data.get('dofs') or {}).items() if committed else ():
         peaks = values.get('peaks') or {}
         peak = peaks.get('displacement') or {}
         force = peaks.get('restoring_force') or {}
@@ -312,7 +313,8 @@ def print_summary(out: Path) -> None:
               f'{_number(values.get("residual_displacement"), ".5f")} m')
     restarts = data.get('restarts')
     extra = f', {restarts} restart(s)' if restarts else ''
-    print(f'run_test: {data.get("state")}: {data.get("steps")} steps in '
+    reason = f' ({data["message"]})' if not committed and data.get('message') else ''
+    print(f'run_test: {data.get("state")}{reason}: {committed} steps in '
           f'{_number(data.get("wall_time"), ".2f")} s{extra}; outputs in {out}')
 
 
