@@ -260,6 +260,40 @@ def test_sync_interval_zero_syncs_every_flush(tmp_path: Path,
     journal.close()
 
 
+def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) -> None:
+    """What a specimen was sent is never more than one command ahead of the record: when a
+    command is sent, the answer that led to it is already in the file (a kill between the two
+    leaves a journal whose owed command the resumed run recomputes and re-sends)."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    path = tmp_path / JOURNAL_FILE
+    journal = Journal(path, sync_interval=3600.0).open()
+    queue: deque[tuple[str, Command]] = deque()
+    on_disk_when_sent: list[tuple[int, int]] = []
+
+    def send(site: str, command: Command) -> None:
+        answered = [json.loads(line)['step'] for line in
+                    path.read_text(encoding='utf-8').splitlines() if '"k":"fb"' in line]
+        on_disk_when_sent.append((command.step, answered[-1] if answered else -1))
+        queue.append((site, command))
+
+    dispatcher = StepDispatcher(session, send, journal)
+    dispatcher.start()
+    try:
+        while queue:
+            site, command = queue.popleft()
+            answer = server.handle(command.test_id, command.step, command.target_displacement)
+            assert answer is not None
+            dispatcher.on_feedback(site, answer)
+    finally:
+        journal.close()
+    assert session.state is State.FINISHED
+    assert on_disk_when_sent[0] == (0, -1)
+    assert on_disk_when_sent[1:] == [(step, step - 1)
+                                     for step in range(1, len(on_disk_when_sent))]
+
+
 def test_every_committed_step_is_on_disk_while_the_writer_runs(tmp_path: Path,
                                                                offline: Any) -> None:
     """A copy of the live journal taken after any step (what a SIGKILL leaves) holds it."""

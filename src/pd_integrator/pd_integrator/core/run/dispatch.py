@@ -123,13 +123,17 @@ class StepDispatcher:
             if self.coordinator.passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
-        signatures = self._send_batch(batch)
         self._record_feedback(site, feedback, received, signature)
         if assembled is not None and not self.coordinator.passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
-        self._record_batch(batch, signatures)
+        if batch and self.bag is not None:
+            # The answer is on disk before the next command leaves: the record never lags
+            # what the specimen was sent by more than that command (which a resumed run
+            # recomputes and re-sends, and the specimen answers as a repeat).
+            self.bag.flush()
+        self._record_batch(batch, self._send_batch(batch))
         if self.bag is not None:
-            self.bag.flush()  # the committed step and the next command are on disk now
+            self.bag.flush()  # the next command is on disk now too
         return verdict
 
     def on_timeout(self) -> bool:
