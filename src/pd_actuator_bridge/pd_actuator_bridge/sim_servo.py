@@ -9,8 +9,9 @@ in flight, re-sends the move for a re-sent command (:meth:`SimServoDriver.repeat
 
 With a key, the driver opens a signed session with the specimen node (as the integrator does
 with the bridge), signs every move (a re-sent move gets a new signature) and takes only the
-specimen's signed answers; before the session is open it reads the specimen's position from
-its session offer, so a restarted bridge starts from where the specimen is.
+specimen's signed answers; it reads the specimen's position from the offer the specimen
+publishes once it obeys the driver's session (its state now), so a restarted bridge starts
+from where the specimen is.
 """
 
 from __future__ import annotations

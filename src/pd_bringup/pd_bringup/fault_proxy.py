@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import sys
 import threading
 import time
@@ -47,11 +46,10 @@ from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
-from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 from rclpy.validate_namespace import validate_namespace
 
-from pd_common.ros import LATCHED_QOS, STEP_QOS, events_executor
+from pd_common.ros import LATCHED_QOS, STEP_QOS, events_executor, init_with_stop_flag
 from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback
 
 from .faults import FaultInjector, FaultPlan, FaultPlanError
@@ -291,10 +289,7 @@ def _summary(injector: FaultInjector[bytes]) -> str:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_bringup fault_proxy``."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, lambda *_: stop.set())
+    stop = init_with_stop_flag(args)
     node: FaultProxyNode | None = None
     executor: Executor | None = None
     try:

@@ -48,7 +48,7 @@ from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
 from pd_common.config import load_yaml, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.ros import events_executor
-from pd_common.specimen import SpecimenError, load_site_server
+from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
 from pd_integrator.core.run.journal import JOURNAL_FILE
@@ -180,20 +180,23 @@ def check_run_folder(out: Path) -> None:
         raise LaunchError(msg)
 
 
-def check_specimens(plan: LaunchPlan, test_file: Path) -> None:
+def check_specimens(plan: LaunchPlan, test_file: Path) -> dict[str, SpecimenServer]:
     """Build every simulated specimen as its simulator will (a bad section is one line now,
-    before anything starts).
+    before anything starts); the specimens per site.
 
     Raises:
         LaunchError: a specimen section or one of its files is invalid.
     """
+    servers = {}
     for child in plan.children:
         if child.kind != 'simulator':
             continue
         try:
-            load_site_server(test_file, child.site, child.dof_names or None)
+            servers[child.site], _, _ = load_site_server(test_file, child.site,
+                                                         child.dof_names or None)
         except SpecimenError as err:
             raise LaunchError(str(err)) from None
+    return servers
 
 
 def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, RigSettings]:
@@ -229,13 +232,14 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
                       site_mode=args.site, physical=physical, key_file=key_file,
                       environment=rig.environment({}), children=children,
                       integrator=with_key(integrator, key_file), figures=not args.no_figures)
-    check_specimens(plan, test_file)
+    servers = check_specimens(plan, test_file)
     if definition.needs_probe:
-        check_probe(plan, definition, test_file)
+        check_probe(plan, definition, test_file, servers)
     return plan, definition, rig
 
 
-def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path) -> None:
+def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path,
+                servers: dict[str, SpecimenServer]) -> None:
     """A probed stiffness is known only after the probe has moved the specimen: check the
     stability limit now with the simulated specimen's own initial stiffness, or say how far
     the probe moves a physical one.
@@ -244,10 +248,8 @@ def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path) -
         LaunchError: the simulated specimen's stiffness makes the test unstable.
     """
     amplitude = definition.probe.amplitude
-    simulators = [child for child in plan.children if child.kind == 'simulator']
-    if definition.model is None and simulators and not plan.physical:
-        server, _, _ = load_site_server(test_file, '', None)
-        stiffness = server.specimen.initial_stiffness_matrix()
+    if definition.model is None and '' in servers and not plan.physical:
+        stiffness = servers[''].specimen.initial_stiffness_matrix()
         try:
             TestSession(definition.with_initial_stiffness(stiffness))
         except PdIntegratorError as err:

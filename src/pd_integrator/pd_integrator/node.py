@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-import signal
 import sys
 import threading
 import time
@@ -38,7 +37,6 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.publisher import Publisher
-from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 from std_msgs.msg import String
 
@@ -73,6 +71,7 @@ from pd_common.ros import (
     command_message,
     declare_key,
     events_executor,
+    init_with_stop_flag,
     now_stamp,
     stamp_from_ns,
     status_message,
@@ -583,10 +582,7 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_integrator main``."""
     # SIGINT/SIGTERM only set a flag: the test is then aborted cleanly by the run loop (final
     # status published, bag closed, outputs written) instead of interrupting a bag write.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, lambda *_: stop.set())
+    stop = init_with_stop_flag(args)
     node: IntegratorNode | None = None
     executor: Executor | None = None
     code = 1

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .executor import events_executor, spin_until_shutdown
+from .executor import events_executor, init_with_stop_flag, spin_until_shutdown
 from .keys import declare_key
 from .messages import (
     command_message,
@@ -31,6 +31,7 @@ __all__ = [
     'events_executor',
     'feedback_message',
     'fill_signature',
+    'init_with_stop_flag',
     'new_epoch',
     'now_stamp',
     'spin_until_shutdown',

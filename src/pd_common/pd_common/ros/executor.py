@@ -7,17 +7,20 @@ them poll timeouts and stop flags between events).
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import rclpy
 from rclpy.experimental.events_executor import EventsExecutor
+from rclpy.signals import SignalHandlerOptions
 
 if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
 
-__all__ = ['events_executor', 'spin_until_shutdown']
+__all__ = ['events_executor', 'init_with_stop_flag', 'spin_until_shutdown']
 
 
 def events_executor(node: Node) -> Executor:
@@ -45,3 +48,14 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
             return
         if between is not None:
             between()
+
+
+def init_with_stop_flag(args: list[str] | None = None) -> threading.Event:
+    """``rclpy.init`` without rclpy's signal handlers: SIGINT and SIGTERM only set the returned
+    flag, so a node that must end cleanly (write its record, publish its final status) does so
+    from its own loop instead of being interrupted in the middle of a write."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, lambda *_: stop.set())
+    return stop
