@@ -342,15 +342,19 @@ class IntegratorNode(Node):
         refused = []
         for site, sender in self.senders.items():
             offer = sender.offer
-            if offer is None:
+            if offer is None or not (offer.challenge or offer.active_session):
+                # It offers no session (a bridge not active yet): it announces no state that
+                # could be driven (a restarted bridge knows its specimen's once it is ready).
                 continue
+            was = self.session.state
             reason = self.dispatcher.on_offer(site, str(offer.epoch),
                                               _origin(offer.state_origin))
             if reason is not None:
                 refused.append(reason)
                 if reason not in self._offers_refused:
                     self._offers_refused.add(reason)
-                    self.get_logger().error(f'holding: {reason}')
+                    if self.session.state is was:  # else publish_status logs the new state
+                        self.get_logger().error(f'{was.name.lower()}: {reason}')
                     self.publish_status()
         return refused
 
@@ -454,6 +458,8 @@ class IntegratorNode(Node):
         elif request == 'hold':
             self.session.hold(f'held by operator{why}')
         elif request == 'restarted':  # run_test restarted a process of the test
+            for sender in self.senders.values():
+                sender.reopen()  # no motion before every site offers itself anew
             self.bag.write_event('restart', time.time_ns(), process=control.reason,
                                  step=self.session.committed_step)
             self.bag.flush()

@@ -11,6 +11,7 @@ sender (the integrator; a bridge driving a simulator) opens a session with
 from __future__ import annotations
 
 import secrets
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -35,6 +36,8 @@ __all__ = ['OFFER_REFRESH_S', 'RefusalLog', 'SessionReceiver', 'SessionSender', 
 
 #: Seconds between checks whether a receiver's offer must be published again (its state moved).
 OFFER_REFRESH_S = 1.0
+#: Seconds after which a session start whose challenge is still offered is sent again.
+START_RESEND_S = 1.0
 
 _UNSIGNED = Signature()
 
@@ -191,6 +194,8 @@ class SessionSender:
         self.key = key
         self.offer: Any = None
         self._started_with = ''
+        self._started_at = 0.0
+        self._offer_doubted = False
         self.reply_gate = ReplyGate(key, signer.session if signer is not None else '')
         self._start_pub = node.create_publisher(
             SessionStartMessage, f'{prefix}session/start',
@@ -201,7 +206,7 @@ class SessionSender:
     @property
     def opened(self) -> bool:
         """Whether the receiver obeys this sender's session (or neither side has a key)."""
-        if self.offer is None:
+        if self.offer is None or self._offer_doubted:
             return False
         if self._signer is None:
             return not self.offer.authenticated
@@ -219,13 +224,20 @@ class SessionSender:
         return ''
 
     def open(self, test_id: str) -> None:
-        """Send a signed session start for the receiver's current challenge (once each)."""
+        """Send a signed session start for the receiver's current challenge (once each, again
+        if it is still offered ``START_RESEND_S`` later: the first was lost)."""
         offer = self.offer
         if (offer is None or not offer.challenge or self.opened or self._signer is None
                 or self.mismatch):
             return
-        if offer.challenge == self._started_with:
+        if self._start_pub.get_subscription_count() == 0:
+            return  # the receiver does not hear starts yet (discovery): this one would be lost
+        now = time.monotonic()
+        if offer.challenge == self._started_with and now - self._started_at < START_RESEND_S:
             return
+        # A start whose challenge is still offered after START_RESEND_S was lost: sent again
+        # (signed anew; the receiver takes one start per challenge, so never two sessions).
+        self._started_at = now
         start = SessionStart(test_id=test_id, challenge=offer.challenge)
         message = SessionStartMessage()
         message.header.stamp = now_stamp()
@@ -249,5 +261,14 @@ class SessionSender:
         """``None`` if the reply is genuine, for this session, and new."""
         return self.reply_gate.admit(feedback_payload(feedback), signature)
 
+    def reopen(self) -> None:
+        """A process of the test restarted: the last offer may be a dead receiver's (its
+        session gone with it), so the session counts as closed until the receiver offers
+        again, and is then opened anew (a live receiver whose session was intact takes the
+        new start as well: the same session, started again)."""
+        self._offer_doubted = True
+        self._started_with = ''
+
     def _on_offer(self, offer: Any) -> None:
         self.offer = offer
+        self._offer_doubted = False
