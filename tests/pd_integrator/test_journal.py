@@ -260,6 +260,35 @@ def test_sync_interval_zero_syncs_every_flush(tmp_path: Path,
     journal.close()
 
 
+def test_sync_interval_zero_is_one_fsync_per_committed_step_before_its_next_command(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=0.0).open()
+    events: list[str] = []
+    monkeypatch.setattr(journal_module.os, 'fsync', lambda fd: events.append('fsync'))
+    queue: deque[tuple[str, Command]] = deque()
+
+    def send(site: str, command: Command) -> None:
+        events.append('send')
+        queue.append((site, command))
+
+    dispatcher = StepDispatcher(session, send, journal)
+    dispatcher.start()
+    events.clear()
+    while queue:
+        site, command = queue.popleft()
+        answer = server.handle(command.test_id, command.step, command.target_displacement)
+        assert answer is not None
+        dispatcher.on_feedback(site, answer)
+    journal.close()
+    assert session.state is State.FINISHED
+    steps = definition.n_steps
+    # Each answer synced, then the command it leads to sent; the last answer, then the close.
+    assert events == ['fsync', 'send'] * steps + ['fsync', 'fsync']
+
+
 def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) -> None:
     """What a specimen was sent is never more than one command ahead of the record: when a
     command is sent, the answer that led to it is already in the file (a kill between the two

@@ -192,7 +192,7 @@ class BagRecorder:
     def __enter__(self) -> BagRecorder:
         return self.open()
 
-    def flush(self) -> None:
+    def flush(self, *, sync: bool = True) -> None:
         """Nothing to do: the writer buffers until :meth:`close` (the journal is durable)."""
 
     def __exit__(self, *exc: object) -> None:

@@ -133,7 +133,9 @@ class StepDispatcher:
             self.bag.flush()
         self._record_batch(batch, self._send_batch(batch))
         if self.bag is not None:
-            self.bag.flush()  # the next command is on disk now too
+            # The next command is with the OS now too; it needs no fsync of its own (lost,
+            # the resumed run recomputes it): one fsync per step at most.
+            self.bag.flush(sync=not batch)
         return verdict
 
     def on_timeout(self) -> bool:

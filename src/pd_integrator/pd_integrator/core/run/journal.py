@@ -83,7 +83,7 @@ class RunRecorder(Protocol):
 
     def write_event(self, what: str, t_ns: int, **info: Any) -> None: ...
 
-    def flush(self) -> None: ...
+    def flush(self, *, sync: bool = True) -> None: ...
 
     def close(self) -> None: ...
 
@@ -206,14 +206,18 @@ class Journal:
         self.events.append({'what': what, **info, 't_ns': t_ns})
 
     # -- durability ---------------------------------------------------------------------------
-    def flush(self) -> None:
-        """Hand the new records to the operating system; ``fsync`` if the interval is over."""
+    def flush(self, *, sync: bool = True) -> None:
+        """Hand the new records to the operating system; ``fsync`` if the interval is over
+        (and ``sync``: records a crash may lose, as a command the resumed run recomputes,
+        need no ``fsync`` of their own)."""
         file = self._file
         if file is None or not self._pending:
             return
         file.write('\n'.join(self._pending) + '\n')
         self._pending.clear()
         file.flush()
+        if not sync:
+            return
         now = self._clock()
         if now - self._synced >= self.sync_interval:
             os.fsync(file.fileno())
