@@ -87,8 +87,10 @@ def test_bilinear_backbone_points() -> None:
 @pytest.mark.parametrize(('args', 'message'), [
     ((-1.0e5, 2.0e3), 'stiffness must be a positive finite number'),
     ((1.0e5, float('nan')), 'yield_force must be a positive finite number'),
-    ((1.0e5, 2.0e3, 1.0), r'hardening_ratio must be in \[0, 1\)'),
-    ((1.0e5, 2.0e3, -0.1), 'hardening_ratio'),
+    ((1.0e5, 2.0e3, 1.0), r'hardening_ratio must be in \(-1, 1\)'),
+    ((1.0e5, 2.0e3, -1.0), 'hardening_ratio'),
+    ((1.0e5, 2.0e3, 0.01, None, 100.0), 'residual_force needs a negative hardening_ratio'),
+    ((1.0e5, 2.0e3, -0.1, None, 2500.0), r'residual_force must be in \[0, yield_force=2000\]'),
     ((1.0e5, 2.0e3, 0.0, 0.01), 'must exceed the yield displacement'),
 ])
 def test_bilinear_backbone_validation(args: tuple[float, ...], message: str) -> None:

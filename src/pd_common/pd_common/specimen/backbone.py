@@ -165,15 +165,24 @@ def _positive(value: float, name: str, where: str) -> float:
 
 
 def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: float = 0.0,
-                      max_displacement: float | None = None) -> Backbone:
+                      max_displacement: float | None = None,
+                      residual_force: float | None = None) -> Backbone:
     """Build the bilinear backbone (0, 0), (d_y, F_y), (d_max, F_y + b k (d_max - d_y)).
+
+    With a negative ``hardening_ratio`` (softening) and a ``residual_force`` ``F_r`` the
+    curve is trilinear: it descends from ``(d_y, F_y)`` to ``(d_r, F_r)``,
+    ``d_r = d_y + (F_y - F_r) / (-b k)``, and stays at ``F_r`` up to ``d_max`` (if ``d_max``
+    comes first the curve ends on the descent). Without a floor a softening curve may cross
+    zero before ``d_max`` (collapse: a negative force).
 
     Args:
         stiffness: Initial stiffness ``k`` in N/m.
         yield_force: Yield force ``F_y`` in N; the yield displacement is ``d_y = F_y / k``.
-        hardening_ratio: Post-yield to initial stiffness ratio ``b``, ``0 <= b < 1``.
+        hardening_ratio: Post-yield to initial stiffness ratio ``b``, ``-1 < b < 1``.
         max_displacement: Displacement of the last point in m, greater than ``d_y``. Defaults
             to ``100 d_y``; past it the hysteresis model's ``beyond`` mode applies.
+        residual_force: Strength floor ``F_r`` in N, ``0 <= F_r <= F_y``, only with
+            ``b < 0``; ``None`` (default): no floor.
 
     Returns:
         The backbone.
@@ -188,8 +197,8 @@ def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: flo
         b = float(hardening_ratio)
     except (TypeError, ValueError):
         b = math.nan
-    if not 0.0 <= b < 1.0:
-        msg = f'{where}: hardening_ratio must be in [0, 1), got {hardening_ratio!r}'
+    if not -1.0 < b < 1.0:
+        msg = f'{where}: hardening_ratio must be in (-1, 1), got {hardening_ratio!r}'
         raise BackboneError(msg)
     dy = fy / k
     d_max = 100.0 * dy if max_displacement is None else _positive(
@@ -197,8 +206,30 @@ def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: flo
     if not d_max > dy:
         msg = f'{where}: max_displacement {d_max:g} m must exceed the yield displacement {dy:g} m'
         raise BackboneError(msg)
-    return Backbone(np.array([0.0, dy, d_max]), np.array([0.0, fy, fy + b * k * (d_max - dy)]),
-                    source=f'bilinear k={k:g} N/m, F_y={fy:g} N, b={b:g}')
+    source = f'bilinear k={k:g} N/m, F_y={fy:g} N, b={b:g}'
+    if residual_force is None:
+        return Backbone(np.array([0.0, dy, d_max]),
+                        np.array([0.0, fy, fy + b * k * (d_max - dy)]), source=source)
+    try:
+        fr = float(residual_force)
+    except (TypeError, ValueError):
+        fr = math.nan
+    if not 0.0 <= fr <= fy:
+        msg = f'{where}: residual_force must be in [0, yield_force={fy:g}], got {residual_force!r}'
+        raise BackboneError(msg)
+    if b >= 0.0:
+        msg = (f'{where}: residual_force needs a negative hardening_ratio (softening), got '
+               f'hardening_ratio={b:g}')
+        raise BackboneError(msg)
+    source = f'{source}, F_r={fr:g} N'
+    d_r = dy + (fy - fr) / (-b * k)
+    if d_r >= d_max:
+        return Backbone(np.array([0.0, dy, d_max]),
+                        np.array([0.0, fy, fy + b * k * (d_max - dy)]), source=source)
+    if d_r == dy:
+        return Backbone(np.array([0.0, dy, d_max]), np.array([0.0, fy, fy]), source=source)
+    return Backbone(np.array([0.0, dy, d_r, d_max]), np.array([0.0, fy, fr, fr]),
+                    source=source)
 
 
 def _read_lines(path: Path, name: str) -> list[str]:
