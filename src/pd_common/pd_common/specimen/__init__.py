@@ -15,8 +15,10 @@ from .backbone import (
     load_backbone_csv,
     load_opensees_pushover,
 )
+from .bouc_wen import BoucWen
 from .config import hysteresis_from_config, load_specimen_section, specimen_from_config
 from .hysteresis import (
+    MEMORY_MODES,
     BilinearKinematic,
     Elastic,
     ElasticPerfectlyPlastic,
@@ -29,10 +31,12 @@ from .specimen import TOPOLOGIES, Specimen
 
 __all__ = [
     'BEYOND_MODES',
+    'MEMORY_MODES',
     'TOPOLOGIES',
     'Backbone',
     'BackboneError',
     'BilinearKinematic',
+    'BoucWen',
     'Elastic',
     'ElasticPerfectlyPlastic',
     'HysteresisError',

@@ -8,15 +8,28 @@ Schema (SI units)::
         - model: pushover
           backbone:                  # exactly one of bilinear, csv, opensees
             bilinear: {stiffness: 312559.0, yield_force: 12000.0, hardening_ratio: 0.01,
-                       max_displacement: 1.0}   # hardening_ratio, max_displacement optional
+                       max_displacement: 1.0}   # hardening_ratio, max_displacement,
+                                                # residual_force optional
             # csv: path/to/curve.csv
             # opensees: {displacement_file: DFree.txt, reaction_file: RBase.txt,
             #            skip_rows: 10, column: 1, force_sign: -1.0, force_scale: 0.02}
           unloading_stiffness: null        # optional, default: backbone initial stiffness
           beyond_last_point: extrapolate   # optional: extrapolate | plateau | error
+          memory: none                     # optional: none | kinematic
         - {model: elastic, stiffness: 1.0e5}
         - {model: epp, stiffness: 1.0e5, yield_force: 2.0e3}
         - {model: bilinear, stiffness: 1.0e5, yield_force: 2.0e3, hardening_ratio: 0.02}
+        - {model: bilinear, stiffness: 1.0e5, yield_force: 2.0e3, hardening_ratio: -0.05,
+           residual_force: 400.0}          # softening to a strength floor (optional)
+        - {model: bouc_wen, stiffness: 1.0e5, post_yield_ratio: 0.05, exponent: 1.0,
+           beta: 25.0, gamma: 25.0,        # 1/m^n: z_u = (a0 / (beta + gamma))^(1/n) = 0.02 m
+           a0: 1.0, delta_a: 0.0, delta_nu: 2.0e-4, delta_eta: 2.0e-4}   # per J, optional
+
+    ``hardening_ratio`` is in (-1, 1): negative is a softening post-yield slope.
+    ``residual_force`` (N, in [0, yield_force], softening only) is a strength floor, in
+    ``bilinear`` and in ``backbone.bilinear``. ``memory`` of a pushover element is ``none``
+    (the thesis's rule, default) or ``kinematic`` (each direction continues along its
+    backbone from the furthest point it reached: cycles stay within the envelope).
 
 Relative file paths resolve against ``base_dir``. Every error is a one-line
 :class:`SpecimenConfigError` naming the YAML file and the parameter path.
@@ -38,7 +51,9 @@ from .backbone import (
     load_backbone_csv,
     load_opensees_pushover,
 )
+from .bouc_wen import BoucWen
 from .hysteresis import (
+    MEMORY_MODES,
     BilinearKinematic,
     Elastic,
     ElasticPerfectlyPlastic,
@@ -50,8 +65,10 @@ from .specimen import TOPOLOGIES, Specimen
 _MODEL_KEYS: dict[str, tuple[set[str], set[str]]] = {
     'elastic': ({'stiffness'}, set()),
     'epp': ({'stiffness', 'yield_force'}, set()),
-    'bilinear': ({'stiffness', 'yield_force', 'hardening_ratio'}, set()),
-    'pushover': ({'backbone'}, {'unloading_stiffness', 'beyond_last_point'}),
+    'bilinear': ({'stiffness', 'yield_force', 'hardening_ratio'}, {'residual_force'}),
+    'pushover': ({'backbone'}, {'unloading_stiffness', 'beyond_last_point', 'memory'}),
+    'bouc_wen': ({'stiffness', 'post_yield_ratio', 'exponent', 'beta', 'gamma'},
+                 {'a0', 'delta_a', 'delta_nu', 'delta_eta', 'tolerance', 'max_iterations'}),
 }
 _BACKBONE_KINDS = ('bilinear', 'csv', 'opensees')
 
@@ -93,10 +110,10 @@ class _Context:
         return number
 
     def ratio(self, value: Any, path: str) -> float:
-        """Return a hardening ratio in [0, 1)."""
+        """Return a hardening ratio in (-1, 1) (negative: softening)."""
         number = self.number(value, path, positive=False)
-        if not 0.0 <= number < 1.0:
-            raise self.error(path, f'must be in [0, 1), got {_show(value)}')
+        if not -1.0 < number < 1.0:
+            raise self.error(path, f'must be in (-1, 1), got {_show(value)}')
         return number
 
     def integer(self, value: Any, path: str) -> int:
@@ -158,13 +175,16 @@ def _backbone(ctx: _Context, value: Any, path: str, base_dir: Path) -> Backbone:
             return load_backbone_csv(_resolve(base_dir, ctx.text(spec, path)))
         if kind == 'bilinear':
             spec = ctx.mapping(spec, path, {'stiffness', 'yield_force'},
-                               {'hardening_ratio', 'max_displacement'})
+                               {'hardening_ratio', 'max_displacement', 'residual_force'})
             max_d = spec.get('max_displacement')
+            residual = spec.get('residual_force')
             return bilinear_backbone(
                 ctx.number(spec['stiffness'], f'{path}.stiffness'),
                 ctx.number(spec['yield_force'], f'{path}.yield_force'),
                 ctx.ratio(spec.get('hardening_ratio', 0.0), f'{path}.hardening_ratio'),
-                None if max_d is None else ctx.number(max_d, f'{path}.max_displacement'))
+                None if max_d is None else ctx.number(max_d, f'{path}.max_displacement'),
+                None if residual is None else ctx.number(
+                    residual, f'{path}.residual_force', positive=False))
         spec = ctx.mapping(spec, path, {'displacement_file', 'reaction_file'},
                            {'skip_rows', 'column', 'force_sign', 'force_scale'})
         sign_key = f'{path}.force_sign'
@@ -206,8 +226,19 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
     if model == 'epp':
         return ElasticPerfectlyPlastic(number('stiffness'), number('yield_force'))
     if model == 'bilinear':
-        return BilinearKinematic(number('stiffness'), number('yield_force'),
-                                 ctx.ratio(spec['hardening_ratio'], f'{path}.hardening_ratio'))
+        residual = spec.get('residual_force')
+        try:
+            return BilinearKinematic(
+                number('stiffness'), number('yield_force'),
+                ctx.ratio(spec['hardening_ratio'], f'{path}.hardening_ratio'),
+                None if residual is None else ctx.number(
+                    residual, f'{path}.residual_force', positive=False))
+        except SpecimenConfigError:
+            raise
+        except SpecimenError as exc:
+            raise ctx.error(path, str(exc)) from None
+    if model == 'bouc_wen':
+        return _bouc_wen(ctx, spec, path)
     backbone = _backbone(ctx, spec['backbone'], f'{path}.backbone', base_dir)
     ku = spec.get('unloading_stiffness')
     beyond = spec.get('beyond_last_point', 'extrapolate')
@@ -215,9 +246,31 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
         beyond_key = f'{path}.beyond_last_point'
         raise ctx.error(beyond_key,
                         f"must be one of {', '.join(BEYOND_MODES)}, got {_show(beyond)}")
+    memory = spec.get('memory', 'none')
+    if memory not in MEMORY_MODES:
+        memory_key = f'{path}.memory'
+        raise ctx.error(memory_key,
+                        f"must be one of {', '.join(MEMORY_MODES)}, got {_show(memory)}")
     try:
         return PushoverHysteresis(
-            backbone, None if ku is None else number('unloading_stiffness'), beyond)
+            backbone, None if ku is None else number('unloading_stiffness'), beyond, memory)
+    except SpecimenError as exc:
+        raise ctx.error(path, str(exc)) from None
+
+
+def _bouc_wen(ctx: _Context, spec: Mapping[str, Any], path: str) -> BoucWen:
+    """A Bouc–Wen element (numbers checked here, ranges by the model, both naming the key)."""
+    values: dict[str, Any] = {}
+    for key in ('stiffness', 'post_yield_ratio', 'exponent', 'beta', 'gamma', 'a0', 'delta_a',
+                'delta_nu', 'delta_eta', 'tolerance'):
+        if key in spec:
+            values[key] = ctx.number(spec[key], f'{path}.{key}',
+                                     positive=key in ('stiffness', 'exponent', 'a0',
+                                                      'tolerance'))
+    if 'max_iterations' in spec:
+        values['max_iterations'] = ctx.integer(spec['max_iterations'], f'{path}.max_iterations')
+    try:
+        return BoucWen(**values)
     except SpecimenError as exc:
         raise ctx.error(path, str(exc)) from None
 
