@@ -71,11 +71,18 @@ def test_summary_lines_of_a_run_that_committed_nothing_and_of_one_that_did(
         'state': 'finished', 'steps': 10, 'wall_time': 1.5, 'restarts': 1,
         'dofs': {'top': {'peaks': {'displacement': {'value': 0.0494, 'time': 4.97},
                                    'restoring_force': {'value': 10085.0}},
-                         'residual_displacement': 0.00276}}}), encoding='utf-8')
+                         'residual_displacement': 0.00276},
+                 'small': {'peaks': {'displacement': {'value': -2.5e-4, 'time': 1.0},
+                                     'restoring_force': {'value': 0.987}},
+                           'residual_displacement': 0.0}},
+        'collapse': {'message': 'COLLAPSE of top at step 9'}}), encoding='utf-8')
     print_summary(tmp_path)
     assert capsys.readouterr().out.splitlines() == [
-        ('run_test: top: peak displacement 0.04940 m at 4.97 s, peak force 10.085 kN, '
-         'residual 0.00276 m'),
+        ('run_test: top: peak displacement 49.400 mm at 4.97 s, peak force 10.085 kN, '
+         'residual 2.7600 mm'),
+        ('run_test: small: peak displacement -250.00 µm at 1.00 s, peak force 0.98700 N, '
+         'residual 0 m'),
+        'run_test: COLLAPSE of top at step 9',
         f'run_test: finished: 10 steps in 1.50 s, 1 restart(s); outputs in {tmp_path}']
     (tmp_path / 'summary.json').unlink()
     print_summary(tmp_path)

@@ -49,6 +49,7 @@ from pd_common.config import load_yaml, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.ros import events_executor
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
+from pd_common.units import format_quantity
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
 from pd_integrator.core.run.journal import JOURNAL_FILE
@@ -309,10 +310,12 @@ def print_summary(out: Path) -> None:
         peaks = values.get('peaks') or {}
         peak = peaks.get('displacement') or {}
         force = peaks.get('restoring_force') or {}
-        print(f'run_test: {dof}: peak displacement {_number(peak.get("value"), ".5f")} m at '
-              f'{_number(peak.get("time"), ".2f")} s, peak force '
-              f'{_number(_scaled(force.get("value"), 1e-3), ".3f")} kN, residual '
-              f'{_number(values.get("residual_displacement"), ".5f")} m')
+        print(f'run_test: {dof}: peak displacement {format_quantity(peak.get("value"), "m")} '
+              f'at {_number(peak.get("time"), ".2f")} s, peak force '
+              f'{format_quantity(force.get("value"), "N")}, residual '
+              f'{format_quantity(values.get("residual_displacement"), "m")}')
+    if collapse := data.get('collapse'):
+        print(f'run_test: {collapse.get("message")}')
     restarts = data.get('restarts')
     extra = f', {restarts} restart(s)' if restarts else ''
     reason = f' ({data["message"]})' if not committed and data.get('message') else ''
@@ -332,10 +335,6 @@ def _report_faults(plan: LaunchPlan) -> None:
         print(f'run_test: faults ({faults["plan"]}): {totals["received"]} step messages, '
               f'{totals["dropped"]} dropped, {totals["duplicated"]} duplicated, '
               f'{totals["delayed"]} delayed, {totals["reordered"]} reordered', flush=True)
-
-
-def _scaled(value: Any, factor: float) -> Any:
-    return value * factor if isinstance(value, (int, float)) else value
 
 
 def _number(value: Any, spec: str) -> str:

@@ -110,7 +110,7 @@ class ModalProperties:
             raise ConfigError(msg)
 
         def period(value: float) -> str:
-            return f'{value:10.4f}' if math.isfinite(value) else f'{"inf":>10}'
+            return f'{value:10.6g}' if math.isfinite(value) else f'{"inf":>10}'
 
         head = f'{"Mode":>4} {"T [s]":>10} {"f [Hz]":>10} {"w [rad/s]":>10}'
         sub = ' ' * len(head)
@@ -133,7 +133,7 @@ class ModalProperties:
         for j in range(n):
             row = (
                 f'{j + 1:>4} {period(float(self.periods[j]))} '
-                f'{self.frequencies[j]:10.4f} {self.omegas[j]:10.4f}'
+                f'{self.frequencies[j]:10.6g} {self.omegas[j]:10.6g}'
             )
             for c in range(n_c):
                 row += (
