@@ -33,6 +33,7 @@ from . import analysis
 from .structure import omega_max as structure_omega_max
 
 __all__ = [
+    'NEGATIVE_TANGENT',
     'NUMERICAL_FREQUENCY',
     'StabilityReport',
     'check_stability',
@@ -156,12 +157,41 @@ def _expected_accuracy(
             properties.spectral_radius)
 
 
+_EXPLICIT_NOTE = (
+    'a tangent below K_I lowers omega, so the limit from K_I stays sufficient; a negative '
+    'tangent is a physical divergence (x ~ exp(sqrt(-k_t/m) t)), which the scheme follows')
+_SPLIT_NOTE = (
+    'its unconditional stability assumes K_t <= K_I (softening); a negative tangent is '
+    'the physical divergence, which the scheme follows (its error grows with K_I - K_t)')
+_IMPLICIT_NOTE = (
+    'its iterations use K_I and converge while M/(beta dt^2) + gamma C/(beta dt) + K_t stays '
+    'positive definite; a negative tangent is the physical divergence, which it follows')
+
+#: What each scheme assumes of the tangent stiffness ``K_t`` when the structure may soften
+#: (printed with the stability line when the test states a ``collapse`` drift). Checked by
+#: ``tests/pd_integrator/test_negative_tangent.py``: on a linear SDOF with ``K_t = −0.2 K_I``
+#: every scheme follows the exact divergence.
+NEGATIVE_TANGENT: dict[str, str] = {
+    'newmark_explicit': _EXPLICIT_NOTE,
+    'explicit_generalized_alpha': _EXPLICIT_NOTE,
+    'modified_newmark': _EXPLICIT_NOTE,
+    'alpha_os': _SPLIT_NOTE,
+    'generalized_alpha_os': _SPLIT_NOTE,
+    'cr': _SPLIT_NOTE.replace('its unconditional', 'its (model-based) unconditional'),
+    'kr_alpha': _SPLIT_NOTE.replace('its unconditional', 'its (model-based) unconditional'),
+    'newmark_implicit': _IMPLICIT_NOTE,
+    'average_acceleration': _IMPLICIT_NOTE,
+    'linear_acceleration': _IMPLICIT_NOTE,
+}
+
+
 def _format_limit(limit: float) -> str:
     return '∞' if math.isinf(limit) else f'{limit:g}'
 
 
 def check_stability(
-    scheme: str | type[Integrator] | Integrator, mass: Any, stiffness: Any, dt: float
+    scheme: str | type[Integrator] | Integrator, mass: Any, stiffness: Any, dt: float,
+    *, softening: bool = False,
 ) -> StabilityReport:
     """Check ``Ω = ω_max·Δt`` against the scheme's stability limit (thesis eq. 3.14).
 
@@ -170,6 +200,9 @@ def check_stability(
         mass: Mass matrix (or scalar for an SDOF), kg.
         stiffness: Initial stiffness matrix (or scalar), N/m.
         dt: Time step in s.
+        softening: The structure may reach a negative tangent (the test states a collapse
+            drift): the message adds what the scheme assumes of the tangent
+            (:data:`NEGATIVE_TANGENT`).
 
     Returns:
         A :class:`StabilityReport` (use :func:`require_stable` to raise on instability).
@@ -197,7 +230,7 @@ def check_stability(
         # An instance's parameters (e.g. its rho_inf) shape its spectrum; a class: defaults.
         parameters = getattr(scheme, 'parameters', None) if isinstance(scheme, Integrator) else {}
         distortion, damping, rho = _expected_accuracy(cls, omega_dt, dict(parameters or {}))
-    head = f'ω_max·Δt = {omega_dt:.4g} (limit {_format_limit(limit)} for {cls.name})'
+    head = f'ω_max·Δt = {omega_dt:.6g} (limit {_format_limit(limit)} for {cls.name})'
     if stable:
         message = f'{head}: stable'
         if not math.isnan(distortion):
@@ -206,6 +239,8 @@ def check_stability(
             message += f'; numerical damping {100.0 * damping:.2g} %'.replace('-', '−')
         if rho > 1.0 + 1e-6:
             message += f'; but the spectral radius is {rho:.6g} > 1'
+        if softening and cls.name in NEGATIVE_TANGENT:
+            message += f'; softening: {NEGATIVE_TANGENT[cls.name]}'
     else:
         message = (
             f'{head}: UNSTABLE; dt = {dt_value:g} s must be ≤ {limit / w_max:.6g} s '
@@ -241,7 +276,7 @@ def require_stable(report: StabilityReport) -> StabilityReport:
         return report
     msg = (
         f'dt: {report.dt:g} s is unstable for {report.scheme}: ω_max·Δt = '
-        f'{report.omega_dt:.4g} > {_format_limit(report.limit)} (ω_max = '
+        f'{report.omega_dt:.6g} > {_format_limit(report.limit)} (ω_max = '
         f'{report.omega_max:.6g} rad/s); use dt ≤ {report.max_stable_dt:.6g} s'
     )
     raise StabilityError(msg)
