@@ -55,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     if stability is not None:
         print(stability.message)
     summary = result.summary
+    if collapse := summary.get('collapse'):
+        print(collapse['message'])
     print(f'{summary["state"]}: {summary["steps"]} steps in {summary["wall_time"]:.3f} s; '
           f'outputs in {result.directory}')
     return 0 if summary['state'] == 'finished' else 1

@@ -24,6 +24,7 @@ from ..dynamics.structure import Structure, damping_from_ratio
 from ..errors import ConfigError
 from ..model.damping import modal_damping, rayleigh_damping
 from ..model.modes import modal_properties
+from .collapse import CollapseSettings
 
 if TYPE_CHECKING:
     from ..dynamics.ground_motion import GroundMotion
@@ -113,6 +114,7 @@ class TestDefinition:
         record_info: description of the record (file, format, units, scale, direction).
         warnings: one-line warnings about the test as given (e.g. an initial stiffness that is
             not the specimen's), for the user to read; not part of the resolved form.
+        collapse: the ``collapse`` section (``None``: not checked), see :mod:`.collapse`.
     """
 
     test_id: str
@@ -140,6 +142,7 @@ class TestDefinition:
     structure_raw: dict[str, Any] | None = None
     sites: dict[str, Any] | None = None
     warnings: tuple[str, ...] = ()
+    collapse: CollapseSettings | None = None
 
     @property
     def n_dof(self) -> int:
@@ -150,6 +153,11 @@ class TestDefinition:
     def needs_probe(self) -> bool:
         """Whether the initial stiffness must be measured before the test."""
         return self.initial_stiffness is None
+
+    @property
+    def may_soften(self) -> bool:
+        """Whether the test expects a negative tangent (it states a ``collapse`` drift)."""
+        return self.collapse is not None
 
     @property
     def duration(self) -> float:
@@ -256,6 +264,8 @@ class TestDefinition:
         }
         if self.sites is not None:
             resolved['sites'] = self.sites
+        if self.collapse is not None:
+            resolved['collapse'] = self.collapse.as_dict()
         return resolved
 
     def _resolved_ground_motion(self) -> Any:

@@ -22,6 +22,7 @@ from pd_common.types import FloatArray
 from ..dynamics.stability import StabilityReport, check_stability, require_stable
 from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
 from ..schemes import SchemeParameterError, make_integrator
+from .collapse import Collapse, CollapseMonitor
 from .history import ResponseHistory
 from .protocol import StepProtocol, TimeoutAction, Verdict
 
@@ -53,6 +54,8 @@ class TestSession:
         history: committed response.
         stability: the stability report (once the stiffness is known).
         probe_stiffness: the stiffness matrix measured by the probe, if any.
+        collapse: where the structure collapsed (``None``: it did not, or no ``collapse``
+            section), see :mod:`.collapse`.
     """
 
     def __init__(self, definition: TestDefinition) -> None:
@@ -64,6 +67,8 @@ class TestSession:
                                                 definition.ground_acceleration)
         self.stability: StabilityReport | None = None
         self.probe_stiffness: np.ndarray | None = None
+        self.collapse_monitor: CollapseMonitor | None = None
+        self.collapse: Collapse | None = None
         self._integrator: Integrator | None = None
         self._step = 0  # next integration step to command
         self._probe_plan: list[tuple[float, ...]] = []
@@ -317,8 +322,13 @@ class TestSession:
             msg = f'{definition.source}: test.scheme_parameters: {err}'
             raise ConfigError(msg) from None
         self.stability = check_stability(self._integrator, structure.mass,
-                                         structure.initial_stiffness, definition.dt)
+                                         structure.initial_stiffness, definition.dt,
+                                         softening=definition.may_soften)
         require_stable(self.stability)
+        if definition.collapse is not None:
+            self.collapse_monitor = CollapseMonitor(
+                definition.collapse, definition.dof_names, structure.initial_stiffness,
+                definition.dt)
 
     def _integration_command(self) -> Command:
         integrator = self._integrator
@@ -360,6 +370,23 @@ class TestSession:
         if step >= definition.n_steps:
             self.state = TestState.FINISHED
             self.message = f'all {definition.n_steps} steps committed'
+        elif self.collapse_monitor is not None:
+            self._check_collapse(step)
+
+    def _check_collapse(self, step: int) -> None:
+        """Stop, hold or go on at the first collapse (``collapse.action``)."""
+        assert self.collapse_monitor is not None
+        history = self.history
+        found = self.collapse_monitor.observe(step, history.displacement,
+                                              history.restoring_force)
+        if found is None:
+            return
+        self.collapse = found
+        if found.action == 'stop':
+            self.state = TestState.FINISHED
+            self.message = found.message()
+        elif found.action == 'hold':
+            self._hold(found.message())
 
     def summary_info(self) -> dict[str, object]:
         """Run information for ``summary.json``: scheme, stability, protocol counters, state."""
@@ -389,5 +416,6 @@ class TestSession:
             'initial_stiffness': (definition.initial_stiffness.tolist()
                                   if definition.initial_stiffness is not None else None),
             'initial_stiffness_probed': self.probe_stiffness is not None,
+            'collapse': self.collapse.as_dict() if self.collapse is not None else None,
         }
         return info

@@ -31,6 +31,7 @@ from ..errors import ConfigError, GroundMotionError
 from ..matrices import as_float_array, as_matrix
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
+from .collapse import COLLAPSE_ACTIONS, CollapseSettings
 from .definition import (
     GroundComponent,
     ProbeSettings,
@@ -44,7 +45,7 @@ __all__ = ['PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict', 'from_
 #: The sections of a test file (``rig`` is read by ``run_test`` only: the rig's ROS domain and
 #: discovery; the integrator does not need it).
 SECTIONS = ('test', 'structure', 'ground_motion', 'protocol', 'probe', 'specimen', 'sites',
-            'rig')
+            'collapse', 'rig')
 
 #: Node parameter name -> path in the test definition (the integrator node's overrides).
 PARAMETER_PATHS: dict[str, tuple[str, str]] = {
@@ -333,6 +334,7 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     elif stiffness is not None and specimen is not None:
         warnings = _specimen_stiffness_warnings(stiffness, specimen, source=source,
                                                 base_dir=base_dir, dof_names=dof_names)
+    collapse = _collapse(raw.get('collapse'), source, dof_names)
 
     definition = TestDefinition(
         test_id=test_id, scheme=scheme, dt=dt, n_steps=n_steps, dof_names=dof_names, mass=mass,
@@ -343,11 +345,38 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         scheme_parameters={key: float(value) for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
         structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None
-        else None, sites=sites, warnings=warnings)
+        else None, sites=sites, warnings=warnings, collapse=collapse)
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)
     return definition
+
+
+def _collapse(raw: Any, source: str, dof_names: tuple[str, ...]) -> CollapseSettings | None:
+    """The ``collapse`` section (see :mod:`.collapse`), or ``None`` if absent."""
+    if raw is None:
+        return None
+    reader = _Reader(raw, 'collapse', source)
+    drift_raw = reader.get('drift')
+    if drift_raw is None:
+        error = reader.error('drift', 'is required (m: one value, or one per DOF)')
+        raise error
+    values = drift_raw if isinstance(drift_raw, list) else [drift_raw]
+    if len(values) not in (1, len(dof_names)) or not all(
+            _is_number(v) and math.isfinite(v) and v > 0.0 for v in values):
+        error = reader.error('drift', f'must be a positive number or a list of '
+                                      f'{len(dof_names)} positive numbers (one per DOF), got '
+                                      f'{drift_raw!r}')
+        raise error
+    drift = tuple(float(v) for v in values) * (len(dof_names) if len(values) == 1 else 1)
+    action = reader.string('action', 'stop', choices=COLLAPSE_ACTIONS) or 'stop'
+    window = reader.integer('window', 5, minimum=1)
+    ratio = reader.number('tangent_ratio', 0.0) or 0.0
+    if ratio > 0.0:
+        error = reader.error('tangent_ratio', f'must be <= 0 (a negative tangent), got {ratio!r}')
+        raise error
+    reader.finish()
+    return CollapseSettings(drift=drift, action=action, window=window, tangent_ratio=ratio)
 
 
 #: Keys of a hysteresis mapping that name files (pushover backbones).
