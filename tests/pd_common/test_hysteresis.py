@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import numpy as np
 import pytest
+from tests.support.hysteresis import drive
 
 from pd_common.specimen import (
     Backbone,
@@ -23,15 +24,6 @@ from pd_common.specimen import (
 K = 1.0e5      # N/m
 FY = 2.0e3     # N, so d_y = 0.02 m
 B = 0.05       # hardening ratio: post-yield slope 5000 N/m
-
-
-def drive(model: HysteresisModel, path: Sequence[float]) -> list[float]:
-    """Apply each displacement as one committed step and return the forces."""
-    forces = []
-    for x in path:
-        forces.append(model.set_trial_displacement(x))
-        model.commit()
-    return forces
 
 
 def pushover(max_displacement: float = 1.0, **kwargs: object) -> PushoverHysteresis:

@@ -3,17 +3,15 @@ pushover rule with kinematic memory (hand-computed points, envelope bounds, Open
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 import pytest
+from tests.support.hysteresis import drive
 from tests.support.opensees_material import opensees_available, opensees_forces
 
 from pd_common.specimen import (
     Backbone,
     BilinearKinematic,
     HysteresisError,
-    HysteresisModel,
     PushoverHysteresis,
     bilinear_backbone,
 )
@@ -22,15 +20,6 @@ K = 1.0e5     # N/m
 FY = 2.0e3    # N: d_y = 0.02 m
 B = -0.05     # post-yield slope -5000 N/m
 FR = 400.0    # N: the descending line reaches the floor at 0.02 + 1600/5000 = 0.34 m
-
-
-def drive(model: HysteresisModel, path: Sequence[float]) -> list[float]:
-    """Apply each displacement as one committed step and return the forces."""
-    forces = []
-    for x in path:
-        forces.append(model.set_trial_displacement(x))
-        model.commit()
-    return forces
 
 
 def test_softening_bilinear_with_floor_hand_computed() -> None:

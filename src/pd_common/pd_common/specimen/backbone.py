@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import BackboneError, HysteresisError
+from ..errors import BackboneError, HysteresisError, SpecimenError
 
 BEYOND_MODES = ('extrapolate', 'plateau', 'error')
 """Accepted values of ``beyond``: what happens past the last backbone point."""
@@ -164,6 +164,27 @@ def _positive(value: float, name: str, where: str) -> float:
     return number
 
 
+def residual_strength(value: float, yield_force: float, ratio: float, where: str,
+                      error: type[SpecimenError] = BackboneError) -> float:
+    """A strength floor ``F_r`` in ``[0, F_y]``, of a softening model only (``ratio < 0``).
+
+    Raises:
+        error: (``BackboneError`` by default) naming ``where`` and ``residual_force``.
+    """
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not 0.0 <= number <= yield_force:
+        msg = f'{where}: residual_force must be in [0, yield_force={yield_force:g}], got {value!r}'
+        raise error(msg)
+    if ratio >= 0.0:
+        msg = (f'{where}: residual_force needs a negative hardening_ratio (softening), got '
+               f'hardening_ratio={ratio:g}')
+        raise error(msg)
+    return number
+
+
 def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: float = 0.0,
                       max_displacement: float | None = None,
                       residual_force: float | None = None) -> Backbone:
@@ -210,17 +231,7 @@ def bilinear_backbone(stiffness: float, yield_force: float, hardening_ratio: flo
     if residual_force is None:
         return Backbone(np.array([0.0, dy, d_max]),
                         np.array([0.0, fy, fy + b * k * (d_max - dy)]), source=source)
-    try:
-        fr = float(residual_force)
-    except (TypeError, ValueError):
-        fr = math.nan
-    if not 0.0 <= fr <= fy:
-        msg = f'{where}: residual_force must be in [0, yield_force={fy:g}], got {residual_force!r}'
-        raise BackboneError(msg)
-    if b >= 0.0:
-        msg = (f'{where}: residual_force needs a negative hardening_ratio (softening), got '
-               f'hardening_ratio={b:g}')
-        raise BackboneError(msg)
+    fr = residual_strength(residual_force, fy, b, where)
     source = f'{source}, F_r={fr:g} N'
     d_r = dy + (fy - fr) / (-b * k)
     if d_r >= d_max:

@@ -15,7 +15,7 @@ from abc import ABC, abstractmethod
 from typing import Any
 
 from ..errors import HysteresisError
-from .backbone import BEYOND_MODES, Backbone
+from .backbone import BEYOND_MODES, Backbone, residual_strength
 
 State = tuple[Any, ...]
 
@@ -245,8 +245,8 @@ class BilinearKinematic(HysteresisModel):
         self._fy = _positive(yield_force, 'yield_force', 'BilinearKinematic')
         self._b = _ratio(hardening_ratio, 'BilinearKinematic')
         self._h = self._b * self._k / (1.0 - self._b)
-        self._fr = None if residual_force is None else _residual(
-            residual_force, self._fy, self._b, 'BilinearKinematic')
+        self._fr = None if residual_force is None else residual_strength(
+            residual_force, self._fy, self._b, 'BilinearKinematic', HysteresisError)
         super().__init__()
 
     def _initial_state(self) -> State:
@@ -292,22 +292,6 @@ class BilinearKinematic(HysteresisModel):
     def residual_force(self) -> float | None:
         """Strength floor in N (``None``: none)."""
         return self._fr
-
-
-def _residual(value: float, yield_force: float, ratio: float, where: str) -> float:
-    """Return a residual strength in ``[0, F_y]`` for a softening model, else raise."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
-    if not 0.0 <= number <= yield_force:
-        msg = f'{where}: residual_force must be in [0, yield_force={yield_force:g}], got {value!r}'
-        raise HysteresisError(msg)
-    if ratio >= 0.0:
-        msg = (f'{where}: residual_force needs a negative hardening_ratio (softening), got '
-               f'hardening_ratio={ratio:g}')
-        raise HysteresisError(msg)
-    return number
 
 
 _POS, _NEG, _LINE = 1, -1, 0
