@@ -59,30 +59,51 @@ def check_parameter(
 class SchemeParameter:
     """One parameter of an integration scheme.
 
+    A number in a range, an integer in a range, or a switch (``boolean``: ``true`` or
+    ``false``, made with :meth:`switch`).
+
     Attributes:
         name: Keyword of the parameter (``rho_inf``, ``alpha``, ...).
         default: Value when it is not given (``None``: an optional parameter, absent).
-        low: Lower bound of the range.
-        high: Upper bound of the range.
+        low: Lower bound of the range (unused for a switch).
+        high: Upper bound of the range (unused for a switch).
         low_open: Whether ``low`` itself is excluded.
         integer: Whether the value must be an integer (e.g. ``iterations``).
         description: One line for users (shown by ``./pd analyze``).
+        boolean: Whether the value is ``True`` or ``False`` (e.g. ``forward_only``).
     """
 
     name: str
-    default: float | int | None
+    default: float | int | bool | None
     low: float
     high: float
     low_open: bool = False
     integer: bool = False
     description: str = ''
+    boolean: bool = False
 
-    def check(self, value: Any) -> float | int | None:
-        """The validated value (a float, or an int for an integer parameter).
+    def __post_init__(self) -> None:
+        if self.boolean and (self.integer or not isinstance(self.default, bool)):
+            msg = f'{self.name}: a switch has a default True or False, got {self.default!r}'
+            raise TypeError(msg)
+
+    @classmethod
+    def switch(cls, name: str, default: bool, *, description: str = '') -> SchemeParameter:
+        """A parameter that is ``True`` or ``False`` (YAML ``true``/``false``)."""
+        return cls(name, default, 0.0, 1.0, description=description, boolean=True)
+
+    def check(self, value: Any) -> float | int | bool | None:
+        """The validated value (a float, an int for an integer parameter, a bool for a switch).
 
         Raises:
-            SchemeParameterError: the value is not acceptable.
+            SchemeParameterError: the value is not acceptable (a switch takes ``True`` or
+                ``False`` only, not ``0``/``1`` or a string).
         """
+        if self.boolean:
+            if isinstance(value, (bool, np.bool_)):
+                return bool(value)
+            msg = f'{self.name}: expected true or false, got {value!r}'
+            raise SchemeParameterError(msg)
         if value is None and self.default is None:
             return None
         if not self.integer:
