@@ -21,6 +21,7 @@ from pd_common.specimen import (
     SpecimenError,
     SpecimenServer,
     bilinear_backbone,
+    server_from_config,
     specimen_from_config,
 )
 
@@ -256,3 +257,37 @@ def test_server_keys_commands_by_step_and_iteration() -> None:
     # An older iteration of the same step is stale: ignored, the specimen does not move.
     assert server.handle('t', 3, (0.3,), iteration=0) is None
     assert server.position == (0.02,)
+
+
+def test_server_per_step_commit_takes_a_steps_iterations_as_trials() -> None:
+    """``commit: per_step``: iterations of a step start from the step's state (no unloading)."""
+    def server(commit: str) -> SpecimenServer:
+        section = {'commit': commit, 'elements': [
+            {'model': 'epp', 'stiffness': 1.0e5, 'yield_force': 2.0e3}]}
+        return server_from_config(section, base_dir=Path('.'), source='t.yaml',
+                                  dof_names=['x'])
+
+    per_step, per_command = server('per_step'), server('per_command')
+    for s in (per_step, per_command):
+        s.handle('t', 1, [0.03], iteration=0)        # overshoot: yields to x_p = 0.01
+    # coming back within the same step: per_step evaluates from the step's start (elastic
+    # 1e5 * 0.015), per_command has yielded and unloads from (0.03, 2000)
+    back_step = per_step.handle('t', 1, [0.015], iteration=1)
+    back_command = per_command.handle('t', 1, [0.015], iteration=1)
+    assert back_step is not None and back_command is not None
+    assert back_step.restoring_force == pytest.approx((1500.0,))
+    assert back_command.restoring_force == pytest.approx((500.0,))
+    # the next step commits the last trial (x = 0.015, elastic): back to 0 gives zero force
+    zero = per_step.handle('t', 2, [0.0], iteration=0)
+    assert zero is not None and zero.restoring_force == pytest.approx((0.0,))
+
+
+@pytest.mark.parametrize(('section', 'message'), [
+    ({'commit': 'sometimes'}, r'specimen\.commit: must be one of per_command, per_step'),
+    ({'commit': 'per_step', 'errors': {'force_noise': 1.0, 'seed': 1}},
+     r'specimen\.commit: per_step cannot be combined with errors'),
+])
+def test_server_commit_mode_errors(section: dict, message: str) -> None:
+    full = {**section, 'elements': [{'model': 'elastic', 'stiffness': 1.0e5}]}
+    with pytest.raises(SpecimenConfigError, match=message):
+        server_from_config(full, base_dir=Path('.'), source='t.yaml', dof_names=['x'])

@@ -307,10 +307,10 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
             files and an element count different from the DOF count.
     """
     ctx = _Context(source)
-    # 'errors' (injected experimental errors) belongs to the specimen server, which validates
-    # it (server.split_errors); the specimen itself ignores it.
+    # 'errors' (injected experimental errors) and 'commit' belong to the specimen server, which
+    # validates them (server.split_errors, server_from_config); the specimen ignores them.
     root, topology_key, elements_key = 'specimen', 'specimen.topology', 'specimen.elements'
-    section = ctx.mapping(section, root, {'elements'}, {'topology', 'errors'})
+    section = ctx.mapping(section, root, {'elements'}, {'topology', 'errors', 'commit'})
     topology = section.get('topology', 'independent')
     if topology not in TOPOLOGIES:
         raise ctx.error(topology_key,

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import SpecimenError
+from ..errors import SpecimenConfigError, SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..protocol.messages import Feedback, FeedbackStatus
 from .config import load_specimen_section, specimen_from_config
@@ -52,6 +52,10 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from .specimen import Specimen
+
+#: When a simulated specimen commits its state (``specimen.commit``).
+COMMIT_MODES = ('per_command', 'per_step')
+
 
 def split_errors(section: Mapping[str, Any], source: str = 'test file'
                  ) -> tuple[Any, ErrorModel | None]:
@@ -95,7 +99,16 @@ def server_from_config(section: Mapping[str, Any], *, base_dir: Path, source: st
     rest, errors = split_errors(section, source)
     specimen = specimen_from_config(rest, base_dir=Path(base_dir), source=source,
                                     dof_names=dof_names)
-    return SpecimenServer(specimen, errors=errors)
+    commit = rest.get('commit', 'per_command') if isinstance(rest, Mapping) else 'per_command'
+    if commit not in COMMIT_MODES:
+        msg = (f"{source}: specimen.commit: must be one of {', '.join(COMMIT_MODES)}, got "
+               f'{commit!r}')
+        raise SpecimenConfigError(msg)
+    if commit == 'per_step' and errors is not None and not errors.is_ideal:
+        msg = (f'{source}: specimen.commit: per_step cannot be combined with errors (the error '
+               f'model moves the specimen at every command)')
+        raise SpecimenConfigError(msg)
+    return SpecimenServer(specimen, errors=errors, commit=commit)
 
 
 def load_site_server(test_file: str | Path, site: str = '',
@@ -149,15 +162,36 @@ class SpecimenServer:
 
     A new test id starts fresh step bookkeeping; the specimen keeps its state (it is the same
     physical specimen, e.g. after the stiffness probe).
+
+    ``commit`` says when the specimen's state is committed:
+
+    * ``'per_command'`` (default): at every command, as a physical specimen is — an
+      iteration that overshoots and comes back has unloaded the specimen;
+    * ``'per_step'``: the iterations of one step are *trials* from the state at the end of
+      the previous step (OpenSees's trial/commit), and the last one is committed when a
+      command of a later step (or another test) arrives. An implicit scheme with
+      ``forward_only: false`` then converges to the implicit solution. A rehearsal setting:
+      no physical specimen behaves so.
     """
 
-    def __init__(self, specimen: Specimen, errors: ErrorModel | None = None) -> None:
+    def __init__(self, specimen: Specimen, errors: ErrorModel | None = None,
+                 commit: str = 'per_command') -> None:
         """Create the server.
 
         Args:
             specimen: The specimen, in the state the test starts from.
             errors: Experimental errors to inject; ``None`` (or all zero): an ideal actuator.
+            commit: ``'per_command'`` or ``'per_step'`` (see the class docstring).
+
+        Raises:
+            SpecimenError: an unknown ``commit``, or ``'per_step'`` with injected errors.
         """
+        if commit not in COMMIT_MODES:
+            msg = (f"SpecimenServer: commit must be one of {', '.join(COMMIT_MODES)}, got "
+                   f'{commit!r}')
+            raise SpecimenError(msg)
+        self.commit_mode = commit
+        self._pending: tuple[str, int] | None = None  # (test id, step) of an uncommitted trial
         self.specimen = specimen
         self.position: tuple[float, ...] = (0.0,) * specimen.n_dof
         self.force: tuple[float, ...] = tuple(
@@ -170,6 +204,9 @@ class SpecimenServer:
         self.faults = 0
         self.errors = errors
         self._inject = errors is not None and not errors.is_ideal
+        if self._inject and commit == 'per_step':
+            msg = 'SpecimenServer: commit per_step cannot be combined with injected errors'
+            raise SpecimenError(msg)
         self._injector = (ErrorInjector(errors, np.zeros(specimen.n_dof))
                           if errors is not None else None)
 
@@ -210,12 +247,21 @@ class SpecimenServer:
                                f'{values!r} (expected {n} finite values)')
         if self._inject:
             return self._move_with_errors(test_id, step, iteration, np.array(values))
+        per_step = self.commit_mode == 'per_step'
+        if per_step and self._pending is not None and self._pending != (test_id, step):
+            self.specimen.commit()  # the last trial of the previous step
+            self._pending = None
         try:
             force = self.specimen.restoring_force(np.array(values))
         except SpecimenError as err:
             self.specimen.revert_to_last_commit()
+            if self._pending is not None:  # back to the step's last accepted trial
+                self.specimen.restoring_force(np.array(self.position))
             return self._fault(test_id, step, iteration, str(err))
-        self.specimen.commit()
+        if per_step:
+            self._pending = (test_id, step)
+        else:
+            self.specimen.commit()
         self.position = tuple(values)
         self.force = tuple(float(f) for f in force)
         self.steps_served += 1

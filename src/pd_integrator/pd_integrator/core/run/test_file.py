@@ -237,10 +237,11 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     assert scheme is not None
     scheme_parameters = test.get('scheme_parameters', {}) or {}
     if not isinstance(scheme_parameters, dict) or not all(
-            isinstance(key, str) and isinstance(value, (int, float)) and not isinstance(
-                value, bool) and math.isfinite(value) for key, value in scheme_parameters.items()):
-        error = test.error('scheme_parameters', 'must map parameter names to finite numbers, '
-                           f'got {scheme_parameters!r}')
+            isinstance(key, str) and (isinstance(value, bool) or (
+                isinstance(value, (int, float)) and math.isfinite(value)))
+            for key, value in scheme_parameters.items()):
+        error = test.error('scheme_parameters', 'must map parameter names to finite numbers '
+                           f'or true/false, got {scheme_parameters!r}')
         raise error
     dt = test.number('dt', positive=True, required=True)
     assert dt is not None
@@ -342,7 +343,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         influence=first.influence, ground_motion=first.motion,
         ground_acceleration=first.acceleration, specimen=specimen, protocol=protocol,
         probe=probe, source=source, base_dir=base_dir, record_info=first.info,
-        scheme_parameters={key: float(value) for key, value in scheme_parameters.items()},
+        scheme_parameters={key: value if isinstance(value, bool) else float(value)
+                           for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
         structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None
         else None, sites=sites, warnings=warnings, collapse=collapse)
