@@ -91,6 +91,24 @@ def lines_of(path: Path) -> list[str]:
 
 
 # -- SpecimenServer.last ------------------------------------------------------------------------
+def serve_recorded(server: SpecimenServer, steps: range, state: Path, fingerprint: str) -> None:
+    """Serve ``steps`` with a simulator that appends them to its state file, then stops."""
+    record = ServedRecord(state, fingerprint)
+    serve(server, steps, record)
+    record.close()
+
+
+def first_hundred_moves(tmp_path: Path) -> tuple[Path, list[Feedback], Path, str]:
+    """A test file, every answer of an uninterrupted run, and the state file of 100 moves."""
+    path = write_test_file(tmp_path, SPECIMEN)
+    reference, _ = loaded(path)
+    expected = serve(reference, range(N_MOVES + 1))
+    first, fingerprint = loaded(path)
+    state = tmp_path / 'specimen.jsonl'
+    serve_recorded(first, range(100), state, fingerprint)
+    return path, expected, state, fingerprint
+
+
 def test_last_is_the_answer_a_repeat_gets(tmp_path: Path) -> None:
     server, _ = loaded(write_test_file(tmp_path, SPECIMEN))
     assert server.last is None
@@ -205,14 +223,10 @@ def test_restore_after_two_restarts(tmp_path: Path) -> None:
     expected = serve(reference, range(N_MOVES + 1))
     state = tmp_path / 'specimen.jsonl'
     first, fingerprint = loaded(path)
-    record = ServedRecord(state, fingerprint)
-    serve(first, range(50), record)
-    record.close()
+    serve_recorded(first, range(50), state, fingerprint)
     second, _ = loaded(path)
     assert restore_served(state, second, fingerprint) == (TEST_ID, StepKey(49, 0))
-    record = ServedRecord(state, fingerprint)
-    serve(second, range(50, 110), record)
-    record.close()
+    serve_recorded(second, range(50, 110), state, fingerprint)
     assert sum(1 for line in lines_of(state) if line.startswith('{')) == 1  # one header
     third, _ = loaded(path)
     assert restore_served(state, third, fingerprint) == (TEST_ID, StepKey(109, 0))
@@ -225,9 +239,7 @@ def test_unseeded_noise_restores_the_physical_state(tmp_path: Path) -> None:
     path = write_test_file(tmp_path, with_errors(errors))
     state = tmp_path / 'specimen.jsonl'
     first, fingerprint = loaded(path)
-    record = ServedRecord(state, fingerprint)
-    serve(first, range(90), record)
-    record.close()
+    serve_recorded(first, range(90), state, fingerprint)
     restored, _ = loaded(path)
     restore_served(state, restored, fingerprint)
     assert restored.imposed == first.imposed
@@ -284,9 +296,7 @@ def test_a_state_file_of_another_specimen_is_refused(tmp_path: Path) -> None:
     path = write_test_file(tmp_path, SPECIMEN)
     server, fingerprint = loaded(path)
     state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint)
-    serve(server, range(20), record)
-    record.close()
+    serve_recorded(server, range(20), state, fingerprint)
     other = copy.deepcopy(SPECIMEN)
     other['elements'][0]['backbone']['bilinear']['yield_force'] = 12000.0
     fresh, other_fingerprint = loaded(write_test_file(tmp_path, other, 'other.yaml'))
@@ -309,14 +319,7 @@ def test_a_file_without_the_header_is_refused(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize('count', [2, 9, 20])
 def test_a_cut_last_line_is_tolerated(tmp_path: Path, count: int) -> None:
-    path = write_test_file(tmp_path, SPECIMEN)
-    reference, _ = loaded(path)
-    expected = serve(reference, range(N_MOVES + 1))
-    first, fingerprint = loaded(path)
-    state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint)
-    serve(first, range(100), record)
-    record.close()
+    path, expected, state, fingerprint = first_hundred_moves(tmp_path)
     assert len(lines_of(state)[-2]) > count
     cut(state, count)
     restored, _ = loaded(path)
@@ -328,40 +331,22 @@ def test_a_cut_last_line_is_tolerated(tmp_path: Path, count: int) -> None:
 
 def test_a_cut_state_file_stays_readable_after_more_moves(tmp_path: Path) -> None:
     """The restarted simulator appends to the file a crash cut in the middle of a line."""
-    path = write_test_file(tmp_path, SPECIMEN)
-    reference, _ = loaded(path)
-    expected = serve(reference, range(N_MOVES + 1))
-    first, fingerprint = loaded(path)
-    state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint)
-    serve(first, range(100), record)
-    record.close()
+    path, expected, state, fingerprint = first_hundred_moves(tmp_path)
     cut(state, 7)
     second, _ = loaded(path)
     assert restore_served(state, second, fingerprint) == (TEST_ID, StepKey(98, 0))
-    record = ServedRecord(state, fingerprint)
-    serve(second, range(99, 130), record)
-    record.close()
+    serve_recorded(second, range(99, 130), state, fingerprint)
     third, _ = loaded(path)
     assert restore_served(state, third, fingerprint) == (TEST_ID, StepKey(129, 0))
     assert serve(third, range(130, N_MOVES + 1)) == expected[130:]
 
 
 def test_a_last_line_missing_only_its_newline_is_a_move(tmp_path: Path) -> None:
-    path = write_test_file(tmp_path, SPECIMEN)
-    reference, _ = loaded(path)
-    expected = serve(reference, range(N_MOVES + 1))
-    first, fingerprint = loaded(path)
-    state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint)
-    serve(first, range(100), record)
-    record.close()
+    path, expected, state, fingerprint = first_hundred_moves(tmp_path)
     cut(state, 1)
     second, _ = loaded(path)
     assert restore_served(state, second, fingerprint) == (TEST_ID, StepKey(99, 0))
-    record = ServedRecord(state, fingerprint)
-    serve(second, range(100, 120), record)
-    record.close()
+    serve_recorded(second, range(100, 120), state, fingerprint)
     third, _ = loaded(path)
     assert restore_served(state, third, fingerprint) == (TEST_ID, StepKey(119, 0))
     assert serve(third, range(120, N_MOVES + 1)) == expected[120:]
@@ -372,9 +357,7 @@ def test_a_malformed_middle_line_is_an_error_naming_it(tmp_path: Path, bad: str)
     path = write_test_file(tmp_path, SPECIMEN)
     server, fingerprint = loaded(path)
     state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint)
-    serve(server, range(10), record)
-    record.close()
+    serve_recorded(server, range(10), state, fingerprint)
     lines = lines_of(state)
     lines[4] = bad
     state.write_text('\n'.join(lines), encoding='utf-8')
