@@ -432,32 +432,24 @@ def test_an_unreadable_journal_is_an_error(tmp_path: Path) -> None:
         read_journal_records(path)
 
 
-def test_appending_to_a_cut_journal_keeps_it_readable(tmp_path: Path) -> None:
-    """A resumed run appends to a journal a crash cut in the middle of a line."""
+@pytest.mark.parametrize(('cut', 'steps'), [
+    (9, [0, 1, 2, 3]),        # cut in the middle of the last line: that line is dropped
+    (1, [0, 1, 2, 3, 4]),     # only its newline missing: the line is kept
+])
+def test_appending_to_a_cut_journal_keeps_it_readable(tmp_path: Path, cut: int,
+                                                      steps: list[int]) -> None:
+    """A resumed run appends to a journal a crash cut at its end."""
     path = tmp_path / JOURNAL_FILE
     _small_journal(path)
     with path.open('r+b') as stream:
-        stream.truncate(path.stat().st_size - 9)
+        stream.truncate(path.stat().st_size - cut)
     with Journal(path, append=True) as journal:
         journal.write_event('resumed', 99)
     records, note = read_journal_records(path)
     assert note == ''
-    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3]
+    assert [r.item.step for r in records if r.kind == 'cmd'] == steps
     assert records[-1].kind == 'ev'
     assert records[-1].item['what'] == 'resumed'
-
-
-def test_appending_after_a_last_line_missing_its_newline_keeps_it(tmp_path: Path) -> None:
-    path = tmp_path / JOURNAL_FILE
-    _small_journal(path)
-    with path.open('r+b') as stream:
-        stream.truncate(path.stat().st_size - 1)
-    with Journal(path, append=True) as journal:
-        journal.write_event('resumed', 99)
-    records, note = read_journal_records(path)
-    assert note == ''
-    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3, 4]
-    assert records[-1].kind == 'ev'
 
 
 # -- the bag ----------------------------------------------------------------------------------
