@@ -293,7 +293,7 @@ def step_loop(definition: Any, recorder_factory: Callable[[], Any] | None
               ) -> tuple[float, int, int]:
     """The step loop of ``run_offline`` with a recorder (or none): seconds, steps, fsyncs."""
     from pd_integrator.core.run.dispatch import StepDispatcher
-    from pd_integrator.core.run.runner import site_servers
+    from pd_integrator.core.run.runner import serve_queue, site_servers
     from pd_integrator.core.run.session import TestSession
 
     servers = site_servers(definition)
@@ -311,15 +311,7 @@ def step_loop(definition: Any, recorder_factory: Callable[[], Any] | None
             recorder.write_definition(definition.to_json(), time.time_ns())
             recorder.write_status(session.status(), time.time_ns())
         dispatcher.start()
-        while queue:
-            site, command = queue.popleft()
-            answer = servers[site].handle(command.test_id, command.step,
-                                          command.target_displacement,
-                                          iteration=command.iteration)
-            if answer is None:
-                session.abort(f'specimen ignored step {command.step}')
-                break
-            dispatcher.on_feedback(site, answer)
+        serve_queue(queue, servers, dispatcher)
         if recorder is not None:
             recorder.write_status(dispatcher.status(), time.time_ns())
             recorder.close()

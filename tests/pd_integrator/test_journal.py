@@ -42,6 +42,7 @@ from pd_integrator.core.run.runner import (
     rebuild_outputs,
     replay_run,
     run_offline,
+    serve_queue,
     site_servers,
 )
 from pd_integrator.core.run.session import TestSession as Session  # not a test class
@@ -277,11 +278,7 @@ def test_sync_interval_zero_is_one_fsync_per_committed_step_before_its_next_comm
     dispatcher = StepDispatcher(session, send, journal)
     dispatcher.start()
     events.clear()
-    while queue:
-        site, command = queue.popleft()
-        answer = server.handle(command.test_id, command.step, command.target_displacement)
-        assert answer is not None
-        dispatcher.on_feedback(site, answer)
+    assert serve_queue(queue, {'': server}, dispatcher)
     journal.close()
     assert session.state is State.FINISHED
     steps = definition.n_steps
@@ -310,11 +307,7 @@ def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) ->
     dispatcher = StepDispatcher(session, send, journal)
     dispatcher.start()
     try:
-        while queue:
-            site, command = queue.popleft()
-            answer = server.handle(command.test_id, command.step, command.target_displacement)
-            assert answer is not None
-            dispatcher.on_feedback(site, answer)
+        assert serve_queue(queue, {'': server}, dispatcher)
     finally:
         journal.close()
     assert session.state is State.FINISHED

@@ -46,6 +46,7 @@ from pd_integrator.core.run.runner import (
     replay_run,
     restore_dispatcher,
     run_offline,
+    serve_queue,
     site_servers,
 )
 from pd_integrator.core.run.session import TestSession as Session  # not a test class
@@ -135,13 +136,7 @@ def resume(folder: Path, servers: dict[str, SpecimenServer]
         if session.state in (State.RUNNING, State.INTERRUPTED):
             session.state = State.HOLDING
         dispatcher.resume()
-        while queue:
-            site, command = queue.popleft()
-            answer = servers[site].handle(command.test_id, command.step,
-                                          command.target_displacement,
-                                          iteration=command.iteration)
-            assert answer is not None
-            dispatcher.on_feedback(site, answer)
+        assert serve_queue(queue, servers, dispatcher)
         journal.write_status(dispatcher.status(), time.time_ns())
     finish_outputs(session, directory, wall_time=0.0, figures=False)
     return session, owed

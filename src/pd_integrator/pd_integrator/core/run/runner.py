@@ -37,7 +37,7 @@ from .signatures import check_signatures
 from .test_file import from_json
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping
 
     from pd_common.auth import Key
 
@@ -131,23 +131,44 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         bag.write_definition(definition.to_json(), time.time_ns())
         bag.write_status(session.status(), time.time_ns())
         dispatcher.start()
-        while queue:
-            site, command = queue.popleft()
-            answer = servers[site].handle(command.test_id, command.step,
-                                          command.target_displacement,
-                                          iteration=command.iteration)
-            if answer is None:  # cannot happen for a fresh command; keep the protocol honest
-                session.abort(f'specimen ignored step {command.step}')
-                break
-            dispatcher.on_feedback(site, answer)
+
+        def report() -> None:
             if progress is not None and (line := meter.update(session.committed_step)):
                 progress(line)
+
+        serve_queue(queue, servers, dispatcher, after_answer=report)
         bag.write_status(dispatcher.status(), time.time_ns())
     wall_time = time.perf_counter() - start
     journal_to_bag(directory / JOURNAL_FILE, directory / BAG_DIRECTORY)
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
                              mode='offline', site_protocol=dispatcher.coordinator.summary())
     return RunResult(session=session, directory=directory, summary=summary)
+
+
+def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, SpecimenServer],
+                dispatcher: StepDispatcher, *,
+                after_answer: Callable[[], None] | None = None) -> bool:
+    """Answer the queued commands with in-process specimens until none is left.
+
+    Each command goes, in order, to its site's server; the answer is fed to ``dispatcher``,
+    which queues the next commands (its ``send`` appends to ``queue``). ``after_answer`` runs
+    after each answer is taken.
+
+    Returns:
+        ``False`` if a server ignored a command (which cannot happen for a fresh command): the
+        session is then aborted; ``True`` once the queue is empty.
+    """
+    while queue:
+        site, command = queue.popleft()
+        answer = servers[site].handle(command.test_id, command.step, command.target_displacement,
+                                      iteration=command.iteration)
+        if answer is None:
+            dispatcher.session.abort(f'specimen ignored step {command.step}')
+            return False
+        dispatcher.on_feedback(site, answer)
+        if after_answer is not None:
+            after_answer()
+    return True
 
 
 def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
