@@ -55,7 +55,7 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.executors import Executor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
@@ -87,10 +87,10 @@ from pd_common.ros import (
     RefusalLog,
     SessionReceiver,
     declare_key,
-    events_executor,
     feedback_message,
     new_epoch,
     now_stamp,
+    run_node,
     spin_until_shutdown,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
@@ -575,30 +575,18 @@ def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_actuator_bridge main``."""
     rclpy.init(args=args)
-    node: ActuatorBridgeNode | None = None
-    executor: Executor | None = None
-    try:
-        try:
-            node = ActuatorBridgeNode()
-        except (AuthError, BridgeError) as err:
-            print(f'pd_actuator_bridge: error: {err}', file=sys.stderr)
-            return 2
-        executor = events_executor(node)
+
+    def body(node: ActuatorBridgeNode, executor: Executor) -> None:
         if node.get_parameter('autostart').value:
             _autostart(node, executor)
         spin_until_shutdown(executor, 0.05, node.check_driver)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node._hold_driver()
-            node._release()
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+
+    def cleanup(node: ActuatorBridgeNode) -> None:
+        node._hold_driver()
+        node._release()
+
+    return run_node('pd_actuator_bridge', ActuatorBridgeNode, (AuthError, BridgeError), body,
+                    cleanup=cleanup)
 
 
 if __name__ == '__main__':

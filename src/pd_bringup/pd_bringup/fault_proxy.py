@@ -42,14 +42,14 @@ from typing import Any
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import InvalidNamespaceException
-from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 from rclpy.validate_namespace import validate_namespace
 
-from pd_common.ros import LATCHED_QOS, STEP_QOS, events_executor, init_with_stop_flag
+from pd_common.ros import LATCHED_QOS, STEP_QOS, init_with_stop_flag, run_node
 from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback
 
 from .faults import FaultInjector, FaultPlan, FaultPlanError
@@ -290,25 +290,8 @@ def _summary(injector: FaultInjector[bytes]) -> str:
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_bringup fault_proxy``."""
     stop = init_with_stop_flag(args)
-    node: FaultProxyNode | None = None
-    executor: Executor | None = None
-    try:
-        try:
-            node = FaultProxyNode()
-        except (ProxyError, FaultPlanError) as err:
-            print(f'fault_proxy: error: {err}', file=sys.stderr)
-            return 2
-        executor = events_executor(node)
-        run(node, executor, stop)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node('fault_proxy', FaultProxyNode, (ProxyError, FaultPlanError),
+                    lambda node, executor: run(node, executor, stop))
 
 
 if __name__ == '__main__':

@@ -32,9 +32,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.subscription import Subscription
@@ -70,9 +69,9 @@ from pd_common.ros import (
     SessionSender,
     command_message,
     declare_key,
-    events_executor,
     init_with_stop_flag,
     now_stamp,
+    run_node,
     stamp_from_ns,
     status_message,
 )
@@ -589,29 +588,15 @@ def main(args: list[str] | None = None) -> int:
     # SIGINT/SIGTERM only set a flag: the test is then aborted cleanly by the run loop (final
     # status published, bag closed, outputs written) instead of interrupting a bag write.
     stop = init_with_stop_flag(args)
-    node: IntegratorNode | None = None
-    executor: Executor | None = None
-    code = 1
-    try:
-        try:
-            node = IntegratorNode()
-        except (PdIntegratorError, AuthError) as err:
-            print(f'pd_integrator: error: {err}', file=sys.stderr)
-            return 2
-        executor = events_executor(node)
-        code = run(node, executor, stop)
-    except (KeyboardInterrupt, ExternalShutdownException):
+
+    def interrupted(node: IntegratorNode | None) -> int:
         if node is not None:
             node.session.interrupt('interrupted (SIGINT); resume with ./pd run --resume')
             node.finish()
-        code = 1
-    finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+        return 1
+
+    return run_node('pd_integrator', IntegratorNode, (PdIntegratorError, AuthError),
+                    lambda node, executor: run(node, executor, stop), on_interrupt=interrupted)
 
 
 if __name__ == '__main__':

@@ -33,7 +33,6 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 
 from pd_common.auth import AuthError
@@ -50,9 +49,9 @@ from pd_common.ros import (
     RefusalLog,
     SessionReceiver,
     declare_key,
-    events_executor,
     feedback_message,
     new_epoch,
+    run_node,
     spin_until_shutdown,
 )
 from pd_common.specimen import (
@@ -157,26 +156,9 @@ class SpecimenSimNode(Node):
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_specimen_sim main``."""
     rclpy.init(args=args)
-    node: SpecimenSimNode | None = None
-    executor: Executor | None = None
-    try:
-        try:
-            node = SpecimenSimNode()
-        except (SpecimenError, AuthError) as err:
-            print(f'pd_specimen_sim: error: {err}', file=sys.stderr)
-            return 2
-        executor = events_executor(node)
-        spin_until_shutdown(executor, 0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node('pd_specimen_sim', SpecimenSimNode, (SpecimenError, AuthError),
+                    lambda node, executor: spin_until_shutdown(executor, 0.1),
+                    cleanup=SpecimenSimNode.close)
 
 
 if __name__ == '__main__':

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .executor import events_executor, init_with_stop_flag, spin_until_shutdown
+from .executor import events_executor, init_with_stop_flag, run_node, spin_until_shutdown
 from .keys import declare_key
 from .messages import (
     command_message,
@@ -34,6 +34,7 @@ __all__ = [
     'init_with_stop_flag',
     'new_epoch',
     'now_stamp',
+    'run_node',
     'spin_until_shutdown',
     'stamp_from_ns',
     'status_message',

@@ -8,11 +8,13 @@ them poll timeouts and stop flags between events).
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
@@ -20,7 +22,9 @@ if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
 
-__all__ = ['events_executor', 'init_with_stop_flag', 'spin_until_shutdown']
+__all__ = ['events_executor', 'init_with_stop_flag', 'run_node', 'spin_until_shutdown']
+
+NodeT = TypeVar('NodeT', bound='Node')
 
 
 def events_executor(node: Node) -> Executor:
@@ -59,3 +63,50 @@ def init_with_stop_flag(args: list[str] | None = None) -> threading.Event:
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, lambda *_: stop.set())
     return stop
+
+
+def run_node(program: str, make_node: Callable[[], NodeT],
+             errors: tuple[type[Exception], ...],
+             body: Callable[[NodeT, Executor], int | None], *,
+             on_interrupt: Callable[[NodeT | None], int] | None = None,
+             cleanup: Callable[[NodeT], None] | None = None) -> int:
+    """The life of one node process after ``rclpy.init``: make, spin, clean up, shut down.
+
+    Args:
+        program: name for the one-line error of a node that cannot be made.
+        make_node: builds the node; ``errors`` it raises are bad input: one line on stderr
+            (``<program>: error: ...``) and exit code 2, no traceback.
+        errors: the exceptions of bad input.
+        body: runs the node with its executor; its return value is the exit code
+            (``None``: 0).
+        on_interrupt: called on SIGINT or an external shutdown (rclpy's signal handlers) with
+            the node (``None`` if it was not made yet); returns the exit code (default 0).
+        cleanup: called before the executor is shut down and the node destroyed (e.g. hold
+            the actuator, close the state file), whatever ended the node.
+
+    Returns:
+        The exit code.
+    """
+    node: NodeT | None = None
+    executor: Executor | None = None
+    code = 0
+    try:
+        try:
+            node = make_node()
+        except errors as err:
+            print(f'{program}: error: {err}', file=sys.stderr)
+            return 2
+        executor = events_executor(node)
+        result = body(node, executor)
+        code = 0 if result is None else result
+    except (KeyboardInterrupt, ExternalShutdownException):
+        code = on_interrupt(node) if on_interrupt is not None else 0
+    finally:
+        if node is not None and cleanup is not None:
+            cleanup(node)
+        if executor is not None:
+            executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
