@@ -100,15 +100,11 @@ def server_from_config(section: Mapping[str, Any], *, base_dir: Path, source: st
     specimen = specimen_from_config(rest, base_dir=Path(base_dir), source=source,
                                     dof_names=dof_names)
     commit = rest.get('commit', 'per_command') if isinstance(rest, Mapping) else 'per_command'
-    if commit not in COMMIT_MODES:
-        msg = (f"{source}: specimen.commit: must be one of {', '.join(COMMIT_MODES)}, got "
-               f'{commit!r}')
-        raise SpecimenConfigError(msg)
-    if commit == 'per_step' and errors is not None and not errors.is_ideal:
-        msg = (f'{source}: specimen.commit: per_step cannot be combined with errors (the error '
-               f'model moves the specimen at every command)')
-        raise SpecimenConfigError(msg)
-    return SpecimenServer(specimen, errors=errors, commit=commit)
+    try:
+        return SpecimenServer(specimen, errors=errors, commit=commit)
+    except SpecimenError as err:  # names the key: 'commit: ...'
+        msg = f'{source}: specimen.{err}'
+        raise SpecimenConfigError(msg) from None
 
 
 def load_site_server(test_file: str | Path, site: str = '',
@@ -184,11 +180,11 @@ class SpecimenServer:
             commit: ``'per_command'`` or ``'per_step'`` (see the class docstring).
 
         Raises:
-            SpecimenError: an unknown ``commit``, or ``'per_step'`` with injected errors.
+            SpecimenError: an unknown ``commit``, or ``'per_step'`` with injected errors (the
+                message starts with ``commit:``).
         """
         if commit not in COMMIT_MODES:
-            msg = (f"SpecimenServer: commit must be one of {', '.join(COMMIT_MODES)}, got "
-                   f'{commit!r}')
+            msg = f"commit: must be one of {', '.join(COMMIT_MODES)}, got {commit!r}"
             raise SpecimenError(msg)
         self.commit_mode = commit
         self._pending: tuple[str, int] | None = None  # (test id, step) of an uncommitted trial
@@ -205,7 +201,8 @@ class SpecimenServer:
         self.errors = errors
         self._inject = errors is not None and not errors.is_ideal
         if self._inject and commit == 'per_step':
-            msg = 'SpecimenServer: commit per_step cannot be combined with injected errors'
+            msg = ('commit: per_step cannot be combined with errors (the error model moves the '
+                   'specimen at every command)')
             raise SpecimenError(msg)
         self._injector = (ErrorInjector(errors, np.zeros(specimen.n_dof))
                           if errors is not None else None)

@@ -134,8 +134,10 @@ class NewmarkImplicit(ArrayIntegrator):
     matter). A physical specimen beyond it is unloaded and reloaded by each reversal (and keeps
     the overshoot's plastic deformation: no convergence to the implicit solution, and a
     non-monotonic load path). So is the simulated site
-    (:class:`pd_common.specimen.SpecimenServer`), which commits every command as a physical
-    specimen moves: with it the plateau above stays. :attr:`reversals` counts the reversed
+    (:class:`pd_common.specimen.SpecimenServer`) by default, which commits every command as a
+    physical specimen moves: with it the plateau above stays; with ``specimen.commit:
+    per_step`` it takes a step's iterations as trials from the step's start and the iterations
+    converge through the whole test. :attr:`reversals` counts the reversed
     increment components (held or commanded).
 
     With a linear specimen of stiffness ``K_I`` the result is the exact Newmark solution for
