@@ -75,12 +75,14 @@ def wait_exit(process: subprocess.Popen[bytes], timeout: float, log: Callable[[]
     raise AssertionError  # unreachable
 
 
-def spin_until(observer: Any, predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    """Spin the observer node until ``predicate()`` or fail."""
+def spin_until(observer: Any, predicate: Callable[[], bool], timeout: float,
+               what: str | Callable[[], str]) -> None:
+    """Spin the observer node until ``predicate()`` or fail (``what()``: said when failing)."""
     deadline = time.monotonic() + timeout
     while not predicate():
         if time.monotonic() > deadline:
-            pytest.fail(f'timed out after {timeout} s waiting for {what}')
+            said = what() if callable(what) else what
+            pytest.fail(f'timed out after {timeout} s waiting for {said}')
         observer.executor_for_test.spin_once(timeout_sec=0.05)
 
 

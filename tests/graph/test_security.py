@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from graph_support import Processes, executable
+from graph_support import Processes, executable, send_control
 from test_graph import (
     RUN_TIMEOUT,
     call_service,
@@ -50,7 +50,7 @@ def rogue_commands(signer: Signer | None, test_id: str, start: float, count: int
 
 
 def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
-        processes: Processes, observer: Any, tmp_path: Path) -> None:
+        processes: Processes, observer: Any, rig_key: Any, tmp_path: Path) -> None:
     from lifecycle_msgs.msg import Transition
     from lifecycle_msgs.srv import ChangeState
     from std_srvs.srv import Trigger
@@ -122,6 +122,11 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
         '-p', f'output_dir:={out}', '-p', 'figures:=false', '-p', 'progress_interval:=0.05'])
     spin_until(observer, lambda: any(s.step > 150 for s in statuses), RUN_TIMEOUT,
                'the test to pass step 150')
+    # The owner pauses the test, so the rogue acts while the session is open (a test that had
+    # finished meanwhile would refuse the replays as 'no_session' instead).
+    send_control(observer, rig_key, 'pause')
+    spin_until(observer, lambda: statuses[-1].state == TestStatus.STATE_PAUSED, 20.0,
+               'the owner\'s pause')
     captured_commands = list(genuine_commands[-5:])
     captured_feedback = list(genuine_feedback[-5:])
     last = captured_commands[-1]
@@ -149,6 +154,15 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     request = ChangeState.Request()
     request.transition.id = Transition.TRANSITION_ACTIVATE  # already active: refused
     assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+    spin_until(observer, lambda: all(reason in bridge_statuses[-1].refused_by_reason
+                                     for reason in ('unsigned', 'wrong_key', 'replayed')),
+               10.0, lambda: 'the bridge to name every refusal; its statuses said '
+               + repr([(s.state, s.message, s.refused_by_reason) for s in bridge_statuses[-4:]]))
+    deadline = time.monotonic() + 0.5  # the rogue's resume, had it been obeyed, shows by now
+    while time.monotonic() < deadline:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    assert statuses[-1].state == TestStatus.STATE_PAUSED  # nor did the rogue resume it
+    send_control(observer, rig_key, 'resume')
 
     assert wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator')) == 0
     assert (out / 'response.csv').read_bytes() == (
@@ -159,9 +173,6 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
     assert refused['feedback[default]']['unsigned'] >= 10
     assert {'unsigned', 'wrong_key'} <= set(refused['test_control'])
-    spin_until(observer, lambda: all(reason in bridge_statuses[-1].refused_by_reason
-                                     for reason in ('unsigned', 'wrong_key', 'replayed')),
-               10.0, 'the bridge to name every refusal')
     # Every move that reached the specimen (that the observer heard) was a target the
     # owner's integrator sent (its bag); none of the rogue's.
     sent = {item.target_displacement for item in read_bag(out / 'bag').commands}
