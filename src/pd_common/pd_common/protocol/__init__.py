@@ -12,6 +12,7 @@ from .convert import (
 from .messages import (
     Command,
     Control,
+    ControlMode,
     Feedback,
     FeedbackStatus,
     SessionStart,
@@ -36,6 +37,7 @@ __all__ = [
     'NAMESPACE',
     'Command',
     'Control',
+    'ControlMode',
     'Feedback',
     'FeedbackStatus',
     'SessionStart',

@@ -21,7 +21,9 @@ def command_from_message(message: Any) -> Command:
     return Command(test_id=message.test_id, step=int(message.step),
                    test_time=float(message.test_time), dof_names=tuple(message.dof_names),
                    target_displacement=tuple(message.target_displacement.tolist()),
-                   iteration=int(message.iteration))
+                   iteration=int(message.iteration),
+                   control_mode=tuple(int(mode) for mode in message.control_mode),
+                   target_force=tuple(message.target_force.tolist()))
 
 
 def feedback_from_message(message: Any) -> Feedback:

@@ -8,14 +8,15 @@ writes the same bag.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
 
 from ..types import FloatArray
 
-__all__ = ['Command', 'Control', 'Feedback', 'FeedbackStatus', 'SessionStart', 'StateOrigin',
-           'Status', 'StepKey', 'TestState']
+__all__ = ['Command', 'Control', 'ControlMode', 'Feedback', 'FeedbackStatus', 'SessionStart',
+           'StateOrigin', 'Status', 'StepKey', 'TestState']
 
 
 class FeedbackStatus(IntEnum):
@@ -28,6 +29,23 @@ class FeedbackStatus(IntEnum):
     @property
     def label(self) -> str:
         """``'ok'``, ``'limit'`` or ``'fault'`` (for messages and summaries)."""
+        return self.name.lower()
+
+
+class ControlMode(IntEnum):
+    """What a step command imposes on an actuator (``StepCommand.CONTROL_*``).
+
+    ``DISPLACEMENT``: the actuator goes to ``target_displacement`` (the integrator's trial);
+    ``FORCE``: the actuator holds ``target_force`` (e.g. a column's axial load) and its
+    displacement is whatever the specimen takes, measured and recorded.
+    """
+
+    DISPLACEMENT = 0
+    FORCE = 1
+
+    @property
+    def label(self) -> str:
+        """``'displacement'`` or ``'force'``."""
         return self.name.lower()
 
 
@@ -68,6 +86,12 @@ class Command:
 
     ``iteration`` is 0 for explicit schemes; an implicit scheme with a fixed number of
     iterations commands ``(step, 0)``, ``(step, 1)``, ... within one step.
+
+    Mixed control: ``control_mode`` gives each DOF's :class:`ControlMode` (empty: every DOF is
+    displacement-controlled, as in a plain pseudo-dynamic test) and ``target_force`` [N] the
+    force a force-controlled DOF holds (one value per DOF; 0.0 and ignored for
+    displacement-controlled ones). For a force-controlled DOF ``target_displacement`` holds
+    the displacement last measured there: it is not imposed.
     """
 
     test_id: str
@@ -76,11 +100,47 @@ class Command:
     dof_names: tuple[str, ...]
     target_displacement: tuple[float, ...]
     iteration: int = 0
+    control_mode: tuple[int, ...] = ()
+    target_force: tuple[float, ...] = ()
 
     @property
     def key(self) -> StepKey:
         """``(step, iteration)``: what a feedback must match."""
         return StepKey(self.step, self.iteration)
+
+    @property
+    def mixed(self) -> bool:
+        """Whether some DOF is force-controlled."""
+        return any(mode == ControlMode.FORCE for mode in self.control_mode)
+
+    def force_controlled(self) -> tuple[bool, ...]:
+        """Per DOF: whether it is force-controlled (all ``False`` without modes)."""
+        if not self.control_mode:
+            return (False,) * len(self.target_displacement)
+        return tuple(mode == ControlMode.FORCE for mode in self.control_mode)
+
+    def control_error(self) -> str | None:
+        """Why the modes and forces are inconsistent with the DOFs (``None``: they are not).
+
+        Modes must be empty or one known :class:`ControlMode` per DOF, and forces one finite
+        value per DOF when modes are given (none otherwise).
+        """
+        n = len(self.target_displacement)
+        if not self.control_mode:
+            if self.target_force:
+                return f'{len(self.target_force)} target forces without control modes'
+            return None
+        if len(self.control_mode) != n or len(self.target_force) != n:
+            return (f'{len(self.control_mode)} control modes and {len(self.target_force)} '
+                    f'target forces for {n} DOFs')
+        known = {int(mode) for mode in ControlMode}
+        for i, mode in enumerate(self.control_mode):
+            if int(mode) not in known:
+                return f'DOF {i}: unknown control mode {mode}'
+        for i, force in enumerate(self.target_force):
+            if not math.isfinite(force):
+                return f'DOF {i}: target force {force} is not finite'
+        return None
 
 
 @dataclass(frozen=True)

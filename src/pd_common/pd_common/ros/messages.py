@@ -49,6 +49,8 @@ def command_message(command: Command, stamp: Time | None = None,
     message.test_time = float(command.test_time)
     message.dof_names = list(command.dof_names)
     message.target_displacement = list(command.target_displacement)
+    message.control_mode = [int(mode) for mode in command.control_mode]
+    message.target_force = list(command.target_force)
     fill_signature(message.signature, signature)
     return message
 

@@ -255,6 +255,8 @@ class BagRecorder:
             iteration=command.iteration, test_time=command.test_time,
             dof_names=list(command.dof_names),
             target_displacement=np.array(command.target_displacement, dtype=np.float64),
+            control_mode=np.array(command.control_mode, dtype=np.uint8),
+            target_force=np.array(command.target_force, dtype=np.float64),
             signature=self._signature(signature)))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,

@@ -170,10 +170,14 @@ class Journal:
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
                       signature: Signature | None = None) -> None:
         """Record a command (with its signature)."""
-        self._add({'k': 'cmd', 't': t_ns, 'topic': topic, 'id': command.test_id,
-                   'step': command.step, 'it': command.iteration,
-                   'time': float(command.test_time), 'dofs': list(command.dof_names),
-                   'x': _floats(command.target_displacement), 'sig': _signature(signature)})
+        record = {'k': 'cmd', 't': t_ns, 'topic': topic, 'id': command.test_id,
+                  'step': command.step, 'it': command.iteration,
+                  'time': float(command.test_time), 'dofs': list(command.dof_names),
+                  'x': _floats(command.target_displacement), 'sig': _signature(signature)}
+        if command.control_mode or command.target_force:  # mixed control only
+            record['mode'] = [int(mode) for mode in command.control_mode]
+            record['fx'] = _floats(command.target_force)
+        self._add(record)
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
                        signature: Signature | None = None) -> None:
@@ -265,7 +269,8 @@ def _record(raw: dict[str, Any]) -> JournalRecord:
     if kind == 'cmd':
         item = Command(test_id=raw['id'], step=raw['step'], test_time=raw['time'],
                        dof_names=tuple(raw['dofs']), target_displacement=tuple(raw['x']),
-                       iteration=raw['it'])
+                       iteration=raw['it'], control_mode=tuple(raw.get('mode', ())),
+                       target_force=tuple(raw.get('fx', ())))
     elif kind == 'fb':
         item = Feedback(test_id=raw['id'], step=raw['step'],
                         measured_displacement=tuple(raw['xm']), restoring_force=tuple(raw['r']),
