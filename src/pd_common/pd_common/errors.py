@@ -17,3 +17,7 @@ class HysteresisError(SpecimenError):
 
 class SpecimenConfigError(SpecimenError):
     """The ``specimen:`` section of a test configuration is invalid."""
+
+
+class SetupError(ValueError):
+    """An experimental setup (basic DOFs ↔ actuator strokes) or its configuration is invalid."""
