@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -375,3 +376,88 @@ def test_record_reports_an_unwritable_file(tmp_path: Path) -> None:
         ServedRecord(blocker / 'specimen.jsonl', 'f')
     assert str(error.value).startswith(f'{blocker / "specimen.jsonl"}: cannot write the '
                                        'specimen state file (')
+
+
+# -- mixed control (a column site: setup, force ramp) ------------------------------------------
+COLUMN_LOAD = 24950.0
+
+
+def write_column_file(folder: Path, vertical_length: float = 2.0) -> Path:
+    """A column site: its setup in structure.elements, its ramp in its bridge settings."""
+    path = folder / 'column.yaml'
+    raw = {'test': {'id': TEST_ID, 'dt': 0.01},
+           'structure': {'dof_names': ['u'], 'mass': [2543.4], 'elements': [{
+               'type': 'experimental', 'name': 'column', 'site': 'lab', 'dofs': ['u', None],
+               'setup': {'type': 'column', 'horizontal_length': 1.5,
+                         'vertical_length': vertical_length},
+               'actuators': ['horizontal', 'vertical'],
+               'initial_stiffness': [[1.0e6, 0.0], [0.0, 1.0e9]]}]},
+           'sites': {'lab': {
+               'specimen': {'column': {'height': 3.0, 'axial_stiffness': 1.0e9, 'lateral': {
+                   'model': 'bilinear', 'stiffness': 1.0e6, 'yield_force': 1.5e4,
+                   'hardening_ratio': -0.02}}},
+               'bridge': {'max_force_increment': 2500.0}}}}
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
+    return path
+
+
+def column_command(step: int) -> tuple[tuple[float, float], tuple[int, int], tuple[float, float]]:
+    """Step 0 ramps the axial load up; then a growing lateral cycle past yield, with the
+    load raised by 20 % at step 60 (another ramp)."""
+    load = COLUMN_LOAD * (1.2 if step >= 60 else 1.0)
+    lateral = 0.04 * (step / N_MOVES) * math.sin(2.0 * math.pi * step / 40.0)
+    return (lateral, -1.0e-5), (0, 1), (0.0, load)
+
+
+def serve_column(server: SpecimenServer, steps: range, record: ServedRecord | None = None
+                 ) -> list[Feedback]:
+    """As the simulator node serves mixed commands: modes and forces to the server and on
+    record."""
+    answers = []
+    for step in steps:
+        target, modes, forces = column_command(step)
+        before = server.last
+        answer = server.handle(TEST_ID, step, target, control_mode=modes, target_force=forces)
+        assert answer is not None and answer.status is FeedbackStatus.OK, answer
+        if answer is not before and record is not None:
+            record.add(TEST_ID, step, 0, target, modes, forces)
+        answers.append(answer)
+    return answers
+
+
+def loaded_site(path: Path) -> tuple[SpecimenServer, str]:
+    server, section, names = load_site_server(path, 'lab')
+    return server, specimen_fingerprint(section, names, server.geometry)
+
+
+@pytest.mark.parametrize('served', [1, 37, 61, 120])
+def test_a_restored_mixed_server_equals_an_unbroken_one(tmp_path: Path, served: int) -> None:
+    path = write_column_file(tmp_path)
+    reference, _ = loaded_site(path)
+    expected = serve_column(reference, range(N_MOVES + 1))
+    assert max(abs(a.restoring_force[0]) for a in expected) > 1.0e4  # past yield
+    assert reference.ramp_substeps == 10 + 2                         # both ramps
+    first, fingerprint = loaded_site(path)
+    state = tmp_path / 'specimen.jsonl'
+    record = ServedRecord(state, fingerprint)
+    got = serve_column(first, range(served), record)
+    record.close()
+    assert got == expected[:served]
+    mixed = [json.loads(line) for line in lines_of(state)[1:-1]]
+    assert all(len(line) == 6 and line[4] == [0, 1] for line in mixed)
+    restored, _ = loaded_site(path)
+    assert restore_served(state, restored, fingerprint) == (TEST_ID, StepKey(served - 1, 0))
+    for attribute in ('position', 'force', 'basic', 'held', 'last', 'ramp_substeps',
+                      'steps_served'):
+        assert getattr(restored, attribute) == getattr(first, attribute), attribute
+    np.testing.assert_array_equal(restored.specimen.committed_restoring_force(),
+                                  first.specimen.committed_restoring_force())
+    assert serve_column(restored, range(served, N_MOVES + 1)) == expected[served:]
+
+
+def test_the_site_geometry_is_part_of_the_fingerprint(tmp_path: Path) -> None:
+    plain, _ = loaded(write_test_file(tmp_path, SPECIMEN))
+    assert plain.geometry is None  # a plain specimen's fingerprint is as before
+    _, base = loaded_site(write_column_file(tmp_path))
+    _, longer = loaded_site(write_column_file(tmp_path, vertical_length=2.5))
+    assert base != longer

@@ -16,6 +16,11 @@ command served as a new move is appended to it before the answer goes out; a sim
 started with an existing state file replays it first, so a restarted simulator is the *same*
 specimen (its offer and answers say ``restored``), never a silently new one. Without it the
 state is ``fresh`` (the integrator refuses a fresh specimen that replaces the one it drove).
+Mixed control: a command's ``control_mode`` / ``target_force`` go to the server (force-controlled
+actuators hold their forces, ramped by ``sites.<site>.bridge.max_force_increment``; the site's
+setup comes from its experimental element in ``structure.elements``; see
+:mod:`pd_common.specimen.server`); a command whose ``control_error()`` is not ``None`` is
+answered by a FAULT of one line (nothing moves), and the state file records modes and forces.
 ``site`` — in a substructured test, the site this node simulates: the specimen is then
 ``sites.<site>.specimen`` and the node runs in the namespace ``/pd/<site>`` (``-r
 __ns:=/pd/<site>``; ``/pd/<site>/specimen`` behind that site's bridge). ``dof_names`` — the
@@ -112,7 +117,7 @@ class SpecimenSimNode(Node):
         state_file = str(self.get_parameter('state_file').value)
         if not state_file:
             return StateOrigin.FRESH, None, None
-        fingerprint = specimen_fingerprint(section, dof_names)
+        fingerprint = specimen_fingerprint(section, dof_names, self.server.geometry)
         restored = restore_served(state_file, self.server, fingerprint)
         record = ServedRecord(state_file, fingerprint)
         if restored is None:
@@ -137,13 +142,18 @@ class SpecimenSimNode(Node):
             self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
             return
         before = self.server.last
+        # The server checks the modes and forces with command.control_error() itself: an
+        # inconsistent command is a FAULT of one line and moves nothing.
         answer = self.server.handle(command.test_id, command.step, command.target_displacement,
-                                    iteration=command.iteration)
+                                    iteration=command.iteration,
+                                    control_mode=command.control_mode,
+                                    target_force=command.target_force)
         if answer is None:
             return
         if answer is not before and self.record is not None:  # a new move: on record first
             self.record.add(command.test_id, command.step, command.iteration,
-                            command.target_displacement)
+                            command.target_displacement, command.control_mode,
+                            command.target_force)
         answer = dataclasses.replace(answer, epoch=self.epoch, state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
         self._feedback_pub.publish(feedback_message(answer, message=self._feedback,

@@ -1,4 +1,5 @@
-"""Specimen models: backbones, hysteresis, specimens, their config schema and the step server.
+"""Specimen models: backbones, hysteresis, specimens (a column with P-Δ among them), their
+config schema and the step server.
 
 The simulator node and the ROS-free runner answer step commands with a
 :class:`SpecimenServer`; the integrator's numerical springs and the bridge's emulator use the
@@ -16,7 +17,13 @@ from .backbone import (
     load_opensees_pushover,
 )
 from .bouc_wen import BoucWen
-from .config import hysteresis_from_config, load_specimen_section, specimen_from_config
+from .column import ColumnSpecimen, hysteresis_tangent
+from .config import (
+    hysteresis_from_config,
+    load_specimen_section,
+    model_from_config,
+    specimen_from_config,
+)
 from .hysteresis import (
     MEMORY_MODES,
     BilinearKinematic,
@@ -26,7 +33,13 @@ from .hysteresis import (
     PushoverHysteresis,
 )
 from .served import ServedRecord, restore_served, specimen_fingerprint
-from .server import SpecimenServer, load_site_server, server_from_config
+from .server import (
+    SiteGeometry,
+    SpecimenServer,
+    load_site_server,
+    server_from_config,
+    site_geometry,
+)
 from .specimen import TOPOLOGIES, Specimen
 
 __all__ = [
@@ -37,24 +50,29 @@ __all__ = [
     'BackboneError',
     'BilinearKinematic',
     'BoucWen',
+    'ColumnSpecimen',
     'Elastic',
     'ElasticPerfectlyPlastic',
     'HysteresisError',
     'HysteresisModel',
     'PushoverHysteresis',
     'ServedRecord',
+    'SiteGeometry',
     'Specimen',
     'SpecimenConfigError',
     'SpecimenError',
     'SpecimenServer',
     'bilinear_backbone',
     'hysteresis_from_config',
+    'hysteresis_tangent',
     'load_backbone_csv',
     'load_opensees_pushover',
     'load_site_server',
     'load_specimen_section',
+    'model_from_config',
     'restore_served',
     'server_from_config',
+    'site_geometry',
     'specimen_fingerprint',
     'specimen_from_config',
 ]

@@ -25,6 +25,14 @@ Schema (SI units)::
            beta: 25.0, gamma: 25.0,        # 1/m^n: z_u = (a0 / (beta + gamma))^(1/n) = 0.02 m
            a0: 1.0, delta_a: 0.0, delta_nu: 2.0e-4, delta_eta: 2.0e-4}   # per J, optional
 
+    # or, instead of topology/elements, a cantilever column with P-Δ (basic DOFs u, v; see
+    # pd_common.specimen.column), served by the specimen server (model_from_config):
+    column:
+      height: 3.0                    # L [m]
+      axial_stiffness: 1.0e9         # k_a [N/m]
+      lateral: {model: bilinear, stiffness: 1.0e6, yield_force: 3.0e4,
+                hardening_ratio: -0.01}   # any element mapping above
+
     ``hardening_ratio`` is in (-1, 1): negative is a softening post-yield slope.
     ``residual_force`` (N, in [0, yield_force], softening only) is a strength floor, in
     ``bilinear`` and in ``backbone.bilinear``. ``memory`` of a pushover element is ``none``
@@ -52,6 +60,7 @@ from .backbone import (
     load_opensees_pushover,
 )
 from .bouc_wen import BoucWen
+from .column import ColumnSpecimen
 from .hysteresis import (
     MEMORY_MODES,
     BilinearKinematic,
@@ -71,6 +80,8 @@ _MODEL_KEYS: dict[str, tuple[set[str], set[str]]] = {
                  {'a0', 'delta_a', 'delta_nu', 'delta_eta', 'tolerance', 'max_iterations'}),
 }
 _BACKBONE_KINDS = ('bilinear', 'csv', 'opensees')
+#: The key of a column specimen (instead of ``elements``).
+COLUMN_KEY = 'column'
 
 
 class _Context:
@@ -307,6 +318,10 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
             files and an element count different from the DOF count.
     """
     ctx = _Context(source)
+    if isinstance(section, Mapping) and COLUMN_KEY in section:
+        where = 'specimen.column'
+        raise ctx.error(where, 'a column specimen is simulated by the specimen server only '
+                               '(pd_specimen_sim, the ROS-free runner)')
     # 'errors' (injected experimental errors) and 'commit' belong to the specimen server, which
     # validates them (server.split_errors, server_from_config); the specimen ignores them.
     root, topology_key, elements_key = 'specimen', 'specimen.topology', 'specimen.elements'
@@ -332,6 +347,37 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
         raise
     except SpecimenError as exc:
         raise ctx.error(root, str(exc)) from None
+
+
+def model_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,
+                      dof_names: Sequence[str]) -> Specimen | ColumnSpecimen:
+    """The model of a ``specimen:`` section: a :class:`ColumnSpecimen` (``column:``) or a
+    :class:`Specimen` (``elements:``, see :func:`specimen_from_config`).
+
+    A column's basic DOFs are ``u, v`` whatever ``dof_names`` (the DOFs served are the site's
+    actuators: the specimen server checks their count against its setup).
+
+    Raises:
+        SpecimenConfigError: One line naming ``source`` and the parameter path.
+    """
+    if not (isinstance(section, Mapping) and COLUMN_KEY in section):
+        return specimen_from_config(section, base_dir=base_dir, source=source,
+                                    dof_names=dof_names)
+    ctx = _Context(source)
+    if 'elements' in section:
+        where = 'specimen'
+        raise ctx.error(where, 'give either elements or column, not both')
+    section = ctx.mapping(section, 'specimen', {COLUMN_KEY}, {'errors', 'commit'})
+    path = 'specimen.column'
+    spec = ctx.mapping(section[COLUMN_KEY], path, {'height', 'axial_stiffness', 'lateral'},
+                       set())
+    height = ctx.number(spec['height'], f'{path}.height')
+    axial = ctx.number(spec['axial_stiffness'], f'{path}.axial_stiffness')
+    lateral = _element(ctx, spec['lateral'], f'{path}.lateral', Path(base_dir))
+    try:
+        return ColumnSpecimen(lateral, height, axial)
+    except SpecimenError as exc:
+        raise ctx.error(path, str(exc).removeprefix('column: ')) from None
 
 
 def load_specimen_section(path: str | Path, site: str = ''

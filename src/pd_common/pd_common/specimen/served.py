@@ -9,8 +9,11 @@ the answer is published; a restarted simulator given the same file replays it in
 server before it answers anything, and declares its state restored through the last command
 (never a silently new specimen).
 
-The file's first line names the specimen (a fingerprint of its definition): a state file of
-another specimen is refused.
+The file's first line names the specimen (a fingerprint of its definition, with the site's
+setup and force ramp when it has them): a state file of another specimen is refused. A line
+is ``[test id, step, iteration, targets]``, and for a command with control modes also its
+``modes`` and ``forces``: ``[test id, step, iteration, targets, modes, forces]`` (a mixed
+command replays exactly; plain lines are as before).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -32,9 +36,11 @@ __all__ = ['ServedRecord', 'restore_served', 'specimen_fingerprint']
 _KIND = 'pd-specimen-state'
 
 
-def specimen_fingerprint(section: Any, dof_names: list[str]) -> str:
-    """A short fingerprint of a specimen definition (its section and DOF names)."""
-    text = json.dumps([section, dof_names], sort_keys=True, default=str)
+def specimen_fingerprint(section: Any, dof_names: list[str], geometry: Any = None) -> str:
+    """A short fingerprint of a specimen definition (its section and DOF names, and the
+    server's :attr:`~pd_common.specimen.SpecimenServer.geometry` when not ``None``)."""
+    value = [section, dof_names] if geometry is None else [section, dof_names, geometry]
+    text = json.dumps(value, sort_keys=True, default=str)
     return hashlib.sha256(text.encode('utf-8')).hexdigest()[:16]
 
 
@@ -70,9 +76,14 @@ class ServedRecord:
             os.fsync(self._file.fileno())
             self._synced = now
 
-    def add(self, test_id: str, step: int, iteration: int, target: tuple[float, ...]) -> None:
+    def add(self, test_id: str, step: int, iteration: int, target: Sequence[float],
+            control_mode: Sequence[int] = (), target_force: Sequence[float] = ()) -> None:
         """Record one served command (handed to the operating system at once)."""
-        self._write([test_id, step, iteration, [float(x) for x in target]])
+        line: list[Any] = [test_id, step, iteration, [float(x) for x in target]]
+        if control_mode or target_force:
+            line += [[int(mode) for mode in control_mode],
+                     [float(force) for force in target_force]]
+        self._write(line)
 
     def close(self) -> None:
         """Sync and close the file."""
@@ -110,8 +121,11 @@ def restore_served(path: str | Path, server: SpecimenServer, fingerprint: str
         try:
             value = json.loads(line)
             if number > 0:
-                test_id, step, iteration, target = value
+                test_id, step, iteration, target, *control = value
                 values = tuple(float(x) for x in target)
+                modes, forces = control if control else ((), ())
+                modes = tuple(int(mode) for mode in modes)
+                forces = tuple(float(force) for force in forces)
         except (ValueError, TypeError) as err:
             if number == final and number > 0:
                 break  # the line a crash cut short: that move was not answered
@@ -120,7 +134,8 @@ def restore_served(path: str | Path, server: SpecimenServer, fingerprint: str
         if number == 0:
             _check_header(path, value, fingerprint)
             continue
-        server.handle(str(test_id), int(step), values, iteration=int(iteration))
+        server.handle(str(test_id), int(step), values, iteration=int(iteration),
+                      control_mode=modes, target_force=forces)
         last = (str(test_id), StepKey(int(step), int(iteration)))
     return last
 

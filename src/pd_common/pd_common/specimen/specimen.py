@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import SpecimenError
+from .column import hysteresis_tangent
 from .hysteresis import HysteresisModel
 
 TOPOLOGIES = ('independent', 'shear_building')
@@ -130,6 +131,21 @@ class Specimen:
             below = xi
         story.append(0.0)
         return np.array([story[i] - story[i + 1] for i in range(len(xs))])
+
+    def tangent(self, x: np.ndarray | Sequence[float]) -> np.ndarray:
+        """The trial tangent stiffness ``∂r/∂x`` at ``x`` [N/m], leaving the trial state there.
+
+        Each element's tangent comes from :func:`~pd_common.specimen.column.hysteresis_tangent`;
+        assembled like :meth:`initial_stiffness_matrix`.
+        """
+        xs = self._check(x)
+        below = [0.0, *xs[:-1]] if self._shear else [0.0] * len(xs)
+        k = np.array([hysteresis_tangent(el, xi - base)
+                      for el, xi, base in zip(self._elements, xs, below)])
+        if not self._shear:
+            return np.diag(k)
+        above = np.append(k[1:], 0.0)
+        return np.diag(k + above) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
 
     def committed_restoring_force(self) -> np.ndarray:
         """Return the restoring forces of the committed state in N."""
