@@ -12,7 +12,9 @@ Lifecycle (``ros2 lifecycle set /pd/pd_actuator_bridge <transition>``):
 * ``configure`` builds and opens the driver and reads the actuator's position and force;
 * ``activate`` starts listening on ``step_command`` and, once the driver is ready, offers a
   new session: motion then needs the owner's signed session start (the integrator waits);
-* ``deactivate`` holds position and stops listening;
+* ``deactivate`` ramps force-controlled actuators down to 0 N (the force ramp's sub-steps,
+  never a jump; :meth:`~pd_actuator_bridge.core.ActuatorBridge.ramp_down`, logged and on
+  ``bridge/status``), holds position and stops listening;
 * ``cleanup`` / ``shutdown`` release the hardware.
 
 With ``autostart: true`` (the simulated set-up) the node configures and activates itself.
@@ -132,6 +134,10 @@ class ActuatorBridgeNode(LifecycleNode):
             ('step_duration', 0.0, 'time the actuator takes for one step [s] (0 = off)'),
             ('tracking_tolerance', 0.0, '|measured - commanded| limit [m] (0 = off)'),
             ('watchdog_timeout', 0.0, 'hold after this long without a command [s] (0 = off)'),
+            ('max_force_increment', 0.0,
+             ("largest change of a force-controlled actuator's force in one sub-step [N]: a "
+              'force change is ramped in sub-steps of at most this, each checked (0 = no ramp; '
+              'docs/force_control.md)')),
             ('on_limit', 'hold', "'hold' (default) or 'saturate' (quasi-static moves only)"),
         ):
             self.declare_parameter(name, default, describe(description=description))
@@ -150,6 +156,7 @@ class ActuatorBridgeNode(LifecycleNode):
         self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
         self._request = Signature()  # the signature of the command being answered
         self._accept_when_ready = False
+        self._ramping_down = False  # a deactivation's force ramp-down still executing
         self.bridge: ActuatorBridge | None = None
         self.driver: ActuatorDriver | None = None
         self.limits: SafetyLimits | None = None
@@ -208,17 +215,45 @@ class ActuatorBridgeNode(LifecycleNode):
         assert limits is not None
         self.publish_status(TestStatus.STATE_RUNNING, (
             f'active ({self.get_parameter("driver").value}): |x| <= {limits.max_displacement} '
-            f'm, |dx| <= {limits.max_increment} m per step, |f| <= {limits.max_force} N'))
+            f'm, |dx| <= {limits.max_increment} m per step, |f| <= {limits.max_force} N'
+            + (f', force ramp <= {limits.max_force_increment} N per sub-step'
+               if limits.max_force_increment > 0.0 else '')))
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Hold position and stop answering the integrator."""
-        self._hold_driver()
+        """Ramp force-controlled actuators down to 0 N, hold position and stop answering
+        the integrator."""
+        note = self.bridge.ramp_down() if self.bridge is not None else ''
         self._stop_answering()
         self._accept_when_ready = False
         self.receiver.set_accepting(False)
-        self.publish_status(TestStatus.STATE_IDLE, 'inactive: holding position')
+        if self.bridge is not None and self.bridge.ramping_down:
+            # An asynchronous driver: check_driver holds once the ramp-down has ended.
+            self._ramping_down = True
+            self.get_logger().warning(f'deactivating: {note}')
+            self.publish_status(TestStatus.STATE_IDLE, f'inactive: {note}')
+            return super().on_deactivate(state)
+        self._hold_driver()
+        if note:
+            done = self.bridge.ramp_down_note if self.bridge is not None else note
+            self.get_logger().warning(f'deactivating: {done}')
+            self.publish_status(TestStatus.STATE_IDLE, f'inactive: {done}; holding position')
+        else:
+            self.publish_status(TestStatus.STATE_IDLE, 'inactive: holding position')
         return super().on_deactivate(state)
+
+    def _check_ramp_down(self, bridge: ActuatorBridge) -> None:
+        """Hold once a deactivation's force ramp-down has ended, and say how it ended."""
+        if not self._ramping_down or bridge.ramping_down:
+            return
+        self._ramping_down = False
+        self._hold_driver()
+        note = bridge.ramp_down_note
+        if bridge.state == 'holding':
+            self.get_logger().error(note)
+        else:
+            self.get_logger().warning(note)
+        self.publish_status(TestStatus.STATE_IDLE, f'inactive: {note}; holding position')
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Release the driver."""
@@ -243,7 +278,8 @@ class ActuatorBridgeNode(LifecycleNode):
         value = self.get_parameter
         names = list(value('dof_names').value)
         limits: dict[str, float] = {key: float(value(key).value) for key in
-                                    ('max_displacement', 'max_increment', 'max_force')}
+                                    ('max_displacement', 'max_increment', 'max_force',
+                                     'max_force_increment')}
         for key in ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout'):
             if float(value(key).value) > 0.0:
                 limits[key] = float(value(key).value)
@@ -429,8 +465,10 @@ class ActuatorBridgeNode(LifecycleNode):
         was_holding = bridge.state == 'holding'
         if isinstance(self.driver, SimServoDriver):
             self.driver.move_test_id = message.test_id  # its moves are keyed like the command
-        reply = bridge.handle_command(message.test_id, key,
-                                      tuple(message.target_displacement.tolist()))
+        reply = bridge.handle_command(
+            message.test_id, key, tuple(message.target_displacement.tolist()),
+            control_mode=tuple(int(mode) for mode in message.control_mode),
+            target_force=tuple(float(force) for force in message.target_force))
         if (reply is None and isinstance(self.driver, SimServoDriver)
                 and bridge.in_flight == (message.test_id, key)):
             self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
@@ -453,6 +491,7 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge, driver = self.bridge, self.driver
         if bridge is None:
             return
+        self._check_ramp_down(bridge)
         if isinstance(driver, SimServoDriver) and not self._accept_when_ready:
             driver.maintain()  # a restarted specimen node: re-open the session with it
         if self._accept_when_ready and (not isinstance(driver, SimServoDriver)

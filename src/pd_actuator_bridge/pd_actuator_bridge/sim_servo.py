@@ -12,6 +12,17 @@ with the bridge), signs every move (a re-sent move gets a new signature) and tak
 specimen's signed answers; it reads the specimen's position from the offer the specimen
 publishes once it obeys the driver's session (its state now), so a restarted bridge starts
 from where the specimen is.
+
+Force control (``docs/force_control.md``): the bridge sends a mixed command's force ramp one
+sub-step at a time (:meth:`SimServoDriver.command_force`); each goes out with the command's
+``control_mode`` and the sub-step's ``target_force``, keyed for the specimen as a command of
+its own: sub-step ``s`` of the integrator's ``(step, iteration)`` is the specimen's
+``(step, iteration * SUBSTEP_STRIDE + s)``. So the specimen (which answers a repeat of its last
+key with the same answer and ignores older keys) sees every sub-step as a new command, in
+order (a ramp-down at deactivation continues the numbering), and the answer to the last one
+is reported for the integrator's ``(step, iteration)``. Plain (displacement-only) commands
+keep the integrator's key. The specimen ramps each sub-step itself with the same
+``max_force_increment``; every bridge sub-step is within it, so it executes each as one state.
 """
 
 from __future__ import annotations
@@ -38,10 +49,12 @@ from .core import (
     ActuatorDriver,
     BridgeConfigError,
     DriverContext,
+    DriverError,
     DriverParameter,
     DriverSpec,
     register_driver,
 )
+from .core.drivers.base import force_substep_key
 
 
 class SimServoDriver(ActuatorDriver):
@@ -81,10 +94,16 @@ class SimServoDriver(ActuatorDriver):
         self.sent_at = 0.0
         self.on_fault: Callable[[str], None] | None = None
 
+    driver_name = 'sim_servo'
+
     @property
     def n_dof(self) -> int:
         """Number of actuated DOF."""
         return self._n_dof
+
+    def force_control_problem(self) -> str | None:
+        """None: the simulated specimen takes force-controlled actuators."""
+        return None
 
     def ready(self) -> bool:
         """Whether a specimen node listens, talks back and obeys this driver's session.
@@ -141,11 +160,36 @@ class SimServoDriver(ActuatorDriver):
         """Forward a checked move to the specimen, keyed like the command it executes."""
         number, iteration = (int(step[0]), int(step[1])) if isinstance(step, tuple) else (
             int(step), 0)
+        self._send(step, number, iteration, target)
+
+    def command_force(self, step: Any, target: Sequence[float],
+                      control_mode: Sequence[int], target_force: Sequence[float]) -> None:
+        """Forward one force sub-step ``step = (*key, s)``, keyed
+        :func:`~pd_actuator_bridge.core.drivers.base.force_substep_key` for the specimen
+        (``(step, iteration * SUBSTEP_STRIDE + s)``, see the module docstring).
+
+        Raises:
+            DriverError: A sub-step number or an iteration the key scheme cannot carry.
+        """
+        try:
+            number, iteration = force_substep_key(step)
+        except DriverError as err:
+            msg = f'driver sim_servo: {err}'
+            raise DriverError(msg) from err
+        self._send(step, number, iteration, target,
+                   tuple(int(mode) for mode in control_mode),
+                   tuple(float(force) for force in target_force))
+
+    def _send(self, step: Any, number: int, iteration: int, target: Sequence[float],
+              control_mode: tuple[int, ...] = (), target_force: tuple[float, ...] = ()
+              ) -> None:
+        """Send a move keyed ``(test id, number, iteration)``, reported for ``step``."""
         test_id = self.move_test_id or self._session
         self._move = Command(test_id=test_id, step=number, test_time=0.0,
                              dof_names=tuple(f'dof{i}' for i in range(self._n_dof)),
                              target_displacement=tuple(float(value) for value in target),
-                             iteration=iteration)
+                             iteration=iteration, control_mode=control_mode,
+                             target_force=target_force)
         self._in_flight = (step, (test_id, number, iteration))
         self.repeat()
 

@@ -8,7 +8,13 @@ importing this package registers the built-in ones.
 from __future__ import annotations
 
 from .bridge import ActuatorBridge, BridgeReply
-from .drivers.base import ActuatorDriver, MeasurementCallback, RemoteDriver, StepId
+from .drivers.base import (
+    ActuatorDriver,
+    MeasurementCallback,
+    RemoteDriver,
+    StepId,
+    force_substep_key,
+)
 from .drivers.daqmx import DaqmxDriver
 from .drivers.daqmx_config import DaqmxChannelConfig, DaqmxConfig
 from .drivers.emulator import Measurement, ServoHydraulicEmulator
@@ -91,6 +97,7 @@ __all__ = [
     'driver_names',
     'driver_parameters',
     'driver_spec',
+    'force_substep_key',
     'make_driver',
     'register_driver',
     'saturate_command',

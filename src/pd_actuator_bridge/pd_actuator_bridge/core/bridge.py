@@ -39,6 +39,29 @@ Behaviour on a command beyond a limit (``on_limit``):
     the integrator holds on any non-``'ok'`` status anyway. Faults (NaN, inf, malformed data),
     measurement violations, the watchdog and the emergency stop always hold.
 
+Mixed control (``docs/force_control.md``): a command may give each DOF a control mode and a
+target force (:meth:`handle_command`'s ``control_mode`` and ``target_force``, as in
+:class:`pd_common.protocol.Command`). Inconsistent modes or forces are a FAULT (nothing moves),
+and so is force control with a driver that does not support it
+(:meth:`~.drivers.base.ActuatorDriver.force_control_problem`). Before anything moves:
+the displacement limits above on the displacement-controlled DOFs (from the measured
+position) and |target_force| <= max_force on the force-controlled ones (LIMIT). The force of
+each force-controlled DOF then goes from the force it holds (its last commanded force, 0 at
+the start) to the target through
+:func:`pd_common.experimental.force_ramp.force_ramp` sub-steps of at most
+``max_force_increment`` (each DOF along its own ramp; one that arrives earlier holds its
+target; the displacement-controlled DOFs at their targets from the first sub-step), each sent
+to the driver (:meth:`~.drivers.base.ActuatorDriver.command_force`) and answered before the
+next. After each sub-step: the measurement checks above (max_force on every DOF; tracking on
+the displacement-controlled ones) and, on every DOF, the measured stroke within
+max_displacement and its change since the step began within max_increment
+(:func:`~.limits.check_strokes`): a force-controlled actuator running away holds the test
+with a LIMIT naming it, and no further sub-step is sent. The step is answered with the last
+sub-step's measurement. :meth:`ramp_down` (lifecycle deactivation) ramps the force-controlled
+DOFs down to 0 N through the same sub-steps and checks. A mixed command is never saturated
+(``on_limit='saturate'`` clips displacement-only commands); a command whose modes are all
+displacement is served exactly as a plain one.
+
 Steps are compared by equality and order only, so a step may be an ``int`` or a totally
 ordered key such as ``(step, iteration)`` (the node uses that for implicit schemes). A key that
 cannot be ordered against the test's last step (e.g. an ``int`` after tuples) is foreign: it is
@@ -58,7 +81,8 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from pd_common.protocol import FeedbackStatus
+from pd_common.experimental.force_ramp import force_ramp
+from pd_common.protocol import ControlMode, FeedbackStatus
 
 from .drivers.base import ActuatorDriver, StepId
 from .errors import BridgeConfigError
@@ -67,9 +91,13 @@ from .limits import (
     KIND_LIMIT,
     LimitViolation,
     SafetyLimits,
+    _dof_label,
     _fmt,
     check_command,
+    check_control,
     check_feedback,
+    check_strokes,
+    check_target_force,
     check_tracking,
     saturate_command,
 )
@@ -87,6 +115,12 @@ ON_LIMIT_SATURATE = 'saturate'
 ON_LIMIT_OPTIONS = (ON_LIMIT_HOLD, ON_LIMIT_SATURATE)
 
 SATURATED_PREFIX = 'saturated: '
+
+#: Most sub-steps of one force ramp (a command's, or a ramp-down's): a command's sub-steps and
+#: its ramp-down's are numbered together below ``2 * MAX_FORCE_SUBSTEPS`` (=
+#: :data:`~.drivers.base.SUBSTEP_STRIDE`, what :func:`~.drivers.base.force_substep_key`
+#: carries).
+MAX_FORCE_SUBSTEPS = 32768
 
 ReplyCallback = Callable[['BridgeReply'], None]
 
@@ -112,6 +146,33 @@ class BridgeReply:
     force: tuple[float, ...]
     status: FeedbackStatus
     message: str
+
+
+@dataclass
+class _ForceRamp:
+    """The sub-steps of a mixed command (or a ramp-down) being executed."""
+
+    test_id: str
+    step: StepId | None  # the integrator's step answered at the end; None: a ramp-down
+    key: tuple[int, ...]  # the driver's sub-step ids are (*key, first + index)
+    first: int
+    modes: tuple[int, ...]
+    force_controlled: tuple[bool, ...]
+    targets: tuple[float, ...]  # the displacement-controlled DOFs' targets
+    forces: list[tuple[float, ...]]  # per sub-step, the force targets
+    start: tuple[float, ...]  # the strokes when the step began
+    index: int = 0
+
+    @property
+    def current_id(self) -> tuple[int, ...]:
+        """The driver's id of the sub-step in flight."""
+        return (*self.key, self.first + self.index)
+
+    @property
+    def where(self) -> str:
+        """`` at force ramp sub-step i of n`` (or of the ramp-down) for messages."""
+        what = 'force ramp-down' if self.step is None else 'force ramp'
+        return f' at {what} sub-step {self.index + 1} of {len(self.forces)}'
 
 
 class ActuatorBridge:
@@ -223,6 +284,14 @@ class ActuatorBridge:
         self._saturations = 0
         self._watchdog_trips = 0
         self._emergency_stops = 0
+        # Force control.
+        self._held_force: tuple[float, ...] = (0.0,) * n_dof  # last commanded force per DOF
+        self._force_modes: tuple[bool, ...] = (False,) * n_dof  # of the last command executed
+        self._ramp: _ForceRamp | None = None  # sub-steps in execution
+        self._substep_done = False  # a synchronous driver answered the sub-step just sent
+        self._next_substep: tuple[str, tuple[int, ...], int] | None = None  # after the last ramp
+        self._ramp_down_note = ''
+        self._force_substeps = 0
 
         driver.set_measurement_callback(self._on_driver_measurement)
 
@@ -318,6 +387,31 @@ class ActuatorBridge:
         """Number of holds caused by the command watchdog."""
         return self._watchdog_trips
 
+    @property
+    def held_force(self) -> tuple[float, ...]:
+        """Per DOF the force last commanded to it under force control, N (0 at the start)."""
+        return self._held_force
+
+    @property
+    def force_controlled(self) -> tuple[bool, ...]:
+        """Per DOF whether the last command executed force-controlled it."""
+        return self._force_modes
+
+    @property
+    def force_substeps(self) -> int:
+        """Number of force sub-steps sent to the driver (commands and ramp-downs)."""
+        return self._force_substeps
+
+    @property
+    def ramping_down(self) -> bool:
+        """Whether a :meth:`ramp_down` is still executing (an asynchronous driver)."""
+        return self._ramp is not None and self._ramp.step is None
+
+    @property
+    def ramp_down_note(self) -> str:
+        """One line on the last :meth:`ramp_down`: what it did, or why it stopped."""
+        return self._ramp_down_note
+
     # ------------------------------------------------------------------ public API
 
     def set_reply_callback(self, callback: ReplyCallback | None) -> None:
@@ -326,7 +420,8 @@ class ActuatorBridge:
             self._reply_callback = callback
 
     def handle_command(
-        self, test_id: str, step: StepId, target: Sequence[float], now: float | None = None
+        self, test_id: str, step: StepId, target: Sequence[float], now: float | None = None,
+        *, control_mode: Sequence[int] = (), target_force: Sequence[float] = (),
     ) -> BridgeReply | None:
         """Handle one step command from the integrator.
 
@@ -334,9 +429,14 @@ class ActuatorBridge:
             test_id: Test id of the command.
             step: Step number (0 is the initial displacement), or a totally ordered key such as
                 ``(step, iteration)``.
-            target: Target displacement per DOF, m.
+            target: Target displacement per DOF, m (a force-controlled DOF: the displacement
+                last measured there, checked finite, not imposed).
             now: Arrival time (monotonic seconds) for the command watchdog; the bridge's clock
                 if omitted. If the watchdog has expired, the bridge holds before anything else.
+            control_mode: Per DOF :class:`pd_common.protocol.ControlMode` (0 displacement,
+                1 force); empty (the default): every DOF displacement-controlled.
+            target_force: Per DOF the force a force-controlled DOF is to hold, N (one per DOF
+                with modes, none without).
 
         Returns:
             The reply to publish now, or ``None`` when there is nothing to publish now (the
@@ -363,6 +463,9 @@ class ActuatorBridge:
                 else:
                     self._ignored_commands += 1
                 return None
+            if self._ramp is not None:  # ramping down (deactivation): nothing else moves
+                self._ignored_commands += 1
+                return None
             if same_test and self._last_reply is not None and step == self._last_step:
                 self._repeated_steps += 1
                 return self._last_reply
@@ -371,6 +474,14 @@ class ActuatorBridge:
                 return None
             # A new test id has no step history: nothing is a repeat or stale. Its first answer
             # (or rejection) is recorded under the new id by _record().
+
+            force_controlled, forces, control = check_control(
+                control_mode, target_force, self._n_dof, self._dof_names)
+            if control is not None:
+                return self._enter_hold(test_id, step, STATUS_FAULT,
+                                        f'invalid control: {control.message}', record=True)
+            if any(force_controlled):
+                return self._start_mixed(test_id, step, target, force_controlled, forces)
 
             try:
                 current = [float(x) for x in self._driver.position()]
@@ -407,6 +518,7 @@ class ActuatorBridge:
 
             self._commanded = tuple(checked)
             self._saturation_note = note
+            self._force_modes = (False,) * self._n_dof
             self._in_flight = (test_id, step)
             self._state = STATE_BUSY
             self._capturing = True
@@ -445,6 +557,11 @@ class ActuatorBridge:
             the bridge holds), or ``None`` if the measurement is not for the step in flight.
         """
         with self._lock:
+            if self._ramp is not None:
+                if step != self._ramp.current_id:
+                    self._ignored_measurements += 1
+                    return None
+                return self._ramp_measurement(displacement, force)
             if self._in_flight is None or self._in_flight[1] != step:
                 self._ignored_measurements += 1
                 return None
@@ -586,7 +703,252 @@ class ActuatorBridge:
             self._saturation_note = ''
             self._last_reply = None
             self._watchdog_armed = False
+            self._ramp = None
             return True
+
+    def ramp_down(self) -> str:
+        """Ramp the force-controlled DOFs down to 0 N (lifecycle deactivation), never a jump.
+
+        The DOFs the last command force-controlled go from the force they hold to 0 through
+        the force ramp's sub-steps (``max_force_increment``), the other DOFs held where they
+        are measured; each sub-step is checked like a mixed command's (a runaway or a force
+        beyond max_force holds). A synchronous driver finishes inside this call; with an
+        asynchronous one the sub-steps continue as its measurements arrive
+        (:attr:`ramping_down`) and :attr:`ramp_down_note` says how it ended. Nothing is
+        ramped while holding (the hold is latched: the forces stay; reset first) or while a
+        step is in flight.
+
+        Returns:
+            One line saying what is ramped down (or why not); empty if no force is held.
+        """
+        with self._lock:
+            controlled = self._force_modes
+            loaded = [dof for dof in range(self._n_dof)
+                      if controlled[dof] and self._held_force[dof] != 0.0]
+            if not loaded:
+                return ''
+            held = ', '.join(f'{_dof_label(dof, self._dof_names)} at '
+                             f'{_fmt(self._held_force[dof])} N' for dof in loaded)
+            if self._state == STATE_HOLDING:
+                note = (f'force not ramped down (holding: {self._hold_reason}): {held} '
+                        'kept; reset the hold, then deactivate again to ramp down')
+                self._ramp_down_note = note
+                return note
+            if self._state != STATE_READY or self._in_flight is not None:
+                note = f'force not ramped down (a step is in flight): {held} kept'
+                self._ramp_down_note = note
+                return note
+            try:
+                current = tuple(float(x) for x in self._driver.position())
+            except Exception as exc:  # noqa: BLE001 - any driver failure means hold
+                current = ()
+                problem = f'driver position() failed: {_describe(exc)}'
+            else:
+                problem = (f'driver position() has {len(current)} values but the driver has '
+                           f'{self._n_dof} DOF') if len(current) != self._n_dof else ''
+            if not problem and not all(math.isfinite(x) for x in current):
+                problem = f'driver position() is not finite: {list(current)}'
+            if problem:
+                self._enter_hold('', -1, STATUS_FAULT, f'force ramp-down: {problem}',
+                                 record=False)
+                note = f'force not ramped down ({problem}): {held} kept; holding'
+                self._ramp_down_note = note
+                return note
+            zeros = tuple(0.0 if on else force
+                          for on, force in zip(controlled, self._held_force))
+            forces = self._force_plan(controlled, zeros)
+            if len(forces) > MAX_FORCE_SUBSTEPS:
+                note = (f'force not ramped down (it needs {len(forces)} sub-steps, more than '
+                        f'{MAX_FORCE_SUBSTEPS}): {held} kept')
+                self._ramp_down_note = note
+                return note
+            test_id, key, first = self._next_substep or (self._last_test_id or '', (0,), 0)
+            self._ramp = _ForceRamp(
+                test_id=test_id, step=None, key=key, first=first,
+                modes=tuple(int(ControlMode.FORCE if on else ControlMode.DISPLACEMENT)
+                            for on in controlled),
+                force_controlled=controlled, targets=current, forces=forces, start=current)
+            self._next_substep = (test_id, key, first + len(forces))
+            self._ramp_down_note = (f'ramping force down to 0 N in {len(forces)} sub-steps '
+                                    f'(max_force_increment '
+                                    f'{_fmt(self._limits.max_force_increment)} N): {held}')
+            note = self._ramp_down_note
+            self._state = STATE_BUSY
+            self._run_ramp()
+            return note
+
+    # ------------------------------------------------------------------ force control
+
+    def _force_plan(self, force_controlled: tuple[bool, ...], forces: Sequence[float]
+                    ) -> list[tuple[float, ...]]:
+        """Per sub-step the force targets (0 on the displacement-controlled DOFs).
+
+        Each force-controlled DOF follows ``force_ramp(held, target, max_force_increment)``; one
+        that arrives earlier holds its target; at least one sub-step.
+        """
+        increment = self._limits.max_force_increment
+        ramps = {dof: force_ramp(self._held_force[dof], float(forces[dof]), increment)
+                 for dof in range(self._n_dof) if force_controlled[dof]}
+        count = max([1, *(len(ramp) for ramp in ramps.values())])
+        plan = []
+        for sub in range(count):
+            values = [0.0] * self._n_dof
+            for dof, ramp in ramps.items():
+                values[dof] = ramp[min(sub, len(ramp) - 1)] if ramp else float(forces[dof])
+            plan.append(tuple(values))
+        return plan
+
+    def _start_mixed(self, test_id: str, step: StepId, target: Sequence[float],
+                     force_controlled: tuple[bool, ...], forces: tuple[float, ...]
+                     ) -> BridgeReply | None:
+        """Check a mixed command before anything moves, then run its force ramp."""
+        problem = self._driver.force_control_problem()
+        if problem is not None:
+            name = self._driver.driver_name or type(self._driver).__name__
+            return self._enter_hold(test_id, step, STATUS_FAULT, f'driver {name}: {problem}',
+                                    record=True)
+        try:
+            current = [float(x) for x in self._driver.position()]
+        except Exception as exc:  # noqa: BLE001 - any driver failure means hold
+            return self._enter_hold(
+                test_id, step, STATUS_FAULT, f'driver position() failed: {_describe(exc)}',
+                record=True,
+            )
+        imposed = tuple(not flag for flag in force_controlled)
+        if len(current) != self._n_dof:
+            violation: LimitViolation | None = LimitViolation(
+                KIND_FAULT, 0,
+                f'driver position() has {len(current)} values but the driver has '
+                f'{self._n_dof} DOF',
+            )
+        else:
+            violation = check_command(target, current, self._limits, self._dof_names,
+                                      displacement_controlled=imposed)
+        if violation is None:
+            violation = check_target_force(forces, force_controlled, self._limits,
+                                           self._dof_names)
+        plan: list[tuple[float, ...]] = []
+        if violation is None:
+            plan = self._force_plan(force_controlled, forces)
+            if len(plan) > MAX_FORCE_SUBSTEPS:
+                violation = LimitViolation(
+                    KIND_LIMIT, 0,
+                    f'force ramp needs {len(plan)} sub-steps, more than {MAX_FORCE_SUBSTEPS} '
+                    f'(max_force_increment {_fmt(self._limits.max_force_increment)} N); '
+                    'nothing moved')
+        if violation is not None:
+            return self._enter_hold(test_id, step, violation.kind, violation.message,
+                                    record=True)
+        key = tuple(int(x) for x in step) if isinstance(step, tuple) else (int(step),)
+        targets = tuple(float(x) for x in target)
+        self._ramp = _ForceRamp(
+            test_id=test_id, step=step, key=key, first=0,
+            modes=tuple(int(ControlMode.FORCE if flag else ControlMode.DISPLACEMENT)
+                        for flag in force_controlled),
+            force_controlled=force_controlled, targets=targets, forces=plan,
+            start=tuple(current))
+        self._next_substep = (test_id, key, len(plan))
+        self._force_modes = force_controlled
+        self._commanded = targets
+        self._in_flight = (test_id, step)
+        self._state = STATE_BUSY
+        return self._run_ramp()
+
+    def _run_ramp(self) -> BridgeReply | None:
+        """Send sub-steps of the ramp in execution while the driver answers synchronously.
+
+        Returns:
+            The step's reply (its last sub-step answered, or a hold); ``None`` while an
+            asynchronous driver has a sub-step in flight, or for a ramp-down.
+        """
+        while self._ramp is not None:
+            ramp = self._ramp
+            forces = ramp.forces[ramp.index]
+            measured = self._displacement if self._displacement is not None else ramp.start
+            if len(measured) != self._n_dof:  # pragma: no cover - checked when stored
+                measured = ramp.start
+            targets = [measured[dof] if ramp.force_controlled[dof] else ramp.targets[dof]
+                       for dof in range(self._n_dof)]
+            self._held_force = tuple(
+                forces[dof] if ramp.force_controlled[dof] else self._held_force[dof]
+                for dof in range(self._n_dof))
+            self._force_substeps += 1
+            self._capturing = True
+            self._captured = None
+            self._substep_done = False
+            try:
+                self._driver.command_force(ramp.current_id, targets, ramp.modes, list(forces))
+            except Exception as exc:  # noqa: BLE001 - any driver failure means hold
+                self._capturing = False
+                if self._state == STATE_HOLDING:
+                    captured, self._captured = self._captured, None
+                    return captured
+                where = ramp.where
+                return self._ramp_hold(
+                    STATUS_FAULT, f'driver command_force() failed{where}: {_describe(exc)}')
+            finally:
+                self._capturing = False
+            if self._substep_done and self._ramp is ramp:
+                self._substep_done = False
+                continue  # answered synchronously: the next sub-step
+            captured, self._captured = self._captured, None
+            return captured
+        return None
+
+    def _ramp_measurement(self, displacement: Sequence[float], force: Sequence[float]
+                          ) -> BridgeReply | None:
+        """A sub-step answered: check it, then the next sub-step or the step's reply."""
+        ramp = self._ramp
+        assert ramp is not None
+        violation = check_feedback(
+            displacement, force, self._limits, self._dof_names, n_dof=self._n_dof
+        )
+        if violation is None or violation.kind == KIND_LIMIT:
+            self._displacement = tuple(float(x) for x in displacement)
+            self._force = tuple(float(f) for f in force)
+        if violation is None:
+            violation = check_tracking(
+                displacement, ramp.targets, self._limits, self._dof_names,
+                displacement_controlled=tuple(not flag for flag in ramp.force_controlled))
+        if violation is not None:
+            violation = LimitViolation(violation.kind, violation.dof,
+                                       f'{violation.message}{ramp.where}')
+        elif self._displacement is not None:  # stored above: finite and well formed
+            violation = check_strokes(self._displacement, ramp.start, ramp.force_controlled,
+                                      self._limits, self._dof_names, ramp.where)
+        if violation is not None:
+            reply = self._ramp_hold(violation.kind, violation.message)
+        else:
+            ramp.index += 1
+            if ramp.index < len(ramp.forces):
+                if self._capturing:
+                    self._substep_done = True  # _run_ramp sends the next one
+                    return None
+                return self._run_ramp()  # an asynchronous driver: send the next one now
+            self._ramp = None
+            self._in_flight = None
+            self._commanded = None
+            self._state = STATE_READY
+            if ramp.step is None:
+                self._ramp_down_note = (f'ramped force down to 0 N in {len(ramp.forces)} '
+                                        'sub-steps')
+                return None
+            assert self._displacement is not None
+            reply = BridgeReply(ramp.test_id, ramp.step, self._displacement, self._force,
+                                STATUS_OK, '')
+            self._record(reply)
+        if self._capturing:
+            self._captured = reply
+        return reply
+
+    def _ramp_hold(self, status: FeedbackStatus, message: str) -> BridgeReply | None:
+        """Hold in the middle of a ramp: the step's reply (``None`` for a ramp-down)."""
+        ramp = self._ramp
+        assert ramp is not None
+        if ramp.step is None:
+            self._enter_hold(ramp.test_id, -1, status, message, record=False)
+            return None
+        return self._enter_hold(ramp.test_id, ramp.step, status, message, record=True)
 
     # ------------------------------------------------------------------ internals
 
@@ -648,12 +1010,15 @@ class ActuatorBridge:
         except Exception as exc:  # noqa: BLE001 - still latch the hold
             message = f'{message}; driver hold() failed: {_describe(exc)}'
         self._violations += 1
+        if self._ramp is not None and self._ramp.step is None:
+            self._ramp_down_note = f'force ramp-down stopped: {message}'
         self._state = STATE_HOLDING
         self._hold_status = status
         self._hold_reason = message
         self._in_flight = None
         self._commanded = None
         self._saturation_note = ''
+        self._ramp = None
         reply = self._reply(test_id, step, status, message)
         if record:
             self._record(reply)

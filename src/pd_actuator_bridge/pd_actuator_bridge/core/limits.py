@@ -15,18 +15,21 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from fractions import Fraction
-from numbers import Real
+from numbers import Integral, Real
 from typing import Any
 
-from pd_common.protocol import FeedbackStatus
+from pd_common.protocol import ControlMode, FeedbackStatus
 
 from .errors import BridgeConfigError
 
 KIND_LIMIT = FeedbackStatus.LIMIT
 KIND_FAULT = FeedbackStatus.FAULT
+_MODES = frozenset(int(mode) for mode in ControlMode)
 
 _REQUIRED = ('max_displacement', 'max_increment', 'max_force')
 _OPTIONAL = ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout')
+#: Limits that may be 0 (off) but never negative.
+_ZERO_OFF = ('max_force_increment',)
 
 
 @dataclass(frozen=True)
@@ -44,10 +47,14 @@ class SafetyLimits:
             step is answered, m (feedback plausibility); ``None`` disables the check.
         watchdog_timeout: Longest allowed time without a command while the bridge is active, s
             (see :meth:`~.bridge.ActuatorBridge.check_watchdog`); ``None`` disables the watchdog.
+        max_force_increment: Largest change of a force-controlled actuator's commanded force in
+            one sub-step, N: a force change is executed through
+            :func:`pd_common.experimental.force_ramp.force_ramp` sub-steps of at most this
+            (``docs/force_control.md``); 0 (the default) = no ramp, one sub-step.
 
     Raises:
-        BridgeConfigError: If a value is not a positive finite number, or ``max_velocity`` is
-            given without ``step_duration``.
+        BridgeConfigError: If a value is not a positive finite number (``max_force_increment``:
+            a finite number >= 0), or ``max_velocity`` is given without ``step_duration``.
     """
 
     max_displacement: float
@@ -57,11 +64,12 @@ class SafetyLimits:
     step_duration: float | None = None
     tracking_tolerance: float | None = None
     watchdog_timeout: float | None = None
+    max_force_increment: float = 0.0
 
     def __post_init__(self) -> None:
         """Validate and normalise the values to ``float``."""
         _validate(self, 'SafetyLimits')
-        for name in _REQUIRED + _OPTIONAL:
+        for name in _REQUIRED + _OPTIONAL + _ZERO_OFF:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, float(value))
@@ -92,7 +100,8 @@ class SafetyLimits:
         Args:
             mapping: Keys exactly ``max_displacement``, ``max_increment``, ``max_force`` and
                 optionally ``max_velocity``, ``step_duration``, ``tracking_tolerance`` and
-                ``watchdog_timeout`` (``None`` means not set).
+                ``watchdog_timeout`` (``None`` means not set) and ``max_force_increment``
+                (0 or missing: no force ramp).
             source: Name of the file or parameter namespace, used in error messages.
 
         Returns:
@@ -104,7 +113,7 @@ class SafetyLimits:
         if not isinstance(mapping, Mapping):
             msg = f'{source}: safety limits must be a mapping, got {type(mapping).__name__}'
             raise BridgeConfigError(msg)
-        known = _REQUIRED + _OPTIONAL
+        known = _REQUIRED + _OPTIONAL + _ZERO_OFF
         for key in mapping:
             if key not in known:
                 msg = (
@@ -116,7 +125,9 @@ class SafetyLimits:
             if key not in mapping:
                 msg = f'{source}: missing required safety limit {key!r}'
                 raise BridgeConfigError(msg)
-        values: dict[str, Any] = {key: mapping.get(key) for key in known}
+        values: dict[str, Any] = {key: mapping.get(key) for key in _REQUIRED + _OPTIONAL}
+        for key in _ZERO_OFF:
+            values[key] = mapping.get(key, 0.0)
         _validate_values(values, source)
         return cls(**values)
 
@@ -138,6 +149,13 @@ def _validate_values(values: Mapping[str, Any], source: str) -> None:
             raise BridgeConfigError(msg)
         if not math.isfinite(float(value)) or float(value) <= 0.0:
             msg = f'{source}: {name} must be a positive finite number, got {value!r}'
+            raise BridgeConfigError(msg)
+    for name in _ZERO_OFF:
+        value = values.get(name, 0.0)
+        if (isinstance(value, bool) or not isinstance(value, Real)
+                or not math.isfinite(float(value)) or float(value) < 0.0):
+            msg = (f'{source}: {name} must be a finite number >= 0 (0 = off), got '
+                   f'{type(value).__name__} {value!r}')
             raise BridgeConfigError(msg)
     if values['max_velocity'] is not None and values['step_duration'] is None:
         msg = (
@@ -169,6 +187,8 @@ def check_command(
     current: Sequence[float],
     limits: SafetyLimits,
     dof_names: Sequence[str] | None = None,
+    *,
+    displacement_controlled: Sequence[bool] | None = None,
 ) -> LimitViolation | None:
     """Check a target displacement against the safety limits.
 
@@ -181,6 +201,11 @@ def check_command(
         current: Current (last known) displacement per DOF, m.
         limits: The limits to enforce.
         dof_names: Optional DOF names used in messages, e.g. ``'DOF 0 (top)'``.
+        displacement_controlled: Under mixed control, per DOF whether it is
+            displacement-controlled; the limits then apply to those DOFs only (a
+            force-controlled DOF's target is not imposed, so only its finiteness is checked;
+            its stroke is checked after each force sub-step, :func:`check_strokes`). ``None``:
+            every DOF.
 
     Returns:
         The first violation found, or ``None`` if the command is safe.
@@ -201,8 +226,9 @@ def check_command(
     if violation is not None:
         return violation
 
+    imposed = _mask(displacement_controlled, len(target_values))
     for dof, value in enumerate(target_values):
-        if abs(value) > limits.max_displacement:
+        if imposed[dof] and abs(value) > limits.max_displacement:
             return LimitViolation(
                 KIND_LIMIT,
                 dof,
@@ -210,7 +236,8 @@ def check_command(
                 f'{_fmt(value, limits.max_displacement)} m exceeds max_displacement '
                 f'{_fmt(limits.max_displacement)} m',
             )
-    increments = [abs(t - c) for t, c in zip(target_values, current_values)]
+    increments = [abs(t - c) if on else 0.0
+                  for t, c, on in zip(target_values, current_values, imposed)]
     for dof, increment in enumerate(increments):
         if increment > limits.max_increment:
             return LimitViolation(
@@ -289,6 +316,8 @@ def check_tracking(
     commanded: Sequence[float],
     limits: SafetyLimits,
     dof_names: Sequence[str] | None = None,
+    *,
+    displacement_controlled: Sequence[bool] | None = None,
 ) -> LimitViolation | None:
     """Check that the actuator followed its command (feedback plausibility).
 
@@ -297,6 +326,9 @@ def check_tracking(
         commanded: Displacement sent to the driver for that step, m.
         limits: The limits; nothing is checked when ``tracking_tolerance`` is ``None``.
         dof_names: Optional DOF names used in messages.
+        displacement_controlled: Under mixed control, per DOF whether it is
+            displacement-controlled (a force-controlled DOF goes wherever its force takes it:
+            not checked); ``None``: every DOF.
 
     Returns:
         ``'fault'`` if |measured - commanded| > tracking_tolerance for a DOF (the first one), or
@@ -321,9 +353,10 @@ def check_tracking(
                                  'commanded displacement', dof_names)
     if violation is not None:
         return violation
+    imposed = _mask(displacement_controlled, len(measured_values))
     for dof, (x_measured, x_commanded) in enumerate(zip(measured_values, commanded_values)):
         error = abs(x_measured - x_commanded)
-        if error > tolerance:
+        if imposed[dof] and error > tolerance:
             return LimitViolation(
                 KIND_FAULT,
                 dof,
@@ -332,6 +365,128 @@ def check_tracking(
                 f'tracking_tolerance {_fmt(tolerance)} m',
             )
     return None
+
+
+def check_control(
+    control_mode: Sequence[Any],
+    target_force: Sequence[Any],
+    n_dof: int,
+    dof_names: Sequence[str] | None = None,
+) -> tuple[tuple[bool, ...], tuple[float, ...], LimitViolation | None]:
+    """Check a command's control modes and target forces for consistency (like
+    :meth:`pd_common.protocol.Command.control_error`).
+
+    Modes must be empty (every DOF displacement-controlled; then no forces either) or one
+    :class:`~pd_common.protocol.ControlMode` per DOF, with one finite target force per DOF.
+
+    Args:
+        control_mode: Per DOF 0 (displacement) or 1 (force), or empty.
+        target_force: Per DOF the force a force-controlled DOF holds, N (ignored for the
+            others), or empty.
+        n_dof: Number of DOF.
+        dof_names: Optional DOF names used in messages.
+
+    Returns:
+        ``(force_controlled, forces, violation)``: per DOF whether it is force-controlled, the
+        target forces as floats (zeros without modes) and ``None``, or a ``'fault'``
+        violation (then the first two are empty).
+    """
+    for what, values in (('control_mode', control_mode), ('target_force', target_force)):
+        if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
+            return (), (), LimitViolation(
+                KIND_FAULT, 0, f'{what} must be a sequence, got {type(values).__name__}')
+    modes = list(control_mode)
+    raw_forces = list(target_force)
+    if not modes:
+        if raw_forces:
+            return (), (), LimitViolation(
+                KIND_FAULT, 0, f'{len(raw_forces)} target forces without control modes')
+        return (False,) * n_dof, (0.0,) * n_dof, None
+    if len(modes) != n_dof or len(raw_forces) != n_dof:
+        return (), (), LimitViolation(
+            KIND_FAULT, min(len(modes), len(raw_forces), n_dof),
+            f'{len(modes)} control modes and {len(raw_forces)} target forces for {n_dof} DOF')
+    flags: list[bool] = []
+    for dof, mode in enumerate(modes):
+        if isinstance(mode, bool) or not isinstance(mode, Integral) or int(mode) not in _MODES:
+            return (), (), LimitViolation(
+                KIND_FAULT, dof, f'{_dof_label(dof, dof_names)}: unknown control mode {mode!r} '
+                f'(0 displacement, 1 force)')
+        flags.append(int(mode) == ControlMode.FORCE)
+    forces, problem = _as_floats(raw_forces, 'target force')
+    if problem is not None:
+        return (), (), LimitViolation(KIND_FAULT, 0, problem)
+    violation = _non_finite(forces, 'target force', dof_names)
+    if violation is not None:
+        return (), (), violation
+    return tuple(flags), tuple(forces), None
+
+
+def check_target_force(
+    target_force: Sequence[float],
+    force_controlled: Sequence[bool],
+    limits: SafetyLimits,
+    dof_names: Sequence[str] | None = None,
+) -> LimitViolation | None:
+    """``'limit'`` for the first force-controlled DOF with |target_force| > max_force."""
+    for dof, (force, controlled) in enumerate(zip(target_force, force_controlled)):
+        if controlled and abs(force) > limits.max_force:
+            return LimitViolation(
+                KIND_LIMIT, dof,
+                f'{_dof_label(dof, dof_names)}: target force {_fmt(force, limits.max_force)} N '
+                f'exceeds max_force {_fmt(limits.max_force)} N (force-controlled; nothing moved)')
+    return None
+
+
+def check_strokes(
+    measured: Sequence[float],
+    start: Sequence[float],
+    force_controlled: Sequence[bool],
+    limits: SafetyLimits,
+    dof_names: Sequence[str] | None = None,
+    where: str = '',
+) -> LimitViolation | None:
+    """Check every actuator's measured stroke after a sub-step of a mixed command.
+
+    ``'limit'`` for the first DOF with |measured| > max_displacement, then for the first one
+    whose stroke changed within the step by more than max_increment (|measured - start|, with
+    ``start`` the stroke when the step began): a force-controlled actuator running away.
+
+    Args:
+        measured: Measured stroke per DOF, m (finite, checked by :func:`check_feedback`).
+        start: Stroke per DOF when the step (or the ramp-down) began, m.
+        force_controlled: Per DOF whether it is force-controlled (named in the message).
+        limits: The limits to enforce.
+        dof_names: Optional DOF names used in messages.
+        where: Appended to the message, e.g. ``' at force ramp sub-step 3 of 10'``.
+    """
+    def label(dof: int) -> str:
+        text = _dof_label(dof, dof_names)
+        return f'{text}, force-controlled' if force_controlled[dof] else text
+
+    for dof, value in enumerate(measured):
+        if abs(value) > limits.max_displacement:
+            return LimitViolation(
+                KIND_LIMIT, dof,
+                f'{label(dof)}: measured stroke {_fmt(value, limits.max_displacement)} m '
+                f'exceeds max_displacement {_fmt(limits.max_displacement)} m{where}; holding')
+    for dof, (value, begin) in enumerate(zip(measured, start)):
+        change = abs(value - begin)
+        if change > limits.max_increment:
+            return LimitViolation(
+                KIND_LIMIT, dof,
+                f'{label(dof)}: stroke change {_fmt(change, limits.max_increment)} m within the '
+                f'step (from {_fmt(begin)} m to {_fmt(value)} m) exceeds max_increment '
+                f'{_fmt(limits.max_increment)} m{where}; holding')
+    return None
+
+
+def _mask(flags: Sequence[bool] | None, n: int) -> list[bool]:
+    """Per DOF whether the displacement limits apply (every DOF without flags)."""
+    if flags is None:
+        return [True] * n
+    values = [bool(flag) for flag in flags]
+    return values + [True] * (n - len(values))
 
 
 @dataclass(frozen=True)

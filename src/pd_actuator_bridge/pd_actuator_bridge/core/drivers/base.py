@@ -43,7 +43,15 @@ class ActuatorDriver(abc.ABC):
     * :meth:`close` — the destructor (GenericTCP's ``DIE``, 99).
     * ``commitState()`` has no counterpart: the bridge keeps no committed state in the driver
       (OpenFresco's GenericTCP client sends nothing on commit either).
+    * :meth:`command_force` — one sub-step of a mixed (force/displacement) command. Only a
+      driver whose :meth:`force_control_problem` is ``None`` takes it; the others refuse
+      force control (the bridge answers such a command with a one-line FAULT, nothing moves).
+      See ``docs/force_control.md``.
     """
+
+    #: The registered name of the driver (``driver`` parameter), for messages ('': the
+    #: class name).
+    driver_name = ''
 
     def __init__(self) -> None:
         """Create the driver with no measurement callback."""
@@ -84,6 +92,41 @@ class ActuatorDriver(abc.ABC):
             DriverError: If the command cannot be executed.
         """
 
+    def force_control_problem(self) -> str | None:
+        """Why this driver cannot drive force-controlled actuators (``None``: it can).
+
+        The default: it cannot. A driver that can overrides this and :meth:`command_force`.
+        """
+        return ('force control not supported; it would drive every actuator in displacement '
+                '(use a driver with force control, see docs/force_control.md)')
+
+    def command_force(self, step: StepId, target: Sequence[float],
+                      control_mode: Sequence[int], target_force: Sequence[float]) -> None:
+        """Start one sub-step of a mixed command.
+
+        The bridge calls it once per force ramp sub-step, each with its own ``step``: the
+        integrator's key followed by the sub-step number, ``(*key, s)`` (``s`` = 0, 1, ...; a
+        ramp-down at deactivation continues the numbering of the last mixed command), and
+        waits for that sub-step's measurement (reported with the same ``step``) before the
+        next.
+
+        Args:
+            step: The sub-step's id, ``(*key, s)``.
+            target: Per DOF the displacement, m: imposed on a displacement-controlled DOF;
+                for a force-controlled DOF the stroke last measured (not imposed).
+            control_mode: Per DOF :class:`pd_common.protocol.ControlMode` (0 displacement,
+                1 force).
+            target_force: Per DOF the force a force-controlled DOF is to hold, N (0 for the
+                displacement-controlled ones).
+
+        Raises:
+            DriverError: The driver does not support force control (the default) or cannot
+                execute the sub-step.
+        """
+        problem = self.force_control_problem() or 'force control not supported'
+        msg = f'driver {self.driver_name or type(self).__name__}: {problem}'
+        raise DriverError(msg)
+
     @abc.abstractmethod
     def hold(self) -> None:
         """Stop and hold the current position."""
@@ -100,6 +143,37 @@ class ActuatorDriver(abc.ABC):
         """Deliver a measurement to the callback, if one is set."""
         if self._measurement_callback is not None:
             self._measurement_callback(step, displacement, force)
+
+
+#: Specimen-side iterations per integrator iteration in :func:`force_substep_key`.
+SUBSTEP_STRIDE = 65536
+#: The largest integrator iteration :func:`force_substep_key` can carry (uint32 iterations).
+MAX_MIXED_ITERATION = (2**32 - 1) // SUBSTEP_STRIDE - 1
+
+
+def force_substep_key(step: StepId) -> tuple[int, int]:
+    """The ``(step, iteration)`` key of force sub-step ``step = (*key, s)`` for a specimen.
+
+    Sub-step ``s`` of the integrator's ``(step, iteration)`` (or of ``step``: iteration 0) is
+    ``(step, iteration * SUBSTEP_STRIDE + s)``: a new key per sub-step, in order, after every
+    sub-step of the earlier iterations and steps and before the later ones (a ramp-down
+    continues the numbering). A specimen that answers a repeat of its last key and ignores
+    older ones (:class:`pd_common.specimen.SpecimenServer`) so sees every sub-step as a new
+    command.
+
+    Raises:
+        DriverError: ``s`` or the iteration is beyond what the scheme carries.
+    """
+    values = [int(value) for value in step] if isinstance(step, tuple) else [int(step)]
+    *key, sub = values
+    number = key[0] if key else 0
+    iteration = key[1] if len(key) > 1 else 0
+    if not 0 <= sub < SUBSTEP_STRIDE or not 0 <= iteration <= MAX_MIXED_ITERATION:
+        msg = (f'cannot key force sub-step {sub} of step {number} iteration {iteration} for '
+               f'the specimen (at most {SUBSTEP_STRIDE} sub-steps and iteration '
+               f'{MAX_MIXED_ITERATION})')
+        raise DriverError(msg)
+    return number, iteration * SUBSTEP_STRIDE + sub
 
 
 class RemoteDriver(ActuatorDriver):

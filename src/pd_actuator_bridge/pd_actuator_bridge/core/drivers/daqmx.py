@@ -102,6 +102,14 @@ class DaqmxDriver(ActuatorDriver):
         config: The driver configuration.
     """
 
+    driver_name = 'daqmx'
+
+    def force_control_problem(self) -> str | None:
+        """Why this driver refuses force-controlled actuators (always: see the docs)."""
+        return ('force control not supported; '
+                'its analog outputs are displacement commands (wire a force-controlled '
+                'channel as described in docs/force_control.md, or use another driver)')
+
     def __init__(
         self,
         config: DaqmxConfig,

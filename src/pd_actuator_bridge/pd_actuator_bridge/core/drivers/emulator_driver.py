@@ -48,6 +48,14 @@ class EmulatorDriver(ActuatorDriver):
         last_execution: The last step's execution (also a failed one), or ``None``.
     """
 
+    driver_name = 'emulator'
+
+    def force_control_problem(self) -> str | None:
+        """Why this driver refuses force-controlled actuators (always: see the docs)."""
+        return ('force control not supported; '
+                'the emulated servo-valve has a displacement loop only (use sim_servo '
+                'for a simulated force-controlled actuator)')
+
     @property
     def state_origin(self) -> StateOrigin:
         """``FRESH``: the emulated specimen lives in the bridge's process (a restarted bridge

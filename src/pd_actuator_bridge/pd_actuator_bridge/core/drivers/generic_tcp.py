@@ -359,6 +359,14 @@ class GenericTCPDriver(RemoteDriver):
         fault: The last communication failure message ('' if none).
     """
 
+    driver_name = 'generic_tcp'
+
+    def force_control_problem(self) -> str | None:
+        """Why this driver refuses force-controlled actuators (always: see the docs)."""
+        return ('force control not supported; '
+                'it sends OpenFresco trial displacements only (see '
+                'docs/force_control.md)')
+
     error_type = GenericTCPError
 
     def __init__(

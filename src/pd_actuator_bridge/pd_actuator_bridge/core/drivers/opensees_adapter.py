@@ -112,6 +112,13 @@ class OpenSeesAdapterDriver(RemoteDriver):
         fault: The last communication failure message ('' if none).
     """
 
+    driver_name = 'opensees_adapter'
+
+    def force_control_problem(self) -> str | None:
+        """Why this driver refuses force-controlled actuators (always: see the docs)."""
+        return ('force control not supported; '
+                'the OpenSees adapter element takes displacements only')
+
     error_type = OpenSeesAdapterError
 
     def __init__(
