@@ -84,7 +84,7 @@ from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..experimental.force_ramp import force_ramp
 from ..experimental.setups import ExperimentalSetup, OneToOneSetup, setup_from_config
 from ..protocol.messages import Command, Feedback, FeedbackStatus
-from .config import load_specimen_section, model_from_config
+from .config import COLUMN_KEY, load_specimen_section, model_from_config
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -197,6 +197,11 @@ def site_geometry(raw: Mapping[str, Any], site: str, source: str) -> SiteGeometr
     several experimental elements is simulated one-to-one (each must have a ``one_to_one``
     setup). A one-to-one setup is ``None``.
 
+    The simulator emulates the setup's geometry only for a specimen given in basic coordinates
+    (a ``column`` specimen); a specimen of ``elements`` is given per actuator, as it always
+    was, and is simulated without a setup (its force-controlled actuators, if any, hold their
+    forces on their own elements). One rule for the simulator node and the ROS-free runs.
+
     Raises:
         SpecimenConfigError: one line naming ``source`` and the key.
     """
@@ -238,6 +243,11 @@ def site_geometry(raw: Mapping[str, Any], site: str, source: str) -> SiteGeometr
                    'simulator takes one_to_one setups only')
             raise SpecimenConfigError(msg)
     setup = setups[0] if len(setups) == 1 and not isinstance(setups[0], OneToOneSetup) else None
+    sites = raw.get('sites')
+    settings = sites.get(site) if isinstance(sites, Mapping) else None
+    specimen = settings.get('specimen') if isinstance(settings, Mapping) else None
+    if not (isinstance(specimen, Mapping) and COLUMN_KEY in specimen):
+        setup = None  # a specimen per actuator
     return SiteGeometry(setup, increment, tuple(names) if mine and named else None)
 
 

@@ -24,7 +24,13 @@ Each element names the structure DOFs it connects (``dofs``; ``null`` = the grou
 * ``experimental``: measured at ``site``; basic DOFs ``dofs`` (optionally minus
   ``relative_to``, same length, ``null`` = ground), ``setup`` (``one_to_one`` or
   ``rigid_link_2``, see :mod:`.setups`), ``actuators`` (names of the site's actuator DOFs;
-  default from the element), ``initial_stiffness`` in basic DOFs (scalar, diagonal or matrix).
+  default from the element), ``initial_stiffness`` in basic DOFs (scalar, diagonal or matrix),
+  ``control`` per actuator (``{mode: displacement}``, the default, or ``{mode: force,
+  force: F}`` with ``F`` in N or a table ``[[t, F], ...]``, see :mod:`.control`). A ``null``
+  entry of ``dofs`` is a *free* basic DOF (not a structure DOF: measured, e.g. a column's
+  axial shortening under a force-controlled axial load); an element needs exactly one
+  force-controlled actuator per ``null`` entry, and its ``initial_stiffness`` is statically
+  condensed onto the structure DOFs.
 
 DOFs with zero mass are statically condensed out (only linear elements may touch them); the
 session integrates the retained DOFs.
@@ -44,6 +50,7 @@ from pd_common.specimen import SpecimenError, hysteresis_from_config
 
 from ..errors import ConfigError
 from ..matrices import as_matrix
+from .control import parse_control
 from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
 from .setups import OneToOneSetup, setup_from_config
 from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
@@ -60,7 +67,7 @@ _KEYS: dict[str, tuple[set[str], set[str]]] = {
     'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, set()),
     'nonlinear_spring': ({'dofs', 'model'}, set()),
     'experimental': ({'dofs', 'site', 'initial_stiffness'},
-                     {'relative_to', 'setup', 'actuators'}),
+                     {'relative_to', 'setup', 'actuators', 'control'}),
 }
 
 
@@ -86,6 +93,24 @@ def _number(value: Any, where: str, *, positive: bool = True) -> float:
         msg = f'{where}: must be {kind}, got {value!r}'
         raise ConfigError(msg)
     return float(value)
+
+
+def _condensed(stiffness: np.ndarray, structural: list[int], free: list[int], where: str
+               ) -> np.ndarray:
+    """``K_ss − K_sf K_ff⁻¹ K_fs``: the stiffness on the structure DOFs when the free DOFs
+    are held by constant forces (the given matrix when there are none)."""
+    if not free:
+        return stiffness
+    k_ss = stiffness[np.ix_(structural, structural)]
+    k_sf = stiffness[np.ix_(structural, free)]
+    k_ff = stiffness[np.ix_(free, free)]
+    if not np.all(np.isfinite(k_ff)) or np.linalg.cond(k_ff) > 1e12:
+        msg = (f'{where}: its block on the free basic DOFs (null entries of dofs) must be '
+               f'invertible, got {k_ff.tolist()!r}')
+        raise ConfigError(msg)
+    k_fs = stiffness[np.ix_(free, structural)]
+    condensed: np.ndarray = k_ss - k_sf @ np.linalg.solve(k_ff, k_fs)
+    return condensed
 
 
 def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndarray,
@@ -185,9 +210,21 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
             touched_nonlinear.update(i for i in dofs if i is not None)
             springs.append((dofs, raw['model'], name, f'{path}.model'))
         else:
-            dofs = dof_list('dofs', tuple(range(1, n_all + 1)), nulls=False)
+            value = raw.get('dofs')
+            nulls = isinstance(value, list) and None in value
+            dofs = dof_list('dofs', len(value) if isinstance(value, list) and nulls
+                            else tuple(range(1, n_all + 1)), nulls=nulls)
+            if all(d is None for d in dofs):
+                msg = (f'{path}.dofs: needs at least one structure DOF (null entries are free '
+                       f'basic DOFs held by force-controlled actuators), got {value!r}')
+                raise ConfigError(msg)
             relative = (dof_list('relative_to', len(dofs)) if raw.get('relative_to') is not None
                         else [None] * len(dofs))
+            for k, (d, r) in enumerate(zip(dofs, relative)):
+                if d is None and r is not None:
+                    msg = (f'{path}.relative_to: entry {k + 1} must be null: the basic DOF is '
+                           'free (dofs entry null)')
+                    raise ConfigError(msg)
             site = raw['site']
             if not isinstance(site, str) or not SITE_NAME.match(site):
                 msg = (f'{path}.site: must be a name of letters, digits and _ starting with a '
@@ -259,8 +296,9 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
         actuators = raw.get('actuators')
         if actuators is None:
             if isinstance(setup, OneToOneSetup):
-                actuators = [names[d] if r is None else f'{names[d]}-{names[r]}'
-                             for d, r in zip(item['dofs'], item['relative'])]
+                actuators = [f'{item["name"]}.a{k + 1}' if d is None
+                             else names[d] if r is None else f'{names[d]}-{names[r]}'
+                             for k, (d, r) in enumerate(zip(item['dofs'], item['relative']))]
             else:
                 actuators = [f'{item["name"]}.a{k + 1}' for k in range(setup.n_actuators)]
         if (not isinstance(actuators, list) or len(actuators) != setup.n_actuators
@@ -274,16 +312,32 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
             msg = f'{path}.actuators: actuator names must be unique within site {item["site"]}'
             raise ConfigError(msg)
         seen.update(actuators)
+        control = parse_control(raw.get('control'), actuators, f'{path}.control')
+        free = [k for k, d in enumerate(item['dofs']) if d is None]
+        forced = [a for a, c in zip(actuators, control) if c.force_controlled]
+        if len(forced) != len(free):
+            msg = (f'{path}.control: {len(forced)} force-controlled actuator'
+                   f'{"" if len(forced) == 1 else "s"} for {len(free)} free basic DOF'
+                   f'{"" if len(free) == 1 else "s"} (null entries of dofs): each null entry '
+                   'needs one actuator {mode: force, force: F} and a force-controlled '
+                   'actuator needs one')
+            raise ConfigError(msg)
         try:
             stiffness = as_matrix(raw['initial_stiffness'], n_basic, 'initial_stiffness')
         except ConfigError as err:
             msg = f'{path}.{err}'
             raise ConfigError(msg) from None
-        dofs_r, _ = remap(item['dofs'])
-        _, relative_r = remap(item['relative'])
+        structural = [k for k, d in enumerate(item['dofs']) if d is not None]
+        condensed = _condensed(stiffness, structural, free, f'{path}.initial_stiffness')
+        dofs_r, _ = remap([d for d in item['dofs'] if d is not None])
+        _, relative_r = remap([r for d, r in zip(item['dofs'], item['relative'])
+                               if d is not None])
         experimental_objects.append(ExperimentalElement(
             dofs=dofs_r, relative=relative_r, name=item['name'], site=item['site'],
-            setup=setup, actuator_names=tuple(actuators), initial_stiffness=stiffness))
+            setup=setup, actuator_names=tuple(actuators), initial_stiffness=condensed,
+            basic_index=np.array(structural, dtype=np.intp) if free else None,
+            control=control if forced else (),
+            basic_stiffness=stiffness if free else None))
 
     model = StructuralModel(
         dof_names=tuple(names[i] for i in retained), linear_stiffness=linear_retained,

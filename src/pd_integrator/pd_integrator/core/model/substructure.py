@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pd_common.protocol import DEFAULT_SITE
+from pd_common.protocol import DEFAULT_SITE, ControlMode
 
 from ..errors import ConfigError
 
@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
     from pd_common.specimen.hysteresis import HysteresisModel
 
+    from .control import ActuatorControl
     from .setups import ExperimentalSetup
 
 __all__ = [
@@ -92,12 +93,24 @@ class NonlinearSpring(_TwoEnded):
 class ExperimentalElement(_TwoEnded):
     """An element whose basic forces are measured at ``site`` through ``setup``.
 
+    Basic DOFs are either *structure* DOFs (``x[dofs] − x[relative]``) or *free* ones (a
+    ``null`` entry of the element's ``dofs``: a force-controlled actuator holds the element
+    there, and its displacement comes from the measurement). ``dofs`` and ``relative`` hold
+    the structure DOFs only; ``basic_index`` says where they are in the basic vector.
+
     Attributes:
         name: element name (for messages).
         site: the site serving it.
-        setup: basic DOFs → actuator strokes.
+        setup: basic DOFs ↔ actuator strokes and forces.
         actuator_names: one name per actuator (the site's command DOF names).
-        initial_stiffness: basic-space initial stiffness (``n_basic × n_basic``).
+        initial_stiffness: initial stiffness on the structure basic DOFs (the free DOFs
+            statically condensed out of ``basic_stiffness``).
+        basic_index: positions of the structure DOFs in the basic vector (``None``: every
+            basic DOF is a structure DOF, in order).
+        control: per actuator its :class:`~.control.ActuatorControl` (empty: every actuator
+            displacement-controlled).
+        basic_stiffness: the initial stiffness in all basic DOFs as given (``None``: the same
+            as ``initial_stiffness``).
     """
 
     name: str = ''
@@ -105,6 +118,88 @@ class ExperimentalElement(_TwoEnded):
     setup: ExperimentalSetup | None = None
     actuator_names: tuple[str, ...] = ()
     initial_stiffness: np.ndarray | None = None
+    basic_index: NDArray[np.intp] | None = None
+    control: tuple[ActuatorControl, ...] = ()
+    basic_stiffness: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n_basic = self.setup.n_basic if self.setup is not None else int(self.dofs.size)
+        n_act = self.setup.n_actuators if self.setup is not None else int(self.dofs.size)
+        index = (np.arange(self.dofs.size, dtype=np.intp) if self.basic_index is None
+                 else np.asarray(self.basic_index, dtype=np.intp))
+        self._structural: NDArray[np.intp] = index
+        self._free: NDArray[np.intp] = np.array(
+            [i for i in range(n_basic) if i not in set(index.tolist())], dtype=np.intp)
+        forced = [c.force_controlled for c in self.control] if self.control else []
+        self._forced: NDArray[np.bool_] = np.array(forced or [False] * n_act, dtype=bool)
+        # What the site measured last (the free DOFs' displacement, the force-controlled
+        # actuators' strokes): 0 until the first answer.
+        self.measured_basic: NDArray[np.float64] = np.zeros(n_basic)
+        self.measured_strokes: NDArray[np.float64] = np.zeros(n_act)
+
+    @property
+    def mixed(self) -> bool:
+        """Whether some actuator of the element is force-controlled."""
+        return bool(self._forced.any())
+
+    @property
+    def free_index(self) -> NDArray[np.intp]:
+        """Positions of the free basic DOFs (measured, not commanded) in the basic vector."""
+        return self._free
+
+    @property
+    def structure_index(self) -> NDArray[np.intp]:
+        """Positions of the structure DOFs in the basic vector."""
+        return self._structural
+
+    def force_controlled(self) -> NDArray[np.bool_]:
+        """Per actuator: whether it is force-controlled."""
+        return self._forced
+
+    def trial_basic(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The basic displacement commanded at ``x``: the structure's trial on its DOFs, the
+        last measured displacement on the free DOFs."""
+        if not self._free.size:
+            return self.basic(x)
+        basic = self.measured_basic.copy()
+        basic[self._structural] = self.basic(x)
+        return basic
+
+    def targets(self, x: NDArray[np.float64], time: float
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Actuator strokes, target forces and the basic target at ``x`` and test ``time``.
+
+        A force-controlled actuator's stroke is the one last measured (not imposed) and its
+        target force ``F(time)``; a displacement-controlled actuator's force is 0.
+        """
+        setup = self.setup
+        assert setup is not None  # every experimental element of a model has a setup
+        basic = self.trial_basic(x)
+        strokes = np.asarray(setup.actuator_targets(basic), dtype=float)
+        forces = np.zeros(strokes.size)
+        if self.mixed:
+            strokes = np.where(self._forced, self.measured_strokes, strokes)
+            forces = np.array([c.force_at(time) if c.force_controlled else 0.0
+                               for c in self.control])
+        return strokes, forces, basic
+
+    def take_feedback(self, strokes: NDArray[np.float64], force: NDArray[np.float64],
+                      target_basic: NDArray[np.float64], x: NDArray[np.float64],
+                      force_out: NDArray[np.float64], measured_out: NDArray[np.float64]
+                      ) -> None:
+        """Add the measured basic forces of the structure DOFs to ``force_out``; move the
+        element's DOFs of ``measured_out`` by the measured − commanded basic displacement;
+        remember the measurement (the next command's free DOFs and force-controlled strokes)."""
+        setup = self.setup
+        assert setup is not None
+        basic = setup.basic_displacement(strokes)
+        basic_force = setup.basic_force(force, basic)
+        index = self._structural
+        self.scatter(basic_force[index] if self._free.size else basic_force, force_out)
+        measured_out[self.dofs] = x[self.dofs] + (basic[index] - target_basic[index])
+        if self.mixed:
+            self.measured_basic = np.array(basic, dtype=float)
+            self.measured_strokes = np.array(strokes, dtype=float)
 
 
 @dataclass
@@ -184,13 +279,35 @@ class StructuralModel:
 
     def site_targets(self, site: str, x: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """Actuator targets of ``site`` at ``x``, and each element's basic target."""
-        basics = [element.basic(x) for element in self.sites[site]]
-        targets = []
-        for element, basic in zip(self.sites[site], basics):
-            setup = element.setup
-            assert setup is not None  # every experimental element of a model has a setup
-            targets.append(setup.actuator_targets(basic))
-        return np.concatenate(targets), basics
+        targets, _, _, basics = self.site_command(site, x, 0.0)
+        return targets, basics
+
+    def site_mixed(self, site: str) -> bool:
+        """Whether some actuator of ``site`` is force-controlled."""
+        return any(element.mixed for element in self.sites[site])
+
+    def site_command(self, site: str, x: np.ndarray, time: float
+                     ) -> tuple[np.ndarray, tuple[int, ...], tuple[float, ...],
+                                list[np.ndarray]]:
+        """``site``'s command at ``x`` and test ``time``.
+
+        Returns:
+            The actuator strokes, the control modes and target forces (both empty when every
+            actuator of the site is displacement-controlled: a plain command) and each
+            element's basic target.
+        """
+        strokes, forces, basics = [], [], []
+        for element in self.sites[site]:
+            stroke, force, basic = element.targets(x, time)
+            strokes.append(stroke)
+            forces.append(force)
+            basics.append(basic)
+        if not self.site_mixed(site):
+            return np.concatenate(strokes), (), (), basics
+        modes = tuple(int(ControlMode.FORCE if forced else ControlMode.DISPLACEMENT)
+                      for element in self.sites[site] for forced in element.force_controlled())
+        return (np.concatenate(strokes), modes,
+                tuple(float(f) for f in np.concatenate(forces)), basics)
 
     def add_site_feedback(self, site: str, displacement: np.ndarray, force: np.ndarray,
                           target_basics: list[np.ndarray], x: np.ndarray,
@@ -198,16 +315,16 @@ class StructuralModel:
         """Add ``site``'s measured forces to ``force_out``; its measured DOFs to ``measured_out``.
 
         ``measured_out`` starts as the target; each experimental DOF is moved by the
-        difference between the measured and the commanded basic displacement.
+        difference between the measured and the commanded basic displacement. Free basic DOFs
+        (held by force-controlled actuators) only enter the next command.
         """
         start = 0
         for element, target_basic in zip(self.sites[site], target_basics):
             setup = element.setup
             assert setup is not None
             stop = start + setup.n_actuators
-            basic = setup.basic_displacement(displacement[start:stop])
-            element.scatter(setup.basic_force(force[start:stop], basic), force_out)
-            measured_out[element.dofs] = x[element.dofs] + (basic - target_basic)
+            element.take_feedback(displacement[start:stop], force[start:stop], target_basic,
+                                  x, force_out, measured_out)
             start = stop
 
 

@@ -9,6 +9,15 @@ answered the pending step, returns the assembled structure feedback (measured di
 and the total restoring force). A site answering with a limit or a fault is passed on at once
 (the session holds); on resume only the sites still owing an answer get the command again.
 
+Mixed control: a site with force-controlled actuators (an experimental element's
+``control``) gets commands with ``control_mode`` and ``target_force`` (``F(t)`` of the step's
+test time); its displacement-controlled actuators' strokes come from the setup at the basic
+displacement made of the structure's trial on the structure DOFs and the last measured one
+on the free DOFs, and a force-controlled actuator's ``target_displacement`` is its last
+measured stroke (0 before the first answer). The feedback's basic displacement comes from the
+measured strokes (the setup's inverse), its basic forces are ``Jᵀ f`` there, and only the
+structure DOFs' forces enter the restoring force.
+
 Without a model (a test whose whole structure is the specimen, the thesis's case) the
 coordinator is a pass-through to the single default site (topics ``/pd/step_command`` and
 ``/pd/step_feedback``): the same command and feedback objects go through unchanged.
@@ -81,12 +90,14 @@ class SiteCoordinator:
         site_commands: dict[str, Command] = {}
         basics: dict[str, list[np.ndarray]] = {}
         for site in self.sites:
-            targets, basics[site] = model.site_targets(site, x)
+            targets, modes, forces, basics[site] = model.site_command(site, x,
+                                                                      command.test_time)
             site_command = Command(test_id=command.test_id, step=command.step,
                                    test_time=command.test_time,
                                    dof_names=model.actuator_names(site),
                                    target_displacement=tuple(targets.tolist()),
-                                   iteration=command.iteration)
+                                   iteration=command.iteration, control_mode=modes,
+                                   target_force=forces)
             protocol = self.protocols[site]
             protocol.pending = None  # a new structure step supersedes anything still owed
             protocol.send(site_command)

@@ -15,15 +15,23 @@ from __future__ import annotations
 import shutil
 import time
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pd_common.protocol import Command, Feedback, TestState
-from pd_common.specimen import SpecimenError, SpecimenServer, server_from_config
+from pd_common.specimen import (
+    SiteGeometry,
+    SpecimenError,
+    SpecimenServer,
+    server_from_config,
+    site_geometry,
+)
 
 from ..errors import BagError, ConfigError
+from .actuators import ActuatorHistory, actuator_history, write_actuator_outputs
 from .bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
 from .definition import TestDefinition
 from .dispatch import StepDispatcher, refuse_fresh_state
@@ -37,7 +45,7 @@ from .signatures import check_signatures
 from .test_file import from_json
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Mapping
+    from collections.abc import Callable
 
     from pd_common.auth import Key
 
@@ -88,10 +96,18 @@ def prepare_run_directory(directory: str | Path) -> Path:
 
 
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
-                   figures: bool = True, **extra: Any) -> dict[str, Any]:
-    """Write a session's CSV files, ``summary.json`` and figures; return the summary."""
+                   figures: bool = True, record: RecordedRun | None = None,
+                   **extra: Any) -> dict[str, Any]:
+    """Write a session's CSV files, ``summary.json`` and figures; return the summary.
+
+    A test with force-controlled actuators also gets ``actuators.csv`` (and
+    ``actuators.png``), read from ``record`` (default: the journal in ``directory``).
+    """
     energy = None
     definition = session.definition
+    actuators = _actuator_history(session, directory, record)
+    if actuators is not None:
+        extra.setdefault('actuators', actuators.summary())
     if definition.initial_stiffness is not None:  # (a probe that never finished: no damping)
         structure = definition.structure()
         energy = energy_balance(session.history, structure.mass, structure.damping,
@@ -105,7 +121,23 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                         tracking=tracking.summary(), **extra)
     write_run_outputs(session.history, summary, directory, figures=figures,
                       title=definition.test_id, energy=energy, tracking=tracking)
+    if actuators is not None:
+        write_actuator_outputs(actuators, directory, figures=figures, title=definition.test_id)
     return summary
+
+
+def _actuator_history(session: TestSession, directory: Path, record: RecordedRun | None
+                      ) -> ActuatorHistory | None:
+    """The per-actuator history of a test with force-controlled actuators (else ``None``)."""
+    model = session.definition.model
+    if model is None or not any(model.site_mixed(site) for site in model.site_names):
+        return None
+    if record is None:
+        journal = Path(directory) / JOURNAL_FILE
+        if not journal.is_file():
+            return None
+        record = read_journal(journal)
+    return actuator_history(record, model, session.definition.test_id, session.history)
 
 
 def run_offline(definition: TestDefinition, directory: str | Path, *, figures: bool = True,
@@ -161,7 +193,9 @@ def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, Specime
     while queue:
         site, command = queue.popleft()
         answer = servers[site].handle(command.test_id, command.step, command.target_displacement,
-                                      iteration=command.iteration)
+                                      iteration=command.iteration,
+                                      control_mode=command.control_mode,
+                                      target_force=command.target_force)
         if answer is None:
             dispatcher.session.abort(f'specimen ignored step {command.step}')
             return False
@@ -195,8 +229,11 @@ def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
         try:
             # The specimen and its optional ``errors``, exactly as the pd_specimen_sim node
             # builds them: both inject the same, deterministic errors.
-            servers[site] = server_from_config(section, base_dir=definition.base_dir,
-                                               source=definition.source, dof_names=names)
+            geometry = _site_geometry(definition, site)
+            servers[site] = server_from_config(
+                section, base_dir=definition.base_dir, source=definition.source,
+                dof_names=names, setup=geometry.setup,
+                max_force_increment=geometry.max_force_increment)
         except SpecimenError as err:
             if not site:
                 raise
@@ -205,9 +242,22 @@ def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
     return servers
 
 
+def _site_geometry(definition: TestDefinition, site: str) -> SiteGeometry:
+    """The setup and force ramp a simulated site takes from the test file (as the simulator
+    node does: :func:`~pd_common.specimen.site_geometry`).
+
+    """
+    if not site or definition.model is None:
+        return SiteGeometry()
+    raw = {'structure': definition.structure_raw or {}, 'sites': definition.sites or {}}
+    return site_geometry(raw, site, definition.source)
+
+
 def _same_command(recorded: Command, computed: Command) -> bool:
     return (recorded.test_id == computed.test_id and recorded.key == computed.key
-            and recorded.target_displacement == computed.target_displacement)
+            and recorded.target_displacement == computed.target_displacement
+            and tuple(recorded.control_mode) == tuple(computed.control_mode)
+            and tuple(recorded.target_force) == tuple(computed.target_force))
 
 
 def load_run(path: str | Path) -> RecordedRun:
@@ -387,7 +437,7 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
     directory.mkdir(parents=True, exist_ok=True)
     bridge = [status.message for _, status in run.bridge_statuses if status.message]
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
-                             mode='replay', replayed_from=str(bag_path),
+                             record=run, mode='replay', replayed_from=str(bag_path),
                              bridge_messages=bridge[-5:], bridge_topic=TOPIC_BRIDGE_STATUS,
                              **extra)
     return RunResult(session=session, directory=directory, summary=summary)
