@@ -4,13 +4,19 @@ The integrator, the site's bridge and its simulator run as separate processes. T
 actuator holds the axial load in force control (ramped by the bridge, never jumped) while the
 horizontal one follows the integrator: the lateral history equals the ROS-free run byte for
 byte, and the axial force stays at its target for the whole test. A column too soft axially
-lets the force-controlled actuator run away in stroke: the bridge's stroke limit holds it.
+lets the force-controlled actuator run away in stroke: the bridge's stroke limit holds it. A
+process killed mid-test is restarted with its state and the test ends as the uninterrupted
+ROS-free run: the restarted bridge holds the load the column carries (it ramps from the measured
+force, never from 0 N), the restarted simulator replays its mixed commands, the restarted
+integrator resumes from its journal.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import os
+import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -18,6 +24,7 @@ from typing import Any
 import pytest
 import yaml
 from graph_support import REPO, Processes, send_control
+from test_crash_resume import child_of, wait_for_step
 from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
 from pd_common.protocol import Feedback, FeedbackStatus
@@ -136,3 +143,28 @@ def test_a_runaway_force_controlled_actuator_is_held_by_its_stroke_limit(
     assert refused and refused[0].step == 0
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'aborted'
+
+
+@pytest.mark.parametrize('kind', ['integrator', 'simulator', 'bridge'])
+def test_a_process_killed_under_the_axial_load_is_restarted_and_the_test_is_unchanged(
+        kind: str, processes: Processes, tmp_path: Path) -> None:
+    test_file = _column_test(tmp_path / f'column-kill-{kind}.yaml', 3.0)
+    reference = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
+                                                    '--out', str(out), '--no-figures'])
+    wait_for_step(out, 120, launcher, processes)
+    os.kill(child_of(launcher, kind), signal.SIGKILL)
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    log = processes.log('run_test')
+    assert code == 0, log[-3000:]
+    assert 'SIGKILL' in log and 'restart' in log
+    for name in ('response.csv', 'actuators.csv'):
+        assert (out / name).read_bytes() == (reference.directory / name).read_bytes(), name
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'finished' and summary['restarts'] == 1
+    forces = _served_forces(out)  # the simulator's record, across its restart if any
+    assert forces[:10] == pytest.approx([2495.0 * k for k in range(1, 11)], rel=1e-15)
+    assert forces[10:] == [LOAD] * (len(forces) - 10)  # after the ramp, never another force
+    if kind == 'bridge':
+        assert 'holding the measured forces' in log

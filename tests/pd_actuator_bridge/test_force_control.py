@@ -585,3 +585,25 @@ def test_max_force_increment_is_validated_like_the_other_limits() -> None:
             SafetyLimits.from_mapping({**base, 'max_force_increment': bad}, source='bridge')
     with pytest.raises(BridgeConfigError, match='max_force_increment'):
         SafetyLimits(0.1, 0.01, 1.0, max_force_increment=-5.0)
+
+
+def test_a_restarted_bridge_ramps_from_the_load_the_specimen_carries() -> None:
+    """A bridge restarted mid-test (the column carries 12,000 N) adopts the measured forces:
+    holding the load is one sub-step at the load, a change ramps from it — never from 0 N."""
+    driver = ForceDriver()
+    bridge = bridge_with(driver)  # max_force_increment 3000
+    assert bridge.adopt_held_force((5.0, 12000.0))
+    assert bridge.held_force == (5.0, 12000.0)
+    reply = mixed(bridge, 7, 0.0, 12000.0)
+    assert reply is not None and reply.status is OK
+    assert [sub[3][1] for sub in driver.sub] == [12000.0]
+    del driver.sub[:]
+    mixed(bridge, 8, 0.0, 6000.0)
+    assert [sub[3][1] for sub in driver.sub] == [9000.0, 6000.0]
+    # Once it commanded a force, a measurement no longer changes what it holds.
+    assert not bridge.adopt_held_force((0.0, 0.0))
+    assert bridge.held_force == (5.0, 6000.0)  # the horizontal one was never force-controlled
+    fresh = bridge_with(ForceDriver())
+    assert not fresh.adopt_held_force((0.0, math.nan))
+    assert not fresh.adopt_held_force((1.0,))
+    assert fresh.held_force == (0.0, 0.0)

@@ -498,6 +498,13 @@ class ActuatorBridgeNode(LifecycleNode):
                                         or driver.ready()):
             self._accept_when_ready = False
             self._offer_state()
+            measured = driver.offered_force if isinstance(driver, SimServoDriver) else getattr(
+                driver, 'last_force', None)
+            if (measured is not None and bridge.adopt_held_force(measured)
+                    and any(force != 0.0 for force in bridge.held_force)):
+                self.get_logger().info(
+                    f'holding the measured forces [{_positions(bridge.held_force)}] N (a force '
+                    'change ramps from them)')
             self.get_logger().info(f'ready: actuator at [{_positions(self.receiver.position)}] '
                                    'm (measured; every limit starts from it)')
             self.receiver.set_accepting(True)  # a new challenge: motion needs a signed start

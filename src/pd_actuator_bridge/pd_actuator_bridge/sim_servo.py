@@ -87,6 +87,7 @@ class SimServoDriver(ActuatorDriver):
         self._subscription = node.create_subscription(
             StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS)
         self._position = [0.0] * n_dof
+        self._offered_force: list[float] | None = None
         self._in_flight: tuple[Any, tuple[str, int, int]] | None = None  # (step, move key)
         self.move_test_id = ''
         self._move: Command | None = None
@@ -120,10 +121,18 @@ class SimServoDriver(ActuatorDriver):
                 and (not self._positioned or offer.epoch != self._specimen_epoch)):
             # The first offer, or a restarted specimen node: it is where it says it is.
             self._position = [float(x) for x in offer.position]
+            self._offered_force = ([float(f) for f in offer.force]
+                                   if len(offer.force) == self._n_dof else None)
             self._specimen_epoch = offer.epoch
             self._specimen_origin = StateOrigin(offer.state_origin)
             self._positioned = True
         return self.connected() and sender.opened
+
+    @property
+    def offered_force(self) -> list[float] | None:
+        """The force per DOF the specimen node offered with its position (what it carries now;
+        ``None`` before its offer): a restarted bridge holds it (the load a column carries)."""
+        return None if self._offered_force is None else list(self._offered_force)
 
     def maintain(self) -> None:
         """Keep the session with the specimen node open (called by the bridge's loop).

@@ -389,8 +389,22 @@ class ActuatorBridge:
 
     @property
     def held_force(self) -> tuple[float, ...]:
-        """Per DOF the force last commanded to it under force control, N (0 at the start)."""
+        """Per DOF the force last commanded to it under force control, N (0 at the start, or
+        the measured force a restarted bridge adopted: :meth:`adopt_held_force`)."""
         return self._held_force
+
+    def adopt_held_force(self, measured: Sequence[float]) -> bool:
+        """Take the actuators' measured forces as the forces they hold, before this bridge has
+        commanded any: a restarted bridge ramps from the load the specimen carries (e.g. a
+        column's axial load), never from 0 N back up. ``False`` (nothing changed) once a force
+        was commanded, or for a measurement of the wrong size or with a non-finite value.
+        """
+        values = [float(value) for value in measured]
+        if (self._force_substeps or len(values) != len(self._held_force)
+                or not all(math.isfinite(value) for value in values)):
+            return False
+        self._held_force = tuple(values)
+        return True
 
     @property
     def force_controlled(self) -> tuple[bool, ...]:
