@@ -33,6 +33,7 @@ setup(
             'analyze = pd_integrator.analyze:main',
             'study_ch5 = pd_integrator.study_ch5:main',
             'study_errors = pd_integrator.study_errors:main',
+            'pretest = pd_integrator.pretest:main',
         ],
     },
 )
