@@ -4,13 +4,17 @@ Pure numerical building blocks for describing the numerical part of a hybrid tes
 of elements instead of hand-written matrices:
 
 * element stiffness matrices (:func:`spring_stiffness`, :func:`beam_column_2d_stiffness`);
+* P-Δ under a constant axial load: the geometric stiffness of a beam-column's chord (or its
+  consistent one, :func:`beam_column_2d_geometric_stiffness`), of a spring or storey
+  (:func:`pdelta_stiffness`) and of a nonlinear spring (:class:`PDeltaHysteresis`);
 * assembly into a global matrix with fixed (ground) DOFs removed (:func:`assemble`);
 * static condensation of massless DOFs, e.g. joint rotations (:func:`static_condensation`).
 
 Damping matrices are built by :mod:`.damping`, modal properties by :mod:`.modes`.
 
 Sign conventions: 2-D frames lie in the global x–y plane, rotations are counter-clockwise
-positive. All quantities are SI (N, m, kg, s). Only numpy/scipy are used.
+positive. All quantities are SI (N, m, kg, s). Only numpy/scipy are used (and the uniaxial
+hysteresis interface of :mod:`pd_common.specimen`, which :class:`PDeltaHysteresis` wraps).
 """
 
 from __future__ import annotations
@@ -25,21 +29,32 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse
 
+from pd_common.specimen.hysteresis import HysteresisModel, State
+
 from ..errors import ConfigError
 from ..matrices import readonly_copy
 from .checks import dense_square, positive
 
 __all__ = [
+    'BEAM_COLUMN_GEOMETRIES',
     'SPARSE_THRESHOLD',
     'Condensation',
+    'PDeltaHysteresis',
     'assemble',
+    'beam_column_2d_geometric_stiffness',
     'beam_column_2d_stiffness',
+    'pdelta_stiffness',
     'spring_stiffness',
     'static_condensation',
 ]
 
 #: :func:`assemble` returns a scipy.sparse CSR matrix by default from this many DOFs on.
 SPARSE_THRESHOLD = 200
+
+#: ``geometry`` of a beam-column: ``linear`` (no axial-load effect), ``pdelta`` (the chord's
+#: geometric stiffness, OpenSees's ``geomTransf PDelta`` for a linear element) and
+#: ``pdelta_consistent`` (the consistent geometric stiffness of the cubic shape functions).
+BEAM_COLUMN_GEOMETRIES = ('linear', 'pdelta', 'pdelta_consistent')
 
 
 # --------------------------------------------------------------------------- elements
@@ -71,12 +86,17 @@ def beam_column_2d_stiffness(
     I: float,  # noqa: E741 - the engineering symbol
     *,
     name: str = 'beam_column_2d',
+    geometry: str = 'linear',
+    axial_load: float = 0.0,
 ) -> np.ndarray:
     """Global stiffness of a linear elastic 2-D Euler–Bernoulli frame element.
 
     The local matrix (axis from node ``i`` to node ``j``, length ``L``) couples the axial
     stiffness ``EA/L`` with the flexural terms ``12EI/L³, 6EI/L², 4EI/L, 2EI/L``; it is
     rotated to global axes by ``K = Tᵀ k T`` with the direction cosines of the element.
+    With ``geometry`` ``pdelta`` or ``pdelta_consistent`` the local geometric stiffness of
+    the constant compressive ``axial_load`` (see :func:`beam_column_2d_geometric_stiffness`)
+    is added to ``k`` before the rotation.
 
     Args:
         xi: Global coordinates ``(x, y)`` of node ``i`` in m.
@@ -85,37 +105,24 @@ def beam_column_2d_stiffness(
         A: Cross-section area in m², positive.
         I: Second moment of area about the bending axis in m⁴, positive.
         name: Element name used in error messages.
+        geometry: One of :data:`BEAM_COLUMN_GEOMETRIES`; ``linear`` (default) ignores
+            ``axial_load`` and gives the elastic matrix unchanged.
+        axial_load: ``P`` in N, compression positive (tension negative), held constant.
 
     Returns:
         The symmetric 6×6 stiffness for the end DOFs ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]``
         in global axes (rotations counter-clockwise positive). A free element has exactly
-        three rigid-body modes.
+        three rigid-body modes (``linear``).
 
     Raises:
         ConfigError: On malformed coordinates, a zero length or non-positive ``E``, ``A``
-            or ``I``.
+            or ``I``, an unknown ``geometry`` or a non-finite ``axial_load``.
     """
-    points = []
-    for label, point in (('xi', xi), ('xj', xj)):
-        try:
-            coords = np.array(point, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            msg = f'{name}: {label} must be a pair (x, y), got {point!r}'
-            raise ConfigError(msg) from None
-        if coords.shape != (2,) or not np.all(np.isfinite(coords)):
-            msg = f'{name}: {label} must be a finite pair (x, y), got {point!r}'
-            raise ConfigError(msg)
-        points.append(coords)
+    length, c, s = _frame_geometry(xi, xj, name)
     e = positive(E, name, 'E')
     a = positive(A, name, 'A')
     inertia = positive(I, name, 'I')
-    dx, dy = points[1] - points[0]
-    length = math.hypot(dx, dy)
-    scale = max(float(np.max(np.abs(points[0]))), float(np.max(np.abs(points[1]))), 1.0)
-    if length <= 1e-12 * scale:
-        msg = f'{name}: nodes xi and xj coincide (zero length)'
-        raise ConfigError(msg)
-    c, s = dx / length, dy / length
+    geometric = _local_geometric(length, geometry, axial_load, name)
     ea = e * a / length
     k1 = 12.0 * e * inertia / length**3
     k2 = 6.0 * e * inertia / length**2
@@ -132,13 +139,212 @@ def beam_column_2d_stiffness(
         ],
         dtype=np.float64,
     )
+    if geometric is not None:
+        local = local + geometric
+    return _to_global(local, c, s)
+
+
+def beam_column_2d_geometric_stiffness(
+    xi: tuple[float, float],
+    xj: tuple[float, float],
+    axial_load: float,
+    *,
+    consistent: bool = False,
+    name: str = 'beam_column_2d',
+) -> np.ndarray:
+    """Global geometric stiffness ``K_g`` of a 2-D frame element under a constant axial load.
+
+    With the axial force ``N = −P`` (tension positive; ``P`` compression positive) the local
+    matrix on the transverse and rotation DOFs ``(v_i, θ_i, v_j, θ_j)`` is
+
+    * the chord's (P-Δ, ``consistent=False``): ``(N/L) [[1, −1], [−1, 1]]`` on ``(v_i, v_j)``,
+      nothing on the rotations — the matrix OpenSees's ``geomTransf PDelta`` adds to a linear
+      element (``PDeltaCrdTransf2d``);
+    * the consistent one (``consistent=True``, P-δ along the member as well, the cubic
+      Hermitian shape functions): ``(N/L) [[6/5, L/10, −6/5, L/10], [L/10, 2L²/15, −L/10,
+      −L²/30], [−6/5, −L/10, 6/5, −L/10], [L/10, −L²/30, −L/10, 2L²/15]]``.
+
+    No term acts on the axial DOFs. The matrix is rotated to global axes like the elastic one.
+
+    Args:
+        xi: Global coordinates ``(x, y)`` of node ``i`` in m.
+        xj: Global coordinates ``(x, y)`` of node ``j`` in m.
+        axial_load: ``P`` in N, compression positive.
+        consistent: The consistent matrix instead of the chord's.
+        name: Element name used in error messages.
+
+    Returns:
+        The symmetric 6×6 ``K_g`` for ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]`` (compression
+        makes it negative semi-definite).
+
+    Raises:
+        ConfigError: On malformed coordinates, a zero length or a non-finite ``axial_load``.
+    """
+    length, c, s = _frame_geometry(xi, xj, name)
+    geometric = _local_geometric(length, 'pdelta_consistent' if consistent else 'pdelta',
+                                 axial_load, name)
+    assert geometric is not None
+    return _to_global(geometric, c, s)
+
+
+def _frame_geometry(xi: tuple[float, float], xj: tuple[float, float], name: str
+                    ) -> tuple[float, float, float]:
+    """Length and direction cosines ``(L, cos, sin)`` of the element from ``i`` to ``j``."""
+    points = []
+    for label, point in (('xi', xi), ('xj', xj)):
+        try:
+            coords = np.array(point, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            msg = f'{name}: {label} must be a pair (x, y), got {point!r}'
+            raise ConfigError(msg) from None
+        if coords.shape != (2,) or not np.all(np.isfinite(coords)):
+            msg = f'{name}: {label} must be a finite pair (x, y), got {point!r}'
+            raise ConfigError(msg)
+        points.append(coords)
+    dx, dy = points[1] - points[0]
+    length = math.hypot(dx, dy)
+    scale = max(float(np.max(np.abs(points[0]))), float(np.max(np.abs(points[1]))), 1.0)
+    if length <= 1e-12 * scale:
+        msg = f'{name}: nodes xi and xj coincide (zero length)'
+        raise ConfigError(msg)
+    return length, float(dx / length), float(dy / length)
+
+
+def _local_geometric(length: float, geometry: str, axial_load: float, name: str
+                     ) -> np.ndarray | None:
+    """The local 6×6 geometric stiffness of ``geometry`` (``None`` for ``linear``)."""
+    if geometry not in BEAM_COLUMN_GEOMETRIES:
+        msg = (f'{name}: geometry must be one of {", ".join(BEAM_COLUMN_GEOMETRIES)}, got '
+               f'{geometry!r}')
+        raise ConfigError(msg)
+    if geometry == 'linear':
+        return None
+    try:
+        load = float(axial_load)
+    except (TypeError, ValueError):
+        load = math.nan
+    if isinstance(axial_load, bool) or not math.isfinite(load):
+        msg = (f'{name}: axial_load must be a finite number (N, compression positive), got '
+               f'{axial_load!r}')
+        raise ConfigError(msg)
+    n_over_l = -load / length  # N / L with the axial force N = -P (tension positive)
+    geometric = np.zeros((6, 6))
+    if geometry == 'pdelta':
+        transverse = np.array([1, 4])
+        geometric[np.ix_(transverse, transverse)] = n_over_l * np.array([[1.0, -1.0],
+                                                                          [-1.0, 1.0]])
+        return geometric
+    ell = length
+    flexural = np.array([1, 2, 4, 5])
+    geometric[np.ix_(flexural, flexural)] = n_over_l * np.array(
+        [
+            [6.0 / 5.0, ell / 10.0, -6.0 / 5.0, ell / 10.0],
+            [ell / 10.0, 2.0 * ell**2 / 15.0, -ell / 10.0, -(ell**2) / 30.0],
+            [-6.0 / 5.0, -ell / 10.0, 6.0 / 5.0, -ell / 10.0],
+            [ell / 10.0, -(ell**2) / 30.0, -ell / 10.0, 2.0 * ell**2 / 15.0],
+        ]
+    )
+    return geometric
+
+
+def _to_global(local: np.ndarray, c: float, s: float) -> np.ndarray:
+    """``Tᵀ k T`` (symmetrised) for the direction cosines ``c, s`` of the element."""
     # Local (axial, transverse, rotation) = R · global (ux, uy, rz) at each node.
     rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     transform = np.zeros((6, 6))
     transform[:3, :3] = rotation
     transform[3:, 3:] = rotation
-    stiffness = transform.T @ local @ transform
-    return 0.5 * (stiffness + stiffness.T)
+    stiffness: np.ndarray = transform.T @ local @ transform
+    symmetric: np.ndarray = 0.5 * (stiffness + stiffness.T)
+    return symmetric
+
+
+# --------------------------------------------------------------------------- P-Δ of springs
+
+
+def pdelta_stiffness(axial_load: float, height: float, *, name: str = 'spring') -> np.ndarray:
+    """The P-Δ geometric stiffness of a spring or storey: a leaning column of height ``L``.
+
+    A constant compressive load ``P`` on a storey of height ``L`` whose drift is
+    ``d = x_j − x_i`` adds the lateral force ``−P d / L`` (the overturning moment ``P d``
+    balanced by a shear ``P d / L``); the spring's force becomes ``f(d) − P d / L``.
+
+    Args:
+        axial_load: ``P`` in N, compression, positive.
+        height: ``L`` in m, positive.
+        name: Element name used in error messages.
+
+    Returns:
+        ``−(P/L) [[1, −1], [−1, 1]]`` for the DOF order ``[i, j]``.
+
+    Raises:
+        ConfigError: If ``P`` or ``L`` is not a positive finite number.
+    """
+    ratio = positive(axial_load, name, 'axial_load') / positive(height, name, 'height')
+    return np.array([[-ratio, ratio], [ratio, -ratio]])
+
+
+class PDeltaHysteresis(HysteresisModel):
+    """A uniaxial model with the P-Δ term of a constant axial load: ``f(d) − (P/L) d``.
+
+    Wraps ``inner`` (any :class:`~pd_common.specimen.hysteresis.HysteresisModel`, owned and
+    mutated): a trial evaluates ``inner`` at ``d`` and subtracts ``(P/L) d``; commit, revert
+    and reset act on both. The tangent (a finite difference of trials, see
+    :func:`pd_common.specimen.column.hysteresis_tangent`) and :attr:`initial_stiffness` are the
+    inner model's minus ``P/L``.
+
+    Args:
+        inner: The spring's hysteresis model ``f(d)``.
+        axial_load: ``P`` in N, compression, positive.
+        height: ``L`` in m, positive.
+        name: Element name used in error messages.
+
+    Raises:
+        ConfigError: If ``P`` or ``L`` is not a positive finite number.
+    """
+
+    def __init__(self, inner: HysteresisModel, axial_load: float, height: float, *,
+                 name: str = 'nonlinear_spring') -> None:
+        self._inner = inner
+        self._ratio = -float(pdelta_stiffness(axial_load, height, name=name)[0, 0])
+        super().__init__()
+
+    @property
+    def inner(self) -> HysteresisModel:
+        """The wrapped model ``f(d)``."""
+        return self._inner
+
+    @property
+    def geometric_stiffness(self) -> float:
+        """``P/L`` in N/m (subtracted from the inner model's stiffness)."""
+        return self._ratio
+
+    def _initial_state(self) -> State:
+        return ()
+
+    def _evaluate(self, x: float) -> tuple[float, State]:
+        force = float(self._inner.set_trial_displacement(x)) - self._ratio * x
+        return force, ()
+
+    @property
+    def initial_stiffness(self) -> float:
+        """The inner model's initial stiffness minus ``P/L`` in N/m (may be negative)."""
+        return self._inner.initial_stiffness - self._ratio
+
+    def commit(self) -> None:
+        """Commit the inner model's trial and this one's."""
+        self._inner.commit()
+        super().commit()
+
+    def revert_to_last_commit(self) -> None:
+        """Discard the trial of both."""
+        self._inner.revert_to_last_commit()
+        super().revert_to_last_commit()
+
+    def reset(self) -> None:
+        """Return both to the virgin state."""
+        self._inner.reset()
+        super().reset()
 
 
 # --------------------------------------------------------------------------- assembly

@@ -16,15 +16,22 @@ Each element names the structure DOFs it connects (``dofs``; ``null`` = the grou
            coordinates: [[0, 0], [0, 3.0]], E: 2.0e11, A: 1.0e-2, I: 1.0e-4}
 
 * ``spring`` / ``story``: linear, ``dofs: [i, j]`` (deformation ``x_j − x_i``) or ``[j]``
-  (to the ground), ``stiffness`` [N/m].
+  (to the ground), ``stiffness`` [N/m]; optionally ``pdelta: {axial_load: P, height: L}``
+  (N, m; both positive): the force becomes ``k d − P d / L`` (a leaning column's P-Δ).
 * ``beam_column``: linear 2-D Euler–Bernoulli frame element, six end DOFs
-  ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]``, ``coordinates`` of its ends [m], ``E``, ``A``, ``I``.
+  ``[ux_i, uy_i, rz_i, ux_j, uy_j, rz_j]``, ``coordinates`` of its ends [m], ``E``, ``A``, ``I``;
+  optionally ``geometry: linear`` (default), ``pdelta`` (the chord's geometric stiffness, as
+  OpenSees's ``geomTransf PDelta``) or ``pdelta_consistent`` (the consistent one) with
+  ``axial_load: P`` [N] (compression positive, constant), see
+  :func:`~.elements.beam_column_2d_geometric_stiffness`.
 * ``nonlinear_spring``: like ``spring`` with a ``model`` mapping exactly as an element of a
-  ``specimen`` section (elastic, epp, bilinear, pushover).
+  ``specimen`` section (elastic, epp, bilinear, pushover); ``pdelta`` as for ``spring``
+  (force and tangent of the model minus ``P/L``, :class:`~.elements.PDeltaHysteresis`).
 * ``experimental``: measured at ``site``; basic DOFs ``dofs`` (optionally minus
-  ``relative_to``, same length, ``null`` = ground), ``setup`` (``one_to_one`` or
-  ``rigid_link_2``, see :mod:`.setups`), ``actuators`` (names of the site's actuator DOFs;
-  default from the element), ``initial_stiffness`` in basic DOFs (scalar, diagonal or matrix),
+  ``relative_to``, same length, ``null`` = ground), ``setup`` (``one_to_one``,
+  ``rigid_link_2``, ``column``, ``planar_3`` or ``planar``, see :mod:`.setups`),
+  ``actuators`` (names of the site's actuator DOFs; default from the element),
+  ``initial_stiffness`` in basic DOFs (scalar, diagonal or matrix),
   ``control`` per actuator (``{mode: displacement}``, the default, or ``{mode: force,
   force: F}`` with ``F`` in N or a table ``[[t, F], ...]``, see :mod:`.control`). A ``null``
   entry of ``dofs`` is a *free* basic DOF (not a structure DOF: measured, e.g. a column's
@@ -33,7 +40,9 @@ Each element names the structure DOFs it connects (``dofs``; ``null`` = the grou
   condensed onto the structure DOFs.
 
 DOFs with zero mass are statically condensed out (only linear elements may touch them); the
-session integrates the retained DOFs.
+session integrates the retained DOFs. With P-Δ terms the initial stiffness (modes, damping,
+the ω·Δt check) includes them; if it is then not positive definite the structure is unstable
+under its axial loads (one-line ConfigError).
 """
 
 from __future__ import annotations
@@ -51,7 +60,15 @@ from pd_common.specimen import SpecimenError, hysteresis_from_config
 from ..errors import ConfigError
 from ..matrices import as_matrix
 from .control import parse_control
-from .elements import assemble, beam_column_2d_stiffness, spring_stiffness, static_condensation
+from .elements import (
+    BEAM_COLUMN_GEOMETRIES,
+    PDeltaHysteresis,
+    assemble,
+    beam_column_2d_stiffness,
+    pdelta_stiffness,
+    spring_stiffness,
+    static_condensation,
+)
 from .setups import OneToOneSetup, setup_from_config
 from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
 
@@ -61,11 +78,14 @@ ELEMENT_TYPES = ('spring', 'story', 'beam_column', 'nonlinear_spring', 'experime
 #: Site names become ROS namespaces: letters, digits and underscores, starting with a letter.
 SITE_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
 
+#: ``(DOF indices, element matrix)`` pairs of the linear elements (``None``: the ground).
+Parts = list[tuple[list[int | None], np.ndarray]]
+
 _KEYS: dict[str, tuple[set[str], set[str]]] = {
-    'spring': ({'dofs', 'stiffness'}, set()),
-    'story': ({'dofs', 'stiffness'}, set()),
-    'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, set()),
-    'nonlinear_spring': ({'dofs', 'model'}, set()),
+    'spring': ({'dofs', 'stiffness'}, {'pdelta'}),
+    'story': ({'dofs', 'stiffness'}, {'pdelta'}),
+    'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, {'geometry', 'axial_load'}),
+    'nonlinear_spring': ({'dofs', 'model'}, {'pdelta'}),
     'experimental': ({'dofs', 'site', 'initial_stiffness'},
                      {'relative_to', 'setup', 'actuators', 'control'}),
 }
@@ -93,6 +113,44 @@ def _number(value: Any, where: str, *, positive: bool = True) -> float:
         msg = f'{where}: must be {kind}, got {value!r}'
         raise ConfigError(msg)
     return float(value)
+
+
+def _pdelta(raw: Any, where: str) -> tuple[float, float] | None:
+    """``(P, L)`` of an element's ``pdelta: {axial_load: P, height: L}`` (``None``: absent)."""
+    if raw is None:
+        return None
+    if not isinstance(raw, Mapping):
+        msg = f'{where}: must be a mapping {{axial_load: P, height: L}} (N, m), got {raw!r}'
+        raise ConfigError(msg)
+    unknown = sorted(str(key) for key in set(raw) - {'axial_load', 'height'})
+    if unknown:
+        msg = f'{where}.{unknown[0]}: unknown parameter (pdelta has axial_load and height)'
+        raise ConfigError(msg)
+    for key in ('axial_load', 'height'):
+        if key not in raw:
+            msg = f'{where}.{key}: is required'
+            raise ConfigError(msg)
+    return (_number(raw['axial_load'], f'{where}.axial_load'),
+            _number(raw['height'], f'{where}.height'))
+
+
+def _beam_geometry(raw: Mapping[str, Any], path: str) -> tuple[str, float]:
+    """A beam-column's ``geometry`` and ``axial_load`` (``linear`` and 0 by default)."""
+    geometry = raw.get('geometry', 'linear')
+    if geometry not in BEAM_COLUMN_GEOMETRIES:
+        msg = (f'{path}.geometry: must be one of {", ".join(BEAM_COLUMN_GEOMETRIES)}, got '
+               f'{geometry!r}')
+        raise ConfigError(msg)
+    if geometry == 'linear':
+        if 'axial_load' in raw:
+            msg = (f'{path}.axial_load: needs geometry pdelta or pdelta_consistent (a linear '
+                   'beam-column ignores the axial load)')
+            raise ConfigError(msg)
+        return geometry, 0.0
+    if 'axial_load' not in raw:
+        msg = f'{path}.axial_load: is required with geometry {geometry} (N, compression positive)'
+        raise ConfigError(msg)
+    return geometry, _number(raw['axial_load'], f'{path}.axial_load', positive=False)
 
 
 def _condensed(stiffness: np.ndarray, structural: list[int], free: list[int], where: str
@@ -129,6 +187,9 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
     n_all = len(names)
     linear: list[tuple[list[int | None], np.ndarray]] = []
     springs: list[tuple[list[int | None], Any, str, str]] = []
+    spring_pdelta: list[tuple[float, float] | None] = []
+    # The P-Δ parts of the linear elements (already in ``linear``), for the stability message.
+    geometric_parts: list[tuple[list[int | None], np.ndarray]] = []
     experimental: list[dict[str, Any]] = []
     touched_nonlinear: set[int] = set()
     element_names: set[str] = set()
@@ -182,8 +243,13 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
             dofs = dof_list('dofs', (1, 2))
             if len(dofs) == 1:
                 dofs = [None, *dofs]
-            linear.append((dofs, spring_stiffness(_number(raw['stiffness'], f'{path}.stiffness'),
-                                                  name=name)))
+            matrix = spring_stiffness(_number(raw['stiffness'], f'{path}.stiffness'), name=name)
+            pdelta = _pdelta(raw.get('pdelta'), f'{path}.pdelta')
+            if pdelta is not None:
+                geometric = pdelta_stiffness(*pdelta, name=name)
+                matrix = matrix + geometric
+                geometric_parts.append((dofs, geometric))
+            linear.append((dofs, matrix))
         elif kind == 'beam_column':
             dofs = dof_list('dofs', 6)
             coords = raw['coordinates']
@@ -195,10 +261,15 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
                   _number(coords[0][1], f'{path}.coordinates', positive=False))
             xj = (_number(coords[1][0], f'{path}.coordinates', positive=False),
                   _number(coords[1][1], f'{path}.coordinates', positive=False))
+            geometry, axial_load = _beam_geometry(raw, path)
+            properties = (_number(raw['E'], f'{path}.E'), _number(raw['A'], f'{path}.A'),
+                          _number(raw['I'], f'{path}.I'))
             try:
-                matrix = beam_column_2d_stiffness(
-                    xi, xj, _number(raw['E'], f'{path}.E'), _number(raw['A'], f'{path}.A'),
-                    _number(raw['I'], f'{path}.I'), name=name)
+                matrix = beam_column_2d_stiffness(xi, xj, *properties, name=name,
+                                                  geometry=geometry, axial_load=axial_load)
+                if geometry != 'linear':
+                    geometric_parts.append((dofs, matrix - beam_column_2d_stiffness(
+                        xi, xj, *properties, name=name)))
             except ConfigError as err:
                 msg = f'{path}: {err}'
                 raise ConfigError(msg) from None
@@ -209,6 +280,7 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
                 dofs = [None, *dofs]
             touched_nonlinear.update(i for i in dofs if i is not None)
             springs.append((dofs, raw['model'], name, f'{path}.model'))
+            spring_pdelta.append(_pdelta(raw.get('pdelta'), f'{path}.pdelta'))
         else:
             value = raw.get('dofs')
             nulls = isinstance(value, list) and None in value
@@ -251,18 +323,13 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
     if not retained:
         msg = f'{source}: structure.mass: every DOF is massless'
         raise ConfigError(msg)
-    linear_full = assemble(n_all, linear) if linear else np.zeros((n_all, n_all))
-    if massless:
-        try:
-            condensation = static_condensation(
-                linear_full if isinstance(linear_full, np.ndarray) else linear_full.toarray(),
-                massless)
-        except ConfigError as err:
-            msg = f'{source}: structure.elements: {err}'
-            raise ConfigError(msg) from None
-        linear_retained: Any = condensation.stiffness
-    else:
-        linear_retained = linear_full
+    try:
+        linear_retained = _linear_retained(n_all, linear, massless, source)
+    except ConfigError:
+        if geometric_parts:  # a massless DOF that P-Δ left without stiffness
+            _check_stable(n_all, linear, geometric_parts, None, retained, names, source,
+                          only=massless)
+        raise
     position = {full: i for i, full in enumerate(retained)}
 
     def remap(indices: list[int | None]) -> tuple[np.ndarray, np.ndarray]:
@@ -270,7 +337,7 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
                 np.array([-1 if i is None else position[i] for i in indices], dtype=int))
 
     spring_objects = []
-    for dofs, model_raw, name, path in springs:
+    for (dofs, model_raw, name, path), pdelta in zip(springs, spring_pdelta):
         i, j = dofs
         assert j is not None or i is not None
         if j is None:  # [i, null]: deformation -x_i; keep the convention x_j - x_i
@@ -281,6 +348,8 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
                                                 base_dir=base_dir, source=source)
         except SpecimenError as err:
             raise ConfigError(str(err)) from None
+        if pdelta is not None:
+            hysteresis = PDeltaHysteresis(hysteresis, *pdelta, name=name)
         spring_objects.append(NonlinearSpring(
             dofs=np.array([position[j]]),
             relative=np.array([-1 if i is None else position[i]]), name=name,
@@ -344,4 +413,82 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
         springs=spring_objects, experimental=experimental_objects,
         condensed_names=tuple(names[i] for i in massless))
     mass_retained = mass[np.ix_(retained, retained)]
+    if geometric_parts or any(p is not None for p in spring_pdelta):
+        _check_stable(n_all, linear, geometric_parts, model, retained, names, source)
     return ParsedModel(model, retained, mass_retained)
+
+
+def _linear_retained(n_all: int, linear: Parts, massless: list[int], source: str) -> Any:
+    """The assembled linear stiffness with the massless DOFs condensed out."""
+    linear_full = assemble(n_all, linear) if linear else np.zeros((n_all, n_all))
+    if not massless:
+        return linear_full
+    try:
+        condensation = static_condensation(
+            linear_full if isinstance(linear_full, np.ndarray) else linear_full.toarray(),
+            massless)
+    except ConfigError as err:
+        msg = f'{source}: structure.elements: {err}'
+        raise ConfigError(msg) from None
+    return condensation.stiffness
+
+
+def _dense(matrix: Any) -> np.ndarray:
+    return np.array(matrix.toarray() if hasattr(matrix, 'toarray') else matrix, dtype=float)
+
+
+def _full_stiffness(n_all: int, linear: Parts, model: StructuralModel | None,
+                    retained: list[int], *, elastic: bool) -> np.ndarray:
+    """The initial stiffness on every DOF (massless ones not condensed): the linear elements,
+    and the springs' and experimental elements' initial stiffness on the retained DOFs
+    (without their P-Δ terms if ``elastic``)."""
+    full = _dense(assemble(n_all, linear, sparse=False)) if linear else np.zeros((n_all,) * 2)
+    if model is None:
+        return full
+    n = model.n_dof
+    extra = np.zeros((n, n))
+    for spring in model.springs:
+        hysteresis = (spring.model.inner if elastic and isinstance(spring.model, PDeltaHysteresis)
+                      else spring.model)
+        assert hysteresis is not None
+        b = spring.matrix(n)
+        extra += hysteresis.initial_stiffness * (b.T @ b)
+    for element in model.experimental:
+        if element.initial_stiffness is not None:
+            b = element.matrix(n)
+            extra += b.T @ element.initial_stiffness @ b
+    full[np.ix_(retained, retained)] += extra
+    return full
+
+
+def _positive_definite(stiffness: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(0.5 * (stiffness + stiffness.T))
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
+def _check_stable(n_all: int, linear: Parts, geometric: Parts, model: StructuralModel | None,
+                  retained: list[int], names: list[str], source: str, *,
+                  only: list[int] | None = None) -> None:
+    """One line if the initial stiffness with the P-Δ terms (on every DOF: a massless DOF may
+    buckle too; on the DOFs ``only`` if given) is not positive definite while the one without
+    them is; otherwise the usual stiffness checks speak."""
+    chosen = list(range(n_all)) if only is None else only
+    total = _full_stiffness(n_all, linear, model, retained, elastic=False)[np.ix_(chosen, chosen)]
+    if _positive_definite(total):
+        return
+    elastic_parts = linear + [(dofs, -matrix) for dofs, matrix in geometric]
+    elastic = _full_stiffness(n_all, elastic_parts, model, retained,
+                              elastic=True)[np.ix_(chosen, chosen)]
+    if not _positive_definite(elastic):
+        return
+    values, shapes = np.linalg.eigh(0.5 * (total + total.T))
+    dof = names[chosen[int(np.argmax(np.abs(shapes[:, 0])))]]
+    base = float(np.linalg.eigvalsh(0.5 * (elastic + elastic.T))[0])
+    msg = (f'{source}: structure.elements: the structure is unstable under its axial loads '
+           f'(P-Δ): its initial stiffness with the geometric stiffness is not positive '
+           f'definite (lowest eigenvalue {values[0]:.6g} N/m, mostly DOF {dof}; without P-Δ '
+           f'{base:.6g} N/m); lower the axial loads or stiffen it')
+    raise ConfigError(msg)
