@@ -497,21 +497,10 @@ class ActuatorBridge:
             if any(force_controlled):
                 return self._start_mixed(test_id, step, target, force_controlled, forces)
 
-            try:
-                current = [float(x) for x in self._driver.position()]
-            except Exception as exc:  # noqa: BLE001 - any driver failure means hold
-                return self._enter_hold(
-                    test_id, step, STATUS_FAULT, f'driver position() failed: {_describe(exc)}',
-                    record=True,
-                )
-            if len(current) != self._n_dof:
-                violation: LimitViolation | None = LimitViolation(
-                    KIND_FAULT, 0,
-                    f'driver position() has {len(current)} values but the driver has '
-                    f'{self._n_dof} DOF',
-                )
-            else:
-                violation = check_command(target, current, self._limits, self._dof_names)
+            current = self._measured_position(test_id, step)
+            if isinstance(current, BridgeReply):
+                return current
+            violation = self._command_violation(target, current)
             note = ''
             checked: list[float] = []
             if (violation is not None and violation.kind == KIND_LIMIT
@@ -812,6 +801,29 @@ class ActuatorBridge:
             plan.append(tuple(values))
         return plan
 
+    def _measured_position(self, test_id: str, step: StepId) -> list[float] | BridgeReply:
+        """The driver's measured position, or the hold reply if reading it failed."""
+        try:
+            return [float(x) for x in self._driver.position()]
+        except Exception as exc:  # noqa: BLE001 - any driver failure means hold
+            return self._enter_hold(
+                test_id, step, STATUS_FAULT, f'driver position() failed: {_describe(exc)}',
+                record=True,
+            )
+
+    def _command_violation(self, target: Sequence[float], current: list[float],
+                           displacement_controlled: Sequence[bool] | None = None
+                           ) -> LimitViolation | None:
+        """What is wrong with commanding ``target`` from ``current`` (``None``: nothing)."""
+        if len(current) != self._n_dof:
+            return LimitViolation(
+                KIND_FAULT, 0,
+                f'driver position() has {len(current)} values but the driver has '
+                f'{self._n_dof} DOF',
+            )
+        return check_command(target, current, self._limits, self._dof_names,
+                             displacement_controlled=displacement_controlled)
+
     def _start_mixed(self, test_id: str, step: StepId, target: Sequence[float],
                      force_controlled: tuple[bool, ...], forces: tuple[float, ...]
                      ) -> BridgeReply | None:
@@ -821,23 +833,11 @@ class ActuatorBridge:
             name = self._driver.driver_name or type(self._driver).__name__
             return self._enter_hold(test_id, step, STATUS_FAULT, f'driver {name}: {problem}',
                                     record=True)
-        try:
-            current = [float(x) for x in self._driver.position()]
-        except Exception as exc:  # noqa: BLE001 - any driver failure means hold
-            return self._enter_hold(
-                test_id, step, STATUS_FAULT, f'driver position() failed: {_describe(exc)}',
-                record=True,
-            )
-        imposed = tuple(not flag for flag in force_controlled)
-        if len(current) != self._n_dof:
-            violation: LimitViolation | None = LimitViolation(
-                KIND_FAULT, 0,
-                f'driver position() has {len(current)} values but the driver has '
-                f'{self._n_dof} DOF',
-            )
-        else:
-            violation = check_command(target, current, self._limits, self._dof_names,
-                                      displacement_controlled=imposed)
+        current = self._measured_position(test_id, step)
+        if isinstance(current, BridgeReply):
+            return current
+        violation = self._command_violation(
+            target, current, tuple(not flag for flag in force_controlled))
         if violation is None:
             violation = check_target_force(forces, force_controlled, self._limits,
                                            self._dof_names)
