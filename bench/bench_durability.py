@@ -118,6 +118,7 @@ from typing import Any
 
 import yaml
 
+from _results import RESULTS, merge_results
 from bench_loop import (
     DEFAULT_TEST,
     QUICK_DURATION,
@@ -128,7 +129,6 @@ from bench_loop import (
     stop_process,
 )
 
-RESULTS = REPO / 'bench' / 'results.json'
 LAUNCHER = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
 RECOVER = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / 'recover'
 REPEATS = 3
@@ -168,27 +168,6 @@ class Table:
             if index == 0:
                 lines.append('-' * len(lines[0]))
         return '\n'.join(lines)
-
-
-def merge_results(figures: Figures, sections: list[str]) -> None:
-    """Add ``figures`` to ``bench/results.json``.
-
-    Other benches' figures are kept; the keys of the ``sections`` that ran (their prefixes in
-    :data:`PREFIXES`) that this run did not measure again are dropped (names of an older
-    version of this script).
-    """
-    results = {}
-    if RESULTS.is_file():
-        try:
-            results = json.loads(RESULTS.read_text(encoding='utf-8'))
-        except json.JSONDecodeError:
-            results = {}
-    stale = tuple(PREFIXES[name] for name in sections)
-    if stale:
-        results = {key: value for key, value in results.items()
-                   if not key.startswith(stale) or key in figures}
-    results.update(figures)
-    RESULTS.write_text(json.dumps(results, indent=2, sort_keys=True) + '\n', encoding='utf-8')
 
 
 def _filesystem(path: Path) -> str:
@@ -1242,7 +1221,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f'\n(benchmark wall time {time.perf_counter() - started:.0f} s; load average '
           f'after: {load})')
     if figures:
-        merge_results(figures, sections)
+        merge_results(figures, drop_prefixes=tuple(PREFIXES[name] for name in sections))
         print(f'written to {RESULTS}')
     return 130 if interrupted else 0
 

@@ -21,13 +21,13 @@ Figures (printed, and merged into ``bench/results.json``; other keys are kept):
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 from pathlib import Path
 
 import numpy as np
 
+from _results import RESULTS, merge_results
 from pd_common.specimen import (
     BilinearKinematic,
     ElasticPerfectlyPlastic,
@@ -39,7 +39,6 @@ from pd_integrator.core.dynamics.record_readers import read_ground_motion
 from pd_integrator.core.pretest import BatchSystems, integrate
 
 REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / 'bench' / 'results.json'
 RECORD = (REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions'
           / 'elcentro_1940_ns_chopra.csv')
 MASS, STIFFNESS, DAMPING, YIELD_DISPLACEMENT = 1.0, 39.478, 0.251, 0.025
@@ -78,18 +77,6 @@ def measure(kind: str, n: int, workers: int, repeats: int, ground: np.ndarray, d
         best = min(best, time.perf_counter() - start)
         peak = float(np.max(result.peak_displacement))
     return n * systems.n_steps / best, peak
-
-
-def merge_results(figures: dict[str, float]) -> None:
-    """Add ``figures`` to ``bench/results.json`` (other benches' keys are kept)."""
-    results = {}
-    if RESULTS.is_file():
-        try:
-            results = json.loads(RESULTS.read_text(encoding='utf-8'))
-        except json.JSONDecodeError:
-            results = {}
-    results.update(figures)
-    RESULTS.write_text(json.dumps(results, indent=2, sort_keys=True) + '\n', encoding='utf-8')
 
 
 def main() -> None:

@@ -19,13 +19,13 @@ A measurement, not a test: it asserts nothing.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from bench_loop import REPO, graph_run
+from _results import RESULTS, merge_results
+from bench_loop import graph_run
 from pd_common.auth import (
     Signer,
     command_payload,
@@ -35,8 +35,6 @@ from pd_common.auth import (
     verify_mac,
 )
 from pd_common.protocol import Command, Feedback
-
-RESULTS = REPO / 'bench' / 'results.json'
 
 
 def per_call_us(function: object, count: int) -> float:
@@ -71,18 +69,6 @@ def message_costs(count: int) -> dict[str, float]:
         'auth_verify_feedback_us': per_call_us(
             lambda: verify_mac(key, feedback_payload(feedback), feedback_signature), count),
     }
-
-
-def merge_results(figures: dict[str, float | None]) -> None:
-    """Add ``figures`` to ``bench/results.json`` (other benches' figures are kept)."""
-    results = {}
-    if RESULTS.is_file():
-        try:
-            results = json.loads(RESULTS.read_text(encoding='utf-8'))
-        except json.JSONDecodeError:
-            results = {}
-    results.update(figures)
-    RESULTS.write_text(json.dumps(results, indent=2, sort_keys=True) + '\n', encoding='utf-8')
 
 
 def main(argv: list[str] | None = None) -> int:

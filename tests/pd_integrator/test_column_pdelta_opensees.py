@@ -37,21 +37,17 @@ Skipped only if openseespy cannot be imported (see tests/support/opensees_materi
 from __future__ import annotations
 
 import copy
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from pd_actuator_bridge.opensees_site import opensees_environment
 from pd_common.config import load_yaml
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import from_dict
 from support.opensees_material import opensees_available
+from support.opensees_script import opensees_script, run_opensees
 
 CONFIG = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
           / 'column_axial.yaml')
@@ -67,10 +63,7 @@ E = 2.1e9  # Pa: only E·A and E·I matter
 pytestmark = pytest.mark.skipif(not opensees_available(),
                                 reason='openseespy cannot be imported')
 
-OPENSEES_SCRIPT = r'''
-import json, sys
-import openseespy.opensees as ops
-spec = json.loads(sys.stdin.read())
+OPENSEES_SCRIPT = opensees_script(r'''
 L, E = spec['L'], spec['E']
 ops.wipe()
 ops.model('basic', '-ndm', 2, '-ndf', 3)
@@ -88,38 +81,19 @@ if spec['material']:
     ops.fix(3, 1, 1, 1)
     ops.uniaxialMaterial(*spec['material'])
     ops.element('zeroLength', 2, 3, 2, '-mat', spec['material'][1], '-dir', 1)
-# Gravity: P as a nodal load, one static step, then held.
-ops.timeSeries('Linear', 1)
-ops.pattern('Plain', 1, 1)
-ops.load(2, 0.0, -spec['P'], 0.0)
-ops.constraints('Plain')
-ops.numberer('Plain')
-ops.system('FullGeneral')
-ops.test('NormDispIncr', 1e-14, 20)
-ops.algorithm('Newton')
-ops.integrator('LoadControl', 1.0)
-ops.analysis('Static')
-if ops.analyze(1) != 0:
-    sys.exit('gravity analysis failed')
-ops.loadConst('-time', 0.0)
+gravity_step([[2, 0.0, -spec['P'], 0.0]])  # P as a nodal load, one static step, then held
 v0 = ops.nodeDisp(2, 2)
 ops.wipeAnalysis()
 ops.timeSeries('Path', 2, '-dt', spec['dt'], '-values', *spec['record'], '-factor', 1.0)
 ops.pattern('UniformExcitation', 2, 1, '-accel', 2)
-ops.rayleigh(spec['a0'], 0.0, 0.0, 0.0)
-ops.constraints('Plain')
-ops.numberer('Plain')
-ops.system('FullGeneral')
-ops.algorithm('Linear')
-ops.integrator('NewmarkExplicit', 0.5)
-ops.analysis('Transient')
+transient_setup('explicit', [spec['a0'], 0.0, 0.0, 0.0])
 history = [ops.nodeDisp(2, 1)]
 for _ in range(spec['steps']):
     if ops.analyze(1, spec['dt']) != 0:
         sys.exit('analysis failed')
     history.append(ops.nodeDisp(2, 1))
 print(json.dumps({'u': history, 'v0': v0}))
-'''
+''')
 
 
 def our_run(tmp_path: Path, lateral: dict[str, Any], geometry: str):
@@ -140,11 +114,8 @@ def opensees_run(definition, material: list[Any] | None) -> dict[str, Any]:
             'k_bending': 1e-10 * K if material else K, 'material': material,
             'dt': definition.dt, 'record': np.asarray(definition.ground_acceleration).tolist(),
             'a0': 2.0 * ZETA * omega, 'steps': definition.n_steps}
-    result = subprocess.run([sys.executable, '-c', OPENSEES_SCRIPT], input=json.dumps(spec),
-                            capture_output=True, text=True, timeout=300, check=False,
-                            env=opensees_environment(dict(os.environ)))
-    assert result.returncode == 0, result.stderr[-2000:]
-    return json.loads(result.stdout.strip().splitlines()[-1])
+    reference: dict[str, Any] = run_opensees(OPENSEES_SCRIPT, spec)
+    return reference
 
 
 @pytest.mark.parametrize(('lateral', 'material', 'geometry', 'tolerance'), [

@@ -11,20 +11,17 @@ state); the test is skipped only if openseespy cannot be imported.
 from __future__ import annotations
 
 import copy
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pd_actuator_bridge.opensees_site import opensees_environment
 from pd_integrator.core.dynamics.structure import modal_analysis
 from pd_integrator.core.model.damping import rayleigh_coefficients
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import from_dict
+from support.opensees_material import opensees_available
+from support.opensees_script import opensees_script, run_opensees
 
 MASSES = [2.0e4, 2.0e4, 1.5e4]
 STORIES = [4.0e7, 3.5e7, 3.0e7]
@@ -32,10 +29,7 @@ YIELD = 1.2e5  # N, story 1 in the nonlinear case
 DT = 0.005
 STEPS = 800
 
-OPENSEES_SCRIPT = r'''
-import json, sys
-import openseespy.opensees as ops
-spec = json.loads(sys.stdin.read())
+OPENSEES_SCRIPT = opensees_script(r'''
 ops.wipe()
 ops.model('basic', '-ndm', 1, '-ndf', 1)
 ops.node(0, 0.0)
@@ -51,33 +45,15 @@ for i, k in enumerate(spec['stories'], start=1):
     ops.element('zeroLength', i, i - 1, i, '-mat', i, '-dir', 1, '-doRayleigh', 1)
 ops.timeSeries('Path', 1, '-dt', spec['dt'], '-values', *spec['record'], '-factor', 1.0)
 ops.pattern('UniformExcitation', 1, 1, '-accel', 1)
-ops.rayleigh(spec['a0'], 0.0, spec['a1'], 0.0)  # (zeroLength needs -doRayleigh 1)
-ops.constraints('Plain')
-ops.numberer('Plain')
-ops.system('FullGeneral')
-if spec['integrator'] == 'explicit':
-    ops.algorithm('Linear')
-    ops.integrator('NewmarkExplicit', 0.5)
-else:
-    ops.test('NormDispIncr', 1e-14, 50)
-    ops.algorithm('Newton')
-    ops.integrator('Newmark', 0.5, 0.25)
-ops.analysis('Transient')
+# Rayleigh on the initial stiffness (zeroLength needs -doRayleigh 1)
+transient_setup(spec['integrator'], [spec['a0'], 0.0, spec['a1'], 0.0])
 history = [[0.0] * len(spec['masses'])]
 for _ in range(spec['steps']):
     if ops.analyze(1, spec['dt']) != 0:
         sys.exit('analysis failed')
     history.append([ops.nodeDisp(i, 1) for i in range(1, len(spec['masses']) + 1)])
 print(json.dumps(history))
-'''
-
-
-def opensees_available() -> bool:
-    """Whether openseespy imports in a child process (with its bundled libraries' path)."""
-    result = subprocess.run([sys.executable, '-c', 'import openseespy.opensees'],
-                            capture_output=True, timeout=60, check=False,
-                            env=opensees_environment(dict(os.environ)))
-    return result.returncode == 0
+''')
 
 
 pytestmark = pytest.mark.skipif(not opensees_available(),
@@ -105,11 +81,7 @@ def opensees_history(integrator: str, yield_force: float | None) -> np.ndarray:
     spec = {'masses': MASSES, 'stories': STORIES, 'yield_force': yield_force, 'dt': DT,
             'record': record().tolist(), 'a0': a0, 'a1': a1, 'integrator': integrator,
             'steps': STEPS}
-    result = subprocess.run([sys.executable, '-c', OPENSEES_SCRIPT], input=json.dumps(spec),
-                            capture_output=True, text=True, timeout=120, check=False,
-                            env=opensees_environment(dict(os.environ)))
-    assert result.returncode == 0, result.stderr[-2000:]
-    return np.array(json.loads(result.stdout.strip().splitlines()[-1]))
+    return np.array(run_opensees(OPENSEES_SCRIPT, spec, timeout=120))
 
 
 def our_history(tmp_path: Path, scheme: str, yield_force: float | None,

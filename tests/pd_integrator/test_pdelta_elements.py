@@ -25,18 +25,13 @@ The OpenSees tests are skipped only if openseespy cannot be imported.
 from __future__ import annotations
 
 import copy
-import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from pd_actuator_bridge.opensees_site import opensees_environment
 from pd_common.specimen.column import hysteresis_tangent
 from pd_common.specimen.hysteresis import ElasticPerfectlyPlastic
 from pd_integrator.core.dynamics.structure import modal_analysis
@@ -51,6 +46,7 @@ from pd_integrator.core.run import session as session_module
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import from_dict
 from support.opensees_material import opensees_available
+from support.opensees_script import opensees_script, run_opensees
 
 REPO = Path(__file__).resolve().parents[2]
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / 'elcentro_1940_ns_chopra.csv'
@@ -366,10 +362,7 @@ def test_resolved_definition_keeps_the_pdelta_terms() -> None:
 
 # --------------------------------------------------------------------------- OpenSees
 
-OPENSEES_SCRIPT = r'''
-import json, sys
-import openseespy.opensees as ops
-spec = json.loads(sys.stdin.read())
+OPENSEES_SCRIPT = opensees_script(r'''
 ops.wipe()
 ops.model('basic', '-ndm', 2, '-ndf', 3)
 for tag, x, y in spec['nodes']:
@@ -387,21 +380,7 @@ for element in spec['elements']:
     else:
         ops.element('zeroLength', *element[1:4], '-mat', element[4], '-dir', 1,
                     '-doRayleigh', 1)
-# The axial loads: nodal loads of one static step, then held.
-ops.timeSeries('Linear', 1)
-ops.pattern('Plain', 1, 1)
-for tag, *load in spec['gravity']:
-    ops.load(tag, *load)
-ops.constraints('Plain')
-ops.numberer('Plain')
-ops.system('FullGeneral')
-ops.test('NormDispIncr', 1e-14, 20)
-ops.algorithm('Newton')
-ops.integrator('LoadControl', 1.0)
-ops.analysis('Static')
-if ops.analyze(1) != 0:
-    sys.exit('gravity analysis failed')
-ops.loadConst('-time', 0.0)
+gravity_step(spec['gravity'])  # the axial loads: nodal loads of one static step, then held
 out = {'axial': [ops.eleResponse(e[1], 'localForce')[0] for e in spec['elements']
                  if e[0] == 'elasticBeamColumn']}
 if spec['mode'] == 'static':
@@ -416,18 +395,7 @@ else:
     ops.wipeAnalysis()
     ops.timeSeries('Path', 2, '-dt', spec['dt'], '-values', *spec['record'], '-factor', 1.0)
     ops.pattern('UniformExcitation', 2, 1, '-accel', 2)
-    ops.rayleigh(spec['a0'], spec['a1'], 0.0, 0.0)
-    ops.constraints('Plain')
-    ops.numberer('Plain')
-    ops.system('FullGeneral')
-    if spec['integrator'] == 'explicit':
-        ops.algorithm('Linear')
-        ops.integrator('NewmarkExplicit', 0.5)
-    else:
-        ops.test('NormDispIncr', 1e-14, 50)
-        ops.algorithm('Newton')
-        ops.integrator('Newmark', 0.5, 0.25)
-    ops.analysis('Transient')
+    transient_setup(spec['integrator'], [spec['a0'], spec['a1'], 0.0, 0.0])
     history = [[ops.nodeDisp(tag, dof) for tag, dof in spec['record_dofs']]]
     for _ in range(spec['steps']):
         if ops.analyze(1, spec['dt']) != 0:
@@ -435,17 +403,13 @@ else:
         history.append([ops.nodeDisp(tag, dof) for tag, dof in spec['record_dofs']])
     out['disp'] = history
 print(json.dumps(out))
-'''
+''')
 
 
 def opensees(spec: dict[str, Any]) -> dict[str, Any]:
     """Run :data:`OPENSEES_SCRIPT` on ``spec`` in a child process."""
     spec = {'materials': [], 'mass': [], **spec}
-    result = subprocess.run([sys.executable, '-c', OPENSEES_SCRIPT], input=json.dumps(spec),
-                            capture_output=True, text=True, timeout=300, check=False,
-                            env=opensees_environment(dict(os.environ)))
-    assert result.returncode == 0, result.stderr[-2000:]
-    out: dict[str, Any] = json.loads(result.stdout.strip().splitlines()[-1])
+    out: dict[str, Any] = run_opensees(OPENSEES_SCRIPT, spec)
     return out
 
 
