@@ -19,10 +19,12 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..matrices import as_float_array, as_vector, readonly_copy, square_matrix
+from ..schemes.linalg import LARGE_MODEL_DOF, is_sparse_structure, large_diagonal
 
 __all__ = [
     'Structure',
@@ -38,10 +40,21 @@ SYMMETRY_RTOL = 1e-10
 
 def _is_symmetric(matrix: np.ndarray) -> bool:
     scale = float(np.max(np.abs(matrix))) if matrix.size else 0.0
+    if matrix.shape[0] >= LARGE_MODEL_DOF and is_sparse_structure(matrix):
+        # The same test on the stored entries (no n×n temporaries, no transposed pass).
+        sparse = scipy.sparse.csr_matrix(matrix)
+        difference = abs(sparse - sparse.T)
+        return bool(difference.nnz == 0 or difference.max() <= SYMMETRY_RTOL * scale)
     return bool(np.all(np.abs(matrix - matrix.T) <= SYMMETRY_RTOL * scale))
 
 
 def _check_positive_definite(matrix: np.ndarray, name: str) -> None:
+    lumped = large_diagonal(matrix)  # a large diagonal matrix: its diagonal says it, in O(n)
+    if lumped is not None:
+        if not bool(np.all(lumped > 0.0)):
+            msg = f'{name}: matrix must be positive definite'
+            raise ConfigError(msg)
+        return
     try:
         np.linalg.cholesky(matrix)
     except np.linalg.LinAlgError:
@@ -73,6 +86,9 @@ def modal_analysis(
         msg = f'stiffness: shape {k.shape} does not match mass shape {m.shape}'
         raise ConfigError(msg)
     _check_positive_definite(m, 'mass')
+    tridiagonal = _large_tridiagonal(m, k)
+    if tridiagonal is not None:
+        return _tridiagonal_modes(*tridiagonal)
     # scipy has no type information: eigh of two real matrices gives real float arrays.
     eigenvalues: NDArray[np.float64]
     shapes: NDArray[np.float64]
@@ -90,6 +106,49 @@ def modal_analysis(
         if column[int(np.argmax(np.abs(column)))] < 0.0:
             shapes[:, j] = -column
     return omegas, shapes
+
+
+def _large_tridiagonal(m: np.ndarray, k: np.ndarray
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                  NDArray[np.float64]] | None:
+    """``(d, e, s)`` for a large lumped mass and a tridiagonal stiffness, else ``None``.
+
+    ``M^{-1/2} K M^{-1/2}`` is then the symmetric tridiagonal matrix of diagonal ``d`` and
+    off-diagonal ``e`` (from the lower triangle, as ``eigh`` reads it), ``s = diag(M)^{-1/2}``.
+    """
+    lumped = large_diagonal(m)
+    if lumped is None or k.shape != m.shape or not bool(np.all(lumped > 0.0)):
+        return None  # (a mass that is not positive: the dense path says so)
+    diagonal, lower = np.diagonal(k), np.diagonal(k, -1)
+    if np.count_nonzero(k) != (np.count_nonzero(diagonal) + np.count_nonzero(lower)
+                               + np.count_nonzero(np.diagonal(k, 1))):
+        return None
+    s = 1.0 / np.sqrt(lumped)
+    return diagonal * s * s, lower * s[1:] * s[:-1], s
+
+
+def _check_spectrum(lowest: float, highest: float) -> None:
+    scale = max(abs(lowest), abs(highest))
+    if lowest < -1e-10 * scale:
+        msg = (
+            f'stiffness: matrix has a negative eigenvalue ({lowest:.6g}); '
+            'it must be positive semi-definite'
+        )
+        raise ConfigError(msg)
+
+
+def _tridiagonal_modes(d: NDArray[np.float64], e: NDArray[np.float64], s: NDArray[np.float64]
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`modal_analysis` of a large lumped-mass, tridiagonal-stiffness model."""
+    eigenvalues: NDArray[np.float64]
+    vectors: NDArray[np.float64]
+    eigenvalues, vectors = scipy.linalg.eigh_tridiagonal(d, e)
+    _check_spectrum(float(eigenvalues[0]), float(eigenvalues[-1]))
+    shapes = vectors * s[:, None]  # Φ = M^{-1/2} V: Φᵀ M Φ = Vᵀ V = I
+    columns = np.arange(shapes.shape[1])
+    negative = shapes[np.argmax(np.abs(shapes), axis=0), columns] < 0.0
+    shapes[:, negative] = -shapes[:, negative]
+    return np.sqrt(np.clip(eigenvalues, 0.0, None)), shapes
 
 
 def omega_max(mass: Any, stiffness: Any) -> float:
@@ -112,6 +171,14 @@ def omega_max(mass: Any, stiffness: Any) -> float:
             msg = 'stiffness: must not be negative'
             raise ConfigError(msg)
         return math.sqrt(float(k[0, 0]) / float(m[0, 0]))
+    tridiagonal = _large_tridiagonal(m, k)
+    if tridiagonal is not None:  # the extreme eigenvalues only, by bisection: O(n)
+        d, e, _ = tridiagonal
+        extremes = [float(scipy.linalg.eigh_tridiagonal(
+            d, e, eigvals_only=True, select='i', select_range=(i, i))[0])
+            for i in (0, d.size - 1)]
+        _check_spectrum(*extremes)
+        return math.sqrt(max(extremes[1], 0.0))
     omegas, _ = modal_analysis(m, k)
     return float(omegas[-1])
 

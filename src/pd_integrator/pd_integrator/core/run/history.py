@@ -39,12 +39,18 @@ class ResponseHistory:
     @classmethod
     def allocate(cls, dof_names: tuple[str, ...], dt: float, ground_acceleration: np.ndarray
                  ) -> ResponseHistory:
-        """Empty history for ``len(ground_acceleration)`` rows."""
+        """Empty history for ``len(ground_acceleration)`` rows.
+
+        The rows are written with zeros here (``np.full``, not the lazily mapped pages of
+        ``np.zeros``): recording a step then costs no page faults (a 10,000-DOF model would
+        otherwise fault in 400 kB of new pages every step).
+        """
         rows = len(ground_acceleration)
         shape = (rows, len(dof_names))
-        return cls(dof_names=dof_names, dt=dt, displacement=np.zeros(shape),
-                   velocity=np.zeros(shape), acceleration=np.zeros(shape),
-                   restoring_force=np.zeros(shape), measured_displacement=np.zeros(shape),
+        return cls(dof_names=dof_names, dt=dt, displacement=np.full(shape, 0.0),
+                   velocity=np.full(shape, 0.0), acceleration=np.full(shape, 0.0),
+                   restoring_force=np.full(shape, 0.0),
+                   measured_displacement=np.full(shape, 0.0),
                    ground_acceleration=np.asarray(ground_acceleration, dtype=float))
 
     def record(self, step: int, x: np.ndarray, v: np.ndarray, a: np.ndarray,

@@ -12,7 +12,7 @@ initial displacement, measure the initial restoring force r₀), then integratio
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,33 @@ def _all_finite(values: tuple[float, ...] | FloatArray) -> bool:
     if isinstance(values, np.ndarray) or len(values) > 16:
         return bool(np.isfinite(np.asarray(values, dtype=float)).all())
     return all(math.isfinite(value) for value in values)
+
+
+class _Target(tuple[float, ...]):
+    """A command's target displacement: a tuple of floats that also holds them as the
+    integrator's read-only array, which ``np.array``/``np.asarray`` return without reading the
+    floats back one by one (the coordinator, the bag, the tracking check of a large model)."""
+
+    _array: FloatArray | None = None
+
+    @classmethod
+    def of(cls, array: FloatArray) -> _Target:
+        """The tuple of ``array``'s floats (``array`` is kept, made read-only)."""
+        target = cls(array.tolist())
+        array.setflags(write=False)
+        target._array = array
+        return target
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> np.ndarray:
+        array = self._array
+        if array is None or (dtype is not None and np.dtype(dtype) != array.dtype):
+            plain: np.ndarray = np.array(tuple(self), dtype=dtype)  # (a copy made elsewhere)
+            return plain
+        return array.copy() if copy else array
+
+
+#: Above this many DOFs a command's target is a :class:`_Target` (smaller ones: a plain tuple).
+_LARGE_TARGET = 16
 
 
 class TestSession:
@@ -74,6 +101,9 @@ class TestSession:
         self._probe_plan: list[tuple[float, ...]] = []
         self._probe_forces: list[tuple[float, ...] | FloatArray] = []
         self._last_command: Command | None = None
+        # The last integration command and its target as the integrator's array (a large
+        # model's tracking check then skips converting the command's tuple back).
+        self._target: tuple[Command, FloatArray] | None = None
         self._failure: str | None = None  # a numerical failure: the test cannot go on
         # p_k = -M ι a_g(t_k) for every step, computed once.
         self._loads = definition.loads()
@@ -253,14 +283,22 @@ class TestSession:
         if tolerance <= 0.0:
             return None
         target = pending.target_displacement
-        errors = [abs(m - t) for m, t in zip(measured, target, strict=True)]
-        worst = max(range(len(errors)), key=errors.__getitem__)
-        if errors[worst] <= tolerance:
+        if len(target) > 16:  # a large model: one numpy pass (the same floats, the same worst)
+            target_array = (self._target[1] if self._target is not None
+                            and self._target[0] is pending else np.asarray(target, dtype=float))
+            deviation = np.abs(np.asarray(measured, dtype=float) - target_array)
+            worst = int(np.argmax(deviation))
+            error = float(deviation[worst])
+        else:
+            errors = [abs(m - t) for m, t in zip(measured, target, strict=True)]
+            worst = max(range(len(errors)), key=errors.__getitem__)
+            error = errors[worst]
+        if error <= tolerance:
             return None
         name = self.definition.dof_names[worst] if worst < len(self.definition.dof_names) \
             else str(worst)
         return (f'step {feedback.step}: measured displacement of {name} {measured[worst]:.6g} m '
-                f'is {errors[worst]:.3g} m from the commanded {target[worst]:.6g} m '
+                f'is {error:.3g} m from the commanded {target[worst]:.6g} m '
                 f'(protocol.tracking_tolerance {tolerance:g} m): not committed; check the '
                 'actuator, then resume (or abort)')
 
@@ -342,9 +380,14 @@ class TestSession:
         else:
             target = integrator.predict()
             iteration = integrator.iteration
-        return Command(test_id=self.definition.test_id, step=step,
-                       test_time=self.definition.time(step), dof_names=self.definition.dof_names,
-                       target_displacement=tuple(target.tolist()), iteration=iteration)
+        command = Command(test_id=self.definition.test_id, step=step,
+                          test_time=self.definition.time(step),
+                          dof_names=self.definition.dof_names,
+                          target_displacement=(_Target.of(target) if target.size > _LARGE_TARGET
+                                               else tuple(target.tolist())),
+                          iteration=iteration)
+        self._target = (command, target)
+        return command
 
     def _on_step_feedback(self, command: Command, feedback: Feedback) -> None:
         integrator = self._integrator

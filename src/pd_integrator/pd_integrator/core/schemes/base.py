@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError, IntegratorError
 from ..matrices import readonly, square_matrix
+from .linalg import large_diagonal
 from .parameters import SchemeParameter, check_parameter, resolve_parameters
 
 __all__ = [
@@ -147,14 +148,20 @@ class Integrator(abc.ABC):
         if c.shape != (n, n):
             msg = f'damping: expected shape ({n}, {n}), got {c.shape}'
             raise ConfigError(msg)
-        if not np.allclose(m, m.T, rtol=0.0, atol=1e-10 * float(np.max(np.abs(m)))):
-            msg = 'mass: matrix must be symmetric'
-            raise ConfigError(msg)
-        try:
-            np.linalg.cholesky(m)
-        except np.linalg.LinAlgError:
-            msg = 'mass: matrix must be positive definite'
-            raise ConfigError(msg) from None
+        lumped = large_diagonal(m)  # a large lumped mass: symmetric, checked in O(n)
+        if lumped is not None:
+            if not bool(np.all(lumped > 0.0)):
+                msg = 'mass: matrix must be positive definite'
+                raise ConfigError(msg)
+        else:
+            if not np.allclose(m, m.T, rtol=0.0, atol=1e-10 * float(np.max(np.abs(m)))):
+                msg = 'mass: matrix must be symmetric'
+                raise ConfigError(msg)
+            try:
+                np.linalg.cholesky(m)
+            except np.linalg.LinAlgError:
+                msg = 'mass: matrix must be positive definite'
+                raise ConfigError(msg) from None
         k: np.ndarray | None = None
         if initial_stiffness is not None:
             k = square_matrix(initial_stiffness, 'initial_stiffness')

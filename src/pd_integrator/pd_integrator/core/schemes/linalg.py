@@ -14,6 +14,7 @@ from typing import Any, Protocol
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 import scipy.sparse
 import scipy.sparse.linalg
 from numpy.typing import NDArray
@@ -21,12 +22,14 @@ from numpy.typing import NDArray
 from ..errors import ConfigError
 
 __all__ = [
+    'LARGE_MODEL_DOF',
     'SPARSE_MAX_DENSITY',
     'SPARSE_MIN_DOF',
     'Factorization',
     'MatrixOperator',
     'cholesky_or_lu',
     'is_sparse_structure',
+    'large_diagonal',
     'operator',
     'solve_factored',
 ]
@@ -83,6 +86,26 @@ def is_sparse_structure(matrix: np.ndarray) -> bool:
     return n >= SPARSE_MIN_DOF and bool(np.count_nonzero(matrix) <= SPARSE_MAX_DENSITY * n * n)
 
 
+#: Models of at least this many DOFs skip the dense O(n³) work that has an exact or a sparse
+#: equivalent: a diagonal mass matrix (lumped masses) is positive definite when its diagonal
+#: is, and is inverted by a division; a tridiagonal stiffness (a shear building, a chain) gets
+#: its frequencies from a tridiagonal eigensolver. Smaller models keep the dense computations,
+#: float for float.
+LARGE_MODEL_DOF = 2048
+
+
+def large_diagonal(matrix: np.ndarray) -> NDArray[np.float64] | None:
+    """The diagonal of ``matrix`` if it is a diagonal matrix of at least
+    :data:`LARGE_MODEL_DOF` rows (a copy), else ``None``."""
+    if matrix.ndim != 2 or matrix.shape[0] < LARGE_MODEL_DOF or (
+            matrix.shape[0] != matrix.shape[1]):
+        return None
+    diagonal = np.diagonal(matrix)
+    if np.count_nonzero(matrix) != np.count_nonzero(diagonal):
+        return None
+    return np.array(diagonal, dtype=float)
+
+
 class MatrixOperator(Protocol):
     """A constant matrix for repeated products ``A @ x``: a dense array or a scipy CSR matrix."""
 
@@ -106,6 +129,8 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
     Large sparse matrices get a sparse LU (``('sparse', splu)``), which raises ``ConfigError``
     when singular. The dense LU factors are not checked for singularity: the caller does that.
     """
+    if symmetric and (tridiagonal := _tridiagonal_cholesky(matrix)) is not None:
+        return tridiagonal
     if is_sparse_structure(matrix):
         try:
             return ('sparse', scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(matrix)))
@@ -122,6 +147,23 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
         return ('lu', scipy.linalg.lu_factor(matrix, check_finite=False))
 
 
+def _tridiagonal_cholesky(matrix: np.ndarray) -> tuple[str, Any] | None:
+    """``('tridiagonal', (d, e))``, the ``L D Lᵀ`` factors of LAPACK ``?pttrf``, for a large
+    (:data:`LARGE_MODEL_DOF`) symmetric positive definite tridiagonal matrix (a shear
+    building, a chain: ``M + γΔt C + βΔt² K``), else ``None``. A solve is then O(n) with no
+    sparse-matrix overhead."""
+    if matrix.ndim != 2 or matrix.shape[0] < LARGE_MODEL_DOF:
+        return None
+    diagonal, lower = np.diagonal(matrix), np.diagonal(matrix, -1)
+    if np.count_nonzero(matrix) != (np.count_nonzero(diagonal) + np.count_nonzero(lower)
+                                    + np.count_nonzero(np.diagonal(matrix, 1))):
+        return None
+    d, e, info = scipy.linalg.lapack.dpttrf(diagonal, lower)
+    if info != 0:  # not positive definite: the general factorisations decide
+        return None
+    return ('tridiagonal', (d, e))
+
+
 def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
     """Solve with a ``(kind, factor)`` of :class:`Factorization` or :func:`cholesky_or_lu`."""
     kind, value = factor
@@ -133,6 +175,11 @@ def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
         solution = scipy.linalg.cho_solve(value, rhs, check_finite=False)
     elif kind == 'sparse':
         solution = value.solve(np.asarray(rhs, dtype=float))
+    elif kind == 'tridiagonal':
+        solution, info = scipy.linalg.lapack.dpttrs(value[0], value[1], rhs)
+        if info != 0:
+            msg = f'tridiagonal solve failed (LAPACK info {info})'
+            raise ConfigError(msg)
     else:
         solution = scipy.linalg.lu_solve(value, rhs, check_finite=False)
     return solution

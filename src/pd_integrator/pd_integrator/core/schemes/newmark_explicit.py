@@ -12,11 +12,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 
 from ..errors import ConfigError
 from .amplification import amplification_from
 from .base import COMMITTED, CORRECTED, PREDICTED, Integrator
-from .linalg import cholesky_or_lu, operator, solve_factored
+from .linalg import (
+    LARGE_MODEL_DOF,
+    cholesky_or_lu,
+    is_sparse_structure,
+    large_diagonal,
+    operator,
+    solve_factored,
+)
 
 __all__ = [
     'NewmarkExplicit',
@@ -138,14 +146,24 @@ class NewmarkExplicit(Integrator):
                 raise ConfigError(msg)
             return
         c_matrix = self._damping
+        # A large model takes C v_i + Δt/2 C a_i as one product C (v_i + Δt/2 a_i).
+        self._one_product = self._n >= LARGE_MODEL_DOF
         self._half_dt_c_matrix = operator(dt * 0.5 * c_matrix)
         self._damping_operator = operator(c_matrix)
         lhs = self._mass + dt * 0.5 * c_matrix
-        self._factor = cholesky_or_lu(lhs, bool(np.array_equal(c_matrix, c_matrix.T)))
+        if self._one_product and is_sparse_structure(c_matrix):  # no n×n transposed pass
+            sparse = scipy.sparse.csr_matrix(c_matrix)
+            symmetric = (sparse != sparse.T).nnz == 0
+        else:
+            symmetric = bool(np.array_equal(c_matrix, c_matrix.T))
+        self._factor = cholesky_or_lu(lhs, symmetric)
         if self._factor[0] == 'lu' and np.any(np.diag(self._factor[1][0]) == 0.0):
             msg = 'damping: M + dt/2*C is singular'
             raise ConfigError(msg)
-        self._mass_factor = scipy.linalg.cho_factor(self._mass)
+        # a_0 = M⁻¹ (…): a large lumped mass divides (no dense Cholesky of n² entries).
+        self._mass_diagonal = large_diagonal(self._mass)
+        if self._mass_diagonal is None:
+            self._mass_factor = scipy.linalg.cho_factor(self._mass)
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         return solve_factored(self._factor, rhs)
@@ -153,6 +171,8 @@ class NewmarkExplicit(Integrator):
     def _initial_acceleration(self, x0: Any, v0: Any, p0: Any, r0: Any) -> Any:
         if self._scalar:
             return (p0 - self._c * v0 - r0) / self._m
+        if self._mass_diagonal is not None:
+            return (p0 - self._damping_operator @ v0 - r0) / self._mass_diagonal
         return scipy.linalg.cho_solve(self._mass_factor, p0 - self._damping @ v0 - r0)
 
     def _predict(self) -> Any:
@@ -164,6 +184,9 @@ class NewmarkExplicit(Integrator):
         a = self._a
         if self._scalar:
             a_new = (load - restoring_force - self._c * v - self._half_dt_c * a) / self._lhs
+        elif self._one_product:
+            a_new = self._solve(
+                load - restoring_force - self._damping_operator @ (v + self._half_dt * a))
         else:
             a_new = self._solve(
                 load - restoring_force - self._damping_operator @ v
