@@ -21,3 +21,8 @@ class SpecimenConfigError(SpecimenError):
 
 class SetupError(ValueError):
     """An experimental setup (basic DOFs ↔ actuator strokes) or its configuration is invalid."""
+
+
+class RthsError(ValueError):
+    """A real-time hybrid simulation piece (transfer system, compensator, continuous actuator)
+    or its configuration is invalid."""

@@ -1,0 +1,50 @@
+"""Real-time hybrid simulation: transfer systems, compensators, continuous actuator motion.
+
+Pure (numpy/scipy). The vRTHS benchmark (Silva, Dyke et al. 2020) is built from these pieces
+by ``pd_integrator`` (``./pd rths_benchmark``); the bridge's ``transfer_system`` driver runs
+them behind the step protocol.
+"""
+
+from __future__ import annotations
+
+from .base import (
+    BENCHMARK_CAPACITY,
+    BENCHMARK_NOISE,
+    BENCHMARK_QUANTUM,
+    BENCHMARK_SPECIMEN,
+    IdealPlant,
+    PhysicalSpecimen,
+    SensorNoise,
+    TransferSystem,
+    quantise,
+)
+from .compensation import (
+    Compensator,
+    CompensatorParameter,
+    CompensatorSpec,
+    NoCompensation,
+    compensator_names,
+    compensator_spec,
+    make_compensator,
+    register_compensator,
+)
+
+__all__ = [
+    'BENCHMARK_CAPACITY',
+    'BENCHMARK_NOISE',
+    'BENCHMARK_QUANTUM',
+    'BENCHMARK_SPECIMEN',
+    'Compensator',
+    'CompensatorParameter',
+    'CompensatorSpec',
+    'IdealPlant',
+    'NoCompensation',
+    'PhysicalSpecimen',
+    'SensorNoise',
+    'TransferSystem',
+    'compensator_names',
+    'compensator_spec',
+    'make_compensator',
+    'quantise',
+    'register_compensator',
+]
