@@ -28,15 +28,27 @@ from .compensation import (
     make_compensator,
     register_compensator,
 )
+from .continuous import (
+    ActuatorCounters,
+    ContinuousActuator,
+    ContinuousConfig,
+    ContinuousMeasurement,
+    continuous_from_config,
+    plant_from_section,
+)
 
 __all__ = [
     'BENCHMARK_CAPACITY',
     'BENCHMARK_NOISE',
     'BENCHMARK_QUANTUM',
     'BENCHMARK_SPECIMEN',
+    'ActuatorCounters',
     'Compensator',
     'CompensatorParameter',
     'CompensatorSpec',
+    'ContinuousActuator',
+    'ContinuousConfig',
+    'ContinuousMeasurement',
     'IdealPlant',
     'NoCompensation',
     'PhysicalSpecimen',
@@ -44,7 +56,9 @@ __all__ = [
     'TransferSystem',
     'compensator_names',
     'compensator_spec',
+    'continuous_from_config',
     'make_compensator',
+    'plant_from_section',
     'quantise',
     'register_compensator',
 ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from . import pi_p  # noqa: F401  (registers 'pi_p')
 from .base import (
     Compensator,
     CompensatorParameter,

@@ -7,7 +7,10 @@ PEER NGA ``.AT2`` format:
 - a single column of accelerations (the time step is given separately);
 - several accelerations per row, read across each row and then down (row-major), the layout
   the MATLAB code flattens with its nested ``rr``/``cc`` loops;
-- PEER NGA ``.AT2``: four header lines, ``NPTS`` and ``DT`` on line 4, values in g.
+- PEER NGA ``.AT2``: four header lines, ``NPTS`` and ``DT`` on line 4, values in g;
+- MATLAB ``.mat`` (v4–v7, :func:`scipy.io.loadmat`): a 2×N array with rows [time;
+  acceleration] or an N×2 one with those columns, the layout of the vRTHS benchmark's records
+  (in m/s²: pass ``units='m/s2'``).
 
 Every value must be a well-formed decimal number (optional sign, digits with an optional point,
 an optional exponent ``E``/``D`` with its digits): ``1.2E-`` is refused, never read as something
@@ -42,12 +45,13 @@ __all__ = [
     'UNITS',
     'read_at2',
     'read_ground_motion',
+    'read_mat',
     'read_multi_column',
     'read_single_column',
     'read_two_column',
 ]
 
-FORMATS = ('auto', 'two_column', 'single_column', 'multi_column', 'at2')
+FORMATS = ('auto', 'two_column', 'single_column', 'multi_column', 'at2', 'mat')
 """Values accepted by ``read_ground_motion(format=...)``."""
 
 UNITS = ('g', 'm/s2', 'm/s^2')
@@ -193,6 +197,82 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
     return _make(path, dt, values * scale)
 
 
+def read_mat(path: PathLike, *, units: str = 'm/s2', g: float = G_THESIS,
+             variable: str | None = None) -> GroundMotion:
+    """Read a MATLAB ``.mat`` record: time and acceleration as a 2×N (rows) or N×2 (columns)
+    array.
+
+    The vRTHS benchmark's records (``ElCentroAccelNoScaling.mat`` etc.) hold one such 2×N
+    array in m/s², the units' default here. The array is ``variable`` or, if not given, the
+    only real numeric array of the file with 2 rows or 2 columns (a 2×2 array is read as
+    rows). The time may start at any value (shifted to 0) but must be uniform, as for
+    :func:`read_two_column`.
+
+    Args:
+        path: The file (MATLAB v4–v7; v7.3/HDF5 files are refused: save with ``-v7``).
+        units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``).
+        g: Gravity in m/s² used to convert g.
+        variable: The name of the array in the file (optional).
+
+    Returns:
+        The record in m/s², ``source`` the file name.
+
+    Raises:
+        GroundMotionError: If the file cannot be read, no single (or the named) array is a
+            record, or its time is not uniform and increasing.
+    """
+    scale = _unit_scale(path, units, g)
+    label = _label(path)
+    from scipy import io as scipy_io  # noqa: PLC0415 - only .mat files need it
+
+    try:
+        content = scipy_io.loadmat(os.fspath(path))
+    except NotImplementedError:
+        msg = f'ground motion {label}: MATLAB v7.3 (HDF5) files are not supported; save with -v7'
+        raise GroundMotionError(msg) from None
+    except (OSError, ValueError, TypeError, scipy_io.matlab.MatReadError) as exc:
+        msg = f'ground motion {label}: cannot read MATLAB file: {exc}'
+        raise GroundMotionError(msg) from exc
+    arrays = {name: value for name, value in content.items()
+              if not name.startswith('__') and isinstance(value, np.ndarray)
+              and value.dtype.kind in 'iuf' and value.ndim == 2 and 2 in value.shape}
+    if variable is not None:
+        if variable not in arrays:
+            msg = (f'ground motion {label}: no 2-row or 2-column numeric array {variable!r} in '
+                   f'the file (found: {", ".join(sorted(arrays)) or "none"})')
+            raise GroundMotionError(msg)
+        name = variable
+    elif len(arrays) == 1:
+        name = next(iter(arrays))
+    else:
+        found = ', '.join(sorted(arrays)) or 'none'
+        msg = (f'ground motion {label}: expected one 2-row or 2-column numeric array '
+               f'(time, acceleration), found: {found}; name it with variable=...')
+        raise GroundMotionError(msg)
+    data = np.asarray(arrays[name], dtype=np.float64)
+    data = data if data.shape[0] == 2 else data.T
+    time, acc = data[0], data[1]
+    if time.size < 2:
+        msg = f'ground motion {label}: {name}: need at least 2 samples, found {time.size}'
+        raise GroundMotionError(msg)
+    if not (np.all(np.isfinite(time)) and np.all(np.isfinite(acc))):
+        msg = f'ground motion {label}: {name}: non-finite value'
+        raise GroundMotionError(msg)
+    raw_dt = float(time[1] - time[0])
+    if not raw_dt > 0.0:
+        msg = (f'ground motion {label}: {name}: time must increase, got {float(time[0])!r} '
+               f'then {float(time[1])!r}')
+        raise GroundMotionError(msg)
+    steps = np.diff(time)
+    bad = np.flatnonzero(np.abs(steps - raw_dt) > 1e-6 * raw_dt + 1e-9)
+    if bad.size:
+        index = int(bad[0]) + 1
+        msg = (f'ground motion {label}: {name}: non-uniform time step at sample {index} '
+               f'(step {float(steps[index - 1])!r} s, expected {raw_dt!r} s)')
+        raise GroundMotionError(msg)
+    return _make(path, float(f'{raw_dt:.12g}'), acc * scale)
+
+
 def read_ground_motion(
     path: PathLike,
     *,
@@ -203,7 +283,8 @@ def read_ground_motion(
 ) -> GroundMotion:
     """Read a ground-motion record in any supported layout.
 
-    With ``format='auto'`` a ``.at2`` suffix (any case) selects the PEER reader; otherwise the
+    With ``format='auto'`` a ``.at2`` suffix (any case) selects the PEER reader and a ``.mat``
+    suffix the MATLAB reader (:func:`read_mat`, ``units`` as given); otherwise the
     number of values on the first numeric row decides: 2 -> two columns (time, acceleration),
     1 -> single column, more -> multi-column (row-major). Single- and multi-column files need
     ``dt``. For two-column and AT2 files the time step comes from the file; a ``dt`` given as
@@ -212,7 +293,7 @@ def read_ground_motion(
     Args:
         path: The file.
         format: One of ``'auto'``, ``'two_column'``, ``'single_column'``, ``'multi_column'``,
-            ``'at2'``.
+            ``'at2'``, ``'mat'``.
         units: Acceleration units in the file: ``'g'`` or ``'m/s2'`` (``'m/s^2'``). AT2 files
             are always in g.
         dt: Time step in s, required for single- and multi-column files.
@@ -239,6 +320,12 @@ def read_ground_motion(
     fmt = format
     if fmt == 'auto' and Path(path).suffix.lower() == '.at2':
         fmt = 'at2'
+    if fmt == 'auto' and Path(path).suffix.lower() == '.mat':
+        fmt = 'mat'
+    if fmt == 'mat':
+        motion = read_mat(path, units=units, g=g)
+        _check_file_dt(label, motion.dt, dt)
+        return motion
     if fmt == 'at2':
         if _normalise_units(units) != 'g':
             msg = f'ground motion {label}: AT2 files are in g, units={units!r} does not apply'
