@@ -67,7 +67,13 @@ def test_prepare_ground_motion_pads_scales_and_interpolates() -> None:
     assert t[-1] == pytest.approx(2 * 0.5 + 3 * 0.02)
     assert t.size == 1061
     assert np.all(ag[t < 0.5 - 1e-12] == 0.0)
-    assert np.all(ag[t > 0.56 + 1e-12] == 0.0)
+    assert np.all(ag[t >= 0.58 - 1e-12] == 0.0)
+    # the zeros are samples: one record step from the last sample (0.4 * 0.5) down to zero
+    k = round(0.57 * 1000)
+    assert ag[k] == pytest.approx(0.4 * 0.5 / 2, abs=1e-12)
+    padded = np.concatenate([np.zeros(25), record, np.zeros(25)])
+    np.testing.assert_allclose(ag, 0.4 * np.interp(t, np.arange(padded.size) * 0.02, padded),
+                               rtol=0, atol=1e-15)
     # at the record's samples: the record × intensity; between them: linear
     for i, value in enumerate(record):
         k = round((0.5 + 0.02 * i) * 1000)

@@ -36,6 +36,7 @@ from .continuous import (
     continuous_from_config,
     plant_from_section,
 )
+from .site import ContinuousSiteServer, SampleLog
 
 __all__ = [
     'BENCHMARK_CAPACITY',
@@ -49,9 +50,11 @@ __all__ = [
     'ContinuousActuator',
     'ContinuousConfig',
     'ContinuousMeasurement',
+    'ContinuousSiteServer',
     'IdealPlant',
     'NoCompensation',
     'PhysicalSpecimen',
+    'SampleLog',
     'SensorNoise',
     'TransferSystem',
     'compensator_names',

@@ -416,7 +416,8 @@ class ContinuousActuator:
 
     Raises:
         RthsError: Δt_int not a whole multiple of the controller period, or a plant or
-            compensator for another period.
+            compensator for another period; in real time (:meth:`tick` without the target), a
+            ``slowdown_samples`` whose braking does not fit before ``hold_at``.
     """
 
     def __init__(self, config: ContinuousConfig, integration_dt: float, *,
@@ -448,11 +449,11 @@ class ContinuousActuator:
             config.specimen if config.specimen is not None
             else own if isinstance(own, PhysicalSpecimen) else BENCHMARK_SPECIMEN)
         hold = config.hold_at * samples
-        if config.slowdown_samples / 2.0 > hold:
-            msg = (f'transfer_system.realtime.slowdown_samples: {config.slowdown_samples:g} '
-                   f'samples of braking do not fit before hold_at ({hold:g} of the '
-                   f'{samples} samples of a step); at most {2.0 * hold:g}')
-            raise RthsError(msg)
+        # Real time only (a tick without the target): the braking must fit before the hold.
+        self._realtime_problem = (
+            f'transfer_system.realtime.slowdown_samples: {config.slowdown_samples:g} samples '
+            f'of braking do not fit before hold_at ({hold:g} of the {samples} samples of a '
+            f'step); at most {2.0 * hold:g}') if config.slowdown_samples / 2.0 > hold else None
         self._hold_phase = hold
         self._acceleration = 1.0 / config.slowdown_samples
         nodes_c = _CORRECTOR_NODES[config.interpolation]
@@ -612,6 +613,8 @@ class ContinuousActuator:
             rate = min(1.0, rate + self._acceleration)
             new_phase = min(phase + rate, float(samples))
         else:
+            if self._realtime_problem is not None:
+                raise RthsError(self._realtime_problem)
             acceleration = self._acceleration
             distance = self._hold_phase - phase
             stopping = acceleration * (math.sqrt(0.25 + 2.0 * distance / acceleration) - 0.5)

@@ -43,6 +43,7 @@ __all__ = [
     'benchmark_transfer_function',
     'equivalent_delay',
     'frequency_response',
+    'perturbed_plants',
     'plant_from_config',
 ]
 
@@ -249,17 +250,24 @@ class BenchmarkPlant(TransferSystem):
         )
 
 
-_CONFIG_KEYS = ('model', 'perturbed', 'seed')
+_CONFIG_KEYS = ('model', 'perturbed', 'seed', 'index')
+
+
+def perturbed_plants(seed: int, count: int) -> list[BenchmarkPlantParameters]:
+    """The first ``count`` uncertain plants of ``seed``: one generator
+    ``np.random.default_rng(seed)``, one :meth:`BenchmarkPlantParameters.perturbed` call per
+    plant, in order (plant ``i`` of a seed is the same in every run and for everyone)."""
+    rng = np.random.default_rng(seed)
+    return [BenchmarkPlantParameters.perturbed(rng) for _ in range(count)]
 
 
 def plant_from_config(section: Mapping[str, Any] | None, dt: float,
                       where: str = 'plant') -> TransferSystem:
     """The transfer system of a ``plant:`` section.
 
-    Schema: ``{model: benchmark | ideal, perturbed: false, seed: 0}`` (all optional; an
-    empty or missing section is the nominal benchmark plant). ``perturbed: true`` draws one
-    plant with :meth:`BenchmarkPlantParameters.perturbed` from
-    ``np.random.default_rng(seed)``.
+    Schema: ``{model: benchmark | ideal, perturbed: false, seed: 0, index: 0}`` (all
+    optional; an empty or missing section is the nominal benchmark plant). ``perturbed: true``
+    is plant ``index`` of :func:`perturbed_plants` of ``seed``.
 
     Args:
         section: The section (a mapping) or None.
@@ -290,11 +298,15 @@ def plant_from_config(section: Mapping[str, Any] | None, dt: float,
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         msg = f'{where}.seed: must be an integer >= 0, got {seed!r}'
         raise RthsError(msg)
+    index = section.get('index', 0)
+    if not isinstance(index, int) or isinstance(index, bool) or index < 0:
+        msg = f'{where}.index: must be an integer >= 0, got {index!r}'
+        raise RthsError(msg)
     if model == 'ideal':
         if perturbed:
             msg = f'{where}.perturbed: applies to model benchmark only, not ideal'
             raise RthsError(msg)
         return IdealPlant(dt)
-    params = (BenchmarkPlantParameters.perturbed(np.random.default_rng(seed)) if perturbed
+    params = (perturbed_plants(seed, index + 1)[index] if perturbed
               else BenchmarkPlantParameters.nominal())
     return BenchmarkPlant(dt, params)

@@ -14,6 +14,7 @@ Each element names the structure DOFs it connects (``dofs``; ``null`` = the grou
            model: {model: epp, stiffness: 3.0e7, yield_force: 2.0e5}}
         - {type: beam_column, dofs: [null, null, null, u4, v4, r4],
            coordinates: [[0, 0], [0, 3.0]], E: 2.0e11, A: 1.0e-2, I: 1.0e-4}
+        - {type: linear, dofs: [u1, u2], stiffness: [[2.0e7, -1.0e7], [-1.0e7, 1.0e7]]}
 
 * ``spring`` / ``story``: linear, ``dofs: [i, j]`` (deformation ``x_j − x_i``) or ``[j]``
   (to the ground), ``stiffness`` [N/m]; optionally ``pdelta: {axial_load: P, height: L}``
@@ -24,6 +25,9 @@ Each element names the structure DOFs it connects (``dofs``; ``null`` = the grou
   OpenSees's ``geomTransf PDelta``) or ``pdelta_consistent`` (the consistent one) with
   ``axial_load: P`` [N] (compression positive, constant), see
   :func:`~.elements.beam_column_2d_geometric_stiffness`.
+* ``linear``: a linear numerical substructure given by its symmetric stiffness matrix
+  [N/m] on the structure DOFs ``dofs`` (any of them, no ground: e.g. a condensed model from
+  another program, or the vRTHS benchmark's numerical substructure ``K − K_E``).
 * ``nonlinear_spring``: like ``spring`` with a ``model`` mapping exactly as an element of a
   ``specimen`` section (elastic, epp, bilinear, pushover); ``pdelta`` as for ``spring``
   (force and tangent of the model minus ``P/L``, :class:`~.elements.PDeltaHysteresis`).
@@ -74,7 +78,8 @@ from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
 
 __all__ = ['ELEMENT_TYPES', 'SITE_NAME', 'ParsedModel', 'parse_elements']
 
-ELEMENT_TYPES = ('spring', 'story', 'beam_column', 'nonlinear_spring', 'experimental')
+ELEMENT_TYPES = ('spring', 'story', 'beam_column', 'linear', 'nonlinear_spring',
+                 'experimental')
 #: Site names become ROS namespaces: letters, digits and underscores, starting with a letter.
 SITE_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
 
@@ -85,6 +90,7 @@ _KEYS: dict[str, tuple[set[str], set[str]]] = {
     'spring': ({'dofs', 'stiffness'}, {'pdelta'}),
     'story': ({'dofs', 'stiffness'}, {'pdelta'}),
     'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, {'geometry', 'axial_load'}),
+    'linear': ({'dofs', 'stiffness'}, set()),
     'nonlinear_spring': ({'dofs', 'model'}, {'pdelta'}),
     'experimental': ({'dofs', 'site', 'initial_stiffness'},
                      {'relative_to', 'setup', 'actuators', 'control'}),
@@ -273,6 +279,21 @@ def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndar
             except ConfigError as err:
                 msg = f'{path}: {err}'
                 raise ConfigError(msg) from None
+            linear.append((dofs, matrix))
+        elif kind == 'linear':
+            value = raw.get('dofs')
+            dofs = dof_list('dofs', tuple(range(1, n_all + 1)), nulls=False)
+            if len(set(dofs)) != len(dofs):
+                msg = f'{path}.dofs: must name each DOF once, got {value!r}'
+                raise ConfigError(msg)
+            try:
+                matrix = as_matrix(raw['stiffness'], len(dofs), 'stiffness')
+            except ConfigError as err:
+                msg = f'{path}.{err}'
+                raise ConfigError(msg) from None
+            if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
+                msg = f'{path}.stiffness: must be symmetric'
+                raise ConfigError(msg)
             linear.append((dofs, matrix))
         elif kind == 'nonlinear_spring':
             dofs = dof_list('dofs', (1, 2))

@@ -28,7 +28,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
 
-__all__ = ['J_KEYS', 'MAX_LAG_SAMPLES', 'j_criteria', 'noise_floor_percent', 'tracking_delay']
+__all__ = ['J_KEYS', 'MAX_LAG_SAMPLES', 'j_criteria', 'native_j_criteria', 'noise_floor_percent',
+           'tracking_delay']
 
 #: The keys of :func:`j_criteria`'s result, in order.
 J_KEYS = ('J1', 'J2', 'J3', 'J4', 'J5', 'J6', 'J7', 'J8', 'J9')
@@ -114,6 +115,38 @@ def j_criteria(x_d: ArrayLike, x_m: ArrayLike, floors: ArrayLike, reference: Arr
     j['J7'] = _nrms(numerical[:, 2] - ref[:, 2], ref[:, 2])
     j['J8'] = _peak(numerical[:, 1] - ref[:, 1], ref[:, 1])
     j['J9'] = _peak(numerical[:, 2] - ref[:, 2], ref[:, 2])
+    return {key: j[key] for key in J_KEYS}
+
+
+def native_j_criteria(x_d: ArrayLike, x_m: ArrayLike, reference_at_samples: ArrayLike,
+                      floors: ArrayLike, reference_at_steps: ArrayLike,
+                      dt: float) -> dict[str, float]:
+    """J1–J9 of a run whose floors are known at the integration steps only (``--loop
+    native``): J1–J5 at the controller samples (x_d, x_m against the reference's floor 1 at
+    the same instants, ``(n, 3)``), J6–J9 at the integration steps (``floors`` against
+    ``reference_at_steps``, both ``(m, 3)``).
+
+    Raises:
+        ConfigError: On arrays of the wrong shapes or a bad ``dt``.
+    """
+    x_d = _vector('x_d', x_d)
+    x_m = _vector('x_m', x_m, x_d.size)
+    reference_at_samples = np.asarray(reference_at_samples, dtype=np.float64)
+    floors = np.asarray(floors, dtype=np.float64)
+    reference_at_steps = np.asarray(reference_at_steps, dtype=np.float64)
+    if reference_at_samples.shape[0] != x_m.size or floors.shape != reference_at_steps.shape:
+        msg = ('native_j_criteria: the reference must have the shape of the samples '
+               f'({reference_at_samples.shape} for {x_m.size}) and of the floors '
+               f'({reference_at_steps.shape} for {floors.shape})')
+        raise ConfigError(msg)
+    ref1 = reference_at_samples[:, 0]
+    j = {'J1': 1000.0 * tracking_delay(x_d, x_m, dt),
+         'J2': _nrms(x_m - x_d, x_d), 'J3': _peak(x_m - x_d, x_d),
+         'J4': _nrms(x_m - ref1, ref1), 'J5': _peak(x_m - ref1, ref1),
+         'J6': _nrms(floors[:, 1] - reference_at_steps[:, 1], reference_at_steps[:, 1]),
+         'J7': _nrms(floors[:, 2] - reference_at_steps[:, 2], reference_at_steps[:, 2]),
+         'J8': _peak(floors[:, 1] - reference_at_steps[:, 1], reference_at_steps[:, 1]),
+         'J9': _peak(floors[:, 2] - reference_at_steps[:, 2], reference_at_steps[:, 2])}
     return {key: j[key] for key in J_KEYS}
 
 

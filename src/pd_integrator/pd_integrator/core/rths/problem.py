@@ -120,7 +120,8 @@ def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
                           intensity: float = 0.4, rate: float = 4096.0,
                           padding: float = 5.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The benchmark's input: the record × ``intensity`` with ``padding`` s of zeros before and
-    after, resampled at ``rate`` Hz by linear interpolation.
+    after, resampled at ``rate`` Hz by linear interpolation (the zeros are samples: the record
+    goes to zero over one record step at each end, as the zero-padded array does).
 
     The record's sample ``i`` is at ``padding + i dt_record``; the output runs from 0 to
     ``2 padding + (N − 1) dt_record`` (the last loop sample at or before it).
@@ -147,8 +148,11 @@ def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
     duration = 2.0 * padding + (record.size - 1) * dt_record
     n = math.floor(duration * rate + 1e-9) + 1
     t = np.arange(n, dtype=np.float64) / rate
-    record_t = padding + np.arange(record.size, dtype=np.float64) * dt_record
-    ag = intensity * np.interp(t, record_t, record, left=0.0, right=0.0)
+    # The zeros are samples of the record (one record step from the first and last sample to
+    # zero, as a zero-padded array is interpolated), not a jump at the record's ends.
+    record_t = padding + np.arange(-1, record.size + 1, dtype=np.float64) * dt_record
+    ag = intensity * np.interp(t, record_t, np.concatenate([[0.0], record, [0.0]]),
+                               left=0.0, right=0.0)
     return t, ag
 
 

@@ -21,7 +21,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pd_common.errors import RthsError
 from pd_common.protocol import Command, Feedback, TestState
+from pd_common.rths import ContinuousSiteServer, continuous_from_config
 from pd_common.specimen import (
     SiteGeometry,
     SpecimenError,
@@ -43,6 +45,10 @@ from .progress import ProgressMeter
 from .session import TestSession
 from .signatures import check_signatures
 from .test_file import from_json
+
+#: What answers a site's commands in this process: a simulated specimen or a continuous
+#: actuator (both with ``handle``).
+SiteServer = SpecimenServer | ContinuousSiteServer
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -177,7 +183,7 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
     return RunResult(session=session, directory=directory, summary=summary)
 
 
-def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, SpecimenServer],
+def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, SiteServer],
                 dispatcher: StepDispatcher, *,
                 after_answer: Callable[[], None] | None = None) -> bool:
     """Answer the queued commands with in-process specimens until none is left.
@@ -205,12 +211,17 @@ def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, Specime
     return True
 
 
-def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
-    """The simulated specimen of every site (``''``: the test's ``specimen`` section).
+def site_servers(definition: TestDefinition, *, keep_samples: bool = False
+                 ) -> dict[str, SiteServer]:
+    """The simulated specimen of every site (``''``: the test's ``specimen`` section); a site
+    with a ``transfer_system`` section is an actuator in continuous motion
+    (:class:`~pd_common.rths.ContinuousSiteServer`, its controller samples kept with
+    ``keep_samples``).
 
     Raises:
-        ConfigError: a site has no ``specimen`` to simulate.
+        ConfigError: a site has no ``specimen`` to simulate, or a bad ``transfer_system``.
     """
+    servers: dict[str, SiteServer] = {}
     sections: dict[str, tuple[Any, tuple[str, ...], str]] = {}
     if definition.model is None:
         sections[''] = (definition.specimen, definition.dof_names, 'specimen')
@@ -218,10 +229,13 @@ def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
         sites = definition.sites or {}
         for site in definition.model.site_names:
             settings = sites.get(site)
+            if isinstance(settings, dict) and 'transfer_system' in settings:
+                servers[site] = _continuous_site(definition, site, settings['transfer_system'],
+                                                 keep_samples)
+                continue
             section = settings.get('specimen') if isinstance(settings, dict) else None
             sections[site] = (section, definition.model.actuator_names(site),
                               f'sites.{site}.specimen')
-    servers = {}
     for site, (section, names, path) in sections.items():
         if not isinstance(section, dict):
             msg = f'{definition.source}: {path}: section is required for a simulated run'
@@ -240,6 +254,22 @@ def site_servers(definition: TestDefinition) -> dict[str, SpecimenServer]:
             msg = str(err).replace(': specimen', f': sites.{site}.specimen', 1)
             raise ConfigError(msg) from None
     return servers
+
+
+def _continuous_site(definition: TestDefinition, site: str, section: Any, keep_samples: bool
+                     ) -> ContinuousSiteServer:
+    """The continuous actuator of a site's ``transfer_system`` section."""
+    assert definition.model is not None
+    where = f'{definition.source}: sites.{site}.transfer_system'
+    try:
+        config = continuous_from_config(section, where)
+        return ContinuousSiteServer(config, definition.dt,
+                                    n_dof=len(definition.model.actuator_names(site)),
+                                    keep_samples=keep_samples)
+    except RthsError as err:
+        text = str(err)
+        msg = text if text.startswith(where) else f'{where}: {text}'
+        raise ConfigError(msg) from None
 
 
 def _site_geometry(definition: TestDefinition, site: str) -> SiteGeometry:

@@ -280,9 +280,9 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         stiffness = _stiffness(structure, stiffness_raw, n)
     _check_mass(structure, mass, [dof_names[i] for i in retained])
     damping, damping_ratio, damping_spec = _damping(structure, n)
-    if damping is not None and model is not None:
+    if damping is not None and model is not None and len(retained) != n:
         error = structure.error('damping', 'give a ratio, rayleigh or modal damping with '
-                                'elements (a coefficient matrix would include massless DOFs)')
+                                'massless DOFs (a coefficient matrix would include them)')
         raise error
     influence_given = 'influence' in structure.raw
     influence_raw = structure.get('influence', [1.0] * n)
