@@ -34,8 +34,8 @@ from .continuous import (
     ContinuousConfig,
     ContinuousMeasurement,
     continuous_from_config,
-    plant_from_section,
 )
+from .plant import plant_from_config, plant_model_names, register_plant_model
 from .site import ContinuousSiteServer, SampleLog
 
 __all__ = [
@@ -61,7 +61,9 @@ __all__ = [
     'compensator_spec',
     'continuous_from_config',
     'make_compensator',
-    'plant_from_section',
+    'plant_from_config',
+    'plant_model_names',
     'quantise',
     'register_compensator',
+    'register_plant_model',
 ]

@@ -44,7 +44,6 @@ Two clocks:
 
 from __future__ import annotations
 
-import importlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -54,8 +53,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import RthsError
-from .base import BENCHMARK_SPECIMEN, IdealPlant, PhysicalSpecimen, SensorNoise, TransferSystem
+from .base import BENCHMARK_SPECIMEN, PhysicalSpecimen, SensorNoise, TransferSystem
 from .compensation import Compensator, make_compensator
+from .plant import plant_from_config
 
 #: How targets are sub-stepped: the polynomial order of predictor and corrector.
 INTERPOLATIONS = ('linear', 'cubic')
@@ -186,41 +186,6 @@ def _prefixed(error: RthsError, where: str) -> RthsError:
     return RthsError(text if text.startswith(where) else f'{where}: {text}')
 
 
-def plant_from_section(section: Mapping[str, Any], dt: float, where: str) -> TransferSystem:
-    """The transfer system of a ``plant:`` section at controller period ``dt``.
-
-    ``model: ideal`` is :class:`IdealPlant`; every other model is
-    :func:`pd_common.rths.plant.plant_from_config`'s.
-
-    Raises:
-        RthsError: One line naming ``where`` and the key.
-    """
-    if not isinstance(section, Mapping):
-        msg = f'{where}: must be a mapping with a model, got {section!r}'
-        raise RthsError(msg)
-    try:  # the benchmark plant (scipy), imported when first needed
-        plant_module: Any = importlib.import_module('.plant', __package__)
-    except ModuleNotFoundError as error:  # not installed yet: the ideal plant only
-        if error.name != f'{__package__}.plant':
-            raise
-        plant_module = None
-    if plant_module is not None:
-        built: TransferSystem = plant_module.plant_from_config(section, dt, where)
-        return built
-    unknown = [key for key in section if key not in ('model', 'perturbed', 'seed')]
-    if unknown:
-        msg = f'{where}.{unknown[0]}: unknown key (keys: model, perturbed, seed)'
-        raise RthsError(msg)
-    model = section.get('model')
-    if model != 'ideal':
-        msg = f'{where}.model: must be ideal (the benchmark plant is not installed), got {model!r}'
-        raise RthsError(msg)
-    if section.get('perturbed', False) is not False:
-        msg = f'{where}.perturbed: the ideal plant cannot be perturbed'
-        raise RthsError(msg)
-    return IdealPlant(dt)
-
-
 def continuous_from_config(section: Mapping[str, Any], where: str) -> ContinuousConfig:
     """Parse and check a ``transfer_system:`` section.
 
@@ -295,7 +260,7 @@ def continuous_from_config(section: Mapping[str, Any], where: str) -> Continuous
         config = ContinuousConfig(**kwargs)
     except RthsError as error:
         raise _prefixed_config(error, where) from None
-    plant_from_section(config.plant, 1.0 / rate, f'{where}.plant')
+    plant_from_config(config.plant, 1.0 / rate, f'{where}.plant')
     try:
         make_compensator(config.compensator, 1.0 / rate, config.compensator_parameters)
     except RthsError as error:
@@ -435,7 +400,7 @@ class ContinuousActuator:
             raise RthsError(msg)
         self.integration_dt = integration_dt
         self.samples_per_step = samples
-        self.plant = plant if plant is not None else plant_from_section(
+        self.plant = plant if plant is not None else plant_from_config(
             config.plant, self.controller_dt, 'transfer_system.plant')
         self.compensator = compensator if compensator is not None else make_compensator(
             config.compensator, self.controller_dt, config.compensator_parameters)

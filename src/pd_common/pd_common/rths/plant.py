@@ -23,7 +23,7 @@ sample (zero-order hold, :func:`scipy.signal.cont2discrete`) and steps it with p
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -36,21 +36,21 @@ from .base import BENCHMARK_SPECIMEN, IdealPlant, PhysicalSpecimen, TransferSyst
 
 __all__ = [
     'PERTURBATION_STD',
-    'PLANT_MODELS',
     'BenchmarkPlant',
     'BenchmarkPlantParameters',
+    'PlantFactory',
     'benchmark_state_space',
     'benchmark_transfer_function',
     'equivalent_delay',
     'frequency_response',
     'perturbed_plants',
     'plant_from_config',
+    'plant_model_names',
+    'register_plant_model',
 ]
 
 #: Standard deviations of the benchmark's uncertain plants, in the order of the draws.
 PERTURBATION_STD = {'k_e': 5.0e4, 'beta1': 3.3, 'beta2': 3.3e3, 'a3': 1.3}
-#: The values ``plant: {model: ...}`` accepts.
-PLANT_MODELS = ('benchmark', 'ideal')
 
 
 @dataclass(frozen=True)
@@ -250,9 +250,6 @@ class BenchmarkPlant(TransferSystem):
         )
 
 
-_CONFIG_KEYS = ('model', 'perturbed', 'seed', 'index')
-
-
 def perturbed_plants(seed: int, count: int) -> list[BenchmarkPlantParameters]:
     """The first ``count`` uncertain plants of ``seed``: one generator
     ``np.random.default_rng(seed)``, one :meth:`BenchmarkPlantParameters.perturbed` call per
@@ -261,18 +258,37 @@ def perturbed_plants(seed: int, count: int) -> list[BenchmarkPlantParameters]:
     return [BenchmarkPlantParameters.perturbed(rng) for _ in range(count)]
 
 
+PlantFactory = Callable[[Mapping[str, Any], float, str], TransferSystem]
+"""``factory(section, dt, where)``: the transfer system of a ``plant:`` section at the
+controller period ``dt`` (one-line :class:`RthsError` naming ``where`` and the key)."""
+
+_PLANT_MODELS: dict[str, PlantFactory] = {}
+
+
+def register_plant_model(name: str, factory: PlantFactory) -> None:
+    """Register the plant model ``name`` (``plant: {model: name, ...}``).
+
+    Raises:
+        RthsError: On a name already taken.
+    """
+    if name in _PLANT_MODELS:
+        msg = f'plant model {name}: already registered'
+        raise RthsError(msg)
+    _PLANT_MODELS[name] = factory
+
+
+def plant_model_names() -> tuple[str, ...]:
+    """The registered plant models, sorted."""
+    return tuple(sorted(_PLANT_MODELS))
+
+
 def plant_from_config(section: Mapping[str, Any] | None, dt: float,
                       where: str = 'plant') -> TransferSystem:
-    """The transfer system of a ``plant:`` section.
+    """The transfer system of a ``plant:`` section at controller period ``dt``.
 
-    Schema: ``{model: benchmark | ideal, perturbed: false, seed: 0, index: 0}`` (all
-    optional; an empty or missing section is the nominal benchmark plant). ``perturbed: true``
-    is plant ``index`` of :func:`perturbed_plants` of ``seed``.
-
-    Args:
-        section: The section (a mapping) or None.
-        dt: The controller sample period, s.
-        where: Where the section is, for messages (e.g. ``'test.yaml: plant'``).
+    ``model`` (default ``benchmark``) names a registered model: ``benchmark`` and ``ideal``
+    here; the bridge registers ``emulator`` (its servo-hydraulic emulator). An empty or
+    missing section is the nominal benchmark plant.
 
     Raises:
         RthsError: One line naming ``where`` and the key on an unknown key or a bad value.
@@ -282,31 +298,51 @@ def plant_from_config(section: Mapping[str, Any] | None, dt: float,
     if not isinstance(section, Mapping):
         msg = f'{where}: must be a mapping, got {type(section).__name__}'
         raise RthsError(msg)
-    for key in section:
-        if key not in _CONFIG_KEYS:
-            msg = f'{where}: unknown key {key!r} (expected {", ".join(_CONFIG_KEYS)})'
-            raise RthsError(msg)
     model = section.get('model', 'benchmark')
-    if model not in PLANT_MODELS:
-        msg = f'{where}.model: must be one of {", ".join(PLANT_MODELS)}, got {model!r}'
+    factory = _PLANT_MODELS.get(model) if isinstance(model, str) else None
+    if factory is None:
+        msg = (f'{where}.model: must be one of {", ".join(plant_model_names())}, got '
+               f'{model!r}' + (' (registered by the bridge: run it there)'
+                               if model == 'emulator' else ''))
         raise RthsError(msg)
+    return factory(section, dt, where)
+
+
+def _keys(section: Mapping[str, Any], where: str, keys: tuple[str, ...]) -> None:
+    for key in section:
+        if key not in keys:
+            msg = f'{where}: unknown key {key!r} (expected {", ".join(keys)})'
+            raise RthsError(msg)
+
+
+def _benchmark_plant(section: Mapping[str, Any], dt: float, where: str) -> TransferSystem:
+    """``{model: benchmark, perturbed: false, seed: 0, index: 0}``: ``perturbed: true`` is
+    plant ``index`` of :func:`perturbed_plants` of ``seed``."""
+    _keys(section, where, ('model', 'perturbed', 'seed', 'index'))
     perturbed = section.get('perturbed', False)
     if not isinstance(perturbed, bool):
         msg = f'{where}.perturbed: must be true or false, got {perturbed!r}'
         raise RthsError(msg)
-    seed = section.get('seed', 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        msg = f'{where}.seed: must be an integer >= 0, got {seed!r}'
-        raise RthsError(msg)
-    index = section.get('index', 0)
-    if not isinstance(index, int) or isinstance(index, bool) or index < 0:
-        msg = f'{where}.index: must be an integer >= 0, got {index!r}'
-        raise RthsError(msg)
-    if model == 'ideal':
-        if perturbed:
-            msg = f'{where}.perturbed: applies to model benchmark only, not ideal'
+    numbers = {}
+    for key in ('seed', 'index'):
+        value = section.get(key, 0)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            msg = f'{where}.{key}: must be an integer >= 0, got {value!r}'
             raise RthsError(msg)
-        return IdealPlant(dt)
-    params = (perturbed_plants(seed, index + 1)[index] if perturbed
-              else BenchmarkPlantParameters.nominal())
+        numbers[key] = value
+    params = (perturbed_plants(numbers['seed'], numbers['index'] + 1)[numbers['index']]
+              if perturbed else BenchmarkPlantParameters.nominal())
     return BenchmarkPlant(dt, params)
+
+
+def _ideal_plant(section: Mapping[str, Any], dt: float, where: str) -> TransferSystem:
+    """``{model: ideal}``: x = u one sample later."""
+    if section.get('perturbed', False) is not False:
+        msg = f'{where}.perturbed: applies to model benchmark only, not ideal'
+        raise RthsError(msg)
+    _keys(section, where, ('model', 'perturbed'))
+    return IdealPlant(dt)
+
+
+register_plant_model('benchmark', _benchmark_plant)
+register_plant_model('ideal', _ideal_plant)
