@@ -30,7 +30,10 @@ __all__ = ['BEHIND', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child', 'LaunchError',
 LAUNCH_FILE = 'launch.json'
 _VERSION = 1
 #: Bridge drivers whose actuator and specimen are simulated (anything else is physical).
-SIMULATED_DRIVERS = ('sim_servo', 'emulator', 'opensees_adapter')
+SIMULATED_DRIVERS = ('sim_servo', 'emulator', 'opensees_adapter', 'transfer_system')
+#: Simulated drivers whose specimen lives in the bridge itself (no simulator process; the
+#: bridge gets the test file and its site).
+IN_BRIDGE_DRIVERS = ('transfer_system',)
 #: Where a step receiver's step-protocol topics go behind a fault proxy: ``<namespace>/behind``.
 BEHIND = 'behind'
 #: A step receiver's step-protocol topics (relative to its namespace).
@@ -231,7 +234,17 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
                      '-p', f'state_file:={state_file}']
         if site:
             simulator += ['-p', f'site:={site}', '-p', f'dof_names:={json.dumps(names)}']
-        if mode == 'bridge' and bridge_driver(params, extra) not in SIMULATED_DRIVERS:
+        driver = bridge_driver(params, extra) if mode == 'bridge' else ''
+        continuous = site and 'transfer_system' in (definition.sites or {}).get(site, {})
+        if continuous and driver not in IN_BRIDGE_DRIVERS:
+            msg = (f'{definition.source}: sites.{site}.transfer_system: a continuous site runs '
+                   'in its bridge: use --site bridge with sites.'
+                   f'{site}.bridge: {{driver: transfer_system}}')
+            raise LaunchError(msg)
+        if mode == 'bridge' and driver in IN_BRIDGE_DRIVERS:
+            bridge += ['-p', f'test_file:={test_file}', '-p', f'site:={site}',
+                       '-p', f'realtime_report:={(out / f"rths-{site}.json").resolve()}']
+        elif mode == 'bridge' and driver not in SIMULATED_DRIVERS:
             physical = True  # the bridge drives hardware: no simulator for this site
         else:
             children.append(Child(f'pd_specimen_sim{label}', 'simulator', site, specimen_ns,

@@ -39,6 +39,7 @@ from .drivers.registry import (
     make_driver,
     register_driver,
 )
+from .drivers.transfer_system import TransferSystemDriver
 from .error_models import ErroneousStep, ErrorInjector, ErrorModel, apply_error_model
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
 from .limits import (
@@ -89,6 +90,7 @@ __all__ = [
     'SizeID',
     'StepExecution',
     'StepId',
+    'TransferSystemDriver',
     'TrialResponse',
     'apply_error_model',
     'check_command',

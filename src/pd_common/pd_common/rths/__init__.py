@@ -36,6 +36,7 @@ from .continuous import (
     continuous_from_config,
 )
 from .plant import plant_from_config, plant_model_names, register_plant_model
+from .realtime import RealtimeLoop, RealtimeStatistics
 from .site import ContinuousSiteServer, SampleLog
 
 __all__ = [
@@ -54,6 +55,8 @@ __all__ = [
     'IdealPlant',
     'NoCompensation',
     'PhysicalSpecimen',
+    'RealtimeLoop',
+    'RealtimeStatistics',
     'SampleLog',
     'SensorNoise',
     'TransferSystem',

@@ -9,13 +9,24 @@
   :mod:`.generic_tcp_protocol`.
 * ``opensees_adapter``: :mod:`.opensees_adapter` (client of OpenSees's adapter element).
 * ``daqmx``: :mod:`.daqmx` (NI DAQ analog I/O), its configuration in :mod:`.daqmx_config`.
+* ``transfer_system``: :mod:`.transfer_system` (a continuous actuator of real-time hybrid
+  simulation, :mod:`pd_common.rths`, in simulated or wall-clock time); its plant may be the
+  emulator (:mod:`.emulator_plant`, ``plant: {model: emulator}``).
 
-Importing this package registers those four drivers; the node shell adds ``sim_servo``.
+Importing this package registers those five drivers; the node shell adds ``sim_servo``.
 """
 
 from __future__ import annotations
 
 # Importing the driver modules registers their drivers.
-from . import daqmx, emulator_driver, generic_tcp, opensees_adapter
+from . import (
+    daqmx,
+    emulator_driver,
+    emulator_plant,
+    generic_tcp,
+    opensees_adapter,
+    transfer_system,
+)
 
-__all__ = ['daqmx', 'emulator_driver', 'generic_tcp', 'opensees_adapter']
+__all__ = ['daqmx', 'emulator_driver', 'emulator_plant', 'generic_tcp', 'opensees_adapter',
+           'transfer_system']
