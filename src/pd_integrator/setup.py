@@ -34,6 +34,7 @@ setup(
             'study_ch5 = pd_integrator.study_ch5:main',
             'study_errors = pd_integrator.study_errors:main',
             'pretest = pd_integrator.pretest:main',
+            'rths_benchmark = pd_integrator.rths_benchmark:main',
         ],
     },
 )

@@ -14,9 +14,10 @@ Timing of one controller sample (a *tick*), the same in both clocks. The actuato
 ``k`` (time ``t_k``) with the reading ``x_m[k]`` taken at the end of the previous tick::
 
     phase' = phase + rate          # rate 1 except when slowed; phase in samples of the step
-    x_d    = P(phase' / S)         # the desired displacement of sample k + 1 (one sample ahead:
-                                   # the plant is strictly proper, u[k] acts on x[k + 1])
-    u[k]   = quantise(compensator.command(x_d, x_m[k]))
+    x_d[k+1] = P(phase' / S)       # the desired displacement of sample k + 1
+    u[k]   = quantise(compensator.command(x_d[k], x_m[k]))   # the benchmark's timing; a
+                                   # compensator that uses_preview gets x_d[k+1] (the plant is
+                                   # strictly proper: u[k] acts on x[k + 1])
     plant.advance(u[k])            # now at sample k + 1
     x_m[k+1] = quantise(x[k+1] + displacement noise)
     F_m[k+1] = specimen.force(x[k+1], x[k], x[k-1]) + force noise     # x: the plant's output
@@ -588,7 +589,9 @@ class ContinuousActuator:
             rate = new_phase - phase
         increment = new_phase - phase
         desired = self._desired_at(new_phase)
-        command = self.compensator.command(desired, self._x_m)
+        compensator = self.compensator
+        command = compensator.command(desired if compensator.uses_preview else self._desired,
+                                      self._x_m)
         quantum = self.config.quantum
         if quantum > 0.0:
             command = round(command / quantum) * quantum

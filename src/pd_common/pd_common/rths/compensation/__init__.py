@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from . import pi_p  # noqa: F401  (registers 'pi_p')
+from . import adaptive, model_based, pi_p, polynomial  # noqa: F401  (register them)
 from .base import (
     Compensator,
     CompensatorParameter,
@@ -14,7 +14,11 @@ from .base import (
     register_compensator,
 )
 
+#: The name of the best compensator on the vRTHS benchmark (``bench/rths_compensators.py``).
+DEFAULT_COMPENSATOR: str = 'adaptive'
+
 __all__ = [
+    'DEFAULT_COMPENSATOR',
     'Compensator',
     'CompensatorParameter',
     'CompensatorSpec',

@@ -27,7 +27,18 @@ _REGISTRY: dict[str, CompensatorSpec] = {}
 
 
 class Compensator(abc.ABC):
-    """One tracking controller / delay compensator, stepped at the controller rate."""
+    """One tracking controller / delay compensator, stepped at the controller rate.
+
+    The timing is the benchmark's: ``command(x_d[k], x_m[k])`` at sample ``k`` returns
+    ``u[k]``, held over ``[t_k, t_{k+1}]`` (it acts on the measurement of sample ``k + 1``),
+    and a compensator's delay compensation is designed for that. A caller that knows the
+    target one sample ahead (the continuous actuator does: the step's path is known) gives
+    ``x_d[k+1]`` instead only to a compensator with :attr:`uses_preview` set, which is then
+    exact for an ideal plant (``none``).
+    """
+
+    #: Whether :meth:`command` takes the target of the next sample, ``x_d[k+1]``.
+    uses_preview: bool = False
 
     def __init__(self, dt: float) -> None:
         """Create it for the controller sample period ``dt``, s."""
@@ -149,7 +160,10 @@ def make_compensator(name: str, dt: float,
 
 
 class NoCompensation(Compensator):
-    """``u = x_d``: the command is the desired displacement."""
+    """``u = x_d``: the command is the desired displacement (of the next sample where the
+    caller knows it: with an ideal plant the actuator is then exactly on its path)."""
+
+    uses_preview = True
 
     def reset(self) -> None:
         """Nothing to forget."""

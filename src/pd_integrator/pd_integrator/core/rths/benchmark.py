@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 from numpy.typing import NDArray
 
 from pd_common.resources import ResourceError, share_file
@@ -40,9 +41,25 @@ from .criteria import J_KEYS, j_criteria, native_j_criteria, noise_floor_percent
 from .native_loop import native_test_file, run_native_loop
 from .problem import benchmark_case, prepare_ground_motion, reference_response
 
-__all__ = ['CONTROLLER_RATE', 'DEFAULT_RECORD', 'DEFAULT_RECORD_UNITS', 'LOOPS', 'PADDING',
-           'BenchmarkOptions', 'BenchmarkRecord', 'BenchmarkRun', 'j_table', 'load_record',
-           'perturbed_csv', 'perturbed_statistics', 'run_benchmark', 'statistics_table']
+__all__ = [
+    'BRIDGE_PARAMETERS',
+    'CONTROLLER_RATE',
+    'DEFAULT_RECORD',
+    'DEFAULT_RECORD_UNITS',
+    'LOOPS',
+    'PADDING',
+    'BenchmarkOptions',
+    'BenchmarkRecord',
+    'BenchmarkRun',
+    'j_table',
+    'load_record',
+    'native_benchmark_file',
+    'perturbed_csv',
+    'perturbed_statistics',
+    'run_benchmark',
+    'statistics_table',
+    'write_test_file',
+]
 
 #: The benchmark's controller rate, Hz, and zeros before and after the record, s.
 CONTROLLER_RATE = 4096.0
@@ -225,7 +242,7 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
         ConfigError: Bad options or record (one line).
     """
     case = benchmark_case(options.case)
-    params, plant_section, plant_label = _plant(options, perturbed)
+    params, _section, plant_label = _plant(options, perturbed)
     parameters = compensator_spec(options.controller).resolve(options.controller_parameters)
     h = 1.0 / CONTROLLER_RATE
     padding_samples = round(PADDING / record.dt)
@@ -248,20 +265,7 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
             capacity_reached=result.capacity_reached, peak_force=result.peak_force,
             t=result.t, x_d=result.x_d, x_m=result.x_m, t_floors=result.t,
             floors=result.floors, reference=reference)
-    transfer_system: dict[str, Any] = {
-        'plant': plant_section, 'controller_rate': CONTROLLER_RATE,
-        'compensator': {'name': options.controller, **parameters},
-        'quantum': quantum, 'capacity': BENCHMARK_CAPACITY,
-        'interpolation': options.interpolation, 'inertia': 'subtract'}
-    if noise is not None:
-        transfer_system['noise'] = {'displacement_power': noise.displacement_power,
-                                    'force_power': noise.force_power, 'seed': noise.seed}
-    test_file = native_test_file(
-        case, record.acceleration, record.dt, padding_samples=padding_samples,
-        intensity=options.intensity, integration_dt=options.integration_dt,
-        transfer_system=transfer_system, specimen=params.specimen, scheme=options.scheme,
-        test_id=f'vrths-case{options.case}')
-    native = run_native_loop(test_file)
+    native = run_native_loop(native_benchmark_file(options, record, perturbed))
     steps = round(options.integration_dt * CONTROLLER_RATE)
     n_samples = native.x_m.size
     at_samples = reference[1:1 + n_samples]
@@ -276,6 +280,54 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
         t=native.t_samples, x_d=native.x_d, x_m=native.x_m, t_floors=native.t_steps,
         floors=native.floors, reference=floors_reference, completed=native.completed,
         state=native.state)
+
+
+def native_benchmark_file(options: BenchmarkOptions, record: BenchmarkRecord,
+                          perturbed: int | None = None, *,
+                          bridge: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The native loop of ``options`` as a test file (a mapping): the site ``lab1`` with
+    its ``transfer_system`` (plant, compensator, sensors, capacity) and, for a run through the
+    node graph, its ``bridge`` parameters."""
+    case = benchmark_case(options.case)
+    params, plant_section, _label = _plant(options, perturbed)
+    parameters = compensator_spec(options.controller).resolve(options.controller_parameters)
+    transfer_system: dict[str, Any] = {
+        'plant': plant_section, 'controller_rate': CONTROLLER_RATE,
+        'compensator': {'name': options.controller, **parameters},
+        'quantum': 0.0 if options.ideal else BENCHMARK_QUANTUM,
+        'capacity': BENCHMARK_CAPACITY, 'interpolation': options.interpolation,
+        'inertia': 'subtract'}
+    noise = _noise(options)
+    if noise is not None:
+        transfer_system['noise'] = {'displacement_power': noise.displacement_power,
+                                    'force_power': noise.force_power, 'seed': noise.seed}
+    return native_test_file(
+        case, record.acceleration, record.dt, padding_samples=round(PADDING / record.dt),
+        intensity=options.intensity, integration_dt=options.integration_dt,
+        transfer_system=transfer_system, specimen=params.specimen, scheme=options.scheme,
+        test_id=f'vrths-case{options.case}', bridge=bridge)
+
+
+#: The bridge parameters of the written test file's site: the transfer system driver and
+#: limits that hold the benchmark's motion (its stroke is a few mm) with a margin.
+BRIDGE_PARAMETERS: dict[str, Any] = {'driver': 'transfer_system', 'max_displacement': 0.05,
+                                     'max_increment': 0.005, 'max_force': 8900.0}
+
+
+def write_test_file(options: BenchmarkOptions, record: BenchmarkRecord, path: Path) -> Path:
+    """Write the native loop as a YAML test file for ``./pd run FILE --site bridge``.
+
+    Raises:
+        OSError: The file cannot be written.
+    """
+    raw = native_benchmark_file(options, record, bridge=BRIDGE_PARAMETERS)
+    header = (f'# The vRTHS benchmark, case {options.case}, {record.source} x'
+              f'{options.intensity:g}, controller {options.controller}, through this '
+              'project\'s integrator:\n# ./pd run THIS_FILE --site bridge   (the bridge runs '
+              'the transfer system at 4096 Hz)\n')
+    path.write_text(header + yaml.safe_dump(raw, sort_keys=False, width=100),
+                    encoding='utf-8')
+    return path
 
 
 def j_table(rows: Mapping[str, Mapping[str, float]], noise_floor: float | None = None) -> str:

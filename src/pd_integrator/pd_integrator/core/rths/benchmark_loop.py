@@ -35,7 +35,8 @@ The capacity: the actuator force of :class:`~pd_common.rths.plant.BenchmarkPlant
 ``actuator_force()``, the signal the benchmark's ±8,900 N saturation sits on) is recorded;
 another transfer system without one (e.g. the ideal plant) is judged on the specimen force
 ``k_e y + c_e ẏ + m_e ÿ`` of its displacement (backward differences, no noise). A run whose
-peak reaches the capacity is flagged (``capacity_reached``); the force is not clipped.
+peak reaches the capacity (or whose force is not finite: it diverged) is flagged
+(``capacity_reached``); the force is not clipped.
 """
 
 from __future__ import annotations
@@ -237,7 +238,9 @@ def run_benchmark_loop(case: BenchmarkCase, t: ArrayLike, ag: ArrayLike,
         y2 = y1
         y1 = y
     x_d[:] = floors[:, 0]
-    peak = float(np.max(np.abs(actuator)))
+    with np.errstate(invalid='ignore'):
+        peak = float(np.max(np.abs(actuator)))
+    # A diverged run (a non-finite force) went through the capacity on its way.
     return BenchmarkLoopResult(t=times.copy(), x_d=x_d, x_m=x_m, u=u_out, force=force_out,
                                actuator_force=actuator, floors=floors,
-                               capacity_reached=peak >= capacity, peak_force=peak)
+                               capacity_reached=not peak < capacity, peak_force=peak)

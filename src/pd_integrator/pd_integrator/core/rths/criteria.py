@@ -47,11 +47,16 @@ def _vector(name: str, values: ArrayLike, n: int | None = None) -> NDArray[np.fl
 
 
 def _nrms(error: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
-    return float(100.0 * np.std(error, ddof=1) / np.std(reference, ddof=1))
+    """100 std(error) / std(reference); NaN for a reference at rest (a run that stopped
+    before the motion: no criterion)."""
+    scale = float(np.std(reference, ddof=1))
+    return float(100.0 * np.std(error, ddof=1) / scale) if scale > 0.0 else math.nan
 
 
 def _peak(error: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
-    return float(100.0 * np.max(np.abs(error)) / np.max(np.abs(reference)))
+    """100 max|error| / max|reference|; NaN for a reference at rest."""
+    scale = float(np.max(np.abs(reference)))
+    return float(100.0 * np.max(np.abs(error)) / scale) if scale > 0.0 else math.nan
 
 
 def tracking_delay(x_d: ArrayLike, x_m: ArrayLike, dt: float,
