@@ -6,9 +6,9 @@ Run inside the sourced workspace (``. scripts/env.sh``)::
 
 A measurement, not a test: it asserts nothing. The benchmark (case 1, El Centro × 0.4 with the
 benchmark's 5 s of zeros before and after, the benchmark plant with its sensor noise and
-quantisation, the PI-P compensator, 4096 Hz, Δt_int = 1/1024 s: four controller ticks a step)
-in real time, the actuator ticked against ``time.perf_counter`` deadlines
-(:class:`pd_common.rths.realtime.RealtimeLoop`):
+quantisation, the default compensator (``DEFAULT_COMPENSATOR``), 4096 Hz, Δt_int = 1/1024 s:
+four controller ticks a step) in real time, the actuator ticked against
+``time.perf_counter`` deadlines (:class:`pd_common.rths.realtime.RealtimeLoop`):
 
 1. **in process** — the integrator (the native loop's :class:`TestSession` and step dispatcher)
    answers each measurement in the ticking thread and sets the next target at once;
@@ -54,6 +54,7 @@ from pd_common.rths import (
     ContinuousMeasurement,
     ContinuousSiteServer,
 )
+from pd_common.rths.compensation import DEFAULT_COMPENSATOR
 from pd_common.rths.realtime import RealtimeLoop, RealtimeStatistics
 from pd_integrator.core.dynamics.record_readers import read_ground_motion
 from pd_integrator.core.rths.native_loop import SITE, native_test_file, run_native_loop
@@ -82,7 +83,7 @@ def benchmark_file(quick: bool, *, clock: str = 'simulated') -> dict[str, Any]:
         benchmark_case(1), acceleration, record.dt, padding_samples=round(padding / record.dt),
         intensity=0.4, integration_dt=DT_INT,
         transfer_system={
-            'plant': {'model': 'benchmark'}, 'compensator': {'name': 'pi_p'},
+            'plant': {'model': 'benchmark'}, 'compensator': {'name': DEFAULT_COMPENSATOR},
             'noise': {'displacement_power': noise.displacement_power,
                       'force_power': noise.force_power, 'seed': 1},
             'quantum': BENCHMARK_QUANTUM, 'capacity': BENCHMARK_CAPACITY},
@@ -189,7 +190,8 @@ def main() -> None:
     raw = benchmark_file(args.quick)
     duration = raw['test']['duration']
     print(f'rths: vRTHS case 1, El Centro x0.4 ({"quick: " if args.quick else ""}{duration:.2f}'
-          f' s), benchmark plant + noise + quantum, pi_p, 4096 Hz, dt_int 1/1024 s')
+          f' s), benchmark plant + noise + quantum, {DEFAULT_COMPENSATOR}, 4096 Hz, '
+          'dt_int 1/1024 s')
     statistics, session, wall = in_process(raw)
     values = statistics.as_dict()
     print(_line('in process', values) + f'  wall {wall:.2f} s, {session.state.name.lower()}')

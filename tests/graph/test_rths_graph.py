@@ -99,7 +99,8 @@ def test_benchmark_through_the_bridge_equals_the_ros_free_run(
 def test_benchmark_in_wall_clock_time_through_the_bridge(
         processes: Processes, tmp_path: Path) -> None:
     """``clock: realtime``: the bridge ticks the actuator at 4096 Hz against the wall clock and
-    reports its deadlines next to summary.json (no timing is asserted: the machine decides)."""
+    reports its deadlines, which run_test adds to summary.json (no timing is asserted: the
+    machine decides)."""
     test_file = benchmark_file(tmp_path / 'vrths-rt.yaml', clock='realtime', seconds=1.0)
     out = tmp_path / 'graph'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
@@ -114,3 +115,6 @@ def test_benchmark_in_wall_clock_time_through_the_bridge(
     assert report['ticks'] >= 4 * steps and report['controller_rate'] == 4096.0
     assert 0.0 <= report['slowdown_fraction'] < 1.0
     assert report['step_p50_ms'] >= 0.9 * report['nominal_step_ms']
+    # run_test puts the same statistics into summary.json and prints them
+    assert summary['realtime'] == {'lab1': report}
+    assert 'lab1 in real time:' in processes.log('run_test')

@@ -64,6 +64,7 @@ from .plan import (
     LaunchError,
     LaunchPlan,
     attach_fault_reports,
+    attach_realtime_reports,
     insert_fault_proxies,
     site_commands,
     with_key,
@@ -337,6 +338,23 @@ def _report_faults(plan: LaunchPlan) -> None:
               f'{totals["delayed"]} delayed, {totals["reordered"]} reordered', flush=True)
 
 
+def _report_realtime(plan: LaunchPlan) -> None:
+    """The continuous sites' wall-clock statistics into summary.json, one line per site."""
+    try:
+        block = attach_realtime_reports(plan)
+    except LaunchError as err:
+        print(f'run_test: {err}', file=sys.stderr)
+        return
+    for site, stats in (block or {}).items():
+        if 'error' in stats:
+            print(f'run_test: {site}: {stats["error"]}', file=sys.stderr)
+            continue
+        print(f'run_test: {site} in real time: {stats.get("ticks")} ticks, '
+              f'{stats.get("missed_deadlines")} missed deadlines, slowed '
+              f'{100.0 * float(stats.get("slowdown_fraction") or 0.0):.1f} % of the ticks, '
+              f'step p99 {_number(stats.get("step_p99_ms"), ".2f")} ms', flush=True)
+
+
 def _number(value: Any, spec: str) -> str:
     """``value`` formatted, or ``n/a`` (no committed step: no peak)."""
     if isinstance(value, (int, float)) and math.isfinite(value):
@@ -405,6 +423,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
         for number, handler in previous.items():
             signal.signal(number, handler)
     _report_faults(plan)
+    _report_realtime(plan)
     print_summary(plan.out)
     return code
 

@@ -10,6 +10,7 @@ its state file) without the original command line.
 from __future__ import annotations
 
 import json
+import os
 import socket
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -23,8 +24,9 @@ from pd_integrator.core.run.definition import TestDefinition
 from .faults import FaultPlanError, attach_reports, proxy_command
 
 __all__ = ['BEHIND', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child', 'LaunchError', 'LaunchPlan',
-           'attach_fault_reports', 'bridge_driver', 'fault_report_name', 'insert_fault_proxies',
-           'opensees_command', 'site_commands', 'with_key']
+           'attach_fault_reports', 'attach_realtime_reports', 'bridge_driver',
+           'fault_report_name', 'insert_fault_proxies', 'opensees_command',
+           'realtime_report_name', 'site_commands', 'with_key']
 
 #: The plan's file name in a run folder.
 LAUNCH_FILE = 'launch.json'
@@ -243,7 +245,7 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
             raise LaunchError(msg)
         if mode == 'bridge' and driver in IN_BRIDGE_DRIVERS:
             bridge += ['-p', f'test_file:={test_file}', '-p', f'site:={site}',
-                       '-p', f'realtime_report:={(out / f"rths-{site}.json").resolve()}']
+                       '-p', f'realtime_report:={(out / realtime_report_name(site)).resolve()}']
         elif mode == 'bridge' and driver not in SIMULATED_DRIVERS:
             physical = True  # the bridge drives hardware: no simulator for this site
         else:
@@ -356,6 +358,46 @@ def attach_fault_reports(plan: LaunchPlan) -> dict[str, Any] | None:
     except (OSError, ValueError) as err:
         msg = f'{plan.out / "summary.json"}: cannot add the fault counters ({err})'
         raise LaunchError(msg) from None
+
+
+def realtime_report_name(site: str) -> str:
+    """The file name of a continuous site's wall-clock statistics in the run folder."""
+    return f'rths-{site}.json'
+
+
+def attach_realtime_reports(plan: LaunchPlan) -> dict[str, Any] | None:
+    """Add the continuous sites' wall-clock statistics (their bridges' ``rths-<site>.json``)
+    to the run's ``summary.json`` as ``realtime`` (per site); the block (``None``: no report:
+    no site ran on the wall clock).
+
+    Raises:
+        LaunchError: ``summary.json`` cannot be rewritten.
+    """
+    block: dict[str, Any] = {}
+    for child in plan.children:
+        if child.kind != 'bridge' or not child.site:
+            continue
+        path = plan.out / realtime_report_name(child.site)
+        try:
+            data = json.loads(path.read_text(encoding='utf-8'))
+        except FileNotFoundError:
+            continue
+        except (OSError, ValueError) as err:
+            data = {'error': f'{path.name}: unreadable ({err})'}
+        block[child.site] = data
+    summary_file = plan.out / 'summary.json'
+    if not block or not summary_file.is_file():
+        return block or None
+    try:
+        summary = json.loads(summary_file.read_text(encoding='utf-8'))
+        summary['realtime'] = block
+        partial = summary_file.with_name(summary_file.name + '.partial')
+        partial.write_text(json.dumps(summary, indent=2) + '\n', encoding='utf-8')
+        os.replace(partial, summary_file)
+    except (OSError, ValueError) as err:
+        msg = f'{summary_file}: cannot add the wall-clock statistics ({err})'
+        raise LaunchError(msg) from None
+    return block
 
 
 def with_key(command: list[str], key_file: Path | None) -> list[str]:
