@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Idempotent set-up of the pseudo-dynamic testing workspace on Debian 12.
 #
-#   1. system packages (python3.11 with venv and headers, cmake, g++) via apt when missing;
+#   1. system packages (python3.11 with venv and headers, cmake, g++, chromium and
+#      chromium-driver for the console's browser test) via apt when missing;
 #   2. a virtual environment in .venv with the pinned requirements (ROS 2 Kilted wheels, numpy,
 #      scipy, rosbags, matplotlib, colcon, pytest);
 #   3. the colcon workspace in ros2_ws/ (build/ install/ log/), built from src/.
@@ -45,6 +46,9 @@ fi
 command -v cmake >/dev/null 2>&1 || need_apt+=(cmake)
 command -v g++ >/dev/null 2>&1 || need_apt+=(g++)
 command -v make >/dev/null 2>&1 || need_apt+=(make)
+# Headless Chromium and its driver: the console's browser test (tests/graph/test_console_browser.py).
+[ -x /usr/bin/chromium ] || need_apt+=(chromium)
+[ -x /usr/bin/chromedriver ] || need_apt+=(chromium-driver)
 # openseespy's bundled libgfortran needs the system's libquadmath (the OpenSees site tests).
 # The cache listing is read whole before it is searched: piping it into `grep -q` would end the
 # listing early by SIGPIPE, which `pipefail` turns into a random "missing" (and an apt run).

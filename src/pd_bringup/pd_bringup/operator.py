@@ -15,22 +15,13 @@ from typing import Any
 
 from rclpy.node import Node
 
-from pd_common.auth import Key, Signer, control_payload
-from pd_common.protocol import Control, site_topic_name
-from pd_common.ros import CONTROL_DEPTH, LATCHED_QOS, control_message
+from pd_common.auth import Key, Signer
+from pd_common.protocol import site_topic_name
+from pd_common.ros import CONTROL_DEPTH, LATCHED_QOS, signed_control
 from pd_msgs.msg import Control as ControlMessage
 from pd_msgs.msg import SessionOffer, TestStatus
 
 __all__ = ['Operator', 'SeenOffer', 'signed_control']
-
-
-def signed_control(signer: Signer | None, command: str, site: str = '', reason: str = ''
-                   ) -> Any:
-    """A control message stamped now, signed (unsigned without a signer)."""
-    control = Control(command=command, target=site, reason=reason, stamp=time.time())
-    if signer is None:
-        return control_message(control)
-    return control_message(control, signer.sign(control_payload(control)))
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from pd_common.auth import generate_key
+from pd_common.auth import default_rig_key, generate_key
 from pd_common.config import YAMLError, read_yaml_file
 
 __all__ = ['DISCOVERY', 'RigError', 'RigSettings', 'default_rig_key', 'load_rig', 'state_key_dir',
@@ -134,12 +134,6 @@ def state_key_dir() -> Path:
     """Where ``run_test`` keeps the keys it makes per test (owner-only)."""
     base = os.environ.get('XDG_STATE_HOME') or str(Path.home() / '.local' / 'state')
     return Path(base) / 'pd' / 'keys'
-
-
-def default_rig_key() -> Path:
-    """The default path of the rig's key (``./pd keygen`` without ``--out``)."""
-    base = os.environ.get('XDG_CONFIG_HOME') or str(Path.home() / '.config')
-    return Path(base) / 'pd' / 'keys' / 'rig.key'
 
 
 def test_key_path(test_id: str) -> Path:

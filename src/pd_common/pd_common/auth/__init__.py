@@ -20,7 +20,16 @@ from .gates import (
     describe_refusals,
     merge_refusals,
 )
-from .keys import KEY_BYTES, KEY_FILE_ENV, Key, generate_key, load_key, new_key
+from .keys import (
+    KEY_BYTES,
+    KEY_FILE_ENV,
+    Key,
+    default_rig_key,
+    generate_key,
+    load_key,
+    new_key,
+    operator_key_path,
+)
 from .payloads import command_payload, control_payload, feedback_payload, session_start_payload
 from .signing import (
     Refusal,
@@ -47,6 +56,7 @@ __all__ = [
     'canonical',
     'command_payload',
     'control_payload',
+    'default_rig_key',
     'describe_refusals',
     'feedback_payload',
     'generate_key',
@@ -55,6 +65,7 @@ __all__ = [
     'merge_refusals',
     'new_key',
     'new_session',
+    'operator_key_path',
     'session_start_payload',
     'sign_reply',
     'verify_mac',

@@ -22,7 +22,8 @@ from pathlib import Path
 
 from .errors import KeyFileError
 
-__all__ = ['KEY_BYTES', 'KEY_FILE_ENV', 'Key', 'generate_key', 'load_key', 'new_key']
+__all__ = ['KEY_BYTES', 'KEY_FILE_ENV', 'Key', 'default_rig_key', 'generate_key', 'load_key',
+           'new_key', 'operator_key_path']
 
 #: Environment variable naming the key file when a node's ``key_file`` parameter is empty.
 KEY_FILE_ENV = 'PD_KEY_FILE'
@@ -121,3 +122,17 @@ def load_key(path: str | Path) -> Key:
         msg = f'{path}: not a key file (expected one line "{_HEADER} <64 hex digits>")'
         raise KeyFileError(msg)
     return Key.from_secret(bytes.fromhex(match.group(1)))
+
+
+def default_rig_key() -> Path:
+    """The default path of the rig's key (``./pd keygen`` without ``--out``)."""
+    base = os.environ.get('XDG_CONFIG_HOME') or str(Path.home() / '.config')
+    return Path(base) / 'pd' / 'keys' / 'rig.key'
+
+
+def operator_key_path(explicit: str | Path | None = None) -> Path:
+    """The key file an operator's tool uses: ``explicit``, else ``$PD_KEY_FILE``, else the
+    rig's key (as ``./pd control`` and ``./pd console`` find it)."""
+    if explicit:
+        return Path(explicit)
+    return Path(os.environ.get(KEY_FILE_ENV) or default_rig_key())

@@ -10,6 +10,7 @@ from .messages import (
     feedback_message,
     fill_signature,
     now_stamp,
+    signed_control,
     stamp_from_ns,
     status_message,
 )
@@ -35,6 +36,7 @@ __all__ = [
     'new_epoch',
     'now_stamp',
     'run_node',
+    'signed_control',
     'spin_until_shutdown',
     'stamp_from_ns',
     'status_message',

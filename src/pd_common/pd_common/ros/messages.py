@@ -10,11 +10,13 @@ from pd_msgs.msg import Control as ControlMessage
 from pd_msgs.msg import Signature as SignatureMessage
 from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
 
+from ..auth.payloads import control_payload
+from ..auth.signing import Signer
 from ..protocol.messages import Command, Control, Feedback, Status
 from ..protocol.signature import Signature
 
 __all__ = ['command_message', 'control_message', 'feedback_message', 'fill_signature',
-           'now_stamp', 'stamp_from_ns', 'status_message']
+           'now_stamp', 'signed_control', 'stamp_from_ns', 'status_message']
 
 _UNSIGNED = Signature()
 
@@ -84,6 +86,16 @@ def control_message(control: Control, signature: Signature = _UNSIGNED) -> Contr
     message.stamp = float(control.stamp)
     fill_signature(message.signature, signature)
     return message
+
+
+def signed_control(signer: Signer | None, command: str, site: str = '', reason: str = ''
+                   ) -> ControlMessage:
+    """A control message stamped now, signed (unsigned without a signer): what
+    ``./pd control``, ``run_test`` and ``./pd console`` send."""
+    control = Control(command=command, target=site, reason=reason, stamp=time.time())
+    if signer is None:
+        return control_message(control)
+    return control_message(control, signer.sign(control_payload(control)))
 
 
 def status_message(status: Status, stamp: Time | None = None) -> TestStatus:

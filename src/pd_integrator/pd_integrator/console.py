@@ -1,0 +1,606 @@
+"""The live test console in the browser: ``./pd console [RUN]`` (``ros2 run pd_integrator
+console``).
+
+A local web server (aiohttp, its WebSocket) serving one page, with its JavaScript and plotting
+shipped in this package (``share/pd_integrator/console``): nothing is loaded from the
+internet. Live, the node only *subscribes* to the graph's topics — the integrator's status and
+test definition, every site's step command and feedback and its bridge's status — and pushes a
+decimated frame to the page on a timer (``update_rate`` Hz, at most ``max_points`` rows per
+series): it never slows the test. The data handling is the pure
+:mod:`pd_integrator.core.console`; this module is its shell.
+
+Controls (pause, resume, abort; a bridge's reset and reset_emergency_stop) are signed with the
+test's key exactly as ``./pd control`` signs them, and only a browser that logged in with the
+one-time token printed on this terminal may send them; any other page can watch, and its
+control requests are refused (HTTP 403) with nothing published. The emergency stop is open to
+every page (unsigned, as the e-stop topic is by design).
+
+``./pd console runs/<run>`` shows a finished run (its bag, or its journal) and its figures.
+The server listens on 127.0.0.1 unless ``--host`` says otherwise (a lab network: a warning
+is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import ipaddress
+import json
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import foxglove
+import rclpy
+from aiohttp import WSMsgType, web
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
+from std_msgs.msg import String
+
+from pd_common.auth import AuthError, Key, Signer, load_key, operator_key_path
+from pd_common.config import YAMLError, read_yaml_file
+from pd_common.protocol import (
+    GLOBAL_EMERGENCY_STOP,
+    command_from_message,
+    feedback_from_message,
+    site_topic,
+    site_topic_name,
+    status_from_message,
+)
+from pd_common.resources import ResourceError, share_file
+from pd_common.ros import (
+    CONTROL_DEPTH,
+    LATCHED_QOS,
+    STEP_QOS,
+    events_executor,
+    init_with_stop_flag,
+    signed_control,
+)
+from pd_msgs.msg import Control as ControlMessage
+from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+
+from .core.console import (
+    BRIDGE_LIMITS,
+    SESSION_COOKIE,
+    STATUS_TOPIC,
+    ConsoleAccess,
+    ConsoleModel,
+    ControlRequest,
+    gauges_message,
+    gauges_topic,
+    load_run_folder,
+    parse_control,
+    response_message,
+    response_topic,
+)
+from .core.errors import BagError
+
+DEFAULT_PORT = 8765
+STATIC_FILES = {'console.js': 'application/javascript', 'console.css': 'text/css',
+                'index.html': 'text/html', 'foxglove_layout.json': 'application/json'}
+DEFAULT_FOXGLOVE_PORT = 8766
+FOXGLOVE_ROWS = 4096  # rows per site buffered between two Foxglove ticks
+
+
+def web_directory() -> Path:
+    """The page's files: installed in ``share/pd_integrator/console`` (or the source tree)."""
+    try:
+        installed = share_file('pd_integrator', 'console')
+        if (installed / 'index.html').is_file():
+            return installed
+    except ResourceError:
+        pass
+    return Path(__file__).resolve().parents[1] / 'console'
+
+
+def default_bridge_limits(path: str = '') -> dict[str, float]:
+    """The bridge limits of a site whose test definition names none: ``path`` (a bridge
+    parameter file) or the installed ``pd_actuator_bridge/config/bridge.yaml``."""
+    try:
+        file = Path(path) if path else share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+        raw = read_yaml_file(file) if file.is_file() else {}
+    except (ResourceError, YAMLError):
+        return {}
+    params: dict[str, Any] = {}
+    if isinstance(raw, dict):
+        for section in raw.values():
+            if isinstance(section, dict) and isinstance(section.get('ros__parameters'), dict):
+                params.update(section['ros__parameters'])
+    return {name: float(params[name]) for name in (*BRIDGE_LIMITS, 'step_duration')
+            if isinstance(params.get(name), int | float)}
+
+
+class ConsoleNode(Node):
+    """Subscribes to the test's topics and feeds a :class:`ConsoleModel`; sends controls.
+
+    Parameters: ``host``, ``port``, ``update_rate`` (frames per second pushed to the page),
+    ``max_points`` (rows per series), ``key_file`` (the test's key; default ``$PD_KEY_FILE``,
+    then the rig key), ``bridge_params`` (the bridges' parameter file, for their limits).
+    """
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock,
+                 overrides: dict[str, Any] | None = None) -> None:
+        super().__init__('pd_console', namespace='/pd')
+        overrides = overrides or {}
+
+        def declare(name: str, default: Any, description: str) -> Any:
+            value = overrides.get(name, default)
+            return self.declare_parameter(name, value, ParameterDescriptor(
+                description=description)).value
+
+        self.host = str(declare('host', '127.0.0.1', 'address to listen on (127.0.0.1: '
+                                'this computer only)'))
+        self.port = int(declare('port', DEFAULT_PORT, 'TCP port (0: any free port)'))
+        self.update_rate = float(declare('update_rate', 4.0, 'frames per second pushed to '
+                                         'the page'))
+        self.max_points = int(declare('max_points', model.max_points,
+                                      'rows per series kept and pushed'))
+        self.key_file = str(declare('key_file', '', "the test's key file (default: "
+                                    '$PD_KEY_FILE, then the rig key)'))
+        self.bridge_params = str(declare('bridge_params', '', "the bridges' parameter file "
+                                         '(their limits, for the gauges)'))
+        self.foxglove_port = int(declare('foxglove_port', 0, "serve the live test to the "
+                                         "Foxglove app on this port (foxglove-sdk's "
+                                         'WebSocket server; 0: off)'))
+        model.max_points = self.max_points
+        if self.foxglove_port:
+            model.fresh_rows = FOXGLOVE_ROWS
+        model.default_limits = default_bridge_limits(self.bridge_params)
+        self.model = model
+        self.lock = lock
+        self.key: Key | None = None
+        self.key_error = ''
+        try:
+            self.key = load_key(operator_key_path(self.key_file or None))
+        except AuthError as err:
+            self.key_error = str(err)
+        self._signer = Signer(self.key) if self.key is not None else None
+        self._sites: set[str] = set()
+        self._control_pubs: dict[str, Any] = {}
+        self._estop = self.create_publisher(String, GLOBAL_EMERGENCY_STOP, CONTROL_DEPTH)
+        self.create_subscription(TestStatus, 'test_status', self._on_status, LATCHED_QOS)
+        self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
+        self._watch_site('')
+
+    # -- subscriptions (the executor's thread) ---------------------------------------------
+    def _watch_site(self, site: str) -> None:
+        if site in self._sites:
+            return
+        self._sites.add(site)
+
+        def on_command(message: Any) -> None:
+            command = command_from_message(message)
+            with self.lock:
+                self.model.on_command(site, command)
+
+        def on_feedback(message: Any) -> None:
+            feedback = feedback_from_message(message)
+            with self.lock:
+                self.model.on_feedback(site, feedback)
+
+        def on_bridge(message: Any) -> None:
+            status = status_from_message(message)
+            with self.lock:
+                self.model.on_bridge_status(site, status)
+
+        self.create_subscription(StepCommand, site_topic(site, 'step_command'), on_command,
+                                 STEP_QOS)
+        self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'), on_feedback,
+                                 STEP_QOS)
+        self.create_subscription(TestStatus, site_topic(site, 'bridge/status'), on_bridge,
+                                 LATCHED_QOS)
+
+    def _on_status(self, message: Any) -> None:
+        status = status_from_message(message)
+        with self.lock:
+            self.model.on_status(status)
+
+    def _on_definition(self, message: Any) -> None:
+        with self.lock:
+            self.model.on_definition(str(message.data))
+            sites = list(self.model.sites)
+        for site in sites:
+            self._watch_site(site)
+
+    # -- controls (the web server's thread) ------------------------------------------------
+    def sites(self) -> tuple[str, ...]:
+        """The sites known so far."""
+        with self.lock:
+            return tuple(self.model.sites)
+
+    def send_control(self, request: ControlRequest) -> tuple[bool, str]:
+        """Publish a signed control as ``./pd control`` does; (delivered, topic or why not)."""
+        if self._signer is None:
+            return False, f'no key: {self.key_error}'
+        topic = (site_topic_name(request.bridge_site, 'bridge/control')
+                 if request.bridge_site is not None else site_topic_name('', 'test_control'))
+        publisher = self._control_pubs.get(topic)
+        if publisher is None:
+            publisher = self.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
+            self._control_pubs[topic] = publisher
+        deadline = time.monotonic() + 2.0
+        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if publisher.get_subscription_count() == 0:
+            return False, f'nobody listens on {topic}'
+        publisher.publish(signed_control(self._signer, request.command,
+                                         request.bridge_site or '', request.reason))
+        self.get_logger().info(f'control {request.command} sent on {topic}')
+        return True, topic
+
+    def emergency_stop(self, reason: str) -> str:
+        """Publish the lab-wide emergency stop (no key: anyone may stop a machine)."""
+        self._estop.publish(String(data=reason or 'console emergency stop'))
+        self.get_logger().warning(f'EMERGENCY STOP sent on {GLOBAL_EMERGENCY_STOP}')
+        return GLOBAL_EMERGENCY_STOP
+
+
+class ConsoleServer:
+    """The web side: the page, its frames over a WebSocket, login, controls, e-stop.
+
+    Args:
+        model: what the page shows (shared with the node under ``lock``).
+        lock: guards ``model``.
+        access: the login token and sessions.
+        node: the console node (``None``: a finished run, no controls).
+        update_rate: frames per second pushed.
+        run_dir: a finished run's folder (its figures are served).
+    """
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock, access: ConsoleAccess,
+                 node: ConsoleNode | None, update_rate: float, run_dir: Path | None = None
+                 ) -> None:
+        self.model = model
+        self.lock = lock
+        self.access = access
+        self.node = node
+        self.period = 1.0 / max(0.2, update_rate)
+        self.run_dir = run_dir
+        self.web = web_directory()
+        self.sockets: set[web.WebSocketResponse] = set()
+        self.frames_sent = 0
+        self.refused_controls = 0
+        self._frame_text = ''
+        self._frame_version = -1
+        self._frame_at = 0.0
+
+    def app(self) -> web.Application:
+        """The aiohttp application."""
+        app = web.Application(client_max_size=64 * 1024)
+        app.router.add_get('/', self.index)
+        app.router.add_get('/static/{name}', self.static)
+        app.router.add_get('/figures/{name}', self.figure)
+        app.router.add_get('/api/frame', self.frame)
+        app.router.add_get('/api/session', self.session)
+        app.router.add_get('/ws', self.websocket)
+        app.router.add_post('/api/login', self.login)
+        app.router.add_post('/api/logout', self.logout)
+        app.router.add_post('/api/control', self.control)
+        app.router.add_post('/api/estop', self.estop)
+        return app
+
+    # -- pages -----------------------------------------------------------------------------
+    async def index(self, request: web.Request) -> web.StreamResponse:
+        return web.FileResponse(self.web / 'index.html', headers=_NO_CACHE)
+
+    async def static(self, request: web.Request) -> web.StreamResponse:
+        name = request.match_info['name']
+        if name not in STATIC_FILES:
+            raise web.HTTPNotFound
+        return web.FileResponse(self.web / name, headers=_NO_CACHE)
+
+    async def figure(self, request: web.Request) -> web.StreamResponse:
+        name = request.match_info['name']
+        if self.run_dir is None or name not in self.model.figures:
+            raise web.HTTPNotFound
+        return web.FileResponse(self.run_dir / name)
+
+    def frame_text(self) -> str:
+        """The current frame as JSON (made again when the model changed, or each second for
+        the rate and ETA)."""
+        now = time.monotonic()
+        with self.lock:
+            if self.model.version != self._frame_version or now - self._frame_at > 1.0:
+                self._frame_version = self.model.version
+                self._frame_at = now
+                self._frame_text = json.dumps(self.model.frame(), allow_nan=False,
+                                              separators=(',', ':'))
+        return self._frame_text
+
+    async def frame(self, request: web.Request) -> web.Response:
+        return web.Response(text=self.frame_text(), content_type='application/json')
+
+    async def session(self, request: web.Request) -> web.Response:
+        return web.json_response({'authenticated': self._authenticated(request),
+                                  'controls': self.node is not None,
+                                  'token_spent': self.access.token_spent})
+
+    async def websocket(self, request: web.Request) -> web.WebSocketResponse:
+        origin = request.headers.get('Origin')
+        if origin is not None and origin != f'{request.scheme}://{request.host}':
+            raise web.HTTPForbidden(text='another site may not read this console')
+        socket = web.WebSocketResponse(heartbeat=20.0)
+        await socket.prepare(request)
+        self.sockets.add(socket)
+        try:
+            await socket.send_str(self.frame_text())
+            async for message in socket:
+                if message.type in (WSMsgType.ERROR, WSMsgType.CLOSE):
+                    break
+        finally:
+            self.sockets.discard(socket)
+        return socket
+
+    async def push(self) -> None:
+        """Push the frame to every page, ``update_rate`` times a second (only a new one)."""
+        last = ''
+        while True:
+            await asyncio.sleep(self.period)
+            if not self.sockets:
+                continue
+            text = self.frame_text()
+            if text == last:
+                continue
+            last = text
+            for socket in list(self.sockets):
+                try:
+                    await socket.send_str(text)
+                    self.frames_sent += 1
+                except (ConnectionError, RuntimeError):
+                    self.sockets.discard(socket)
+
+    # -- access and controls ---------------------------------------------------------------
+    def _authenticated(self, request: web.Request) -> bool:
+        return self.access.allowed(request.cookies.get(SESSION_COOKIE))
+
+    @staticmethod
+    def _same_origin(request: web.Request) -> bool:
+        """A JSON POST from this page (a cross-site form cannot send JSON without a
+        preflight, and a foreign Origin is refused)."""
+        if request.content_type != 'application/json':
+            return False
+        origin = request.headers.get('Origin')
+        return origin is None or origin == f'{request.scheme}://{request.host}'
+
+    async def login(self, request: web.Request) -> web.Response:
+        if not self._same_origin(request):
+            return web.json_response({'error': 'not from this page'}, status=403)
+        try:
+            body = await request.json()
+        except ValueError:
+            body = {}
+        token = str(body.get('token', '')) if isinstance(body, dict) else ''
+        session = self.access.login(token)
+        if session is None:
+            return web.json_response({'error': 'wrong or spent token'}, status=403)
+        response = web.json_response({'authenticated': True})
+        response.set_cookie(SESSION_COOKIE, session, httponly=True, samesite='Strict',
+                            path='/')
+        return response
+
+    async def logout(self, request: web.Request) -> web.Response:
+        self.access.logout(request.cookies.get(SESSION_COOKIE))
+        response = web.json_response({'authenticated': False})
+        response.del_cookie(SESSION_COOKIE, path='/')
+        return response
+
+    async def control(self, request: web.Request) -> web.Response:
+        if not self._same_origin(request) or not self._authenticated(request):
+            self.refused_controls += 1
+            return web.json_response(
+                {'error': 'not logged in: controls need the token printed on the '
+                          "console's terminal"}, status=403)
+        if self.node is None:
+            return web.json_response({'error': 'a finished run: nothing to steer'},
+                                     status=409)
+        try:
+            body = await request.json()
+            control = parse_control(body, self.node.sites())
+        except ValueError as err:
+            return web.json_response({'error': str(err)}, status=400)
+        node = self.node
+        sent, said = await asyncio.get_running_loop().run_in_executor(
+            None, node.send_control, control)
+        if not sent:
+            return web.json_response({'error': said}, status=503)
+        return web.json_response({'sent': control.command, 'topic': said})
+
+    async def estop(self, request: web.Request) -> web.Response:
+        if self.node is None:
+            return web.json_response({'error': 'a finished run: nothing to stop'},
+                                     status=409)
+        try:
+            body = await request.json()
+        except ValueError:
+            body = {}
+        reason = str(body.get('reason', '')) if isinstance(body, dict) else ''
+        topic = self.node.emergency_stop(reason[:200] or 'console emergency stop')
+        return web.json_response({'sent': 'estop', 'topic': topic})
+
+
+_NO_CACHE = {'Cache-Control': 'no-store'}
+
+
+class FoxgloveFeed:
+    """The live test on foxglove-sdk's WebSocket server: every answered step of every DOF,
+    the status and the gauges, logged from the web server's timer (never from a ROS
+    callback)."""
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock, host: str, port: int
+                 ) -> None:
+        self.model = model
+        self.lock = lock
+        self.server = foxglove.start_server(name='pd console', host=host, port=port)
+        self.port = int(self.server.port)
+        self._channels: dict[str, Any] = {}
+
+    def _log(self, topic: str, message: dict[str, Any], log_time: int) -> None:
+        channel = self._channels.get(topic)
+        if channel is None:
+            channel = foxglove.Channel(topic)
+            self._channels[topic] = channel
+        channel.log(message, log_time=log_time)
+
+    def tick(self) -> None:
+        """Log what arrived since the last tick."""
+        with self.lock:
+            drained = self.model.drain()
+            test = self.model.test_json()
+            gauges = {name: gauges_message(view.to_json_gauges())
+                      for name, view in self.model.sites.items()}
+        now = time.time_ns()
+        for site, (dofs, rows) in drained.items():
+            for row in rows:
+                for dof, values in zip(dofs, row, strict=True):
+                    self._log(response_topic(site, dof), response_message(values), now)
+        self._log(STATUS_TOPIC, test, now)
+        for site, message in gauges.items():
+            self._log(gauges_topic(site), message, now)
+
+    async def run(self, period: float) -> None:
+        """Tick every ``period`` s."""
+        while True:
+            await asyncio.sleep(period)
+            self.tick()
+
+    def stop(self) -> None:
+        """Stop the server."""
+        self.server.stop()
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    """Command-line arguments (ROS arguments removed)."""
+    parser = argparse.ArgumentParser(prog='console', description=__doc__.splitlines()[0])
+    parser.add_argument('run', nargs='?', default=None,
+                        help='a finished run folder, its bag or its journal (default: live)')
+    parser.add_argument('--host', default=None, help='address to listen on (default '
+                        '127.0.0.1; another one exposes the page to the network)')
+    parser.add_argument('--port', type=int, default=None, help=f'TCP port (default '
+                        f'{DEFAULT_PORT}; 0: any free port)')
+    parser.add_argument('--key', default=None,
+                        help="the test's key file (default: $PD_KEY_FILE, then the rig key)")
+    parser.add_argument('--bridge-params', default=None,
+                        help="the bridges' parameter file (their limits, for the gauges)")
+    parser.add_argument('--update-rate', type=float, default=None,
+                        help='frames per second pushed to the page (default 4)')
+    parser.add_argument('--max-points', type=int, default=None,
+                        help='rows per series (default 600)')
+    parser.add_argument('--foxglove', type=int, nargs='?', const=DEFAULT_FOXGLOVE_PORT,
+                        default=None, metavar='PORT',
+                        help='also serve the live test to the Foxglove app (foxglove-sdk '
+                        f'WebSocket server, default port {DEFAULT_FOXGLOVE_PORT})')
+    return parser.parse_args(argv)
+
+
+def _is_loopback(host: str) -> bool:
+    if host == 'localhost':
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+async def serve(server: ConsoleServer, host: str, port: int, stop: threading.Event) -> None:
+    """Serve until ``stop`` is set; prints the address and the login token."""
+    runner = web.AppRunner(server.app(), access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, host, port)
+    await site.start()
+    addresses = runner.addresses
+    bound = int(addresses[0][1]) if addresses else port
+    shown = host if ':' not in host else f'[{host}]'
+    print(f'console: serving http://{shown}:{bound}/', flush=True)
+    if not _is_loopback(host):
+        print(f'console: WARNING: listening on {host}: anyone who reaches this address can '
+              'watch the test (controls still need the token)', flush=True)
+    if server.node is not None:
+        if server.node.key is None:
+            print(f'console: WARNING: no key ({server.node.key_error}): the page can watch, '
+                  'controls are off (the emergency stop works)', flush=True)
+        print(f'console: login token (one use): {server.access.token}', flush=True)
+        print(f'console: or open http://{shown}:{bound}/#token={server.access.token}',
+              flush=True)
+    tasks = [asyncio.create_task(server.push())]
+    feed = None
+    if server.node is not None and server.node.foxglove_port:
+        feed = FoxgloveFeed(server.model, server.lock, host, server.node.foxglove_port)
+        tasks.append(asyncio.create_task(feed.run(server.period)))
+        layout = server.web / 'foxglove_layout.json'
+        print(f'console: Foxglove: ws://{shown}:{feed.port} (open it in the Foxglove app; '
+              f'a layout for the default test: {layout})', flush=True)
+    try:
+        while not stop.is_set():
+            await asyncio.sleep(0.1)
+    finally:
+        for task in tasks:
+            task.cancel()
+        if feed is not None:
+            feed.stop()
+        for socket in list(server.sockets):
+            await socket.close()
+        await runner.cleanup()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point; 0 on a clean stop, 2 on bad input."""
+    argv = list(sys.argv if args is None else ['console', *args])
+    options = parse_args(remove_ros_args(argv)[1:])
+    overrides: dict[str, Any] = {}
+    for name, value in (('host', options.host), ('port', options.port),
+                        ('key_file', options.key), ('bridge_params', options.bridge_params),
+                        ('update_rate', options.update_rate),
+                        ('max_points', options.max_points),
+                        ('foxglove_port', options.foxglove)):
+        if value is not None:
+            overrides[name] = value
+    lock = threading.Lock()
+    model = ConsoleModel(time.monotonic)
+    access = ConsoleAccess()
+    if options.run is not None:
+        if options.max_points is not None:
+            model.max_points = options.max_points
+        model.default_limits = default_bridge_limits(options.bridge_params or '')
+        try:
+            run_dir = load_run_folder(options.run, model)
+        except (BagError, OSError) as err:
+            print(f'console: error: {err}', file=sys.stderr)
+            return 2
+        stop = threading.Event()
+        server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir)
+        try:
+            asyncio.run(serve(server, options.host or '127.0.0.1',
+                              DEFAULT_PORT if options.port is None else options.port, stop))
+        except KeyboardInterrupt:
+            pass
+        return 0
+    stop = init_with_stop_flag(argv)
+    try:
+        node = ConsoleNode(model, lock, overrides)
+        executor = events_executor(node)
+
+        def spin() -> None:
+            while rclpy.ok() and not stop.is_set():
+                executor.spin_once(timeout_sec=0.1)
+
+        thread = threading.Thread(target=spin, name='console-ros', daemon=True)
+        thread.start()
+        server = ConsoleServer(model, lock, access, node, node.update_rate)
+        asyncio.run(serve(server, node.host, node.port, stop))
+        stop.set()
+        thread.join(timeout=2.0)
+        executor.shutdown()
+        node.destroy_node()
+        return 0
+    except OSError as err:
+        print(f'console: error: {err}', file=sys.stderr)
+        return 2
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    sys.exit(main())
