@@ -184,3 +184,19 @@ def test_linear_element_and_a_damping_matrix_with_elements() -> None:
     twice['structure']['elements'][0]['dofs'] = ['x1', 'x1', 'x3']
     with pytest.raises(ConfigError, match='must name each DOF once'):
         from_dict(twice)
+
+
+def test_a_perturbed_plant_reads_the_force_of_its_own_specimen() -> None:
+    """The numerical substructure removes the drawn k_e; the load cell must read that same
+    specimen, so that with an ideal-like plant the hybrid total is the reference structure."""
+    from pd_common.rths import ContinuousActuator
+    from pd_common.rths.plant import BenchmarkPlant, perturbed_plants
+
+    config = continuous_from_config({'plant': {'model': 'benchmark', 'perturbed': True,
+                                               'seed': 0, 'index': 3}}, 'transfer_system')
+    actuator = ContinuousActuator(config, 1.0 / 1024.0)
+    drawn = perturbed_plants(0, 4)[3]
+    assert isinstance(actuator.plant, BenchmarkPlant)
+    assert actuator.plant.params == drawn
+    assert actuator.specimen == drawn.specimen
+    assert actuator.specimen.stiffness != BENCHMARK_SPECIMEN.stiffness

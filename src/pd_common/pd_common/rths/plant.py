@@ -29,7 +29,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import linalg, signal
 
 from ..errors import RthsError
 from .base import BENCHMARK_SPECIMEN, IdealPlant, PhysicalSpecimen, TransferSystem
@@ -189,6 +188,7 @@ def _zoh(params: BenchmarkPlantParameters, dt: float
     a similarity by powers of 2, exact in floating point) and transformed back; unbalanced, the
     displacement row of ``B_d`` loses about 6e-3 of its value to round-off.
     """
+    from scipy import linalg, signal  # noqa: PLC0415 - 0.6 s to import: not on a node's start-up
     a, b, c, d = benchmark_state_space(params)
     _balanced, (scale, _perm) = linalg.matrix_balance(a, permute=False, separate=True)
     a_b = a * (1.0 / scale)[:, None] * scale[None, :]
@@ -230,6 +230,12 @@ class BenchmarkPlant(TransferSystem):
     def actuator_force(self) -> float:
         """The actuator force at the current sample, N."""
         return self._state[2]
+
+    @property
+    def specimen(self) -> PhysicalSpecimen:
+        """The physical specimen the plant was drawn with (a perturbed plant's k_e): the one
+        whose force the load cell reads."""
+        return self.params.specimen
 
     @property
     def state(self) -> tuple[float, float, float, float, float]:
