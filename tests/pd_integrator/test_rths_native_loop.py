@@ -17,10 +17,12 @@ import pytest
 from pd_common.protocol import FeedbackStatus
 from pd_common.rths import (
     BENCHMARK_SPECIMEN,
+    ContinuousActuator,
     ContinuousSiteServer,
     PhysicalSpecimen,
     continuous_from_config,
 )
+from pd_common.rths.plant import BenchmarkPlant, perturbed_plants
 from pd_integrator.core.dynamics.record_readers import read_ground_motion
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.rths.native_loop import native_test_file, run_native_loop
@@ -189,9 +191,6 @@ def test_linear_element_and_a_damping_matrix_with_elements() -> None:
 def test_a_perturbed_plant_reads_the_force_of_its_own_specimen() -> None:
     """The numerical substructure removes the drawn k_e; the load cell must read that same
     specimen, so that with an ideal-like plant the hybrid total is the reference structure."""
-    from pd_common.rths import ContinuousActuator
-    from pd_common.rths.plant import BenchmarkPlant, perturbed_plants
-
     config = continuous_from_config({'plant': {'model': 'benchmark', 'perturbed': True,
                                                'seed': 0, 'index': 3}}, 'transfer_system')
     actuator = ContinuousActuator(config, 1.0 / 1024.0)
