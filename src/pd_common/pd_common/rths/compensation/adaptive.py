@@ -43,7 +43,6 @@ from collections.abc import Mapping
 from typing import Any, NoReturn
 
 import numpy as np
-from scipy import signal
 
 from ...errors import RthsError
 from .base import Compensator, CompensatorParameter, CompensatorSpec, register_compensator
@@ -123,6 +122,7 @@ class AdaptiveTimeSeries(Compensator):
         self._d2 = tuple(backward_derivative_weights(2, 4, self.dt))
         self._r1 = tuple(backward_derivative_weights(1, 3, self.dt))
         self._r2 = tuple(backward_derivative_weights(2, 3, self.dt))
+        from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
         sos = signal.butter(2, cutoff, fs=1.0 / self.dt, output='sos')
         b0, b1, b2, _a0, a1, a2 = (float(v) for v in sos[0])
         self._biquad = (b0, b1, b2, a1, a2)
@@ -182,15 +182,16 @@ class AdaptiveTimeSeries(Compensator):
         if self._filled < self.window:
             return
         phi, rhs = self._phi, self._rhs
-        if math.sqrt(float(phi[:, 0] @ phi[:, 0]) / self.window) < self.min_amplitude:
+        gram = phi.T @ phi  # ΦᵀΦ (3 × 3, one BLAS call: no window-size temporaries)
+        if math.sqrt(float(gram[0, 0]) / self.window) < self.min_amplitude:
             return
-        scale = np.sqrt(np.sum(phi * phi, axis=0))
+        scale = np.sqrt(np.diag(gram))
         if not np.all(scale > 0.0):
             return
-        normal = (phi / scale).T @ (phi / scale)
+        normal = gram / np.outer(scale, scale)   # the normal equations of the scaled columns
         if np.linalg.cond(normal) > 1e12:
             return
-        estimate = np.linalg.solve(normal, (phi / scale).T @ rhs) / scale
+        estimate = np.linalg.solve(normal, (phi.T @ rhs) / scale) / scale
         (l0, h0), (l1, h1), (l2, h2) = self.bounds
         self._a0 = min(max(float(estimate[0]), l0), h0)
         self._a1 = min(max(float(estimate[1]), l1), h1)
