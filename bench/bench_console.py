@@ -23,7 +23,6 @@ import contextlib
 import json
 import os
 import re
-import signal
 import subprocess
 import sys
 import tempfile
@@ -33,26 +32,13 @@ from pathlib import Path
 from typing import Any
 
 from _results import merge_results
+from bench_loop import stop_process
 
 REPO = Path(__file__).resolve().parents[1]
 INSTALL = REPO / 'ros2_ws' / 'install'
 CHROMIUM = Path('/usr/bin/chromium')
 CHROMEDRIVER = Path('/usr/bin/chromedriver')
 MODES = ('none', 'console', 'page')
-
-
-def stop(process: subprocess.Popen[bytes]) -> None:
-    """SIGINT the process group, then SIGKILL."""
-    if process.poll() is not None:
-        return
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(process.pid, signal.SIGINT)
-    try:
-        process.wait(timeout=10.0)
-    except subprocess.TimeoutExpired:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
 
 
 @contextlib.contextmanager
@@ -115,7 +101,7 @@ def one_run(mode: str, test_file: Path, env: dict[str, str], work: Path, index: 
             cpu_s = cpu_seconds(console.pid) - cpu_start
     finally:
         if console is not None:
-            stop(console)
+            stop_process(console)
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     if launcher.returncode != 0 or summary.get('state') != 'finished':
         msg = f'{mode}: run_test exited {launcher.returncode} ({summary.get("state")})'

@@ -23,9 +23,13 @@ Everything that can be checked is checked before any process starts (the test, i
 sections, stability, the key, the run folder). The plan is written to ``launch.json`` in the run
 folder; the processes are supervised (:mod:`.supervisor`: a death holds the test and, by
 default for a simulated specimen, the process is restarted with its state and the test
-resumed); ``--resume RUN_DIR`` continues a stopped run from its record. When the integrator
-ends, the other nodes are stopped and the run folder is printed. DDS discovery stays on this
-host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set.
+resumed); ``--resume RUN_DIR`` continues a stopped run from its record. Once the integrator
+has written its ``summary.json`` the other nodes are stopped and the summary is printed while
+it still writes its figures; ``run_test`` exits when the integrator has. DDS discovery stays on
+this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set; every process gets the
+shipped Fast DDS profile ``share/pd_bringup/config/fastdds_discovery.xml`` (announcements every
+100 ms for the first 5 s: processes started together meet at once, not at the next 3 s
+announcement) unless ``FASTDDS_DEFAULT_PROFILES_FILE`` selects one already.
 """
 
 from __future__ import annotations
@@ -60,11 +64,13 @@ from pd_integrator.core.run.test_file import load_test_file
 
 from .operator import Operator
 from .plan import (
+    DDS_PROFILE_VARIABLES,
     LAUNCH_FILE,
     LaunchError,
     LaunchPlan,
     attach_fault_reports,
     attach_realtime_reports,
+    discovery_profile,
     insert_fault_proxies,
     site_commands,
     with_key,
@@ -384,6 +390,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     policy = args.on_child_exit or ('hold' if plan.physical else 'restart')
     env = {**os.environ, **plan.environment}
+    env.update(discovery_profile(env))  # every process, the launcher's own node too
     key = load_key(plan.key_file) if plan.key_file is not None else None
     if key is not None:
         print(f'run_test: key {plan.key_file} (id {key.key_id})', flush=True)
@@ -406,9 +413,20 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
     previous = {number: signal.signal(number, lambda *_: stop.set())
                 for number in (signal.SIGINT, signal.SIGTERM)}
     ros = _OperatorNode(env, key)
+    reported: list[bool] = []
+
+    def report() -> None:  # once the specimen side is stopped; the figures may still be due
+        if not reported:
+            reported.append(True)
+            _report_faults(plan)
+            _report_realtime(plan)
+            print_summary(plan.out)
+            sys.stdout.flush()
+
     supervisor = Supervisor(plan, policy, env, ros.operator, ros.spin_checked(stop),
                             max_restarts=args.max_restarts,
-                            log=lambda line: print(line, file=sys.stderr, flush=True))
+                            log=lambda line: print(line, file=sys.stderr, flush=True),
+                            on_outputs=report)
     code = 1
     try:
         supervisor.start(resume=bool(args.resume), confirm=args.confirm,
@@ -422,9 +440,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
         ros.close()
         for number, handler in previous.items():
             signal.signal(number, handler)
-    _report_faults(plan)
-    _report_realtime(plan)
-    print_summary(plan.out)
+    report()
     return code
 
 
@@ -436,7 +452,8 @@ class _OperatorNode:
     """The launcher's own rclpy node (its signed controls), in the test's domain."""
 
     def __init__(self, env: dict[str, str], key: Key | None) -> None:
-        for name in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_STATIC_PEERS'):
+        for name in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_STATIC_PEERS',
+                     *DDS_PROFILE_VARIABLES):
             if name in env:
                 os.environ[name] = env[name]
         rclpy.init(signal_handler_options=SignalHandlerOptions.NO)

@@ -18,11 +18,18 @@ specimen, ``hold`` for a physical one):
 Children die with the launcher (``PR_SET_PDEATHSIG``): no orphan keeps a specimen side alive
 with nobody supervising it. The integrator gets SIGTERM then: it interrupts the test cleanly
 (resumable with ``./pd run --resume``).
+
+Once the integrator has written its ``summary.json`` (the test is over: its last step is
+committed, or it ended otherwise) the specimen side is stopped at once, while the integrator
+still writes its figures, and ``on_outputs`` is called (``run_test`` prints its summary then);
+:meth:`Supervisor.run` still returns only when the integrator has exited, so the run folder is
+complete by then. An integrator that dies after its summary is not restarted: its test ended.
 """
 
 from __future__ import annotations
 
 import ctypes
+import json
 import os
 import signal
 import subprocess
@@ -66,6 +73,7 @@ class _Running:
     started: float
     restarts: int = 0
     down: bool = False  # dead and not restarted (the test holds for it)
+    spawned_at: float = 0.0  # time.time() at the start (file times are wall-clock times)
 
 
 @dataclass
@@ -92,11 +100,14 @@ class Supervisor:
         spin: lets the operator's node take its messages (``spin(seconds)``).
         max_restarts: restarts of one process before the test is left holding.
         log: where progress lines go.
+        on_outputs: called once the integrator has written its summary and the specimen side
+            is stopped (the integrator may still be writing its figures).
     """
 
     def __init__(self, plan: LaunchPlan, policy: str, env: Mapping[str, str],
                  operator: Operator | None, spin: Callable[[float], None], *,
-                 max_restarts: int = 3, log: Callable[[str], None] = print) -> None:
+                 max_restarts: int = 3, log: Callable[[str], None] = print,
+                 on_outputs: Callable[[], None] | None = None) -> None:
         self.plan = plan
         self.policy = policy
         self.env = dict(env)
@@ -104,6 +115,8 @@ class Supervisor:
         self._spin = spin
         self.max_restarts = max_restarts
         self._log = log
+        self._on_outputs = on_outputs
+        self.outputs_written = False  # the integrator wrote its summary: the test is over
         self.children: list[_Running] = []
         self.integrator: _Running | None = None
         self._restart: _Restart | None = None
@@ -131,13 +144,31 @@ class Supervisor:
                           restarts: int = 0) -> None:
         command = self.plan.integrator_command(resume=resume, note=note, confirm=confirm)
         child = Child('pd_integrator', 'integrator', '', '/pd', command)
-        self.integrator = _Running(child, self._spawn(command), time.monotonic(), restarts)
+        spawned_at = time.time()
+        self.integrator = _Running(child, self._spawn(command), time.monotonic(), restarts,
+                                   spawned_at=spawned_at)
 
     def stop(self) -> None:
         """Stop everything: the integrator first (it writes the outputs), then the rest."""
-        running = [self.integrator] if self.integrator is not None else []
-        for item in [*running, *reversed(self.children)]:
-            _stop(item.process, item.child.name, self._log)
+        if self.integrator is not None:
+            _stop([self.integrator], self._log)
+        self.stop_children()
+
+    def stop_children(self) -> None:
+        """Stop the specimen side's processes, all at once (SIGTERM to each, then the waits)."""
+        _stop(list(reversed(self.children)), self._log)
+
+    def _summary_written(self, integrator: _Running) -> bool:
+        """Whether this integrator process has written its run's ``summary.json`` (complete:
+        it parses; written after the process started, so not an earlier run's)."""
+        path = self.plan.out / 'summary.json'
+        try:
+            if path.stat().st_mtime < integrator.spawned_at:
+                return False
+            json.loads(path.read_text(encoding='utf-8'))
+        except (OSError, ValueError):
+            return False
+        return True
 
     # -- the loop ---------------------------------------------------------------------------
     def run(self) -> int:
@@ -148,8 +179,22 @@ class Supervisor:
             integrator = self.integrator
             code = integrator.process.poll()
             if code is not None:
+                if self.outputs_written:  # its test ended: nothing to continue
+                    if code not in _ENDED:
+                        self._log(f'run_test: pd_integrator died after writing its summary '
+                                  f'({_describe_exit(code)}); some figures may be missing '
+                                  f'(./pd replay {self.plan.out / "bag"} writes them)')
+                    return int(code) if code in _ENDED else 1
                 if code in _ENDED or not self._revive_integrator(integrator, code):
                     return int(code) if code in _ENDED else 1
+                continue
+            if self.outputs_written:
+                continue
+            if self._restart is None and self._summary_written(integrator):
+                self.outputs_written = True
+                self.stop_children()  # while the integrator writes its figures
+                if self._on_outputs is not None:
+                    self._on_outputs()
                 continue
             for item in self.children:
                 if (not item.down and item.process.poll() is not None
@@ -290,16 +335,27 @@ def _describe_exit(code: int) -> str:
     return f'code {code}'
 
 
-def _stop(process: subprocess.Popen[bytes], name: str, log: Callable[[str], None]) -> None:
-    """SIGTERM to the process group (a clean stop for every node), then SIGKILL."""
-    if process.poll() is not None:
-        return
-    try:
-        os.killpg(process.pid, signal.SIGTERM)
-        process.wait(timeout=STOP_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        log(f'run_test: {name} did not stop on SIGTERM; killing it')
-        os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
-    except ProcessLookupError:
-        pass
+def _stop(items: list[_Running], log: Callable[[str], None]) -> None:
+    """SIGTERM to each process group (a clean stop for every node), in order and without
+    waiting in between; then each is waited for (``STOP_TIMEOUT`` in all) and killed if it is
+    still there."""
+    signalled = []
+    for item in items:
+        if item.process.poll() is not None:
+            continue
+        try:
+            os.killpg(item.process.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            continue
+        signalled.append(item)
+    deadline = time.monotonic() + STOP_TIMEOUT
+    for item in signalled:
+        try:
+            item.process.wait(timeout=max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            log(f'run_test: {item.child.name} did not stop on SIGTERM; killing it')
+            try:
+                os.killpg(item.process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            item.process.wait()

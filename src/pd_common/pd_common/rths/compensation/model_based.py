@@ -50,7 +50,6 @@ from typing import Any, NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 from ...errors import RthsError
 from ..base import TransferSystem
@@ -77,6 +76,7 @@ def state_variable_filter(x: ArrayLike, order: int, cutoff: float, dt: float,
     normalised time ``t ω_f`` (the coefficients of ``σ^i/(1+σ)^{n+1}`` are of order one),
     scaled back by ``ω_f^i``.
     """
+    from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     samples = np.asarray(x, dtype=np.float64)
     wf = 2.0 * math.pi * cutoff
     den = np.poly(-np.ones(order + 1))            # (σ + 1)^(n+1)
@@ -130,6 +130,7 @@ def identification_record(plant: TransferSystem, seconds: float = 60.0,
     """``(u, y)``: a band-limited random command (white Gaussian through a 4th-order
     Butterworth low-pass at ``bandwidth`` Hz, scaled to ``rms`` m) run through ``plant``
     (reset first) at its rate, and the plant's displacement."""
+    from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     dt = plant.dt
     n = round(seconds / dt)
     rng = np.random.default_rng(seed)
@@ -148,6 +149,7 @@ def _tustin(a: float, b: float, c: float, d: float, dt: float
             ) -> tuple[float, float, float, float]:
     """The Tustin discretisation of the scalar ``ẋ = a x + b e``, ``y = c x + d e``
     (:func:`scipy.signal.cont2discrete`): ``(a_d, b_d, c_d, d_d)``."""
+    from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     ad, bd, cd, dd, _dt = signal.cont2discrete(
         (np.array([[a]]), np.array([[b]]), np.array([[c]]), np.array([[d]])), dt,
         method='bilinear')

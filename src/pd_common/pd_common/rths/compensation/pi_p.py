@@ -18,8 +18,6 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from scipy import signal
-
 from ...errors import RthsError
 from ..base import quantise
 from .base import Compensator, CompensatorParameter, CompensatorSpec, register_compensator
@@ -34,6 +32,7 @@ def tustin_first_order(num: tuple[float, float], den: tuple[float, float],
     Returns:
         ``((n0, n1), (1, d1))``: ``y[k] = n0 x[k] + n1 x[k−1] − d1 y[k−1]``.
     """
+    from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     numd, dend, _dt = signal.cont2discrete(([num[0], num[1]], [den[0], den[1]]), dt,
                                           method='bilinear')
     n = [float(v) for v in numd.ravel()]
