@@ -265,7 +265,8 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
             capacity_reached=result.capacity_reached, peak_force=result.peak_force,
             t=result.t, x_d=result.x_d, x_m=result.x_m, t_floors=result.t,
             floors=result.floors, reference=reference)
-    native = run_native_loop(native_benchmark_file(options, record, perturbed))
+    native = run_native_loop(native_benchmark_file(options, record, perturbed),
+                             source='--loop native')
     steps = round(options.integration_dt * CONTROLLER_RATE)
     n_samples = native.x_m.size
     at_samples = reference[1:1 + n_samples]
