@@ -466,20 +466,24 @@ class SpecimenServer:
               control_mode: Sequence[int], target_force: Sequence[float]) -> Feedback:
         n = self.specimen.n_dof
         values = [float(value) for value in target]
-        if len(values) != n or not all(math.isfinite(value) for value in values):
+        if len(values) != n or not all(map(math.isfinite, values)):
             return self._fault(test_id, step, iteration, f'invalid target displacement '
                                f'{values!r} (expected {n} finite values)')
-        try:
-            command = Command(test_id=test_id, step=step, test_time=0.0, dof_names=(),
-                              target_displacement=tuple(values), iteration=iteration,
-                              control_mode=tuple(int(mode) for mode in control_mode),
-                              target_force=tuple(float(force) for force in target_force))
-        except (TypeError, ValueError) as err:
-            return self._fault(test_id, step, iteration, f'invalid control: {err}')
-        problem = command.control_error()
-        if problem is not None:
-            return self._fault(test_id, step, iteration, f'invalid control: {problem}')
-        if command.mixed or self.setup is not None:
+        command: Command | None = None
+        if control_mode or target_force or self.setup is not None:
+            # (none of them: every DOF displacement-controlled, one-to-one: nothing more to
+            # check, and no Command to build)
+            try:
+                command = Command(test_id=test_id, step=step, test_time=0.0, dof_names=(),
+                                  target_displacement=tuple(values), iteration=iteration,
+                                  control_mode=tuple(int(mode) for mode in control_mode),
+                                  target_force=tuple(float(force) for force in target_force))
+            except (TypeError, ValueError) as err:
+                return self._fault(test_id, step, iteration, f'invalid control: {err}')
+            problem = command.control_error()
+            if problem is not None:
+                return self._fault(test_id, step, iteration, f'invalid control: {problem}')
+        if command is not None and (command.mixed or self.setup is not None):
             if command.mixed and self._inject:
                 return self._fault(test_id, step, iteration, 'force control cannot be combined '
                                    'with injected errors (specimen.errors)')
@@ -492,7 +496,7 @@ class SpecimenServer:
             self.specimen.commit()  # the last trial of the previous step
             self._pending = None
         try:
-            force = self.specimen.restoring_force(np.array(values))
+            force = self.specimen.restoring_force(values)  # checked there (it is public)
         except SpecimenError as err:
             self.specimen.revert_to_last_commit()
             if self._pending is not None:  # back to the step's last accepted trial
@@ -504,7 +508,7 @@ class SpecimenServer:
             self.specimen.commit()
         self.position = tuple(values)
         self.basic = self.position
-        self.force = tuple(float(f) for f in force)
+        self.force = tuple(np.asarray(force, dtype=float).tolist())
         self.steps_served += 1
         return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
                         restoring_force=self.force, iteration=iteration)

@@ -157,7 +157,7 @@ class SiteCoordinator:
                 message=f'site {site}: {len(feedback.restoring_force)} forces and '
                         f'{len(feedback.measured_displacement)} displacements for '
                         f'{expected} actuators')
-        protocol.classify(feedback)
+        protocol.accept(feedback)  # its verdict above: ACCEPTED, nothing changed since
         pending.answers[site] = feedback
         if len(pending.answers) < len(self.sites):
             return verdict, None

@@ -101,7 +101,8 @@ class StepDispatcher:
                     signature: Signature | None = None) -> Verdict:
         """One site's feedback: advance the test if the step is complete; send what follows."""
         received = self._clock()
-        reason = self.epochs.check(site, feedback)
+        # (no epoch: nothing to check, as EpochGuard.check finds)
+        reason = self.epochs.check(site, feedback) if feedback.epoch else None
         if reason is not None:  # a fresh specimen replaced the one the test drove
             refuse_fresh_state(self.session, reason)
             self._record_feedback(site, feedback, received, signature)
@@ -111,7 +112,8 @@ class StepDispatcher:
             return Verdict.REFUSED
         if self.epochs.changes and len(self.epochs.changes) != self._epochs_noted:
             self._note_epochs()
-        if not self.coordinator.passthrough and not self.session.accepting:
+        passthrough = self.coordinator.passthrough  # (the model is fixed)
+        if not passthrough and not self.session.accepting:
             # Holding, paused or finished: the site's answer is not taken (as the session
             # itself does); the held step is re-sent to every site on resume.
             self.session.protocol.ignore(Verdict.UNEXPECTED)
@@ -120,11 +122,11 @@ class StepDispatcher:
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
             session_verdict = self._deliver(assembled)
-            if self.coordinator.passthrough:
+            if passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
         self._record_feedback(site, feedback, received, signature)
-        if assembled is not None and not self.coordinator.passthrough:
+        if assembled is not None and not passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
         if batch and self.bag is not None:
             # The answer is on disk before the next command leaves: the record never lags

@@ -88,12 +88,19 @@ class StepProtocol:
         """Classify ``feedback``: ``ACCEPTED`` clears the pending command, others are counted."""
         verdict = self.verdict(feedback)
         if verdict is Verdict.ACCEPTED:
-            self._answered.add((feedback.test_id, *feedback.key))
-            self._last_answered = (feedback.test_id, *feedback.key)
-            self.pending = None
+            self.accept(feedback)
         else:
             self.ignore(verdict)
         return verdict
+
+    def accept(self, feedback: Feedback) -> None:
+        """Take ``feedback``, whose :meth:`verdict` was just found ``ACCEPTED`` (nothing changed
+        since): it answers the pending command, which is cleared (:meth:`classify` without
+        classifying it a second time)."""
+        answered = (feedback.test_id, feedback.step, feedback.iteration)
+        self._answered.add(answered)
+        self._last_answered = answered
+        self.pending = None
 
     def ignore(self, verdict: Verdict) -> None:
         """Count one ignored feedback message."""
@@ -102,19 +109,19 @@ class StepProtocol:
     def verdict(self, feedback: Feedback) -> Verdict:
         """Classify ``feedback`` without changing any state."""
         pending = self.pending
-        key = feedback.key
-        if (feedback.test_id, *key) in self._answered:
-            return (Verdict.DUPLICATE if (feedback.test_id, *key) == self._last_answered
+        test_id, step, iteration = feedback.test_id, feedback.step, feedback.iteration
+        answered = (test_id, step, iteration)
+        if answered in self._answered:
+            return (Verdict.DUPLICATE if answered == self._last_answered
                     else Verdict.STALE)
         if pending is None:
             return Verdict.UNEXPECTED
-        if feedback.test_id != pending.test_id:
+        if test_id != pending.test_id:
             return Verdict.FOREIGN
-        if key < pending.key:
-            return Verdict.STALE
-        if key > pending.key:
-            return Verdict.UNEXPECTED
-        return Verdict.ACCEPTED
+        if step == pending.step and iteration == pending.iteration:
+            return Verdict.ACCEPTED
+        return Verdict.STALE if (step, iteration) < (pending.step, pending.iteration) \
+            else Verdict.UNEXPECTED
 
     def on_timeout(self) -> TimeoutAction:
         """The feedback timeout expired: re-send the pending command, or hold.

@@ -37,7 +37,7 @@ def _all_finite(values: tuple[float, ...] | FloatArray) -> bool:
     """Whether every value is finite (numpy for long vectors, plain Python for short ones)."""
     if isinstance(values, np.ndarray) or len(values) > 16:
         return bool(np.isfinite(np.asarray(values, dtype=float)).all())
-    return all(math.isfinite(value) for value in values)
+    return all(map(math.isfinite, values))
 
 
 class _Target(tuple[float, ...]):
@@ -192,7 +192,7 @@ class TestSession:
         if implausible is not None:
             self._hold(implausible)
             return Verdict.REFUSED
-        self.protocol.classify(feedback)
+        self.protocol.accept(feedback)  # its verdict above: ACCEPTED, nothing changed since
         if pending.test_id.endswith(PROBE_SUFFIX):
             self._on_probe_feedback(feedback)
         else:
@@ -291,8 +291,10 @@ class TestSession:
             error = float(deviation[worst])
         else:
             errors = [abs(m - t) for m, t in zip(measured, target, strict=True)]
-            worst = max(range(len(errors)), key=errors.__getitem__)
-            error = errors[worst]
+            error = max(errors)
+            if error <= tolerance:
+                return None
+            worst = errors.index(error)  # the first largest, as argmax
         if error <= tolerance:
             return None
         name = self.definition.dof_names[worst] if worst < len(self.definition.dof_names) \
@@ -407,7 +409,7 @@ class TestSession:
         except IntegratorError as err:
             self._fail(step, err)
             return
-        self.history.record(step, integrator.x, integrator.v, integrator.a,
+        self.history.record(step, *integrator.committed_state(),
                             feedback.restoring_force, feedback.measured_displacement)
         self._step = step + 1
         if step >= definition.n_steps:

@@ -540,6 +540,13 @@ class Integrator(abc.ABC):
         """Committed displacement ``x_i`` (m), a read-only copy."""
         return self._export(self._x)
 
+    def committed_state(self) -> tuple[Any, Any, Any]:
+        """The committed ``x_i``, ``v_i``, ``a_i`` as held: floats for one DOF, else the
+        integrator's own arrays (no copies: read them at once, never write them). The values
+        of :attr:`x`, :attr:`v`, :attr:`a` without their per-call read-only copies (the
+        session records them into its history every step)."""
+        return self._x, self._v, self._a
+
     @property
     def v(self) -> np.ndarray:
         """Committed velocity ``v_i`` (m/s), a read-only copy."""
