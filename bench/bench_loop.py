@@ -60,6 +60,9 @@ QUICK_DURATION = 5.0  # s of simulated test in --quick mode
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 SHM = Path('/dev/shm')
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _results import merge_results  # noqa: E402
 
 
 # -- results --------------------------------------------------------------------------------
@@ -266,7 +269,6 @@ def _best(samples: list[float]) -> float:
 
 def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS."""
-    from pd_common.protocol import Feedback, FeedbackStatus
     from pd_common.specimen import SpecimenServer, specimen_from_config
     from pd_integrator.core.run.runner import run_offline
     from pd_integrator.core.run.session import TestSession
@@ -301,10 +303,7 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> None:
             answer = server.handle(command.test_id, command.step, command.target_displacement)
             if answer is None:
                 break
-            session.on_feedback(Feedback(
-                test_id=answer.test_id, step=answer.step,
-                measured_displacement=answer.displacement, restoring_force=answer.force,
-                status=FeedbackStatus(answer.status), message=answer.message))
+            session.on_feedback(answer)  # the server answers with the Feedback itself
         bare.append(time.perf_counter() - start)
     per_step = _best(bare) / steps
     bag_cost = (_best(loop_times) - _best(bare)) / steps
@@ -387,8 +386,8 @@ def graph_run(site: str, param_args: list[str], domain_id: int, out: Path,
 
 
 def bench_graph(table: Table, site: str, param_args: list[str], domain_id: int, work: Path,
-                timeout: float, runs: int) -> float | None:
-    """Best (highest steps/s) of ``runs`` launcher runs; its steps/s (None: all failed)."""
+                timeout: float, runs: int) -> Row | None:
+    """Best (highest steps/s) of ``runs`` launcher runs; its row (None: all failed)."""
     rows = [graph_run(site, param_args, domain_id, work / f'graph-{site}-{index}', timeout)
             for index in range(runs)]
     done = [row for row in rows if row.rate is not None]
@@ -400,7 +399,7 @@ def bench_graph(table: Table, site: str, param_args: list[str], domain_id: int, 
         others = ', '.join(f'{row.rate:,.0f}' if row.rate else 'failed' for row in rows)
         best.note = f'best of {runs} ({others} steps/s); {best.note}'
     table.add(best)
-    return best.rate
+    return best
 
 
 # -- 3. raw ping-pong -----------------------------------------------------------------------
@@ -541,9 +540,9 @@ def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
         remove_stale_segments(before, domain_id)
 
 
-def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> float | None:
-    """EventsExecutor and SingleThreadedExecutor ping-pongs; returns the events rate."""
-    events_rate = None
+def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> Row | None:
+    """EventsExecutor and SingleThreadedExecutor ping-pongs; returns the events row."""
+    events_row = None
     for kind, label in (('events', 'EventsExecutor (spin_once loop)'),
                         ('single', 'SingleThreadedExecutor')):
         try:
@@ -556,15 +555,16 @@ def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> float 
             table.add(Row('3 floor', f'ping-pong {label}', note='FAILED: no answers'))
             continue
         rate = len(samples) / result.elapsed_s
-        if kind == 'events':
-            events_rate = rate
         note = f'{len(samples)} round trips, 2 processes, reliable keep-all'
         if result.lost:
             note += f'; {result.lost} lost (2 s timeout)'
-        table.add(Row('3 floor', f'ping-pong {label}', rate, unit='rt/s',
-                      median_us=statistics.median(samples) * 1e6,
-                      p99_us=percentile(samples, 99) * 1e6, note=note))
-    return events_rate
+        row = Row('3 floor', f'ping-pong {label}', rate, unit='rt/s',
+                  median_us=statistics.median(samples) * 1e6,
+                  p99_us=percentile(samples, 99) * 1e6, note=note)
+        table.add(row)
+        if kind == 'events':
+            events_row = row
+    return events_row
 
 
 # -- 5. schemes (ROS-free core) -----------------------------------------------------------
@@ -650,7 +650,7 @@ def session_loop(definition: Any) -> tuple[float, int]:
     Raises:
         RuntimeError: the session stopped before the last step.
     """
-    from pd_common.protocol import Feedback, FeedbackStatus, TestState
+    from pd_common.protocol import TestState
     from pd_common.specimen import SpecimenServer, specimen_from_config
     from pd_integrator.core.run.session import TestSession
 
@@ -666,10 +666,7 @@ def session_loop(definition: Any) -> tuple[float, int]:
         if answer is None:
             break
         commands += 1
-        session.on_feedback(Feedback(
-            test_id=answer.test_id, step=answer.step, iteration=answer.iteration,
-            measured_displacement=answer.displacement, restoring_force=answer.force,
-            status=FeedbackStatus(answer.status), message=answer.message))
+        session.on_feedback(answer)  # the server answers with the Feedback itself
     elapsed = time.perf_counter() - start
     if session.state is not TestState.FINISHED:
         msg = f'stopped at step {session.committed_step}: {session.message}'
@@ -902,6 +899,31 @@ def _handle_stop_signals() -> None:
     signal.signal(signal.SIGTERM, _raise_interrupt)
 
 
+GOAL_FIGURES = {'graph_direct_over_floor': '<= 1.3', 'graph_bridge_over_floor': '<= 1.3',
+                'graph_direct_p99_ms': '< 1'}
+HOPS = {'direct': 1, 'bridge': 2}  # raw round trips a step needs: direct 1, bridge 2
+
+
+def goal_figures(graphs: dict[str, Row | None], floor: Row | None) -> dict[str, float]:
+    """Issue 13 goal 1's figures for ``bench/results.json`` (the ones this run measured).
+
+    ``graph_<site>_over_floor``: the graph's time per step (wall / steps) over the same run's
+    raw EventsExecutor ping-pong median round trip times the hops a step needs;
+    ``graph_direct_p99_ms``: the direct graph's p99 step round trip.
+    """
+    figures: dict[str, float] = {}
+    floor_us = floor.median_us if floor is not None else None
+    for site, hops in HOPS.items():
+        row = graphs.get(site)
+        if row is None or not row.rate:
+            continue
+        if floor_us:
+            figures[f'graph_{site}_over_floor'] = round(1e6 / row.rate / (hops * floor_us), 3)
+        if site == 'direct' and row.p99_us is not None:
+            figures['graph_direct_p99_ms'] = round(row.p99_us / 1e3, 4)
+    return figures
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run every benchmark and print the table."""
     args = parse_args(argv)
@@ -928,8 +950,8 @@ def main(argv: list[str] | None = None) -> int:
     table = Table()
     started = time.perf_counter()
     shm_before = shm_snapshot()
-    rates: dict[str, float | None] = {}
-    floor: float | None = None
+    graphs: dict[str, Row | None] = {}
+    floor_row: Row | None = None
     scheme_bench: SchemeBench | None = None
     interrupted = False
     try:
@@ -937,11 +959,11 @@ def main(argv: list[str] | None = None) -> int:
             _timed('core', args.verbose, table, lambda: bench_core(table, overrides, work))
             timeout = 60.0 + definition.n_steps / 100.0
             for site in ('bridge', 'direct'):
-                rates[site] = _timed(
+                graphs[site] = _timed(
                     f'graph {site}', args.verbose, table,
                     lambda site=site: bench_graph(table, site, param_args, args.domain_id,
                                                   work, timeout, graph_runs))
-            floor = _timed('ping-pong', args.verbose, table,
+            floor_row = _timed('ping-pong', args.verbose, table,
                            lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
             if schemes:
                 scheme_bench = _timed('schemes', args.verbose, table,
@@ -951,7 +973,9 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         remove_stale_segments(shm_before, args.domain_id)
 
-    reached = {site: rate for site, rate in rates.items() if rate is not None}
+    reached = {site: row.rate for site, row in graphs.items()
+               if row is not None and row.rate is not None}
+    floor = floor_row.rate if floor_row is not None else None
     for site, rate in reached.items():
         table.add(Row('4 goal', f'graph --site {site} vs goal', rate,
                       note=f'goal >= {GOAL_STEPS_PER_S:,.0f} steps/s: '
@@ -960,6 +984,11 @@ def main(argv: list[str] | None = None) -> int:
     if floor is not None:
         table.add(Row('4 goal', 'floor: 1 raw round trip per step', floor, unit='steps/s',
                       note='direct: 1 round trip per step; bridge: 2 (about half this)'))
+    figures = goal_figures(graphs, floor_row)
+    for name, value in figures.items():
+        table.add(Row('4 goal', name, note=f'{value:g} (goal {GOAL_FIGURES[name]})'))
+    if figures and not interrupted:
+        merge_results(figures)
     if interrupted:
         table.add(Row('-', 'INTERRUPTED', note='the figures above are all that was measured'))
     print(render(table))

@@ -62,6 +62,8 @@ __all__ = ['JOURNAL_FILE', 'Journal', 'JournalRecord', 'RunRecorder', 'iter_jour
 #: The journal's file name in a run folder.
 JOURNAL_FILE = 'journal.jsonl'
 _VERSION = 1
+#: One encoder for every record (``json.dumps`` with these options builds one per call).
+_ENCODE = json.JSONEncoder(separators=(',', ':'), allow_nan=True).encode
 
 
 class RunRecorder(Protocol):
@@ -159,7 +161,7 @@ class Journal:
         self.close()
 
     def _add(self, record: dict[str, Any]) -> None:
-        self._pending.append(json.dumps(record, separators=(',', ':'), allow_nan=True))
+        self._pending.append(_ENCODE(record))
         self.records += 1
 
     # -- records --------------------------------------------------------------------------
