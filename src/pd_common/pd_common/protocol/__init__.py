@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .answers import KeyedAnswers
 from .convert import (
     command_from_message,
     control_from_message,
@@ -40,6 +41,7 @@ __all__ = [
     'ControlMode',
     'Feedback',
     'FeedbackStatus',
+    'KeyedAnswers',
     'SessionStart',
     'Signature',
     'StateOrigin',

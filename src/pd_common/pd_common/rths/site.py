@@ -39,6 +39,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..protocol.answers import KeyedAnswers
 from ..protocol.messages import Feedback, FeedbackStatus
 from .continuous import ContinuousActuator, ContinuousConfig, ContinuousMeasurement
 
@@ -100,7 +101,7 @@ class SampleLog:
         return self._joined('force')
 
 
-class ContinuousSiteServer:
+class ContinuousSiteServer(KeyedAnswers):
     """Answers one site's step commands with a continuous actuator in simulated time.
 
     Args:
@@ -119,47 +120,23 @@ class ContinuousSiteServer:
     def __init__(self, config: ContinuousConfig, integration_dt: float, *, n_dof: int = 1,
                  keep_samples: bool = False) -> None:
         """Build the site at rest."""
+        super().__init__()
         self.actuator = ContinuousActuator(config, integration_dt)
         self.n_dof = int(n_dof)
         self.samples = SampleLog() if keep_samples else None
-        self._last: Feedback | None = None
         self.steps_served = 0
-        self.repeated = 0
-        self.ignored = 0
         self.faults = 0
         self.peak_force = 0.0
         self.position: tuple[float, ...] = (self.actuator.measured_displacement,) * self.n_dof
         self.force: tuple[float, ...] = (0.0,) * self.n_dof
 
     @property
-    def last(self) -> Feedback | None:
-        """The answer to the command served last (what a repeat of it gets)."""
-        return self._last
-
-    @property
     def valid(self) -> bool:
         """False once a sample reached the actuator's capacity."""
         return self.actuator.valid
 
-    def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0,
-               control_mode: Sequence[int] = (), target_force: Sequence[float] = ()
-               ) -> Feedback | None:
-        """Answer the command for ``(step, iteration)`` of ``test_id``; ``None`` if ignored."""
-        last = self._last
-        if last is not None and last.test_id == test_id:
-            key, last_key = (step, iteration), (last.step, last.iteration)
-            if key == last_key:
-                self.repeated += 1
-                return last
-            if key < last_key:
-                self.ignored += 1
-                return None
-        answer = self._move(test_id, step, iteration, target, control_mode)
-        self._last = answer
-        return answer
-
     def _move(self, test_id: str, step: int, iteration: int, target: Sequence[float],
-              control_mode: Sequence[int]) -> Feedback:
+              control_mode: Sequence[int], target_force: Sequence[float]) -> Feedback:
         values = [float(value) for value in target]
         if self.n_dof != 1:
             return self._fault(test_id, step, iteration, f'continuous motion drives one '

@@ -83,6 +83,7 @@ from ..errors import SetupError, SpecimenConfigError, SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..experimental.force_ramp import force_ramp
 from ..experimental.setups import ExperimentalSetup, OneToOneSetup, setup_from_config
+from ..protocol.answers import KeyedAnswers
 from ..protocol.messages import Command, Feedback, FeedbackStatus
 from .config import COLUMN_KEY, load_specimen_section, model_from_config
 
@@ -313,7 +314,7 @@ class _NoSolutionError(Exception):
     """A mixed command the specimen cannot take (its one-line reason)."""
 
 
-class SpecimenServer:
+class SpecimenServer(KeyedAnswers):
     """Moves a simulated specimen to commanded displacements and reports its forces.
 
     Commands are keyed by ``(step, iteration)`` (iteration 0 for explicit schemes).
@@ -360,6 +361,7 @@ class SpecimenServer:
                 (``errors:``), a setup of another size (``setup:``) or a negative
                 ``max_force_increment``.
         """
+        super().__init__()
         if commit not in COMMIT_MODES:
             msg = f"commit: must be one of {', '.join(COMMIT_MODES)}, got {commit!r}"
             raise SpecimenError(msg)
@@ -393,12 +395,9 @@ class SpecimenServer:
         self.basic: tuple[float, ...] = (0.0,) * n
         #: Per actuator, the force it holds [N]: the last force commanded to it (0 at start).
         self.held: tuple[float, ...] = (0.0,) * n
-        self._last: Feedback | None = None
         self.steps_served = 0
         #: Specimen states a force ramp went through (each committed), over all commands.
         self.ramp_substeps = 0
-        self.repeated = 0
-        self.ignored = 0
         self.faults = 0
         self.errors = errors
         self._inject = errors is not None and not errors.is_ideal
@@ -418,11 +417,6 @@ class SpecimenServer:
                           if errors is not None else None)
 
     @property
-    def last(self) -> Feedback | None:
-        """The answer to the command served last (what a repeat of it gets)."""
-        return self._last
-
-    @property
     def imposed(self) -> tuple[float, ...]:
         """The displacement the specimen really holds (``position`` is the measured one)."""
         if not self._inject or self._injector is None:
@@ -440,27 +434,6 @@ class SpecimenServer:
             **{key: value.tolist() if isinstance(value, np.ndarray) else value
                for key, value in sorted(vars(self.setup).items()) if not key.startswith('_')}}
         return {'setup': setup, 'max_force_increment': self.max_force_increment}
-
-    def handle(self, test_id: str, step: int, target: Sequence[float], *, iteration: int = 0,
-               control_mode: Sequence[int] = (), target_force: Sequence[float] = ()
-               ) -> Feedback | None:
-        """Answer the command for ``(step, iteration)`` of ``test_id``; ``None`` if ignored.
-
-        ``control_mode`` and ``target_force`` as in :class:`~pd_common.protocol.Command`
-        (empty: every actuator displacement-controlled).
-        """
-        last = self._last
-        if last is not None and last.test_id == test_id:
-            key, last_key = (step, iteration), (last.step, last.iteration)
-            if key == last_key:
-                self.repeated += 1
-                return last
-            if key < last_key:
-                self.ignored += 1
-                return None
-        answer = self._move(test_id, step, iteration, target, control_mode, target_force)
-        self._last = answer
-        return answer
 
     def _move(self, test_id: str, step: int, iteration: int, target: Sequence[float],
               control_mode: Sequence[int], target_force: Sequence[float]) -> Feedback:
