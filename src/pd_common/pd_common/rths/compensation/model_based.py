@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...errors import RthsError
 from ..base import TransferSystem
 from .base import Compensator, CompensatorParameter, CompensatorSpec, register_compensator
-from .polynomial import backward_derivative_weights
+from .polynomial import backward_derivative_weights, push_and_filter
 
 __all__ = ['MODEL_BASED', 'NOMINAL_MODEL', 'ModelBasedController', 'identification_record',
            'identify_all_pole', 'state_variable_filter']
@@ -223,12 +223,7 @@ class ModelBasedController(Compensator):
 
     def command(self, target: float, measured: float) -> float:
         """``u[k]`` for ``x_d[k]`` and ``x_m[k]``."""
-        history = self._history
-        history.pop()
-        history.insert(0, target)
-        u = 0.0
-        for w, x in zip(self.feedforward, history, strict=True):
-            u += w * x
+        u = push_and_filter(self._history, self.feedforward, target)
         if self.feedback:
             raw = target - measured
             a, b, c, d = self._lp

@@ -31,8 +31,13 @@ import numpy as np
 from ...errors import RthsError
 from .base import Compensator, CompensatorParameter, CompensatorSpec, register_compensator
 
-__all__ = ['POLYNOMIAL', 'PolynomialExtrapolation', 'backward_derivative_weights',
-           'lagrange_weights']
+__all__ = [
+    'POLYNOMIAL',
+    'PolynomialExtrapolation',
+    'backward_derivative_weights',
+    'lagrange_weights',
+    'push_and_filter',
+]
 
 
 def lagrange_weights(nodes: Sequence[float], point: float, derivative: int = 0) -> list[float]:
@@ -65,6 +70,18 @@ def backward_derivative_weights(derivative: int, points: int, dt: float) -> list
     polynomial (no lag; exact for a polynomial of degree ``points − 1``)."""
     unit = lagrange_weights([-float(i) for i in range(points)], 0.0, derivative)
     return [w / dt ** derivative for w in unit]
+
+
+def push_and_filter(history: list[float], weights: Sequence[float], value: float) -> float:
+    """Shift ``value`` into ``history`` (newest first, its length kept) and return the FIR
+    output ``Σ w_i history_i`` (the feed-forward of the polynomial and model-based
+    compensators)."""
+    history.pop()
+    history.insert(0, value)
+    total = 0.0
+    for w, x in zip(weights, history, strict=True):
+        total += w * x
+    return total
 
 
 def _check(name: str, parameter: str, ok: bool, requirement: str, value: object) -> None:
@@ -115,12 +132,7 @@ class PolynomialExtrapolation(Compensator):
 
     def command(self, target: float, measured: float) -> float:
         """``u[k]`` for ``x_d[k]`` and ``x_m[k]``."""
-        history = self._history
-        history.pop()
-        history.insert(0, target)
-        u = 0.0
-        for w, x in zip(self.weights, history, strict=True):
-            u += w * x
+        u = push_and_filter(self._history, self.weights, target)
         if self.kp or self.ki:
             error = target - measured
             self._integral += error * self.dt
