@@ -27,9 +27,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import json
 import math
-import os
 import random
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -38,6 +36,8 @@ from pathlib import Path
 from typing import Any, Generic, TypeVar
 
 from pd_common.resources import find_executable
+
+from .reports import add_to_summary, read_reports
 
 __all__ = ['COUNTERS', 'DEFAULT_DELAY_S', 'FAULT_KINDS', 'Fate', 'FaultInjector', 'FaultPlan',
            'FaultPlanError', 'attach_reports', 'fault_summary', 'proxy_command']
@@ -398,23 +398,9 @@ def attach_reports(summary_file: Path, report_files: Mapping[str, Path]) -> dict
         The ``faults`` block (``None``: no proxy wrote a report). A report that cannot be read
         is given as ``{'error': ...}``.
     """
-    reports: dict[str, Mapping[str, Any]] = {}
-    for name, path in report_files.items():
-        try:
-            data = json.loads(path.read_text(encoding='utf-8'))
-        except FileNotFoundError:
-            continue
-        except (OSError, ValueError) as err:
-            data = {'error': f'{path.name}: unreadable ({err})'}
-        reports[name] = data if isinstance(data, dict) else {'error': f'{path.name}: not a '
-                                                                       'JSON object'}
+    reports = read_reports(report_files)
     if not reports:
         return None
     block = fault_summary(reports, {name: path.name for name, path in report_files.items()})
-    if summary_file.is_file():
-        summary = json.loads(summary_file.read_text(encoding='utf-8'))
-        summary['faults'] = block
-        partial = summary_file.with_name(summary_file.name + '.partial')
-        partial.write_text(json.dumps(summary, indent=2) + '\n', encoding='utf-8')
-        os.replace(partial, summary_file)
+    add_to_summary(summary_file, 'faults', block)
     return block

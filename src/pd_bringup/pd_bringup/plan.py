@@ -10,7 +10,6 @@ its state file) without the original command line.
 from __future__ import annotations
 
 import json
-import os
 import socket
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -22,6 +21,7 @@ from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
 
 from .faults import FaultPlanError, attach_reports, proxy_command
+from .reports import add_to_summary, read_reports
 
 __all__ = ['BEHIND', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child',
            'LaunchError', 'LaunchPlan', 'attach_fault_reports', 'attach_realtime_reports',
@@ -394,27 +394,14 @@ def attach_realtime_reports(plan: LaunchPlan) -> dict[str, Any] | None:
     Raises:
         LaunchError: ``summary.json`` cannot be rewritten.
     """
-    block: dict[str, Any] = {}
-    for child in plan.children:
-        if child.kind != 'bridge' or not child.site:
-            continue
-        path = plan.out / realtime_report_name(child.site)
-        try:
-            data = json.loads(path.read_text(encoding='utf-8'))
-        except FileNotFoundError:
-            continue
-        except (OSError, ValueError) as err:
-            data = {'error': f'{path.name}: unreadable ({err})'}
-        block[child.site] = data
+    files = {child.site: plan.out / realtime_report_name(child.site)
+             for child in plan.children if child.kind == 'bridge' and child.site}
+    block = read_reports(files)
+    if not block:
+        return None
     summary_file = plan.out / 'summary.json'
-    if not block or not summary_file.is_file():
-        return block or None
     try:
-        summary = json.loads(summary_file.read_text(encoding='utf-8'))
-        summary['realtime'] = block
-        partial = summary_file.with_name(summary_file.name + '.partial')
-        partial.write_text(json.dumps(summary, indent=2) + '\n', encoding='utf-8')
-        os.replace(partial, summary_file)
+        add_to_summary(summary_file, 'realtime', block)
     except (OSError, ValueError) as err:
         msg = f'{summary_file}: cannot add the wall-clock statistics ({err})'
         raise LaunchError(msg) from None
