@@ -51,7 +51,12 @@ from pd_common.rths import Compensator, PhysicalSpecimen, SensorNoise, TransferS
 from pd_common.rths.plant import BenchmarkPlant
 
 from ..errors import ConfigError
-from .problem import BenchmarkCase, numerical_substructure
+from .problem import (
+    BenchmarkCase,
+    numerical_substructure,
+    sampled_ground_motion,
+    state_matrix,
+)
 
 __all__ = ['BenchmarkLoopResult', 'rk4_linear_map', 'run_benchmark_loop',
            'substructure_state_space']
@@ -91,7 +96,7 @@ def substructure_state_space(case: BenchmarkCase, specimen: PhysicalSpecimen
     m_n, c_n, k_n = numerical_substructure(case, specimen)
     n = m_n.shape[0]
     m_n_inv = np.linalg.inv(m_n)
-    a = np.block([[np.zeros((n, n)), np.eye(n)], [-m_n_inv @ k_n, -m_n_inv @ c_n]])
+    a = state_matrix(m_n, c_n, k_n)
     b = np.zeros((2 * n, 2))
     b[n:, 0] = -(m_n_inv @ case.mass @ np.ones(n))
     b[n:, 1] = -m_n_inv[:, 0]
@@ -150,12 +155,7 @@ def run_benchmark_loop(case: BenchmarkCase, t: ArrayLike, ag: ArrayLike,
     Raises:
         ConfigError: On inconsistent inputs (lengths, step, rates of plant and compensator).
     """
-    times = np.asarray(t, dtype=np.float64)
-    ground = np.asarray(ag, dtype=np.float64)
-    if times.ndim != 1 or ground.shape != times.shape or times.size < 2:
-        msg = 'benchmark loop: t and ag must be 1-D of the same length (2 or more)'
-        raise ConfigError(msg)
-    h = float(times[1] - times[0])
+    times, ground, h = sampled_ground_motion(t, ag, 'benchmark loop')
     for name, dt in (('plant', plant.dt), ('compensator', compensator.dt)):
         if not math.isclose(dt, h, rel_tol=1e-9):
             msg = f'benchmark loop: the {name} runs at dt={dt!r}, the loop at {h!r}'

@@ -35,6 +35,8 @@ __all__ = [
     'numerical_substructure',
     'prepare_ground_motion',
     'reference_response',
+    'sampled_ground_motion',
+    'state_matrix',
 ]
 
 Matrix = NDArray[np.float64]
@@ -156,6 +158,30 @@ def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
     return t, ag
 
 
+def sampled_ground_motion(t: ArrayLike, ag: ArrayLike, where: str
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """``(t, ag, h)`` as float arrays with the first sample period ``h``.
+
+    Raises:
+        ConfigError: Unless both are 1-D of the same length, 2 or more (``where`` names the
+            caller).
+    """
+    times = np.asarray(t, dtype=np.float64)
+    ground = np.asarray(ag, dtype=np.float64)
+    if times.ndim != 1 or ground.shape != times.shape or times.size < 2:
+        msg = f'{where}: t and ag must be 1-D of the same length (2 or more)'
+        raise ConfigError(msg)
+    return times, ground, float(times[1] - times[0])
+
+
+def state_matrix(mass: Matrix, damping: Matrix, stiffness: Matrix) -> Matrix:
+    """``A`` of ``ż = A z + …`` for the state ``z = [x; ẋ]`` of ``M ẍ + C ẋ + K x = …``."""
+    n = mass.shape[0]
+    m_inv = np.linalg.inv(mass)
+    a: Matrix = np.block([[np.zeros((n, n)), np.eye(n)], [-m_inv @ stiffness, -m_inv @ damping]])
+    return a
+
+
 def _foh_matrices(a: Matrix, b: Matrix, h: float) -> tuple[Matrix, Matrix, Matrix]:
     """``(Φ, Γ0, Γ1)`` of ``ż = A z + B w`` over one step ``h`` with ``w`` linear between the
     samples: ``z[k+1] = Φ z[k] + Γ0 w[k] + Γ1 w[k+1]`` (exact)."""
@@ -180,19 +206,12 @@ def reference_response(case: BenchmarkCase, t: ArrayLike, ag: ArrayLike) -> NDAr
     Raises:
         ConfigError: On ``t`` not uniform or ``ag`` of another length.
     """
-    times = np.asarray(t, dtype=np.float64)
-    ground = np.asarray(ag, dtype=np.float64)
-    if times.ndim != 1 or ground.shape != times.shape or times.size < 2:
-        msg = 'reference response: t and ag must be 1-D of the same length (2 or more)'
-        raise ConfigError(msg)
-    h = float(times[1] - times[0])
+    times, ground, h = sampled_ground_motion(t, ag, 'reference response')
     if not h > 0.0 or np.max(np.abs(np.diff(times) - h)) > 1e-9 * max(1.0, abs(times[-1])):
         msg = 'reference response: t must be uniformly spaced and increasing'
         raise ConfigError(msg)
     n_dof = case.mass.shape[0]
-    m_inv = np.linalg.inv(case.mass)
-    a = np.block([[np.zeros((n_dof, n_dof)), np.eye(n_dof)],
-                  [-m_inv @ case.stiffness, -m_inv @ case.damping]])
+    a = state_matrix(case.mass, case.damping, case.stiffness)
     b = np.concatenate([np.zeros(n_dof), -np.ones(n_dof)])[:, None]   # −M⁻¹ M ι
     phi, gamma0, gamma1 = _foh_matrices(a, b, h)
     # The sampled solution in closed form: z[k] = Σ_j Φ^{k−1−j} (Γ0 w[j] + Γ1 w[j+1]).
