@@ -6,8 +6,10 @@ import dataclasses
 import hashlib
 import hmac
 import os
+import struct
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pd_common.auth import (
@@ -24,6 +26,7 @@ from pd_common.auth import (
     feedback_payload,
     generate_key,
     load_key,
+    mac_of,
     new_key,
     session_start_payload,
     verify_mac,
@@ -230,3 +233,35 @@ def test_controls_are_fresh_and_obeyed_once() -> None:
     # Much later, the old session is forgotten but its stamp is stale: still refused.
     now[0] += 100.0
     assert gate.admit(control_payload(control), signature, control.stamp) is Refusal.STALE
+
+
+def test_the_canonical_bytes_follow_the_documented_tags() -> None:
+    # Built from the format the module documents (tag, 64-bit big-endian integers, IEEE-754
+    # big-endian floats, 32-bit lengths), not from the encoder: exact types, numpy scalars,
+    # bools, str subclasses and mixed sequences all give these bytes.
+    class Name(str):  # a str subclass: its characters count, not its str()
+        def __str__(self) -> str:
+            return 'other'
+
+    def text(value: str) -> bytes:
+        data = value.encode('utf-8')
+        return b's' + struct.pack('>I', len(data)) + data
+
+    # (a numpy integer inside a sequence is encoded as its float)
+    fields = ('é', 7, True, 0.1, -0.0, (1.5, float('nan')), (np.float64(2.5), 3),
+              [Name('step'), np.int64(4)], b'\x00\x01', np.float64(-1.25), Name('step'), ())
+    expected = b''.join([
+        text('K'), text('é'), b'i' + struct.pack('>q', 7), b'b\x01',
+        b'f' + struct.pack('>d', 0.1), b'f' + struct.pack('>d', -0.0),
+        b'l' + struct.pack('>I', 2) + b'f' + struct.pack('>d', 1.5)
+        + b'f' + struct.pack('>d', float('nan')),
+        b'l' + struct.pack('>I', 2) + b'f' + struct.pack('>d', 2.5)
+        + b'i' + struct.pack('>q', 3),
+        b'l' + struct.pack('>I', 2) + text('step') + b'f' + struct.pack('>d', 4.0),
+        b'y' + struct.pack('>I', 2) + b'\x00\x01', b'f' + struct.pack('>d', -1.25),
+        text('step'), b'l' + struct.pack('>I', 0)])
+    assert canonical('K', fields) == expected
+    key = new_key()
+    trailer = text(key.key_id) + text('ab' * 16) + b'i' + struct.pack('>q', 9)
+    assert mac_of(key, expected, 'ab' * 16, 9) == hmac.new(
+        key.secret, expected + trailer, hashlib.sha256).digest()

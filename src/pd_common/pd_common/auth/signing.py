@@ -12,7 +12,7 @@ The canonical encoding is unambiguous: each value is tagged and length-prefixed,
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import hmac
 import secrets
 import struct
@@ -45,21 +45,48 @@ def new_session() -> str:
     return secrets.token_hex(16)
 
 
+_PACK_INT = struct.Struct('>q').pack
+_PACK_FLOAT = struct.Struct('>d').pack
+_PACK_LENGTH = struct.Struct('>I').pack
+
+
+def _encode_float(value: float) -> bytes:
+    return b'f' + _PACK_FLOAT(value)
+
+
+@functools.lru_cache(maxsize=256)
+def _encode_str(value: str) -> bytes:
+    # ids, names, sessions and messages repeat from message to message
+    data = value.encode('utf-8')
+    return b's' + _PACK_LENGTH(len(data)) + data
+
+
 def _encode(value: Value, out: list[bytes]) -> None:
-    if isinstance(value, bool):
+    kind = type(value)
+    # the common exact types first; subclasses (bool, numpy scalars, enums) by isinstance
+    if kind is float:
+        out.append(b'f' + _PACK_FLOAT(value))
+    elif kind is str:
+        out.append(_encode_str(value))
+    elif kind is int:
+        out.append(b'i' + _PACK_INT(value))
+    elif kind is tuple and all(type(item) is float for item in value):  # type: ignore[union-attr]
+        out.append(b'l' + _PACK_LENGTH(len(value)))  # type: ignore[arg-type]
+        out.extend(map(_encode_float, value))  # type: ignore[arg-type]
+    elif isinstance(value, bool):
         out.append(b'b' + (b'\x01' if value else b'\x00'))
     elif isinstance(value, int):
-        out.append(b'i' + struct.pack('>q', value))
+        out.append(b'i' + _PACK_INT(value))
     elif isinstance(value, float):
-        out.append(b'f' + struct.pack('>d', value))
-    elif isinstance(value, str):
+        out.append(b'f' + _PACK_FLOAT(value))
+    elif isinstance(value, str):  # a str subclass: its characters, not its str()
         data = value.encode('utf-8')
-        out.append(b's' + struct.pack('>I', len(data)) + data)
+        out.append(b's' + _PACK_LENGTH(len(data)) + data)
     elif isinstance(value, bytes):
-        out.append(b'y' + struct.pack('>I', len(value)) + value)
+        out.append(b'y' + _PACK_LENGTH(len(value)) + value)
     else:
         items: list[SupportsFloat | str] = list(value)
-        out.append(b'l' + struct.pack('>I', len(items)))
+        out.append(b'l' + _PACK_LENGTH(len(items)))
         for item in items:
             # numpy scalars (np.float64, np.int64) are encoded as the Python numbers they are
             _encode(item if isinstance(item, (str, int, float)) else float(item), out)
@@ -67,24 +94,28 @@ def _encode(value: Value, out: list[bytes]) -> None:
 
 def canonical(kind: str, fields: Iterable[Value]) -> bytes:
     """The unambiguous byte string of a message ``kind`` and its ``fields``, in order."""
-    out: list[bytes] = []
-    _encode(kind, out)
+    out: list[bytes] = [_encode_str(kind)]
     for value in fields:
         _encode(value, out)
     return b''.join(out)
 
 
 def _authenticated(payload: bytes, key_id: str, session: str, sequence: int) -> bytes:
-    trailer: list[bytes] = []
-    for value in (key_id, session, sequence):
-        _encode(value, trailer)
-    return payload + b''.join(trailer)
+    return b''.join((payload, _encode_str(key_id), _encode_str(session),
+                     b'i' + _PACK_INT(sequence)))
+
+
+@functools.lru_cache(maxsize=16)
+def _keyed(secret: bytes) -> hmac.HMAC:
+    # HMAC-SHA256 with the key's pads already hashed: a copy per message skips that work
+    return hmac.new(secret, digestmod='sha256')
 
 
 def mac_of(key: Key, payload: bytes, session: str, sequence: int) -> bytes:
     """The MAC of ``payload`` (a :func:`canonical` encoding) with its session and sequence."""
-    data = _authenticated(payload, key.key_id, session, sequence)
-    return hmac.new(key.secret, data, hashlib.sha256).digest()
+    mac = _keyed(key.secret).copy()
+    mac.update(_authenticated(payload, key.key_id, session, sequence))
+    return mac.digest()
 
 
 def verify_mac(key: Key, payload: bytes, signature: Signature) -> Refusal | None:
