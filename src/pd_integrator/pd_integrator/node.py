@@ -95,6 +95,10 @@ from .core.run.runner import (
 from .core.run.session import TestSession
 from .core.run.test_file import PARAMETER_PATHS, load_test_file
 
+#: Seconds between two checks of the feedback timeout and of the sites' sessions in the run
+#: loop (a few steps' time; the timeouts themselves are seconds).
+CHECK_INTERVAL_S = 0.01
+
 _OVERRIDE_DESCRIPTIONS = {
     'test_id': 'identifier of the test (letters, digits, _ - .)',
     'scheme': 'integration scheme, e.g. newmark_explicit',
@@ -566,6 +570,7 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
             return 1
     node.start()
     probing = node.session.probing
+    next_check = 0.0
     while node.session.state not in (TestState.FINISHED, TestState.ABORTED,
                                      TestState.INTERRUPTED):
         if stop.is_set():
@@ -574,8 +579,11 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
                                    'resume with ./pd run --resume')
             break
         executor.spin_once(timeout_sec=0.05)
-        node.check_timeout()
-        node.check_sessions()
+        now = time.monotonic()
+        if now >= next_check:  # not after every message: a step is a fraction of this
+            next_check = now + CHECK_INTERVAL_S
+            node.check_timeout()
+            node.check_sessions()
         if probing and not node.session.probing:
             probing = False
             _describe(node)

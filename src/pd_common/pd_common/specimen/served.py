@@ -34,6 +34,8 @@ from .server import SpecimenServer
 __all__ = ['ServedRecord', 'restore_served', 'specimen_fingerprint']
 
 _KIND = 'pd-specimen-state'
+#: One encoder for every line (``json.dumps`` with options builds a new one per call).
+_ENCODE = json.JSONEncoder(separators=(',', ':')).encode
 
 
 def specimen_fingerprint(section: Any, dof_names: list[str], geometry: Any = None) -> str:
@@ -69,7 +71,7 @@ class ServedRecord:
             self._write({'k': _KIND, 'specimen': fingerprint})
 
     def _write(self, value: Any) -> None:
-        self._file.write(json.dumps(value, separators=(',', ':')) + '\n')
+        self._file.write(_ENCODE(value) + '\n')
         self._file.flush()
         now = time.monotonic()
         if now - self._synced >= self.sync_interval:
