@@ -15,9 +15,13 @@ k 39.478 N/m, c 0.251 N·s/m, u_y 0.025 m) under the El Centro 1940 NS record (m
   initial stiffness for c, ``UniformExcitation``, ``Linear`` + ``NewmarkExplicit 0.5``, one
   ``analyze(1)`` per step), in a child process with openseespy's libraries, best of
   ``--repeats``; model building not timed;
-* ``core_over_opensees``: their ratio.
+* ``core_over_opensees``: their ratio;
+* ``python_loop_us_per_step``, ``python_loop_over_opensees``: the interpreter's own floor — the
+  same Newmark explicit steps and EPP spring written as one plain Python loop over floats (no
+  session, no protocol, no checks, no arrays), best of ``--repeats``: no loop of Python code
+  per step, however lean, runs faster than this.
 
-Both peak displacements are printed (they must agree). Merged into ``bench/results.json``.
+The three peak displacements are printed (they must agree). Merged into ``bench/results.json``.
 """
 
 from __future__ import annotations
@@ -130,6 +134,33 @@ def core_loop(test: Any) -> tuple[float, int, float]:
     return elapsed, session.committed_step, peak
 
 
+def python_loop(record: list[float]) -> tuple[float, int, float]:
+    """The system as one plain Python loop (Newmark explicit, gamma 1/2; EPP spring; Chopra's
+    sign convention p = -m a_g): (seconds, steps, peak |x|)."""
+    m, k, c, dt = MASS, STIFFNESS, DAMPING, DT
+    yield_force = k * YIELD_DISPLACEMENT
+    x = v = 0.0
+    r_committed = x_committed = 0.0
+    a = -record[0]  # (p0 - c v0 - r0) / m with v0 = x0 = 0
+    half, effective = 0.5 * dt, m + 0.5 * dt * c
+    peak = 0.0
+    start = time.perf_counter()
+    for ground in record[1:]:
+        x = x + dt * v + half * dt * a
+        r = r_committed + k * (x - x_committed)
+        if r > yield_force:
+            r = yield_force
+        elif r < -yield_force:
+            r = -yield_force
+        r_committed, x_committed = r, x
+        v_predicted = v + half * a
+        a = (-m * ground - r - c * v_predicted) / effective
+        v = v_predicted + half * a
+        if abs(x) > peak:
+            peak = abs(x)
+    return time.perf_counter() - start, len(record) - 1, peak
+
+
 def opensees_loop(record: list[float], repeats: int) -> tuple[float, int, float]:
     """openseespy in a child process: (best seconds, steps, peak |x|)."""
     from pd_actuator_bridge.opensees_site import opensees_environment
@@ -168,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     os_us = os_seconds / os_steps * 1e6
     ratio = core_us / os_us
+    plain_seconds, plain_steps, plain_peak = min(python_loop(record) for _ in range(repeats))
+    plain_us = plain_seconds / plain_steps * 1e6
     print(f'EPP SDOF (m {MASS:g} kg, k {STIFFNESS:g} N/m, c {DAMPING:g} N·s/m, u_y '
           f'{YIELD_DISPLACEMENT:g} m), El Centro NS, dt {DT:g} s, Newmark explicit; '
           f'best of {repeats}')
@@ -175,12 +208,18 @@ def main(argv: list[str] | None = None) -> int:
           f'{core_us:8.2f} us/step  {steps} steps  peak {core_peak:.8f} m')
     print(f'  openseespy (NewmarkExplicit, ElasticPP, analyze(1) per step): '
           f'{os_us:8.2f} us/step  {os_steps} steps  peak {os_peak:.8f} m')
+    print(f'  plain Python loop (same steps, no protocol):                   '
+          f'{plain_us:8.2f} us/step  {plain_steps} steps  peak {plain_peak:.8f} m')
     print(f'  core_over_opensees {ratio:.2f}   (peaks differ by {abs(core_peak - os_peak):.2e} m)')
+    print(f'  python_loop_over_opensees {plain_us / os_us:.2f}   (the interpreter\'s floor; '
+          f'peak differs from the core\'s by {abs(core_peak - plain_peak):.2e} m)')
     if not args.no_save:
         merge_results({'core_us_per_step': round(core_us, 2),
                        'opensees_us_per_step': round(os_us, 2),
                        'core_over_opensees': round(ratio, 3),
                        'core_peak_displacement_m': core_peak,
+                       'python_loop_us_per_step': round(plain_us, 3),
+                       'python_loop_over_opensees': round(plain_us / os_us, 3),
                        'opensees_peak_displacement_m': os_peak})
     return 0
 
