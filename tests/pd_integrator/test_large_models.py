@@ -18,10 +18,12 @@ from typing import Any
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.sparse
 
 from pd_common.protocol import Command
 from pd_integrator.core.dynamics import structure as structure_module
 from pd_integrator.core.dynamics.structure import modal_analysis, omega_max
+from pd_integrator.core.model.damping import rayleigh_damping
 from pd_integrator.core.run.dispatch import StepDispatcher
 from pd_integrator.core.run.runner import serve_queue, site_servers
 from pd_integrator.core.run.session import TestSession as Session  # not a test class
@@ -182,3 +184,84 @@ def test_a_large_command_target_is_a_tuple_holding_its_array() -> None:
         assert clone == first
         np.testing.assert_array_equal(np.array(clone.target_displacement), array * 0.0)
     assert target == tuple(0.0 for _ in range(40))
+
+
+def test_mode_frequencies_of_a_large_chain_are_the_dense_eigenvalues(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Bisection for the asked modes only (no mode shapes) against LAPACK's dense ``eigh``."""
+    m, k = chain(300, seed=5)
+    exact = np.sqrt(scipy.linalg.eigh(k, m, eigvals_only=True))
+    large_from(monkeypatch, 64)
+
+    def no_shapes(*_: Any) -> None:
+        raise AssertionError('a large tridiagonal model must not compute mode shapes')
+
+    monkeypatch.setattr(structure_module, 'modal_analysis', no_shapes)
+    modes = (1, 2, 17, 300)
+    omegas = structure_module.mode_frequencies(m, k, modes)
+    np.testing.assert_allclose(omegas, exact[[mode - 1 for mode in modes]], rtol=1e-10)
+    with pytest.raises(Exception, match=r'modes: expected mode numbers in 1\.\.300'):
+        structure_module.mode_frequencies(m, k, (0, 2))
+    with pytest.raises(Exception, match='negative eigenvalue'):
+        structure_module.mode_frequencies(m, -k, (1, 2))
+
+
+def test_rayleigh_damping_of_a_large_chain_is_the_dense_one(monkeypatch: pytest.MonkeyPatch
+                                                            ) -> None:
+    m, k = chain(300, seed=8)
+    w = np.sqrt(scipy.linalg.eigh(k, m, eigvals_only=True))
+    a1 = 2.0 * (0.05 * w[2] - 0.02 * w[0]) / (w[2] ** 2 - w[0] ** 2)  # closed form
+    a0 = 2.0 * 0.02 * w[0] - a1 * w[0] ** 2
+    large_from(monkeypatch, 64)
+    c = rayleigh_damping(m, k, (1, 3), (0.02, 0.05))
+    np.testing.assert_allclose(c, a0 * m + a1 * k, rtol=1e-9, atol=1e-9 * float(np.max(abs(c))))
+
+
+def test_tridiagonal_products_are_the_csr_products_to_the_bit(monkeypatch: pytest.MonkeyPatch
+                                                             ) -> None:
+    m, k = chain(400, seed=3)
+    large_from(monkeypatch, 64)
+    bands = scheme_linalg.large_bands(k)
+    assert bands is not None
+    banded = scheme_linalg.operator(k)
+    assert isinstance(banded, scheme_linalg.Tridiagonal)
+    csr = scipy.sparse.csr_matrix(k)
+    from_csr = scheme_linalg.Tridiagonal.of_csr(csr)
+    assert from_csr is not None
+    rng = np.random.default_rng(21)
+    for scale in (1e-6, 1.0, 1e6):
+        x = rng.normal(0.0, scale, 400)
+        expected = csr @ x
+        assert np.array_equal(banded @ x, expected)
+        assert np.array_equal(from_csr @ x, expected)
+    columns = rng.normal(size=(400, 3))
+    assert np.array_equal(banded @ columns, csr @ columns)
+    lumped = scheme_linalg.operator(m)
+    x = rng.normal(size=400)
+    assert np.array_equal(lumped @ x, np.diag(m) * x)
+    # Not tridiagonal, or small: the general paths.
+    wide = k.copy()
+    wide[0, 5] = wide[5, 0] = 1.0
+    assert scheme_linalg.large_bands(wide) is None
+    assert scheme_linalg.Tridiagonal.of_csr(scipy.sparse.csr_matrix(wide)) is None
+    assert not isinstance(scheme_linalg.operator(wide), scheme_linalg.Tridiagonal)
+    assert scheme_linalg.large_bands(k[:32, :32]) is None
+
+
+def test_a_large_diagonal_system_solves_as_the_tridiagonal_one(monkeypatch: pytest.MonkeyPatch
+                                                              ) -> None:
+    m, _ = chain(500, seed=2)
+    large_from(monkeypatch, 64)
+    bands = scheme_linalg.large_bands(m)
+    factor = scheme_linalg.cholesky_or_lu(m, True, bands)
+    assert factor[0] == 'diagonal'
+    general = scheme_linalg.cholesky_or_lu(m, True)  # no bands given: the LDLᵀ path
+    assert general[0] == 'tridiagonal'
+    rhs = np.random.default_rng(9).normal(0.0, 1e3, 500)
+    solution = scheme_linalg.solve_factored(factor, rhs)
+    assert np.array_equal(solution, scheme_linalg.solve_factored(general, rhs))
+    np.testing.assert_allclose(m @ solution, rhs, rtol=1e-14)
+    negative = m.copy()
+    negative[7, 7] = -1.0  # not positive definite: not the division
+    assert scheme_linalg.cholesky_or_lu(negative, True,
+                                        scheme_linalg.large_bands(negative))[0] != 'diagonal'

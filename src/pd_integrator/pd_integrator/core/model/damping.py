@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.structure import modal_analysis
+from ..dynamics.structure import modal_analysis, mode_frequencies
 from ..errors import ConfigError
 from .checks import mass_and_stiffness, positive
 
@@ -110,8 +110,7 @@ def rayleigh_damping(
         raise ConfigError(msg)
     z_i = _ratio(pair[0], 'damping_ratio')
     z_j = _ratio(pair[-1], 'damping_ratio')
-    omegas, _ = modal_analysis(m, k)
-    w_i, w_j = float(omegas[mode_i - 1]), float(omegas[mode_j - 1])
+    w_i, w_j = (float(w) for w in mode_frequencies(m, k, (mode_i, mode_j)))
     if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
         msg = (
             f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '

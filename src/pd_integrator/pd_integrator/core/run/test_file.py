@@ -31,6 +31,7 @@ from ..errors import ConfigError, GroundMotionError
 from ..matrices import as_float_array, as_matrix
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
+from ..schemes.linalg import large_diagonal
 from .collapse import COLLAPSE_ACTIONS, CollapseSettings
 from .definition import (
     GroundComponent,
@@ -478,6 +479,8 @@ def _check_mass(reader: _Reader, mass: np.ndarray, names: list[str]) -> None:
         if not value > 0.0:
             where = f' for DOF {name!r}' if len(names) > 1 else ''
             raise reader.error(key, f'must be positive, got {float(value)!r}{where}')
+    if large_diagonal(mass) is not None:  # a large lumped mass: symmetric and positive definite
+        return
     scale = float(np.max(np.abs(mass)))
     if np.any(np.abs(mass - mass.T) > SYMMETRY_RTOL * scale):
         raise reader.error(key, 'must be a symmetric matrix')

@@ -26,6 +26,9 @@ class ArrayIntegrator(Integrator):
     Subclasses implement :meth:`_setup_scheme` instead of :meth:`_setup`.
     """
 
+    #: ``(p, r, v, p − r − C v)`` of the last :meth:`_weighted_rhs` (MDOF only).
+    _kept_bracket: tuple[Any, Any, Any, NDArray[np.float64]] | None = None
+
     def _setup(self) -> None:
         self._mass_factor = Factorization(self._mass, 'mass')
         self._k_initial = (
@@ -60,11 +63,25 @@ class ArrayIntegrator(Integrator):
         self, alpha_f: float, load: Any, r_new: NDArray[np.float64], v_new: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
-        generalized-α), with the committed state at ``t_n``."""
+        generalized-α), with the committed state at ``t_n``.
+
+        An MDOF keeps ``p_{n+1} − r_{n+1} − C v_{n+1}`` with the arrays it was made of: when
+        those very arrays are committed (a scheme that commits the measured force and the
+        predicted velocity, as KR-α), the next step's ``p_n − r_n − C v_n`` is that one (the
+        same floats, one product and two passes fewer).
+        """
         c = self._damping_product
-        return (1.0 - alpha_f) * (self._arr(load) - r_new - c @ v_new) + alpha_f * (
-            self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
-        )
+        p_new = self._arr(load)
+        bracket = p_new - r_new - c @ v_new
+        kept = self._kept_bracket
+        if kept is not None and kept[0] is self._p and kept[1] is self._r and (
+                kept[2] is self._v):
+            old = kept[3]
+        else:
+            old = self._arr(self._p) - self._arr(self._r) - c @ self._arr(self._v)
+        if not self._scalar:
+            self._kept_bracket = (p_new, r_new, v_new, bracket)
+        return (1.0 - alpha_f) * bracket + alpha_f * old
 
 
 class GeneralizedAlphaFamily(ArrayIntegrator):

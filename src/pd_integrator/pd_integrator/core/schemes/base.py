@@ -479,9 +479,11 @@ class Integrator(abc.ABC):
             return
         self._rt = r
         self._pt = p
+        xt = self._xt  # finite (predict checked it), as ``r`` is: checked again if replaced
         at, vt = self._correct(r, p)
-        if not (self._finite(at) and self._finite(vt) and self._finite(self._xt)
-                and self._finite(self._rt)):
+        if not (self._finite(at) and self._finite(vt)
+                and (self._xt is xt or self._finite(self._xt))
+                and (self._rt is r or self._finite(self._rt))):
             self._status = 'failed'
             msg = (
                 f'correct: step {self._step + 1}: the trial acceleration or velocity is not '

@@ -27,8 +27,10 @@ __all__ = [
     'SPARSE_MIN_DOF',
     'Factorization',
     'MatrixOperator',
+    'Tridiagonal',
     'cholesky_or_lu',
     'is_sparse_structure',
+    'large_bands',
     'large_diagonal',
     'operator',
     'solve_factored',
@@ -52,7 +54,7 @@ class Factorization:
         Raises:
             ConfigError: If the matrix is singular.
         """
-        matrix = np.array(matrix, dtype=float)
+        matrix = np.asarray(matrix, dtype=float)  # (read only: the factors are new arrays)
         if matrix.shape == (1, 1):  # an SDOF: a division (fast and exact)
             value = float(matrix[0, 0])
             if value == 0.0 or not math.isfinite(value):
@@ -60,9 +62,16 @@ class Factorization:
                 raise ConfigError(msg)
             self._factor: tuple[str, Any] = ('scalar', value)
             return
-        self._factor = cholesky_or_lu(
-            matrix, bool(np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0))
-        )
+        bands = large_bands(matrix)
+        if bands is not None:  # the same symmetry test on the two off-diagonals: O(n)
+            lower, _, upper = bands
+            symmetric = bool(np.allclose(lower, upper, rtol=1e-12, atol=0.0)
+                             and np.allclose(upper, lower, rtol=1e-12, atol=0.0))
+            self._factor = cholesky_or_lu(matrix, symmetric, bands)
+        else:
+            self._factor = cholesky_or_lu(
+                matrix, bool(np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0))
+            )
         if self._factor[0] == 'lu':
             diagonal = np.abs(np.diag(self._factor[1][0]))
             if not np.all(diagonal > 1e-13 * max(float(np.max(diagonal)), 1e-300)):
@@ -94,6 +103,74 @@ def is_sparse_structure(matrix: np.ndarray) -> bool:
 LARGE_MODEL_DOF = 2048
 
 
+Bands = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def large_bands(matrix: Any) -> Bands | None:
+    """``(lower, diagonal, upper)`` (copies) of a dense tridiagonal matrix of at least
+    :data:`LARGE_MODEL_DOF` rows (a shear building, a chain; a diagonal one too), else
+    ``None``. One counting pass over the matrix; everything else is then O(n)."""
+    if not isinstance(matrix, np.ndarray) or matrix.ndim != 2 or (
+            matrix.shape[0] < LARGE_MODEL_DOF or matrix.shape[0] != matrix.shape[1]):
+        return None
+    lower, diagonal, upper = (np.diagonal(matrix, -1), np.diagonal(matrix),
+                              np.diagonal(matrix, 1))
+    if np.count_nonzero(matrix) != (np.count_nonzero(lower) + np.count_nonzero(diagonal)
+                                    + np.count_nonzero(upper)):
+        return None
+    return (np.array(lower, dtype=float), np.array(diagonal, dtype=float),
+            np.array(upper, dtype=float))
+
+
+class Tridiagonal:
+    """A large tridiagonal matrix for repeated products ``A @ x``, from its three bands.
+
+    A row's product is summed as the CSR product sums it (lower, diagonal, upper entry, in
+    that order; an addition of a zero entry's ``0·x`` changes no finite sum but the sign of a
+    zero), at about half its cost per vector. A matrix of columns goes through CSR.
+    """
+
+    def __init__(self, lower: NDArray[np.float64], diagonal: NDArray[np.float64],
+                 upper: NDArray[np.float64]) -> None:
+        self._lower = lower
+        self._diagonal = diagonal
+        self._upper = upper
+        self._diagonal_only = not (lower.any() or upper.any())
+        self.shape = (diagonal.size, diagonal.size)
+
+    @classmethod
+    def of_csr(cls, matrix: Any) -> Tridiagonal | None:
+        """The bands of a large square scipy CSR matrix in canonical form whose entries are
+        all on the three middle diagonals, else ``None``."""
+        if not scipy.sparse.issparse(matrix) or matrix.format != 'csr':
+            return None
+        n = matrix.shape[0]
+        if n < LARGE_MODEL_DOF or matrix.shape != (n, n) or not matrix.has_canonical_format:
+            return None
+        rows = np.repeat(np.arange(n), np.diff(matrix.indptr))
+        if matrix.nnz and int(np.max(np.abs(matrix.indices - rows))) > 1:
+            return None
+        return cls(np.asarray(matrix.diagonal(-1), dtype=float),
+                   np.asarray(matrix.diagonal(), dtype=float),
+                   np.asarray(matrix.diagonal(1), dtype=float))
+
+    def __matmul__(self, other: NDArray[np.float64], /) -> NDArray[np.float64]:
+        x = np.asarray(other, dtype=float)
+        if x.ndim != 1:
+            columns: NDArray[np.float64] = self.csr() @ x
+            return columns
+        product: NDArray[np.float64] = self._diagonal * x  # (+ l·x_{i-1} first: a + b = b + a)
+        if not self._diagonal_only:
+            product[1:] += self._lower * x[:-1]
+            product[:-1] += self._upper * x[1:]
+        return product
+
+    def csr(self) -> scipy.sparse.csr_matrix:
+        """The matrix in CSR form."""
+        return scipy.sparse.diags([self._lower, self._diagonal, self._upper], [-1, 0, 1],
+                                  format='csr')
+
+
 def large_diagonal(matrix: np.ndarray) -> NDArray[np.float64] | None:
     """The diagonal of ``matrix`` if it is a diagonal matrix of at least
     :data:`LARGE_MODEL_DOF` rows (a copy), else ``None``."""
@@ -115,7 +192,11 @@ class MatrixOperator(Protocol):
 
 
 def operator(matrix: np.ndarray) -> MatrixOperator:
-    """``matrix`` for repeated products: CSR when it is large and sparse, else itself."""
+    """``matrix`` for repeated products: its bands (:class:`Tridiagonal`) when it is large and
+    tridiagonal, CSR when it is large and sparse, else itself."""
+    bands = large_bands(matrix)
+    if bands is not None:
+        return Tridiagonal(*bands)
     if matrix.ndim == 2 and is_sparse_structure(matrix):
         # scipy has no type information; a CSR matrix multiplies arrays with ``@``.
         sparse: MatrixOperator = scipy.sparse.csr_matrix(matrix)
@@ -123,13 +204,20 @@ def operator(matrix: np.ndarray) -> MatrixOperator:
     return matrix
 
 
-def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
+def cholesky_or_lu(matrix: np.ndarray, symmetric: bool, bands: Bands | None = None
+                   ) -> tuple[str, Any]:
     """``('cholesky', …)`` if ``symmetric`` and positive definite, else ``('lu', …)``.
 
     Large sparse matrices get a sparse LU (``('sparse', splu)``), which raises ``ConfigError``
     when singular. The dense LU factors are not checked for singularity: the caller does that.
+    ``bands``: the matrix's :func:`large_bands` if the caller has them (not counted again).
+    A large diagonal matrix with a positive diagonal is ``('diagonal', d)``: a division, the
+    floats of the tridiagonal solve with a zero off-diagonal.
     """
-    if symmetric and (tridiagonal := _tridiagonal_cholesky(matrix)) is not None:
+    if symmetric and bands is not None and not (bands[0].any() or bands[2].any()) and bool(
+            np.all(bands[1] > 0.0)):
+        return ('diagonal', bands[1])
+    if symmetric and (tridiagonal := _tridiagonal_cholesky(matrix, bands)) is not None:
         return tridiagonal
     if is_sparse_structure(matrix):
         try:
@@ -147,17 +235,17 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool) -> tuple[str, Any]:
         return ('lu', scipy.linalg.lu_factor(matrix, check_finite=False))
 
 
-def _tridiagonal_cholesky(matrix: np.ndarray) -> tuple[str, Any] | None:
+def _tridiagonal_cholesky(matrix: np.ndarray, bands: Bands | None = None
+                          ) -> tuple[str, Any] | None:
     """``('tridiagonal', (d, e))``, the ``L D Lᵀ`` factors of LAPACK ``?pttrf``, for a large
     (:data:`LARGE_MODEL_DOF`) symmetric positive definite tridiagonal matrix (a shear
     building, a chain: ``M + γΔt C + βΔt² K``), else ``None``. A solve is then O(n) with no
     sparse-matrix overhead."""
-    if matrix.ndim != 2 or matrix.shape[0] < LARGE_MODEL_DOF:
-        return None
-    diagonal, lower = np.diagonal(matrix), np.diagonal(matrix, -1)
-    if np.count_nonzero(matrix) != (np.count_nonzero(diagonal) + np.count_nonzero(lower)
-                                    + np.count_nonzero(np.diagonal(matrix, 1))):
-        return None
+    if bands is None:
+        bands = large_bands(matrix)
+        if bands is None:
+            return None
+    lower, diagonal, _ = bands
     d, e, info = scipy.linalg.lapack.dpttrf(diagonal, lower)
     if info != 0:  # not positive definite: the general factorisations decide
         return None
@@ -173,6 +261,9 @@ def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
         solution = np.asarray(rhs, dtype=float) / value
     elif kind == 'cholesky':
         solution = scipy.linalg.cho_solve(value, rhs, check_finite=False)
+    elif kind == 'diagonal':
+        rhs = np.asarray(rhs, dtype=float)
+        solution = rhs / (value if rhs.ndim == 1 else value[:, None])
     elif kind == 'sparse':
         solution = value.solve(np.asarray(rhs, dtype=float))
     elif kind == 'tridiagonal':

@@ -21,6 +21,7 @@ from .linalg import (
     LARGE_MODEL_DOF,
     cholesky_or_lu,
     is_sparse_structure,
+    large_bands,
     large_diagonal,
     operator,
     solve_factored,
@@ -148,15 +149,20 @@ class NewmarkExplicit(Integrator):
         c_matrix = self._damping
         # A large model takes C v_i + Δt/2 C a_i as one product C (v_i + Δt/2 a_i).
         self._one_product = self._n >= LARGE_MODEL_DOF
-        self._half_dt_c_matrix = operator(dt * 0.5 * c_matrix)
+        if not self._one_product:
+            self._half_dt_c_matrix = operator(dt * 0.5 * c_matrix)
         self._damping_operator = operator(c_matrix)
         lhs = self._mass + dt * 0.5 * c_matrix
-        if self._one_product and is_sparse_structure(c_matrix):  # no n×n transposed pass
+        c_bands = large_bands(c_matrix) if self._one_product else None
+        if c_bands is not None:  # the off-diagonals say it: O(n)
+            symmetric = bool(np.array_equal(c_bands[0], c_bands[2]))
+        elif self._one_product and is_sparse_structure(c_matrix):  # no n×n transposed pass
             sparse = scipy.sparse.csr_matrix(c_matrix)
             symmetric = (sparse != sparse.T).nnz == 0
         else:
             symmetric = bool(np.array_equal(c_matrix, c_matrix.T))
-        self._factor = cholesky_or_lu(lhs, symmetric)
+        self._factor = cholesky_or_lu(lhs, symmetric,
+                                      large_bands(lhs) if c_bands is not None else None)
         if self._factor[0] == 'lu' and np.any(np.diag(self._factor[1][0]) == 0.0):
             msg = 'damping: M + dt/2*C is singular'
             raise ConfigError(msg)
