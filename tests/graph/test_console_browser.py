@@ -120,8 +120,9 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     # -- the page watches: frames arrive and the plots grow while the test runs ------------
     browser.get(url)
     wait_for(lambda: points(browser) > 10, 20.0, 'the first plotted points', spin)
-    first = points(browser)
+    # Frames first: a frame that lands between the two reads is then counted after them.
     frames = int(browser.execute_script('return Number(document.body.dataset.frames)'))
+    first = points(browser)
     wait_for(lambda: points(browser) > first + 20, 10.0, 'the plots to update', spin)
     assert int(browser.execute_script('return Number(document.body.dataset.frames)')) > frames
     assert browser.find_element(By.ID, 'state').text == 'RUNNING'
