@@ -125,10 +125,10 @@ def _large_tridiagonal(m: np.ndarray, k: np.ndarray
     lumped = large_diagonal(m)
     if lumped is None or k.shape != m.shape or not bool(np.all(lumped > 0.0)):
         return None  # (a mass that is not positive: the dense path says so)
-    diagonal, lower = np.diagonal(k), np.diagonal(k, -1)
-    if np.count_nonzero(k) != (np.count_nonzero(diagonal) + np.count_nonzero(lower)
-                               + np.count_nonzero(np.diagonal(k, 1))):
+    bands = large_bands(k)
+    if bands is None:
         return None
+    lower, diagonal, _ = bands
     s = 1.0 / np.sqrt(lumped)
     return diagonal * s * s, lower * s[1:] * s[:-1], s
 
@@ -175,19 +175,23 @@ def mode_frequencies(mass: Any, stiffness: Any, modes: Sequence[int]) -> NDArray
     if any(not 1 <= mode <= n for mode in wanted):
         msg = f'modes: expected mode numbers in 1..{n}, got {tuple(wanted)}'
         raise ConfigError(msg)
-    if m.shape == k.shape:
-        _check_positive_definite(m, 'mass')
-        tridiagonal = _large_tridiagonal(m, k)
-        if tridiagonal is not None:
-            d, e, _ = tridiagonal
-            highest = _tridiagonal_eigenvalue(d, e, n - 1)
-            lowest = _tridiagonal_eigenvalue(d, e, 0)
-            _check_spectrum(lowest, highest)
-            values = np.array([_tridiagonal_eigenvalue(d, e, mode - 1) for mode in wanted])
-            frequencies: NDArray[np.float64] = np.sqrt(np.clip(values, 0.0, None))
-            return frequencies
+    tridiagonal = _large_tridiagonal(m, k)  # (a mass it takes is lumped and positive)
+    if tridiagonal is not None:
+        d, e, _ = tridiagonal
+        _checked_extremes(d, e)
+        values = np.array([_tridiagonal_eigenvalue(d, e, mode - 1) for mode in wanted])
+        frequencies: NDArray[np.float64] = np.sqrt(np.clip(values, 0.0, None))
+        return frequencies
     omegas, _ = modal_analysis(m, k)
     return np.array([omegas[mode - 1] for mode in wanted], dtype=float)
+
+
+def _checked_extremes(d: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[float, float]:
+    """The lowest and highest eigenvalues of a symmetric tridiagonal matrix (bisection, O(n)
+    each), after :func:`_check_spectrum`."""
+    lowest, highest = (_tridiagonal_eigenvalue(d, e, i) for i in (0, d.size - 1))
+    _check_spectrum(lowest, highest)
+    return lowest, highest
 
 
 def _tridiagonal_eigenvalue(d: NDArray[np.float64], e: NDArray[np.float64], index: int
@@ -220,9 +224,7 @@ def omega_max(mass: Any, stiffness: Any) -> float:
     tridiagonal = _large_tridiagonal(m, k)
     if tridiagonal is not None:  # the extreme eigenvalues only, by bisection: O(n)
         d, e, _ = tridiagonal
-        extremes = [_tridiagonal_eigenvalue(d, e, i) for i in (0, d.size - 1)]
-        _check_spectrum(*extremes)
-        return math.sqrt(max(extremes[1], 0.0))
+        return math.sqrt(max(_checked_extremes(d, e)[1], 0.0))
     omegas, _ = modal_analysis(m, k)
     return float(omegas[-1])
 

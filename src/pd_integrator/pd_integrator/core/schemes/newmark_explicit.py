@@ -19,6 +19,7 @@ from .amplification import amplification_from
 from .base import COMMITTED, CORRECTED, PREDICTED, Integrator
 from .linalg import (
     LARGE_MODEL_DOF,
+    Tridiagonal,
     cholesky_or_lu,
     is_sparse_structure,
     large_bands,
@@ -151,9 +152,10 @@ class NewmarkExplicit(Integrator):
         self._one_product = self._n >= LARGE_MODEL_DOF
         if not self._one_product:
             self._half_dt_c_matrix = operator(dt * 0.5 * c_matrix)
-        self._damping_operator = operator(c_matrix)
         lhs = self._mass + dt * 0.5 * c_matrix
         c_bands = large_bands(c_matrix) if self._one_product else None
+        self._damping_operator = (operator(c_matrix) if c_bands is None
+                                  else Tridiagonal(*c_bands))  # (operator's bands, not recounted)
         if c_bands is not None:  # the off-diagonals say it: O(n)
             symmetric = bool(np.array_equal(c_bands[0], c_bands[2]))
         elif self._one_product and is_sparse_structure(c_matrix):  # no n×n transposed pass
