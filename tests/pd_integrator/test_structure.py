@@ -13,6 +13,7 @@ from pd_integrator.core.dynamics.structure import (
     effective_load,
     modal_analysis,
     omega_max,
+    rayleigh_frequencies,
 )
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.matrices import as_matrix, as_vector
@@ -270,3 +271,28 @@ def test_effective_load_rejects_bad_input() -> None:
         effective_load(np.eye(3), 1.0, [0.1, math.nan])
     with pytest.raises(ConfigError, match='ground_acceleration'):
         effective_load(np.eye(3), 1.0, np.zeros((2, 2)))
+
+
+def test_rayleigh_frequencies_are_the_generalized_eigenvalues_and_both_dampings_use_them() -> None:
+    from pd_integrator.core.model.damping import rayleigh_damping  # noqa: PLC0415
+
+    m = np.diag([2.0, 1.5, 1.0])
+    k = np.array([[500.0, -200.0, 0.0], [-200.0, 350.0, -150.0], [0.0, -150.0, 150.0]])
+    expected = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(m, k)).real))
+    w_1, w_3 = rayleigh_frequencies(m, k, (1, 3))
+    assert w_1 == pytest.approx(expected[0], rel=1e-12)
+    assert w_3 == pytest.approx(expected[2], rel=1e-12)
+    # ζ(ω) = a0/(2ω) + a1 ω/2 equals 5 % at both modes for either function's matrix.
+    for c in (damping_from_ratio(m, k, 0.05, (1, 3)), rayleigh_damping(m, k, (1, 3), 0.05)):
+        a1 = (c[0, 1]) / k[0, 1]
+        a0 = (c[0, 0] - a1 * k[0, 0]) / m[0, 0]
+        for w in (w_1, w_3):
+            assert a0 / (2 * w) + a1 * w / 2 == pytest.approx(0.05, rel=1e-10)
+    for bad in ((2, 2), (0, 1), (1, 4), (1,), 'ab'):
+        messages = set()
+        for call, args in ((damping_from_ratio, (m, k, 0.05, bad)),
+                           (rayleigh_damping, (m, k, bad, 0.05))):
+            with pytest.raises(ConfigError, match='damping_modes') as raised:
+                call(*args)
+            messages.add(str(raised.value))
+        assert len(messages) == 1, messages

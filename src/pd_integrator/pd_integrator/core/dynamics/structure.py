@@ -33,6 +33,7 @@ __all__ = [
     'modal_analysis',
     'mode_frequencies',
     'omega_max',
+    'rayleigh_frequencies',
 ]
 
 #: Relative tolerance used for the symmetry checks of the mass and stiffness matrices.
@@ -229,6 +230,39 @@ def omega_max(mass: Any, stiffness: Any) -> float:
     return float(omegas[-1])
 
 
+def rayleigh_frequencies(mass: Any, stiffness: Any, modes: Sequence[int]) -> tuple[float, float]:
+    """The two circular frequencies at which Rayleigh damping matches its ratios.
+
+    Args:
+        mass: Mass matrix (square, already checked; symmetric positive definite).
+        stiffness: Stiffness matrix of the same shape.
+        modes: Two distinct 1-based mode numbers ``(i, j)``.
+
+    Returns:
+        ``(ω_i, ω_j)`` in rad/s.
+
+    Raises:
+        ConfigError: On anything but two distinct mode numbers in ``1..n``, or modes whose
+            frequencies are zero or equal (``C = a0 M + a1 K`` is then not determined).
+    """
+    n = int(np.shape(mass)[0])
+    if isinstance(modes, (str, bytes)) or len(modes) != 2:
+        msg = f'damping_modes: expected two mode numbers, got {modes!r}'
+        raise ConfigError(msg)
+    mode_i, mode_j = (int(modes[0]), int(modes[1]))
+    if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
+        msg = f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
+        raise ConfigError(msg)
+    w_i, w_j = (float(w) for w in mode_frequencies(mass, stiffness, (mode_i, mode_j)))
+    if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
+        msg = (
+            f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
+            f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
+        )
+        raise ConfigError(msg)
+    return w_i, w_j
+
+
 def damping_from_ratio(
     mass: Any, stiffness: Any, ratio: float | Sequence[float], modes: Sequence[int] = (1, 2)
 ) -> np.ndarray:
@@ -277,20 +311,7 @@ def damping_from_ratio(
         w = math.sqrt(kk / mm)
         return np.array([[2 * mm * w * float(ratios[0])]])
     zeta_i, zeta_j = (float(ratios[0]), float(ratios[-1]))
-    if len(modes) != 2:
-        msg = f'damping_modes: expected two mode numbers, got {modes!r}'
-        raise ConfigError(msg)
-    mode_i, mode_j = (int(modes[0]), int(modes[1]))
-    if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
-        msg = f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
-        raise ConfigError(msg)
-    w_i, w_j = (float(w) for w in mode_frequencies(m, k, (mode_i, mode_j)))
-    if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
-        msg = (
-            f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
-            f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
-        )
-        raise ConfigError(msg)
+    w_i, w_j = rayleigh_frequencies(m, k, modes)
     # ζ = a0/(2ω) + a1 ω/2 at both modes.
     system = np.array([[1.0 / (2.0 * w_i), w_i / 2.0], [1.0 / (2.0 * w_j), w_j / 2.0]])
     coefficients = np.linalg.solve(system, np.array([zeta_i, zeta_j]))

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.structure import modal_analysis, mode_frequencies
+from ..dynamics.structure import modal_analysis, rayleigh_frequencies
 from ..errors import ConfigError
 from .checks import mass_and_stiffness, positive
 
@@ -96,27 +96,13 @@ def rayleigh_damping(
             ratios.
     """
     m, k = mass_and_stiffness(M, K)
-    n = m.shape[0]
-    if isinstance(modes, (str, bytes)) or len(modes) != 2:
-        msg = f'damping_modes: expected two mode numbers, got {modes!r}'
-        raise ConfigError(msg)
-    mode_i, mode_j = (int(modes[0]), int(modes[1]))
-    if not (1 <= mode_i <= n and 1 <= mode_j <= n) or mode_i == mode_j:
-        msg = f'damping_modes: expected two distinct mode numbers in 1..{n}, got {tuple(modes)}'
-        raise ConfigError(msg)
+    w_i, w_j = rayleigh_frequencies(m, k, modes)
     pair = np.atleast_1d(np.asarray(ratios, dtype=object)).reshape(-1)
     if pair.size not in (1, 2):
         msg = f'damping_ratio: expected one ratio or a pair, got {ratios!r}'
         raise ConfigError(msg)
     z_i = _ratio(pair[0], 'damping_ratio')
     z_j = _ratio(pair[-1], 'damping_ratio')
-    w_i, w_j = (float(w) for w in mode_frequencies(m, k, (mode_i, mode_j)))
-    if w_i <= 0.0 or w_j <= 0.0 or math.isclose(w_i, w_j, rel_tol=1e-9):
-        msg = (
-            f'damping_modes: modes {mode_i} and {mode_j} have frequencies {w_i:.6g} and '
-            f'{w_j:.6g} rad/s; Rayleigh damping needs two distinct non-zero frequencies'
-        )
-        raise ConfigError(msg)
     a0, a1 = rayleigh_coefficients(w_i, w_j, z_i, z_j)
     return a0 * m + a1 * k
 
