@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .core.plotting import pyplot
+
 if TYPE_CHECKING:
     from .core.run.history import ResponseHistory
     from .study_ch5_records import RecordResult
@@ -173,11 +175,7 @@ def comparison_figures(result: RecordResult, directory: Path) -> list[Path]:
     Displacement, velocity and relative acceleration histories (each scheme minus the reference
     in a lower panel) and the force-deformation loops (measured displacement, restoring force).
     """
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     record = result.record
     schemes = list(result.histories)
     reference = schemes[0]

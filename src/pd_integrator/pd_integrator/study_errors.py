@@ -68,6 +68,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .core.errors import ConfigError, PdIntegratorError
+from .core.plotting import pyplot
 from .core.run.runner import default_run_directory, run_offline
 from .core.run.test_file import load_test_file
 from .offline import default_test_file
@@ -246,11 +247,7 @@ _STYLE = {'undershoot': ('tab:red', 'o', 'systematic undershoot'),
 
 def plot_growth(summary: list[dict[str, Any]], path: Path, *, title: str) -> Path:
     """Peak, response and energy errors against the error level, per kind (``errors_growth``)."""
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     clean = next((row for row in summary if row['kind'] == 'clean'), None)
     panels = (('peak_error', 'Peak displacement error [%]'),
               ('response_error', 'RMS response error [%]'),
@@ -284,11 +281,7 @@ def plot_growth(summary: list[dict[str, Any]], path: Path, *, title: str) -> Pat
 def plot_response(histories: dict[str, tuple[np.ndarray, np.ndarray]], path: Path, *,
                   title: str) -> Path:
     """Displacement histories of the clean and the largest-level runs, and the differences."""
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True,
                                          layout='constrained',
                                          gridspec_kw={'height_ratios': (3, 2)})

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..plotting import pyplot
 from ..schemes import newmark_explicit_numerical_frequency, scheme_class
 from .analysis import SWEEP_COLUMNS, sweep
 
@@ -79,14 +80,6 @@ def write_sweep_csv(
     return path
 
 
-def _pyplot() -> Any:
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed for the figures
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    return plt
-
 
 def _add_dt_over_t_axis(axes: Any) -> None:
     top = axes.secondary_xaxis('top', functions=(lambda o: o / (2.0 * math.pi),
@@ -115,7 +108,7 @@ def plot_sweeps(
     Returns:
         The written paths.
     """
-    plt = _pyplot()
+    plt = pyplot()
     from matplotlib.lines import Line2D  # noqa: PLC0415
 
     directory = Path(directory)
@@ -194,7 +187,7 @@ def plot_figure_3_2(path: str | Path, *, dt_over_t_max: float = 0.3, points: int
     Returns:
         ``path``.
     """
-    plt = _pyplot()
+    plt = pyplot()
     limit = scheme_class('newmark_explicit').stability_limit / (2.0 * math.pi)
     upper = min(float(dt_over_t_max), limit)
     ratios = upper * np.arange(1, points + 1) / points

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ..plotting import pyplot
 from .execute import RunOutcome
 from .limits import BridgeLimits
 from .plan import Plan
@@ -26,18 +26,10 @@ __all__ = ['MAX_LINES', 'plot_demand', 'plot_spectra']
 MAX_LINES = 12
 
 
-def _pyplot() -> Any:
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed for the figures
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    return plt
-
 
 def plot_spectra(plan: Plan, spectra: Sequence[Spectrum], period: float, path: Path) -> Path:
     """``S_a(T)`` of every record [g = 9.81 m/s²], with the test's initial period."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.0, 4.5))
     for record, spectrum in zip(plan.records, spectra):
         ax.plot(spectrum.periods, spectrum.pseudo_acceleration / 9.81, label=record.name)
@@ -58,7 +50,7 @@ def plot_spectra(plan: Plan, spectra: Sequence[Spectrum], period: float, path: P
 def plot_demand(plan: Plan, outcomes: Sequence[RunOutcome], limits: BridgeLimits,
                 path: Path) -> Path:
     """The actuator's demand against the scale factor, one line per record/variation."""
-    plt = _pyplot()
+    plt = pyplot()
     groups: dict[tuple[int, tuple[float, ...]], list[RunOutcome]] = {}
     for o in outcomes:
         groups.setdefault((o.run.record, o.run.values), []).append(o)

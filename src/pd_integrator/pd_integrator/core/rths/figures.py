@@ -9,24 +9,16 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ..plotting import pyplot
 from .benchmark import BenchmarkRun
 
 __all__ = ['plot_floors', 'plot_tracking']
 
 MM = 1e3
 
-
-def _pyplot() -> Any:
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed for the figures
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    return plt
 
 
 def _title(run: BenchmarkRun) -> str:
@@ -36,7 +28,7 @@ def _title(run: BenchmarkRun) -> str:
 
 def plot_tracking(run: BenchmarkRun, path: Path) -> Path:
     """x_d vs x_m, a zoom around the peak of x_d, and the error, mm."""
-    plt = _pyplot()
+    plt = pyplot()
     t, x_d, x_m = run.t, run.x_d * MM, run.x_m * MM
     peak = int(np.argmax(np.abs(x_d)))
     window = (t >= t[peak] - 0.5) & (t <= t[peak] + 0.5)
@@ -63,7 +55,7 @@ def plot_tracking(run: BenchmarkRun, path: Path) -> Path:
 
 def plot_floors(run: BenchmarkRun, path: Path) -> Path:
     """Each floor of the hybrid run against the reference, and the difference, mm."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(11, 8), sharex=True,
                              gridspec_kw={'width_ratios': [3, 2]})
     for floor in range(3):

@@ -31,6 +31,7 @@ import numpy as np
 from pd_common.experimental.setups import PlanarActuators, RigidLinkTwoActuators
 from pd_common.protocol import Command, ControlMode, Feedback, FeedbackStatus
 
+from ..plotting import pyplot
 from .outputs import write_columns_csv
 
 if TYPE_CHECKING:
@@ -211,11 +212,7 @@ def write_actuator_figure(actuators: ActuatorHistory, directory: Path, *, title:
     structure basic DOF's basic force [kN] against its displacement [mm] (a column's lateral
     hysteresis, P-Δ included).
     """
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     columns = actuators.columns
     time = columns['time']
     figure, axes = plt.subplot_mosaic([['force', 'loop'], ['free', 'loop']], figsize=(12, 5.5),

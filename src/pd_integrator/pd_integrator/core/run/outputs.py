@@ -24,6 +24,8 @@ import numpy as np
 
 from pd_common.experimental import tracking_error, tracking_indicator
 
+from ..plotting import pyplot
+
 if TYPE_CHECKING:
     from .energy import EnergyHistory
     from .history import ResponseHistory
@@ -210,11 +212,7 @@ def write_figures(history: ResponseHistory, directory: str | Path, *, title: str
 
     Like the thesis's Figures 5.4–5.7, one line per DOF.
     """
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     directory = Path(directory)
     n = history.n_committed
     time = history.time
@@ -258,11 +256,7 @@ def write_figures(history: ResponseHistory, directory: str | Path, *, title: str
 def write_energy_figure(history: ResponseHistory, energy: EnergyHistory, directory: Path,
                         *, title: str = '') -> Path:
     """The energy terms and the energy error over time (``energy.png``)."""
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     time = history.time
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True,
                                          layout='constrained',
@@ -288,11 +282,7 @@ def write_energy_figure(history: ResponseHistory, energy: EnergyHistory, directo
 def write_tracking_figure(history: ResponseHistory, tracking: TrackingHistory, directory: Path,
                           *, title: str = '') -> Path:
     """Measured vs command displacement, the tracking error and indicator (``tracking.png``)."""
-    import matplotlib as mpl  # noqa: PLC0415 - heavy; only needed here
-
-    mpl.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
+    plt = pyplot()
     time = history.time
     figure, axes = plt.subplot_mosaic([['loop', 'error'], ['loop', 'indicator']],
                                       figsize=(12, 5.5), layout='constrained',
