@@ -422,6 +422,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
             _report_realtime(plan)
             print_summary(plan.out)
             sys.stdout.flush()
+            ros.close()  # the test has ended: no control to send (its exit overlaps theirs)
 
     supervisor = Supervisor(plan, policy, env, ros.operator, ros.spin_checked(stop),
                             max_restarts=args.max_restarts,
@@ -460,18 +461,26 @@ class _OperatorNode:
         self.node = rclpy.create_node('run_test', namespace='pd')
         self.executor = events_executor(self.node)
         self.operator = Operator(self.node, key)
+        self.closed = False
 
     def spin_checked(self, stop: threading.Event) -> Any:
         def spin(seconds: float) -> None:
             if stop.is_set():
                 raise _InterruptedError
-            self.executor.spin_once(timeout_sec=seconds)
+            if self.closed:
+                stop.wait(seconds)
+            else:
+                self.executor.spin_once(timeout_sec=seconds)
             if stop.is_set():
                 raise _InterruptedError
 
         return spin
 
     def close(self) -> None:
+        """Shut the node down (once; later calls do nothing). Spinning then only waits."""
+        if self.closed:
+            return
+        self.closed = True
         self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown()

@@ -28,6 +28,7 @@ complete by then. An integrator that dies after its summary is not restarted: it
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
@@ -175,8 +176,13 @@ class Supervisor:
         """Supervise until the integrator ends; its exit code."""
         assert self.integrator is not None
         while True:
-            self._spin(0.1)
             integrator = self.integrator
+            if self.outputs_written:  # only its exit is awaited now: notice it at once
+                self._spin(0.0)
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    integrator.process.wait(timeout=0.1)
+            else:
+                self._spin(0.1)
             code = integrator.process.poll()
             if code is not None:
                 if self.outputs_written:  # its test ended: nothing to continue
