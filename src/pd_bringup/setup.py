@@ -22,7 +22,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'run_test = pd_bringup.launcher:main',
+            'run_test = pd_bringup.launcher:process_main',
             'keygen = pd_bringup.keygen:main',
             'control = pd_bringup.control:main',
             'fault_proxy = pd_bringup.fault_proxy:main',

@@ -27,7 +27,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'main = pd_integrator.node:main',
+            'main = pd_integrator.node:process_main',
             'offline = pd_integrator.offline:main',
             'replay = pd_integrator.replay:main',
             'recover = pd_integrator.recover:main',

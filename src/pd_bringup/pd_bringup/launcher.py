@@ -42,7 +42,7 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import rclpy
 import yaml
@@ -51,7 +51,7 @@ from rclpy.signals import SignalHandlerOptions
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
 from pd_common.config import load_yaml, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
-from pd_common.ros import events_executor
+from pd_common.ros import events_executor, exit_process
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_common.units import format_quantity
 from pd_integrator.core.errors import PdIntegratorError
@@ -486,5 +486,12 @@ class _OperatorNode:
         rclpy.try_shutdown()
 
 
+def process_main() -> NoReturn:
+    """The console entry point (``./pd run``, ``ros2 run pd_bringup run_test``): :func:`main`,
+    then the process ends at once (:func:`pd_common.ros.exit_process`): every child is reaped
+    and the launcher's node shut down by then."""
+    exit_process(main)
+
+
 if __name__ == '__main__':
-    sys.exit(main())
+    process_main()

@@ -25,11 +25,10 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-import sys
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
@@ -69,6 +68,7 @@ from pd_common.ros import (
     SessionSender,
     command_message,
     declare_key,
+    exit_process,
     init_with_stop_flag,
     now_stamp,
     run_node,
@@ -607,5 +607,11 @@ def main(args: list[str] | None = None) -> int:
                     lambda node, executor: run(node, executor, stop), on_interrupt=interrupted)
 
 
+def process_main() -> NoReturn:
+    """The console entry point (``ros2 run pd_integrator main``): :func:`main`, then the
+    process ends at once (:func:`pd_common.ros.exit_process`)."""
+    exit_process(main)
+
+
 if __name__ == '__main__':
-    sys.exit(main())
+    process_main()

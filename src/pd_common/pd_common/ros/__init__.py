@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-from .executor import events_executor, init_with_stop_flag, run_node, spin_until_shutdown
+from .executor import (
+    events_executor,
+    exit_process,
+    init_with_stop_flag,
+    run_node,
+    spin_until_shutdown,
+)
 from .keys import declare_key
 from .messages import (
     command_message,
@@ -30,6 +36,7 @@ __all__ = [
     'control_message',
     'declare_key',
     'events_executor',
+    'exit_process',
     'feedback_message',
     'fill_signature',
     'init_with_stop_flag',
