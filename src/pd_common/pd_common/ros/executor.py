@@ -119,7 +119,7 @@ def exit_process(main: Callable[[], int | None]) -> NoReturn:
     """Run a process's ``main`` (which shuts rclpy down before it returns), then end the
     process at once with its exit code.
 
-    For a console entry point (``ros2 run``, ``run_test``'s children), never for a ``main``
+    For a console entry point (``pd_integrator main`` and ``run_test``), never for a ``main``
     called in-process. After ``main`` returns, a normal exit would run the ``atexit``
     handlers and then tear down the interpreter's modules and the C++ libraries' static
     objects; for a process that has used Fast DDS the last two take 0.25–0.4 s (a fixed

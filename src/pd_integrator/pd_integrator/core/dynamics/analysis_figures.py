@@ -80,7 +80,6 @@ def write_sweep_csv(
     return path
 
 
-
 def _add_dt_over_t_axis(axes: Any) -> None:
     top = axes.secondary_xaxis('top', functions=(lambda o: o / (2.0 * math.pi),
                                                  lambda r: r * 2.0 * math.pi))

@@ -26,7 +26,6 @@ __all__ = ['MAX_LINES', 'plot_demand', 'plot_spectra']
 MAX_LINES = 12
 
 
-
 def plot_spectra(plan: Plan, spectra: Sequence[Spectrum], period: float, path: Path) -> Path:
     """``S_a(T)`` of every record [g = 9.81 m/s²], with the test's initial period."""
     plt = pyplot()

@@ -20,7 +20,6 @@ __all__ = ['plot_floors', 'plot_tracking']
 MM = 1e3
 
 
-
 def _title(run: BenchmarkRun) -> str:
     return (f'vRTHS benchmark case {run.case}, {run.controller}, loop {run.loop}: '
             f'J2 = {run.j["J2"]:.2f} %, J4 = {run.j["J4"]:.2f} %')
