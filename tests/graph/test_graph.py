@@ -149,6 +149,26 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
     assert (replay.directory / 'response.csv').read_bytes() == graph_csv
 
 
+def test_graph_figures_equal_the_ros_free_ones(short_test: Path, processes: Processes,
+                                               tmp_path: Path) -> None:
+    """With figures on, the integrator's figure worker draws the same files as an
+    in-process run (the worker's lifetime: tests/pd_integrator/test_figure_worker.py)."""
+    from pd_integrator.core.run.outputs import FIGURES
+
+    offline = tmp_path / 'offline'
+    run_offline(load_test_file(short_test), offline)
+    out = tmp_path / 'graph'
+    launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', 'direct',
+                                                    '--out', str(out)])
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    log = processes.log('run_test')
+    assert code == 0, log[-3000:]
+    assert 'figure worker' not in log  # (its failure is logged, and then drawn in-process)
+    assert (out / 'response.csv').read_bytes() == (offline / 'response.csv').read_bytes()
+    for name in FIGURES:
+        assert (out / name).read_bytes() == (offline / name).read_bytes(), name
+
+
 def test_bridge_limit_holds_and_never_reaches_the_specimen(
         rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
 

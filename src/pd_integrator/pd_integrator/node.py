@@ -81,6 +81,7 @@ from pd_msgs.msg import Control as ControlMessage
 from .core.errors import PdIntegratorError
 from .core.run.bag import RecordedRun
 from .core.run.dispatch import StepDispatcher
+from .core.run.figure_worker import FigureWorker
 from .core.run.journal import JOURNAL_FILE, Journal, journal_to_bag
 from .core.run.progress import ProgressMeter
 from .core.run.resume import SiteState, check_sites, last_measured, load_resumable
@@ -248,6 +249,7 @@ class IntegratorNode(Node):
         self._round_trips: list[float] = []  # s, step sent -> its (assembled) feedback accepted
         self._last_state: TestState | None = None
         self._started = 0.0
+        self._figure_worker: FigureWorker | None = None
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
@@ -364,6 +366,10 @@ class IntegratorNode(Node):
     def start(self) -> None:
         """Send the first command (a resumed run: check the sites, then what it owes)."""
         self._started = time.perf_counter()
+        if self.figures and self._figure_worker is None:
+            # Prepares (imports matplotlib) at a low priority while the test runs, and draws
+            # the figures while the bag and the CSV files are written (core.run.figure_worker).
+            self._figure_worker = FigureWorker.start()
         self.meter = ProgressMeter(self.session.total_steps, self.meter.interval,
                                    first_step=max(self.session.committed_step, 0))
         if self.record is None:
@@ -497,15 +503,13 @@ class IntegratorNode(Node):
             self.session.abort(reason)
         self.publish_status()
         self.bag.close()
-        bag = self.directory / BAG_DIRECTORY
-        if bag.exists():  # the bag of an earlier recovery: the journal has all of it now
-            shutil.rmtree(bag)
-        journal_to_bag(self.directory / JOURNAL_FILE, bag)
         wall_time = time.perf_counter() - self._started if self._started else 0.0
         events = [*(self.record.run_events if self.record is not None else []),
                   *self.bag.events]
         summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
                                  figures=self.figures, mode='graph',
+                                 figure_worker=self._figure_worker,
+                                 after_summary=self._journal_to_bag,
                                  run_events=events,
                                  restarts=sum(event['what'] in ('restart', 'resumed')
                                               for event in events),
@@ -515,8 +519,21 @@ class IntegratorNode(Node):
                                      'enabled': self.key is not None,
                                      'key_id': self.key.key_id if self.key else None,
                                      'refused_messages': self.refusals()})
+        if (worker := self._figure_worker) is not None:
+            self._figure_worker = None
+            worker.close()
+            if worker.error is not None and self.figures:
+                self.get_logger().warning(f'{worker.error}; figures drawn by the integrator')
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
+
+    def _journal_to_bag(self) -> None:
+        """The run's bag from its journal (a bag of an earlier recovery is replaced: the
+        journal has all of it now)."""
+        bag = self.directory / BAG_DIRECTORY
+        if bag.exists():
+            shutil.rmtree(bag)
+        journal_to_bag(self.directory / JOURNAL_FILE, bag)
 
 
 def _origin(value: int) -> StateOrigin:

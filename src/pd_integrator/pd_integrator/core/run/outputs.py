@@ -336,9 +336,31 @@ def write_run_outputs(history: ResponseHistory, summary: dict[str, Any], directo
     if tracking is not None:
         written.append(write_tracking_csv(history, tracking, directory / TRACKING_CSV))
     if figures:
-        written += write_figures(history, directory, title=title)
-        if energy is not None:
-            written.append(write_energy_figure(history, energy, directory, title=title))
-        if tracking is not None:
-            written.append(write_tracking_figure(history, tracking, directory, title=title))
+        written += draw_run_figures(history, directory, title=title, energy=energy,
+                                    tracking=tracking)
     return written
+
+
+def draw_run_figures(history: ResponseHistory, directory: str | Path, *, title: str = '',
+                     energy: EnergyHistory | None = None,
+                     tracking: TrackingHistory | None = None) -> list[Path]:
+    """A run's figures (``FIGURES``: those of ``energy`` and ``tracking`` when given)."""
+    directory = Path(directory)
+    written = write_figures(history, directory, title=title)
+    if energy is not None:
+        written.append(write_energy_figure(history, energy, directory, title=title))
+    if tracking is not None:
+        written.append(write_tracking_figure(history, tracking, directory, title=title))
+    return written
+
+
+def prepare_figures() -> None:
+    """Import matplotlib and draw a small figure (fonts, text layout), as the first of a run's
+    figures would: a process that draws later starts at once (``.figure_worker``)."""
+    plt = pyplot()
+    figure, axes = plt.subplots(figsize=(2, 2), layout='constrained')
+    axes.plot([0.0, 1.0], [0.0, 1.0], linewidth=1.0)
+    axes.set_xlabel('Time [s]')
+    axes.set_title('—')
+    figure.canvas.draw()
+    plt.close(figure)

@@ -40,7 +40,13 @@ from .dispatch import StepDispatcher, refuse_fresh_state
 from .energy import energy_balance
 from .epochs import EpochGuard
 from .journal import JOURNAL_FILE, Journal, journal_to_bag, read_journal
-from .outputs import summarize, tracking_history, write_run_outputs, write_summary
+from .outputs import (
+    draw_run_figures,
+    summarize,
+    tracking_history,
+    write_run_outputs,
+    write_summary,
+)
 from .progress import ProgressMeter
 from .session import TestSession
 from .signatures import check_signatures
@@ -54,6 +60,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from pd_common.auth import Key
+
+    from .figure_worker import FigureWorker
 
 BAG_DIRECTORY = 'bag'
 DEFINITION_JSON = 'test_definition.json'
@@ -103,11 +111,16 @@ def prepare_run_directory(directory: str | Path) -> Path:
 
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                    figures: bool = True, record: RecordedRun | None = None,
+                   figure_worker: FigureWorker | None = None,
+                   after_summary: Callable[[], None] | None = None,
                    **extra: Any) -> dict[str, Any]:
     """Write a session's CSV files, ``summary.json`` and figures; return the summary.
 
     A test with force-controlled actuators also gets ``actuators.csv`` (and
     ``actuators.png``), read from ``record`` (default: the journal in ``directory``).
+    The CSV files and ``summary.json`` come first, then ``after_summary`` (the node's
+    journal-to-bag conversion), then the figures. ``figure_worker`` (see :mod:`.figure_worker`)
+    draws them meanwhile; if it fails, they are drawn here (and its ``error`` says why).
     """
     energy = None
     definition = session.definition
@@ -122,13 +135,22 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
     # A test that did not finish (a fault, an abort, a crash) still gets its outputs, up to
     # its last committed step, marked partial.
     extra.setdefault('partial', session.state is not TestState.FINISHED)
+    drawing = figures and figure_worker is not None and figure_worker.submit(
+        session.history, directory, title=definition.test_id, energy=energy,
+        tracking=tracking)
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
                         energy=energy.summary() if energy is not None else None,
                         tracking=tracking.summary(), **extra)
-    write_run_outputs(session.history, summary, directory, figures=figures,
+    write_run_outputs(session.history, summary, directory, figures=False,
                       title=definition.test_id, energy=energy, tracking=tracking)
+    if after_summary is not None:
+        after_summary()
     if actuators is not None:
         write_actuator_outputs(actuators, directory, figures=figures, title=definition.test_id)
+    if figures and not (drawing and figure_worker is not None
+                        and figure_worker.wait() is not None):
+        draw_run_figures(session.history, directory, title=definition.test_id, energy=energy,
+                         tracking=tracking)
     return summary
 
 
