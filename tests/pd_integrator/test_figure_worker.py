@@ -96,11 +96,9 @@ def test_worker_never_asked_exits_without_drawing(tmp_path: Path) -> None:
 
 
 def test_worker_exits_when_its_parent_is_killed() -> None:
-    parent = subprocess.Popen(
-        [sys.executable, '-c',
-         'import time; from pd_integrator.core.run.figure_worker import FigureWorker; '
-         'worker = FigureWorker.start(); print(worker.pid, flush=True); time.sleep(120)'],
-        stdout=subprocess.PIPE, text=True)
+    script = ('import time; from pd_integrator.core.run.figure_worker import FigureWorker; '
+              'worker = FigureWorker.start(); print(worker.pid, flush=True); time.sleep(120)')
+    parent = subprocess.Popen([sys.executable, '-c', script], stdout=subprocess.PIPE, text=True)
     try:
         assert parent.stdout is not None
         child = int(parent.stdout.readline())
