@@ -506,24 +506,23 @@ class IntegratorNode(Node):
         wall_time = time.perf_counter() - self._started if self._started else 0.0
         events = [*(self.record.run_events if self.record is not None else []),
                   *self.bag.events]
-        summary = finish_outputs(self.session, self.directory, wall_time=wall_time,
-                                 figures=self.figures, mode='graph',
-                                 figure_worker=self._figure_worker,
-                                 after_summary=self._journal_to_bag,
-                                 run_events=events,
-                                 restarts=sum(event['what'] in ('restart', 'resumed')
-                                              for event in events),
-                                 step_round_trip=round_trip_statistics(self._round_trips),
-                                 site_protocol=self.dispatcher.coordinator.summary(),
-                                 authentication={
-                                     'enabled': self.key is not None,
-                                     'key_id': self.key.key_id if self.key else None,
-                                     'refused_messages': self.refusals()})
-        if (worker := self._figure_worker) is not None:
-            self._figure_worker = None
-            worker.close()
-            if worker.error is not None and self.figures:
-                self.get_logger().warning(f'{worker.error}; figures drawn by the integrator')
+        worker, self._figure_worker = self._figure_worker, None
+        try:
+            summary = finish_outputs(
+                self.session, self.directory, wall_time=wall_time, figures=self.figures,
+                mode='graph', figure_worker=worker, after_summary=self._journal_to_bag,
+                run_events=events,
+                restarts=sum(event['what'] in ('restart', 'resumed') for event in events),
+                step_round_trip=round_trip_statistics(self._round_trips),
+                site_protocol=self.dispatcher.coordinator.summary(),
+                authentication={'enabled': self.key is not None,
+                                'key_id': self.key.key_id if self.key else None,
+                                'refused_messages': self.refusals()})
+        finally:  # (also when the outputs fail: the worker does not wait for its parent's end)
+            if worker is not None:
+                worker.close()
+        if worker is not None and worker.error is not None:
+            self.get_logger().warning(f'{worker.error}; figures drawn by the integrator')
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
 
