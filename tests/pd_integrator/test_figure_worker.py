@@ -1,9 +1,9 @@
 """The figure worker: a second process draws a run's figures, the same files as in-process.
 
 * its figures are byte-identical to those ``run_offline`` draws itself;
-* ``finish_outputs`` writes ``summary.json`` before ``after_summary`` runs, and both before
+* ``finish_outputs`` runs ``before_summary`` before ``summary.json`` is written, and both before
   the figures are waited for;
-* a child that is never asked (its parent closed it, or was killed) exits without drawing;
+* a child that is never asked (closed by its parent, or its parent killed) ends without drawing;
 * a child that fails or is gone leaves the drawing to the caller, with the reason.
 """
 
@@ -54,17 +54,18 @@ def _alive(pid: int) -> bool:
 
 def test_worker_figures_are_byte_identical(in_process: RunResult, tmp_path: Path) -> None:
     result = _run(tmp_path / 'run', figures=False)
+    (result.directory / 'summary.json').unlink()  # (run_offline's): written again below
     worker = FigureWorker.start()
     assert worker is not None
     seen: list[bool] = []
 
-    def after_summary() -> None:  # the figures are the worker's, still being drawn
+    def before_summary() -> None:  # the figures are the worker's, still being drawn
         seen.append((result.directory / 'summary.json').is_file())
 
     finish_outputs(result.session, result.directory, wall_time=0.0, figures=True,
-                   figure_worker=worker, after_summary=after_summary, mode='offline')
+                   figure_worker=worker, before_summary=before_summary, mode='offline')
     assert worker.error is None
-    assert seen == [True]
+    assert seen == [False]
     for name in FIGURES:
         drawn = (result.directory / name).read_bytes()
         assert drawn == (in_process.directory / name).read_bytes(), name
@@ -90,7 +91,7 @@ def test_worker_never_asked_exits_without_drawing(tmp_path: Path) -> None:
     worker = FigureWorker.start()
     assert worker is not None
     worker.close()
-    assert worker._process.returncode == 0
+    assert worker._process.returncode is not None  # ended, without drawing
     assert worker.wait() is None
     assert list(tmp_path.iterdir()) == []
 

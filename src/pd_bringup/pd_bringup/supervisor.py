@@ -21,10 +21,9 @@ with nobody supervising it. The integrator gets SIGTERM then: it interrupts the 
 
 Once the integrator has written its ``summary.json`` (the test is over: its last step is
 committed, or it ended otherwise) the specimen side is stopped at once, while the integrator
-still writes its bag and figures, and ``on_outputs`` is called (``run_test`` prints its summary
-then); :meth:`Supervisor.run` still returns only when the integrator has exited, so the run
-folder is complete by then. An integrator that dies after its summary is not restarted: its
-test ended.
+still writes its figures, and ``on_outputs`` is called (``run_test`` prints its summary then);
+:meth:`Supervisor.run` still returns only when the integrator has exited, so the run folder is
+complete by then. An integrator that dies after its summary is not restarted: its test ended.
 """
 
 from __future__ import annotations
@@ -189,9 +188,8 @@ class Supervisor:
                 if self.outputs_written:  # its test ended: nothing to continue
                     if code not in _ENDED:
                         self._log(f'run_test: pd_integrator died after writing its summary '
-                                  f'({_describe_exit(code)}); its bag or some figures may be '
-                                  f'missing (./pd recover {self.plan.out} writes them from '
-                                  'the journal)')
+                                  f'({_describe_exit(code)}); some figures may be missing '
+                                  f'(./pd replay {self.plan.out / "bag"} writes them)')
                     return int(code) if code in _ENDED else 1
                 if code in _ENDED or not self._revive_integrator(integrator, code):
                     return int(code) if code in _ENDED else 1

@@ -510,7 +510,7 @@ class IntegratorNode(Node):
         try:
             summary = finish_outputs(
                 self.session, self.directory, wall_time=wall_time, figures=self.figures,
-                mode='graph', figure_worker=worker, after_summary=self._journal_to_bag,
+                mode='graph', figure_worker=worker, before_summary=self._journal_to_bag,
                 run_events=events,
                 restarts=sum(event['what'] in ('restart', 'resumed') for event in events),
                 step_round_trip=round_trip_statistics(self._round_trips),

@@ -107,12 +107,12 @@ class FigureWorker:
             return None
 
     def close(self) -> None:
-        """Let a child that was never given work go (it exits at the end of its input)."""
+        """End the child; one never given work is stopped at once (it may still be preparing)."""
         if not self._submitted:
             self._submitted = True
             self.error = 'figure worker: closed'
             with contextlib.suppress(OSError):
-                cast('IO[bytes]', self._process.stdin).close()
+                self._process.kill()
         self._reap()
 
     def _reap(self) -> None:

@@ -112,15 +112,16 @@ def prepare_run_directory(directory: str | Path) -> Path:
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                    figures: bool = True, record: RecordedRun | None = None,
                    figure_worker: FigureWorker | None = None,
-                   after_summary: Callable[[], None] | None = None,
+                   before_summary: Callable[[], None] | None = None,
                    **extra: Any) -> dict[str, Any]:
     """Write a session's CSV files, ``summary.json`` and figures; return the summary.
 
     A test with force-controlled actuators also gets ``actuators.csv`` (and
     ``actuators.png``), read from ``record`` (default: the journal in ``directory``).
-    The CSV files and ``summary.json`` come first, then ``after_summary`` (the node's
-    journal-to-bag conversion), then the figures. ``figure_worker`` (see :mod:`.figure_worker`)
-    draws them meanwhile; if it fails, they are drawn here (and its ``error`` says why).
+    ``before_summary`` (the node's journal-to-bag conversion) runs before the CSV files and
+    ``summary.json`` are written, the figures come last. ``figure_worker`` (see
+    :mod:`.figure_worker`) draws them meanwhile; if it fails, they are drawn here (and its
+    ``error`` says why).
     """
     energy = None
     definition = session.definition
@@ -138,13 +139,13 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
     drawing = figures and figure_worker is not None and figure_worker.submit(
         session.history, directory, title=definition.test_id, energy=energy,
         tracking=tracking)
+    if before_summary is not None:
+        before_summary()
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
                         energy=energy.summary() if energy is not None else None,
                         tracking=tracking.summary(), **extra)
     write_run_outputs(session.history, summary, directory, figures=False,
                       title=definition.test_id, energy=energy, tracking=tracking)
-    if after_summary is not None:
-        after_summary()
     if actuators is not None:
         write_actuator_outputs(actuators, directory, figures=figures, title=definition.test_id)
     if figures and not (drawing and figure_worker is not None
