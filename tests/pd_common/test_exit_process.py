@@ -1,6 +1,8 @@
 """``exit_process``: a console entry point ends at once after its ``main``, with its exit code,
 its standard streams flushed and its ``atexit`` handlers run; an exception still takes the
-normal way out; a node process shut down this way exits 0."""
+normal way out; a node process shut down this way exits 0. ``run_node``'s teardown deadline:
+a teardown that hangs ends the process with its exit code and one line; one in time is not
+cut short later."""
 
 from __future__ import annotations
 
@@ -79,3 +81,57 @@ def test_a_node_process_shut_down_then_ended_at_once(tmp_path: Path) -> None:
         ''', tmp_path)
     assert result.returncode == 7, result.stderr
     assert 'node done' in result.stderr
+
+
+_HANGING_TEARDOWN = '''
+    import sys, time
+    import rclpy
+    from pd_common.ros import exit_process, run_node
+
+    TIMEOUT = float(sys.argv[1])
+    HANG = sys.argv[2] == 'hang'
+
+    def make():
+        node = rclpy.create_node('teardown_probe')
+        if HANG:  # as a reliable publisher's destroy that never returns
+            node.destroy_node = lambda: time.sleep(600)
+        return node
+
+    def body(node, executor):
+        executor.spin_once(timeout_sec=0.01)
+        return 5
+
+    def main():
+        rclpy.init()
+        code = run_node('probe', make, (), body, teardown_timeout=TIMEOUT)
+        time.sleep(3 * TIMEOUT)  # a deadline not cancelled would end the process here
+        print('after run_node', code, flush=True)
+        return 0
+
+    exit_process(main)
+    '''
+
+
+def _run_teardown(tmp_path: Path, timeout: float, mode: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'ROS_DOMAIN_ID': str(100 + os.getpid() % 100)}
+    return subprocess.run([sys.executable, '-c', textwrap.dedent(_HANGING_TEARDOWN),
+                           str(timeout), mode], capture_output=True, text=True, timeout=60,
+                          cwd=tmp_path, env=env, check=False)
+
+
+def test_a_teardown_that_hangs_ends_the_process_with_its_code_at_the_deadline(
+        tmp_path: Path) -> None:
+    result = _run_teardown(tmp_path, 1.0, 'hang')
+    assert result.returncode == 5, result.stderr
+    assert 'after run_node' not in result.stdout
+    lines = [line for line in result.stderr.splitlines() if 'teardown' in line]
+    assert len(lines) == 1
+    assert lines[0].startswith('probe: warning: the rclpy teardown took over 1 s')
+
+
+def test_a_teardown_in_time_cancels_its_deadline(tmp_path: Path) -> None:
+    result = _run_teardown(tmp_path, 0.5, 'normal')
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == 'after run_node 5'
+    assert 'teardown' not in result.stderr

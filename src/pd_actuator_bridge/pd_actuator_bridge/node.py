@@ -86,6 +86,7 @@ from pd_common.ros import (
     MONITOR_QOS,
     OFFER_REFRESH_S,
     STEP_QOS,
+    TEARDOWN_TIMEOUT,
     RefusalLog,
     SessionReceiver,
     declare_key,
@@ -632,7 +633,7 @@ def main(args: list[str] | None = None) -> int:
         node._release()
 
     return run_node('pd_actuator_bridge', ActuatorBridgeNode, (AuthError, BridgeError), body,
-                    cleanup=cleanup)
+                    cleanup=cleanup, teardown_timeout=TEARDOWN_TIMEOUT)
 
 
 if __name__ == '__main__':

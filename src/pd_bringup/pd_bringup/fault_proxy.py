@@ -49,7 +49,13 @@ from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 from rclpy.validate_namespace import validate_namespace
 
-from pd_common.ros import LATCHED_QOS, STEP_QOS, init_with_stop_flag, run_node
+from pd_common.ros import (
+    LATCHED_QOS,
+    STEP_QOS,
+    TEARDOWN_TIMEOUT,
+    init_with_stop_flag,
+    run_node,
+)
 from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback
 
 from .faults import FaultInjector, FaultPlan, FaultPlanError
@@ -291,7 +297,8 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_bringup fault_proxy``."""
     stop = init_with_stop_flag(args)
     return run_node('fault_proxy', FaultProxyNode, (ProxyError, FaultPlanError),
-                    lambda node, executor: run(node, executor, stop))
+                    lambda node, executor: run(node, executor, stop),
+                    teardown_timeout=TEARDOWN_TIMEOUT)
 
 
 if __name__ == '__main__':

@@ -64,6 +64,7 @@ from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
     STEP_QOS,
+    TEARDOWN_TIMEOUT,
     RefusalLog,
     SessionSender,
     command_message,
@@ -620,7 +621,8 @@ def main(args: list[str] | None = None) -> int:
         return 1
 
     return run_node('pd_integrator', IntegratorNode, (PdIntegratorError, AuthError),
-                    lambda node, executor: run(node, executor, stop), on_interrupt=interrupted)
+                    lambda node, executor: run(node, executor, stop), on_interrupt=interrupted,
+                    teardown_timeout=TEARDOWN_TIMEOUT)
 
 
 def process_main() -> NoReturn:

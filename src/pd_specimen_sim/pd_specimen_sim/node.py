@@ -51,6 +51,7 @@ from pd_common.protocol import (
 from pd_common.ros import (
     OFFER_REFRESH_S,
     STEP_QOS,
+    TEARDOWN_TIMEOUT,
     RefusalLog,
     SessionReceiver,
     declare_key,
@@ -168,7 +169,7 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args)
     return run_node('pd_specimen_sim', SpecimenSimNode, (SpecimenError, AuthError),
                     lambda node, executor: spin_until_shutdown(executor, 0.1),
-                    cleanup=SpecimenSimNode.close)
+                    cleanup=SpecimenSimNode.close, teardown_timeout=TEARDOWN_TIMEOUT)
 
 
 if __name__ == '__main__':

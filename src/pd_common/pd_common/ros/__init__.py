@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .executor import (
+    TEARDOWN_TIMEOUT,
     events_executor,
     exit_process,
     init_with_stop_flag,
@@ -29,6 +30,7 @@ __all__ = [
     'MONITOR_QOS',
     'OFFER_REFRESH_S',
     'STEP_QOS',
+    'TEARDOWN_TIMEOUT',
     'RefusalLog',
     'SessionReceiver',
     'SessionSender',

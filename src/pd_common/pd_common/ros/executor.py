@@ -24,10 +24,14 @@ if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
 
-__all__ = ['events_executor', 'exit_process', 'init_with_stop_flag', 'run_node',
-           'spin_until_shutdown']
+__all__ = ['TEARDOWN_TIMEOUT', 'events_executor', 'exit_process', 'init_with_stop_flag',
+           'run_node', 'spin_until_shutdown']
 
 NodeT = TypeVar('NodeT', bound='Node')
+
+#: Seconds a node process's rclpy teardown (executor shut down, node destroyed, rclpy shut
+#: down) may take after its ``cleanup``; past them the process ends with its exit code.
+TEARDOWN_TIMEOUT = 10.0
 
 
 def events_executor(node: Node) -> Executor:
@@ -72,7 +76,8 @@ def run_node(program: str, make_node: Callable[[], NodeT],
              errors: tuple[type[Exception], ...],
              body: Callable[[NodeT, Executor], int | None], *,
              on_interrupt: Callable[[NodeT | None], int] | None = None,
-             cleanup: Callable[[NodeT], None] | None = None) -> int:
+             cleanup: Callable[[NodeT], None] | None = None,
+             teardown_timeout: float | None = None) -> int:
     """The life of one node process after ``rclpy.init``: make, spin, clean up, shut down.
 
     Args:
@@ -86,6 +91,12 @@ def run_node(program: str, make_node: Callable[[], NodeT],
             the node (``None`` if it was not made yet); returns the exit code (default 0).
         cleanup: called before the executor is shut down and the node destroyed (e.g. hold
             the actuator, close the state file), whatever ended the node.
+        teardown_timeout: for a node process (never a node run in-process): seconds the
+            teardown after ``cleanup`` may take. A reliable publisher whose matched reader
+            was killed can block ``destroy_node`` for good (seen in Fast DDS); past the
+            timeout one line goes to stderr and the process ends with its exit code (1 if
+            an exception was on its way), its records already closed by ``body`` and
+            ``cleanup``. ``None``: no limit.
 
     Returns:
         The exit code.
@@ -104,15 +115,40 @@ def run_node(program: str, make_node: Callable[[], NodeT],
         code = 0 if result is None else result
     except (KeyboardInterrupt, ExternalShutdownException):
         code = on_interrupt(node) if on_interrupt is not None else 0
+    except BaseException:
+        code = 1  # the exit code if the teardown outlives its deadline; the error goes on
+        raise
     finally:
         if node is not None and cleanup is not None:
             cleanup(node)
+        deadline = (None if teardown_timeout is None
+                    else _teardown_deadline(program, teardown_timeout, code))
         if executor is not None:
             executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        if deadline is not None:
+            deadline.cancel()
     return code
+
+
+def _teardown_deadline(program: str, seconds: float, code: int) -> threading.Timer:
+    """A started daemon timer that ends the process with ``code`` after ``seconds``."""
+
+    def expire() -> None:
+        try:
+            print(f'{program}: warning: the rclpy teardown took over {seconds:g} s (a '
+                  'publisher or the participant did not close); the process ends, its '
+                  'records closed', file=sys.stderr, flush=True)
+        except (OSError, ValueError):  # a closed stream: end anyway
+            pass
+        os._exit(code)
+
+    timer = threading.Timer(seconds, expire)
+    timer.daemon = True
+    timer.start()
+    return timer
 
 
 def exit_process(main: Callable[[], int | None]) -> NoReturn:
