@@ -136,9 +136,11 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
     # A test that did not finish (a fault, an abort, a crash) still gets its outputs, up to
     # its last committed step, marked partial.
     extra.setdefault('partial', session.state is not TestState.FINISHED)
-    drawing = figures and figure_worker is not None and figure_worker.submit(
-        session.history, directory, title=definition.test_id, energy=energy,
-        tracking=tracking)
+    drawer = None  # the worker that took the figures
+    if figures and figure_worker is not None and figure_worker.submit(
+            session.history, directory, title=definition.test_id, energy=energy,
+            tracking=tracking):
+        drawer = figure_worker
     if before_summary is not None:
         before_summary()
     summary = summarize(session.history, **session.summary_info(), wall_time=wall_time,
@@ -148,8 +150,7 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
                       title=definition.test_id, energy=energy, tracking=tracking)
     if actuators is not None:
         write_actuator_outputs(actuators, directory, figures=figures, title=definition.test_id)
-    if figures and not (drawing and figure_worker is not None
-                        and figure_worker.wait() is not None):
+    if figures and (drawer is None or drawer.wait() is None):
         draw_run_figures(session.history, directory, title=definition.test_id, energy=energy,
                          tracking=tracking)
     return summary
