@@ -75,7 +75,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     from pd_msgs.msg import SessionStart, StepCommand, StepFeedback, TestStatus
 
     test_file = write_test_file(tmp_path / 'secure.yaml', test__id='graph-secure',
-                                test__duration=12.0)
+                                test__duration=40.0)
     reference = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
     rogue = Signer(new_key())  # a key of its own: well-formed signatures, the wrong key
     moves: list[tuple[float, ...]] = []
