@@ -5,8 +5,10 @@ To the integrator (``/pd/test_control``): ``pause``, ``resume``, ``hold``, ``abo
 bridge (``--bridge``, ``/pd/[<site>/]bridge/control``): ``reset``, ``reset_emergency_stop``,
 ``hold``. The control is signed with the rig's or test's key, stamped now and sent once; the
 receiver obeys it only if the signature, the stamp (within 30 s of its clock) and the sequence
-are right. The emergency stop needs no key: ``./pd control estop`` publishes on the lab-wide
-``/pd/emergency_stop`` topic.
+are right. The emergency stop needs no key: ``./pd control estop`` waits until the number of
+listeners on the lab-wide ``/pd/emergency_stop`` topic stops growing (every bridge and the
+integrator listen), then publishes the stop ten times in one second (every listener latches it,
+so a repeat changes nothing and a late-matched bridge still gets it).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from std_msgs.msg import String
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Signer, load_key
 from pd_common.protocol import GLOBAL_EMERGENCY_STOP, site_topic_name
-from pd_common.ros import CONTROL_DEPTH
+from pd_common.ros import CONTROL_DEPTH, repeat_emergency_stop, settle_listeners
 from pd_msgs.msg import Control as ControlMessage
 
 from .operator import signed_control
@@ -79,18 +81,30 @@ def main(argv: list[str] | None = None) -> int:
                      else site_topic_name('', 'test_control'))
             publisher = node.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
             message = signed_control(signer, command, args.site, args.reason)
-        deadline = time.monotonic() + args.timeout
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
-        if publisher.get_subscription_count() == 0:
+
+        def spin(seconds: float) -> None:
+            until = time.monotonic() + seconds
+            while (left := until - time.monotonic()) > 0.0:
+                rclpy.spin_once(node, timeout_sec=left)
+
+        if command == 'estop':
+            listeners = settle_listeners(publisher.get_subscription_count,
+                                         timeout=args.timeout, wait=spin)
+        else:
+            deadline = time.monotonic() + args.timeout
+            while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+                spin(0.05)
+            listeners = publisher.get_subscription_count()
+        if listeners == 0:
             print(f'control: error: nobody listens on {topic} (is the test running? same '
                   'ROS_DOMAIN_ID?)', file=sys.stderr)
             return 1
-        publisher.publish(message)
-        end = time.monotonic() + 0.5  # let the reliable transport deliver it
-        while time.monotonic() < end:
-            rclpy.spin_once(node, timeout_sec=0.05)
-        print(f'control: {command} sent on {topic}')
+        if command == 'estop':
+            repeat_emergency_stop(lambda: publisher.publish(message), sleep=spin)
+        else:
+            publisher.publish(message)
+        spin(0.5)  # let the reliable transport deliver it
+        print(f'control: {command} sent on {topic} ({listeners} listening)')
         return 0
     finally:
         rclpy.try_shutdown()

@@ -57,6 +57,7 @@ from pd_common.ros import (
     STEP_QOS,
     events_executor,
     init_with_stop_flag,
+    repeat_emergency_stop,
     signed_control,
 )
 from pd_msgs.msg import Control as ControlMessage
@@ -233,7 +234,8 @@ class ConsoleNode(Node):
 
     def emergency_stop(self, reason: str) -> str:
         """Publish the lab-wide emergency stop (no key: anyone may stop a machine)."""
-        self._estop.publish(String(data=reason or 'console emergency stop'))
+        message = String(data=reason or 'console emergency stop')
+        repeat_emergency_stop(lambda: self._estop.publish(message), background=True)
         self.get_logger().warning(f'EMERGENCY STOP sent on {GLOBAL_EMERGENCY_STOP}')
         return GLOBAL_EMERGENCY_STOP
 

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+from .estop import (
+    EMERGENCY_STOP_INTERVAL,
+    EMERGENCY_STOP_REPEATS,
+    repeat_emergency_stop,
+    settle_listeners,
+)
 from .executor import (
     TEARDOWN_TIMEOUT,
     events_executor,
@@ -26,6 +32,8 @@ from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender
 
 __all__ = [
     'CONTROL_DEPTH',
+    'EMERGENCY_STOP_INTERVAL',
+    'EMERGENCY_STOP_REPEATS',
     'LATCHED_QOS',
     'MONITOR_QOS',
     'OFFER_REFRESH_S',
@@ -44,7 +52,9 @@ __all__ = [
     'init_with_stop_flag',
     'new_epoch',
     'now_stamp',
+    'repeat_emergency_stop',
     'run_node',
+    'settle_listeners',
     'signed_control',
     'spin_until_shutdown',
     'stamp_from_ns',
