@@ -19,13 +19,11 @@ class FakeClock:
 
     def __init__(self) -> None:
         self.now = 0.0
-        self.waits: list[float] = []
 
     def __call__(self) -> float:
         return self.now
 
     def wait(self, seconds: float) -> None:
-        self.waits.append(seconds)
         self.now += seconds
 
 
@@ -95,6 +93,16 @@ def test_settling_waits_for_every_listener_discovered_one_by_one() -> None:
     found = settle_listeners(count, timeout=10.0, settle=0.5, wait=clock.wait, clock=clock)
     assert found == 3
     assert clock.now >= 0.9 + 0.5 - 1e-9  # not sent at the first listener
+
+
+def test_without_settling_the_first_listener_is_enough() -> None:
+    clock = FakeClock()
+
+    def count() -> int:  # a control's receiver at 0.3 s, a second listener at 0.5 s
+        return sum(clock.now >= t for t in (0.3, 0.5))
+
+    assert settle_listeners(count, timeout=10.0, settle=0.0, wait=clock.wait, clock=clock) == 1
+    assert 0.3 <= clock.now < 0.4
 
 
 def test_settling_gives_up_without_listeners() -> None:

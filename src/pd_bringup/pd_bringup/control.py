@@ -87,14 +87,9 @@ def main(argv: list[str] | None = None) -> int:
             while (left := until - time.monotonic()) > 0.0:
                 rclpy.spin_once(node, timeout_sec=left)
 
-        if command == 'estop':
-            listeners = settle_listeners(publisher.get_subscription_count,
-                                         timeout=args.timeout, wait=spin)
-        else:
-            deadline = time.monotonic() + args.timeout
-            while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-                spin(0.05)
-            listeners = publisher.get_subscription_count()
+        # The e-stop goes to every bridge and the integrator; a control to its one receiver.
+        listeners = settle_listeners(publisher.get_subscription_count, timeout=args.timeout,
+                                     settle=0.5 if command == 'estop' else 0.0, wait=spin)
         if listeners == 0:
             print(f'control: error: nobody listens on {topic} (is the test running? same '
                   'ROS_DOMAIN_ID?)', file=sys.stderr)

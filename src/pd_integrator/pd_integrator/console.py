@@ -58,6 +58,7 @@ from pd_common.ros import (
     events_executor,
     init_with_stop_flag,
     repeat_emergency_stop,
+    settle_listeners,
     signed_control,
 )
 from pd_msgs.msg import Control as ControlMessage
@@ -222,10 +223,7 @@ class ConsoleNode(Node):
         if publisher is None:
             publisher = self.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
             self._control_pubs[topic] = publisher
-        deadline = time.monotonic() + 2.0
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        if publisher.get_subscription_count() == 0:
+        if settle_listeners(publisher.get_subscription_count, timeout=2.0, settle=0.0) == 0:
             return False, f'nobody listens on {topic}'
         publisher.publish(signed_control(self._signer, request.command,
                                          request.bridge_site or '', request.reason))

@@ -5,7 +5,8 @@ publishes; a bridge whose discovery of the sender is still under way (a sender t
 started, a lost announcement on a loaded machine) would never see a single e-stop. Every
 receiver latches the stop and a repeat changes nothing, so the sender publishes it
 :data:`EMERGENCY_STOP_REPEATS` times, :data:`EMERGENCY_STOP_INTERVAL` s apart: a listener that
-matches within that second still gets it. Used by ``./pd control estop`` and the console.
+matches within that second still gets it. Used by ``./pd control estop`` and the console,
+which also wait for a signed control's receiver with :func:`settle_listeners`.
 """
 
 from __future__ import annotations
@@ -79,12 +80,13 @@ def settle_listeners(count: Callable[[], int], *, timeout: float, settle: float 
     """Wait until a topic has listeners and their number has not grown for ``settle`` s.
 
     A sender that has just started learns of its listeners one by one; waiting for the first
-    one alone would send to part of the lab.
+    one alone would send an emergency stop to part of the lab. ``settle=0`` returns at the
+    first listener (a signed control, which has one receiver).
 
     Args:
         count: The number of matched listeners now (``publisher.get_subscription_count``).
         timeout: Seconds to wait for the first listener; the settling may add ``settle``.
-        settle: Seconds the count must stay unchanged.
+        settle: Seconds the count must stay unchanged (0: the first listener is enough).
         wait: Waits (or spins) for the given seconds.
         clock: Monotonic seconds.
 
@@ -95,11 +97,10 @@ def settle_listeners(count: Callable[[], int], *, timeout: float, settle: float 
     seen, since = count(), clock()
     while True:
         now = clock()
-        if seen == 0 and now >= deadline:
-            return 0
-        if seen > 0 and now - since >= settle:
-            return seen
-        if seen > 0 and now >= deadline + settle:
+        if seen == 0:
+            if now >= deadline:
+                return 0
+        elif now - since >= settle or now >= deadline + settle:
             return seen
         wait(0.05)
         current = count()
