@@ -20,6 +20,7 @@ from pd_common.auth import (
     Refusal,
     ReplyGate,
     Signer,
+    StatusGate,
     canonical,
     command_payload,
     control_payload,
@@ -28,7 +29,9 @@ from pd_common.auth import (
     load_key,
     mac_of,
     new_key,
+    offer_payload,
     session_start_payload,
+    status_payload,
     verify_mac,
 )
 from pd_common.protocol import (
@@ -36,9 +39,12 @@ from pd_common.protocol import (
     Control,
     Feedback,
     FeedbackStatus,
+    Offer,
     SessionStart,
     Signature,
+    Status,
 )
+from pd_common.protocol import TestState as State
 
 COMMAND = Command(test_id='t1', step=7, test_time=0.07, dof_names=('u1', 'u2'),
                   target_displacement=(0.0125, -0.003), iteration=1)
@@ -208,31 +214,119 @@ def test_without_a_key_every_gate_admits_everything() -> None:
     payload = command_payload(COMMAND)
     assert CommandGate(None).admit(payload, Signature()) is None
     assert ReplyGate(None, 's').admit(payload, Signature()) is None
-    assert ControlGate(None).admit(payload, Signature(), 0.0) is None
+    assert ControlGate(None).admit(Control(command='abort'), Signature(), 'any') is None
+    assert StatusGate(None).admit('/pd/test_status', payload, Signature(), 0) is None
 
 
 # -- controls ------------------------------------------------------------------------------------
+NODE = '/pd/lab1/pd_actuator_bridge'
+INSTANCE = 'a1' * 16
+
+
+def bound(command: str, stamp: float, **fields: str) -> Control:
+    """A control bound to the receiver of these tests (overridable per field)."""
+    binding = {'target': NODE, 'session': INSTANCE, 'test_id': 'T', **fields}
+    return Control(command=command, stamp=stamp, sender='operator a@b (test)', **binding)
+
+
 def test_controls_are_fresh_and_obeyed_once() -> None:
     key = new_key()
     now = [1000.0]
-    gate = ControlGate(key, window=30.0, clock=lambda: now[0])
-    control = Control(command='resume', stamp=now[0])
+    gate = ControlGate(key, NODE, INSTANCE, window=30.0, clock=lambda: now[0])
+    control = bound('resume', now[0])
     signer = Signer(key)
     signature = signer.sign(control_payload(control))
-    assert gate.admit(control_payload(control), signature, control.stamp) is None
-    assert gate.admit(control_payload(control), signature, control.stamp) is Refusal.REPLAYED
-    old = Control(command='abort', stamp=now[0] - 31.0)
-    assert gate.admit(control_payload(old), signer.sign(control_payload(old)), old.stamp) \
-        is Refusal.STALE
-    later = Control(command='abort', stamp=now[0] + 31.0)
-    assert gate.admit(control_payload(later), signer.sign(control_payload(later)),
-                      later.stamp) is Refusal.STALE
-    # A stamp changed after signing is a forgery.
-    assert gate.admit(control_payload(dataclasses.replace(control, stamp=now[0] + 1.0)),
-                      signer.sign(control_payload(control)), now[0] + 1.0) is Refusal.FORGED
-    # Much later, the old session is forgotten but its stamp is stale: still refused.
+    assert gate.admit(control, signature, 'T') is None
+    assert gate.admit(control, signature, 'T') is Refusal.REPLAYED
+    old = bound('abort', now[0] - 31.0)
+    assert gate.admit(old, signer.sign(control_payload(old)), 'T') is Refusal.STALE
+    later = bound('abort', now[0] + 31.0)
+    assert gate.admit(later, signer.sign(control_payload(later)), 'T') is Refusal.STALE
+    # A stamp (or a sender, a reason) changed after signing is a forgery.
+    for changed in (dataclasses.replace(control, stamp=now[0] + 1.0),
+                    dataclasses.replace(control, sender='run_test'),
+                    dataclasses.replace(control, reason='other')):
+        assert gate.admit(changed, signer.sign(control_payload(control)), 'T') \
+            is Refusal.FORGED
+    # Much later the copy is still refused (stale, and replayed).
     now[0] += 100.0
-    assert gate.admit(control_payload(control), signature, control.stamp) is Refusal.STALE
+    assert gate.admit(control, signature, 'T') is not None
+
+
+def test_a_control_is_bound_to_its_node_its_instance_and_its_test() -> None:
+    key = new_key()
+    gate = ControlGate(key, NODE, INSTANCE, clock=lambda: 1000.0)
+    signer = Signer(key)
+
+    def admit(control: Control, test_id: str = 'T') -> Refusal | None:
+        return gate.admit(control, signer.sign(control_payload(control)), test_id)
+
+    # meant for site lab3's bridge, republished to lab1's: refused
+    assert admit(bound('reset_emergency_stop', 1000.0,
+                       target='/pd/lab3/pd_actuator_bridge')) is Refusal.MISDIRECTED
+    # meant for an earlier process of this node (it restarted since): refused
+    assert admit(bound('reset', 1000.0, session='b2' * 16)) is Refusal.FOREIGN_SESSION
+    # meant for test A, the node serves test B now: refused
+    assert admit(bound('resume', 1000.0, test_id='A'), test_id='B') is Refusal.FOREIGN_TEST
+    # unbound (an old-style control): refused
+    assert admit(Control(command='resume', stamp=1000.0)) is Refusal.MISDIRECTED
+    assert admit(bound('resume', 1000.0)) is None
+    assert dict(gate.refused) == {'misdirected': 2, 'foreign_session': 1, 'foreign_test': 1}
+
+
+def test_the_replay_memory_is_seeded_from_the_record() -> None:
+    key = new_key()
+    signer = Signer(key)
+    control = bound('reset', 1000.0)
+    signature = signer.sign(control_payload(control))
+    restarted = ControlGate(key, NODE, INSTANCE, clock=lambda: 1000.0)
+    restarted.remember(signature.session, signature.sequence)
+    assert restarted.admit(control, signature, 'T') is Refusal.REPLAYED
+    later = bound('reset', 1000.0)
+    assert restarted.admit(later, signer.sign(control_payload(later)), 'T') is None
+
+
+def test_statements_are_signed_by_their_node_and_never_older_than_the_last() -> None:
+    key = new_key()
+    gate = StatusGate(key)
+    status = Status(test_id='T', state=State.RUNNING, step=3, total_steps=9,
+                    omega_dt=0.1, node=NODE, session=INSTANCE)
+    first, second = Signer(key), Signer(key)  # two processes of the node
+    topic = '/pd/lab1/bridge/status'
+
+    def admit(signer: Signer, stamp: int, item: Status = status) -> Refusal | None:
+        return gate.admit(topic, status_payload(item, stamp),
+                          signer.sign(status_payload(status, stamp)), stamp)
+
+    assert gate.admit(topic, status_payload(status, 5), Signature(), 5) is Refusal.UNSIGNED
+    assert admit(Signer(new_key()), 5) is Refusal.WRONG_KEY
+    assert admit(first, 5, dataclasses.replace(status, state=State.HOLDING)) \
+        is Refusal.FORGED
+    assert admit(first, 10) is None
+    payload, signature = status_payload(status, 10), first.sign(status_payload(status, 10))
+    assert gate.admit(topic, payload, signature, 10) is None
+    assert gate.admit(topic, payload, signature, 10) is Refusal.REPLAYED  # the same again
+    assert admit(second, 20) is None  # a restarted node: a newer session
+    assert admit(first, 15) is Refusal.REPLAYED  # the earlier process's word: older
+    # the offer's stamp is signed too
+    offer = Offer(stamp_ns=30, node=NODE, challenge='c', active_session='', authenticated=True,
+                  epoch='e', state_origin=0, restored=('', 0, 0), position=(0.0,),
+                  force=(0.0,), configuration='{}')
+    signature = second.sign(offer_payload(offer))
+    assert gate.admit('/offer', offer_payload(dataclasses.replace(offer, position=(0.5,))),
+                      signature, 30) is Refusal.FORGED
+    assert gate.admit('/offer', offer_payload(offer), signature, 30) is None
+
+
+def test_a_made_up_key_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / 'zero.key'
+    path.write_text('pd-hmac-sha256 v1 ' + '00' * 32 + '\n', encoding='ascii')
+    path.chmod(0o600)
+    with pytest.raises(KeyFileError, match='zero.key: a key must be random'):
+        load_key(path)
+    path.write_text('pd-hmac-sha256 v1 ' + '0102' * 16 + '\n', encoding='ascii')
+    with pytest.raises(KeyFileError, match='2 distinct byte values'):
+        load_key(path)
 
 
 def test_the_canonical_bytes_follow_the_documented_tags() -> None:

@@ -34,12 +34,30 @@ the stop, like every other control, is authenticated.
 
 Authentication (parameters ``key_file``, ``authentication``; see :mod:`pd_common.ros.keys`):
 the bridge obeys step commands only in the session a signed ``session/start`` opened while it
-is active (its ``session/offer`` is latched; activating or deactivating ends the session, so a
-lifecycle transition alone never enables motion), signs every answer, and obeys
-``bridge/control`` (``pd_msgs/Control``: ``reset``, ``reset_emergency_stop``, ``hold``) only
-when signed, fresh and new. The ``bridge/reset`` and ``bridge/reset_emergency_stop``
+is active (its ``session/offer`` is latched and signed; activating or deactivating ends the
+session, so a lifecycle transition alone never enables motion), signs every answer, its
+offers and its statuses, and obeys ``bridge/control`` (``pd_msgs/Control``: ``reset``,
+``reset_emergency_stop``, ``hold``, the lifecycle transitions ``configure``, ``activate``,
+``deactivate``, ``cleanup``, and the supervisor's ``auto_hold`` / ``auto_reset``) only when
+signed, bound to this node, its instance session and its test, fresh and new; its status
+acknowledges the last one taken. The ``bridge/reset`` and ``bridge/reset_emergency_stop``
 services cannot be authenticated: with a key they refuse and say so. Refused messages are
 counted by reason on ``bridge/status``.
+
+Sealed configuration: with a key, the bridge's parameters are fixed when it starts (a
+``set_parameters`` call is refused: restart the bridge with a new parameter file) and its
+lifecycle moves only on the owner's signed controls (the ROS ``change_state`` service
+cannot be authenticated: with a key every transition it asks for is refused). The driver and
+the limits in force are in every session offer (``configuration``), so the integrator's
+summary names them.
+
+Durable holds (parameter ``record_file``; ``run_test`` gives each bridge one in the run
+folder, a bridge started by hand keeps one under ``$XDG_STATE_HOME/pd/bridges``): an
+emergency stop, a person's hold and every control taken are appended to the record and put on
+disk before the bridge answers anything else; a restarted bridge replays the record first, so
+a crash or a restart never clears an emergency stop or a person's hold (only a person's signed
+reset does), nor lets a control be replayed. An emergency stop's reason is cut to 256
+characters; stops that arrive while one is latched are counted, not logged one by one.
 
 Drivers (parameter ``driver``): any name registered in
 :mod:`pd_actuator_bridge.core.drivers.registry`. ``driver_names()`` lists them and
@@ -51,42 +69,57 @@ explains how to connect each.
 
 from __future__ import annotations
 
+import dataclasses
+import json
+import os
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.executors import Executor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
 from pd_common.auth import (
     AuthError,
     ControlGate,
-    control_payload,
+    Refusal,
     describe_refusals,
     merge_refusals,
 )
 from pd_common.experimental import TrackingMonitor
+from pd_common.jsonl import EventFile
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
+    LIFECYCLE_CONTROLS,
     Feedback,
     FeedbackStatus,
+    MalformedMessageError,
+    PersonHolds,
     Signature,
+    Status,
     StepKey,
+    TestState,
+    acknowledgement,
+    clip_reason,
     command_from_message,
     control_from_message,
     signature_from_message,
 )
 from pd_common.ros import (
     CONTROL_DEPTH,
+    HEARTBEAT_S,
     LATCHED_QOS,
     MONITOR_QOS,
     OFFER_REFRESH_S,
     STEP_QOS,
     TEARDOWN_TIMEOUT,
+    Announcer,
     RefusalLog,
     SessionReceiver,
     declare_key,
@@ -116,6 +149,17 @@ from .sim_servo import SimServoDriver
 
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
+#: Seconds between two log lines about emergency stops received while one is latched.
+ESTOP_LOG_INTERVAL_S = 10.0
+
+
+def default_record_file(node_name: str) -> Path:
+    """Where a bridge started without ``record_file`` keeps its record: per ROS domain and
+    node, under ``$XDG_STATE_HOME/pd/bridges`` (``~/.local/state``)."""
+    base = os.environ.get('XDG_STATE_HOME') or str(Path.home() / '.local' / 'state')
+    domain = os.environ.get('ROS_DOMAIN_ID', '0') or '0'
+    name = node_name.strip('/').replace('/', '.') or 'pd_actuator_bridge'
+    return Path(base) / 'pd' / 'bridges' / f'domain{domain}' / f'{name}.jsonl'
 
 
 class ActuatorBridgeNode(LifecycleNode):
@@ -140,6 +184,9 @@ class ActuatorBridgeNode(LifecycleNode):
               'force change is ramped in sub-steps of at most this, each checked (0 = no ramp; '
               'docs/force_control.md)')),
             ('on_limit', 'hold', "'hold' (default) or 'saturate' (quasi-static moves only)"),
+            ('record_file', '', ('the bridge\'s durable record (emergency stops, holds, '
+                                 'controls); '
+                                 'default: $XDG_STATE_HOME/pd/bridges/domain<id>/<node>.jsonl')),
         ):
             self.declare_parameter(name, default, describe(description=description))
         # Then the parameters of every registered driver (one ROS parameter per name, whichever
@@ -149,11 +196,28 @@ class ActuatorBridgeNode(LifecycleNode):
                 description=f'{"/".join(drivers)}: {parameter.description}'))
         self.key = declare_key(self)
         self.epoch = new_epoch()
+        self.announcer = Announcer(self, self.key)
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
-        self._control_gate = ControlGate(self.key)
+        self._control_gate = ControlGate(self.key, self.announcer.identity,
+                                         self.announcer.session)
+        self._malformed = 0  # messages beyond their bounds (refused before anything else)
+        self.record = self._open_record()
+        # The holds a person made survive a crash: replayed before anything is answered.
+        self.holds = PersonHolds.replay(self.record.events)
+        for event in self.record.events:
+            if event.get('what') == 'control' and event.get('session'):
+                self._control_gate.remember(str(event['session']), int(event['sequence']))
+        self._acknowledged = ''
+        self._auto_held = False  # the current hold is the supervisor's auto_hold alone
+        self._estop_logged_at = 0.0
+        self._estop_repeats_logged = 0
+        # Lifecycle transitions: with a key, only the owner's signed controls (or the node's
+        # own autostart) may move the lifecycle; the ROS service cannot be authenticated.
+        self._transition_allowed = self.key is None
         self.receiver = SessionReceiver(self, self.key, len(self.get_parameter('dof_names').value),
                                         self.epoch, on_refused=self._on_refused_start,
-                                        accepting=False)  # sessions only while active
+                                        accepting=False,  # sessions only while active
+                                        announcer=self.announcer)
         self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
         self._request = Signature()  # the signature of the command being answered
         self._accept_when_ready = False
@@ -161,13 +225,13 @@ class ActuatorBridgeNode(LifecycleNode):
         self.bridge: ActuatorBridge | None = None
         self.driver: ActuatorDriver | None = None
         self.limits: SafetyLimits | None = None
-        self._emergency: str | None = None
         self._command_sub: Any = None
         self._feedback_pub: Any = None
         self._feedback = StepFeedback()
         self._test_id = ''
         self._step = 0
         self._last_status: tuple[int, str] = (TestStatus.STATE_IDLE, 'unconfigured')
+        self._status_at = 0.0
         self._status_pub = self.create_publisher(TestStatus, 'bridge/status', LATCHED_QOS)
         self._trajectory_pub = self.create_publisher(ActuatorTrajectory, 'bridge/trajectory',
                                                      STEP_QOS)
@@ -187,11 +251,74 @@ class ActuatorBridgeNode(LifecycleNode):
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
-        self.publish_status(TestStatus.STATE_IDLE, 'unconfigured')
+        self.create_timer(HEARTBEAT_S, self._heartbeat)
+        if self.key is not None:  # sealed: the parameters given at start are the ones in force
+            self.add_on_set_parameters_callback(self._sealed_parameters)
+        if self.holds.emergency is not None:
+            self.get_logger().error(f'EMERGENCY STOP latched before a restart, still in force '
+                                    f'({self.holds.emergency}); only a signed '
+                                    'reset_emergency_stop clears it')
+        if self.holds.operator is not None:
+            self.get_logger().warning(f'{self.holds.operator} before a restart, still in force; '
+                                      'only a signed reset clears it')
+        self.publish_status(TestStatus.STATE_HOLDING if self._latched() else TestStatus.STATE_IDLE,
+                            self._latched() or 'unconfigured')
+
+    # -- record and sealing ---------------------------------------------------------------
+    def _open_record(self) -> EventFile:
+        """The bridge's durable record (replayed at start, appended to after)."""
+        given = str(self.get_parameter('record_file').value)
+        path = Path(given) if given else default_record_file(self.get_fully_qualified_name())
+        try:
+            return EventFile(path)
+        except (OSError, ValueError) as err:
+            msg = (f'parameter record_file: {err}; the bridge does not start without knowing '
+                   'whether an emergency stop is latched')
+            raise BridgeConfigError(msg) from None
+
+    def _latched(self) -> str:
+        """What a person latched ('' if nothing): the emergency stop first."""
+        if self.holds.emergency is not None:
+            return f'EMERGENCY STOP: {self.holds.emergency}'
+        return self.holds.operator or ''
+
+    def _sealed_parameters(self, parameters: list[Parameter[Any]]) -> SetParametersResult:
+        """With a key, no parameter changes after start (a rogue must not move a limit)."""
+        names = ', '.join(parameter.name for parameter in parameters)
+        self.get_logger().warning(f'refused set_parameters ({names}): the bridge is sealed '
+                                  '(a key is in use); restart it with a new parameter file')
+        self._control_gate.refused['sealed'] += 1
+        return SetParametersResult(successful=False, reason=(
+            'sealed: the bridge\'s parameters are fixed at start while a key is in use; '
+            'restart the bridge with a new parameter file'))
+
+    def _transition(self, name: str) -> bool:
+        """Whether a lifecycle transition may run now (else it is refused and logged)."""
+        if self._transition_allowed:
+            return True
+        self.get_logger().warning(
+            f'refused lifecycle {name}: a key is in use and the change_state service cannot be '
+            f'authenticated; send the signed control instead (./pd control {name} --bridge)')
+        self._control_gate.refused['unsigned'] += 1
+        state, message = self._last_status
+        self.publish_status(state, message)
+        return False
+
+    def trigger(self, name: str) -> bool:
+        """Run lifecycle transition ``name`` as the node itself (autostart, a signed control);
+        whether it succeeded."""
+        self._transition_allowed = True
+        try:
+            result = getattr(self, f'trigger_{name}')()
+        finally:
+            self._transition_allowed = self.key is None
+        return bool(result == SUCCESS)
 
     # -- lifecycle ------------------------------------------------------------------------
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Build and open the driver; read the actuator's position and force."""
+        if not self._transition('configure'):
+            return FAILURE
         try:
             self._configure()
         except (BridgeError, ValueError) as err:
@@ -203,6 +330,8 @@ class ActuatorBridgeNode(LifecycleNode):
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Enable motion: start answering the integrator."""
+        if not self._transition('activate'):
+            return FAILURE
         driver = self.driver
         if isinstance(driver, SimServoDriver) and not driver.ready():
             # Active, but no session is offered (so nothing can move) until it is.
@@ -214,16 +343,23 @@ class ActuatorBridgeNode(LifecycleNode):
         self._accept_when_ready = True  # check_driver offers a session once the driver is
         limits = self.limits
         assert limits is not None
-        self.publish_status(TestStatus.STATE_RUNNING, (
+        text = (
             f'active ({self.get_parameter("driver").value}): |x| <= {limits.max_displacement} '
             f'm, |dx| <= {limits.max_increment} m per step, |f| <= {limits.max_force} N'
             + (f', force ramp <= {limits.max_force_increment} N per sub-step'
-               if limits.max_force_increment > 0.0 else '')))
+               if limits.max_force_increment > 0.0 else ''))
+        latched = self._latched()
+        if latched:
+            self.publish_status(TestStatus.STATE_HOLDING, f'{text}; holding: {latched}')
+        else:
+            self.publish_status(TestStatus.STATE_RUNNING, text)
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Ramp force-controlled actuators down to 0 N, hold position and stop answering
         the integrator."""
+        if not self._transition('deactivate'):
+            return FAILURE
         note = self.bridge.ramp_down() if self.bridge is not None else ''
         self._stop_answering()
         self._accept_when_ready = False
@@ -258,12 +394,16 @@ class ActuatorBridgeNode(LifecycleNode):
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Release the driver."""
+        if not self._transition('cleanup'):
+            return FAILURE
         self._release()
         self.publish_status(TestStatus.STATE_IDLE, 'unconfigured')
         return SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Hold and release the hardware."""
+        if not self._transition('shutdown'):
+            return FAILURE
         self.receiver.set_accepting(False)
         self._hold_driver()
         self._stop_answering()
@@ -293,8 +433,16 @@ class ActuatorBridgeNode(LifecycleNode):
         self.bridge = ActuatorBridge(self.driver, self.limits, names,
                                      on_limit=value('on_limit').value)
         self.bridge.set_reply_callback(self._publish_reply)
-        if self._emergency is not None:
-            self.bridge.emergency_stop(self._emergency)
+        if self.holds.emergency is not None:
+            self.bridge.emergency_stop(self._latched())
+        elif self.holds.operator is not None:
+            self.bridge.handle_fault(self.holds.operator)
+        driver_name = str(value('driver').value)
+        self.receiver.configuration = json.dumps(
+            {'driver': driver_name, 'limits': _limits_in_force(self.limits),
+             'on_limit': str(value('on_limit').value)}, sort_keys=True)
+        self.record.append({'what': 'configured', 'driver': driver_name,
+                            'limits': _limits_in_force(self.limits)})
         if isinstance(self.driver, SimServoDriver) and not self.driver.ready():
             text = 'configured: position read from the specimen node once it answers'
         else:
@@ -347,23 +495,31 @@ class ActuatorBridgeNode(LifecycleNode):
 
     # -- status and replies -------------------------------------------------------------------
     def publish_status(self, state: int, message: str) -> None:
-        """Publish the bridge's latched status."""
-        status = TestStatus()
-        status.header.stamp = now_stamp()
-        status.test_id = self._test_id
-        status.state = state
-        status.step = self._step
-        status.message = message
+        """Publish the bridge's latched status (signed; again every second as a heartbeat)."""
         refused = merge_refusals(self.refusals().values())
-        status.refused_messages = sum(refused.values())
-        status.refused_by_reason = describe_refusals(refused)
-        self._status_pub.publish(status)
+        status = Status(test_id=self._test_id, state=TestState(state), step=int(self._step),
+                        total_steps=0, omega_dt=0.0, message=message,
+                        refused_messages=sum(refused.values()),
+                        refused_by_reason=describe_refusals(refused),
+                        emergency_stop=self.holds.emergency is not None,
+                        operator_hold=self.holds.operator is not None,
+                        acknowledged=self._acknowledged)
+        self._status_pub.publish(self.announcer.status(status))
         self._last_status = (state, message)
+        self._status_at = time.monotonic()
+
+    def _heartbeat(self) -> None:
+        """The last status again if none went out for a second (a live bridge is heard)."""
+        if time.monotonic() - self._status_at >= HEARTBEAT_S * 0.9:
+            state, message = self._last_status
+            self.publish_status(state, message)
 
     def refusals(self) -> dict[str, dict[str, int]]:
         """Messages refused by authentication, by source and reason."""
         counts = {'step_command': dict(self.receiver.gate.refused),
                   'bridge/control': dict(self._control_gate.refused)}
+        if self._malformed:
+            counts['malformed'] = {Refusal.MALFORMED.value: self._malformed}
         driver_refused = getattr(self.driver, 'refused', None)
         if isinstance(driver_refused, dict):
             counts['specimen/step_feedback'] = driver_refused
@@ -454,8 +610,14 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge = self.bridge
         if bridge is None:
             return
-        signature = signature_from_message(message.signature)
-        reason = self.receiver.admit(command_from_message(message), signature)
+        try:
+            command = command_from_message(message)
+            signature = signature_from_message(message.signature)
+        except MalformedMessageError:
+            self._malformed += 1
+            self._refused(Refusal.MALFORMED, Signature(), 'step_command')
+            return
+        reason = self.receiver.admit(command, signature)
         if reason is not None:  # never moves on a message it cannot authenticate
             self._refused(reason, signature, 'step_command')
             return
@@ -521,19 +683,39 @@ class ActuatorBridgeNode(LifecycleNode):
                 self._publish_reply(reply)
 
     def emergency_stop(self, reason: str) -> None:
-        """Hold at once, from any state; latched until ``reset_emergency_stop``."""
-        reason = f'EMERGENCY STOP: {reason or "no reason given"}'
-        self._emergency = reason
-        self._hold_driver()
+        """Hold at once, from any state; latched (and on disk) until a signed
+        ``reset_emergency_stop``. Anyone may stop: the reason is cut to 256 characters, and a
+        stop that arrives while one is latched is counted, not logged or recorded."""
+        self._hold_driver()  # first: nothing about the record may delay the stop
+        reason = clip_reason(reason) or 'no reason given'
+        event = self.holds.emergency_stop(reason)
+        if event is None:  # latched already
+            if self.bridge is not None:
+                self.bridge.emergency_stop(self._latched())
+            self._log_repeated_stops()
+            return
+        self._auto_held = False
+        self.record.append(event)
+        text = self._latched()
         if self.bridge is not None:
-            reply = self.bridge.emergency_stop(reason)
+            reply = self.bridge.emergency_stop(text)
             if reply is not None:
                 self._publish_reply(reply)
-        self.get_logger().error(reason)
-        self.publish_status(TestStatus.STATE_HOLDING, reason)
+        self.get_logger().error(text)
+        self.publish_status(TestStatus.STATE_HOLDING, text)
+
+    def _log_repeated_stops(self) -> None:
+        """At most one line per ``ESTOP_LOG_INTERVAL_S`` about stops while one is latched."""
+        now = time.monotonic()
+        if now - self._estop_logged_at < ESTOP_LOG_INTERVAL_S:
+            return
+        count = self.holds.repeats - self._estop_repeats_logged
+        self._estop_logged_at, self._estop_repeats_logged = now, self.holds.repeats
+        self.get_logger().warning(f'{count} more emergency stop(s) while one is latched '
+                                  '(counted; the first one\'s reason stands)')
 
     def _on_emergency_topic(self, message: String) -> None:
-        self.emergency_stop(message.data)
+        self.emergency_stop(message.data[:4 * 256])
 
     def _on_emergency_service(self, request: Trigger.Request, response: Trigger.Response
                               ) -> Trigger.Response:
@@ -542,14 +724,18 @@ class ActuatorBridgeNode(LifecycleNode):
         response.message = 'holding (latched until reset_emergency_stop)'
         return response
 
-    def reset(self, *, clear_emergency: bool = False) -> tuple[bool, str]:
-        """Leave a latched hold (operator action); an e-stop needs ``clear_emergency``."""
-        if self._emergency is not None and not clear_emergency:
-            return False, f'refused: {self._emergency} (use reset_emergency_stop)'
+    def reset(self, *, clear_emergency: bool = False, by: str = 'operator') -> tuple[bool, str]:
+        """Leave a latched hold (a person's action); an e-stop needs ``clear_emergency``."""
+        if self.holds.emergency is not None and not clear_emergency:
+            return False, f'refused: {self._latched()} (use reset_emergency_stop)'
         if self.bridge is not None and not self.bridge.reset(clear_emergency=clear_emergency):
             return False, 'refused by the bridge'
-        self._emergency = None
-        message = 'hold reset by operator'
+        event = self.holds.clear(emergency=clear_emergency, by=by)
+        if event is not None:
+            self.record.append(event)
+        self._auto_held = False
+        what = 'emergency stop and hold' if clear_emergency else 'hold'
+        message = f'{what} reset by {clip_reason(by, 80)}'
         self.get_logger().warning(message)
         active = self._command_sub is not None
         self.publish_status(TestStatus.STATE_RUNNING if active else TestStatus.STATE_IDLE,
@@ -570,38 +756,88 @@ class ActuatorBridgeNode(LifecycleNode):
                           ) -> Trigger.Response:
         if self.key is not None:
             return self._unauthenticated_reset(response)
-        response.success, response.message = self.reset()
+        response.success, response.message = self.reset(by='the bridge/reset service')
         return response
 
     def _on_reset_emergency(self, request: Trigger.Request, response: Trigger.Response
                             ) -> Trigger.Response:
         if self.key is not None:
             return self._unauthenticated_reset(response)
-        response.success, response.message = self.reset(clear_emergency=True)
+        response.success, response.message = self.reset(
+            clear_emergency=True, by='the bridge/reset_emergency_stop service')
         return response
 
     def _on_control(self, message: Any) -> None:
-        control = control_from_message(message)
-        signature = signature_from_message(message.signature)
-        reason = self._control_gate.admit(control_payload(control), signature, control.stamp)
+        try:
+            control = control_from_message(message)
+            signature = signature_from_message(message.signature)
+        except MalformedMessageError:
+            self._malformed += 1
+            self._refused(Refusal.MALFORMED, Signature(), 'bridge/control')
+            return
+        reason = self._control_gate.admit(control, signature, self._test_id)
         if reason is not None:
             self._refused(reason, signature, 'bridge/control')
             return
         request = control.command.strip().lower()
+        sender = clip_reason(control.sender or 'an unnamed sender', 120)
+        outcome = self._obey(request, sender, clip_reason(control.reason))
+        self._acknowledged = acknowledgement(signature, request, outcome)
+        # The audit trail, and the replay memory a restarted bridge starts from.
+        self.record.append({'what': 'control', 'command': clip_reason(request, 40),
+                            'sender': sender, 'reason': clip_reason(control.reason),
+                            'session': signature.session, 'sequence': signature.sequence,
+                            'outcome': outcome})
+        if outcome != 'ok':
+            self.get_logger().warning(f'bridge/control {request} from {sender}: {outcome}')
+        state, text = self._last_status
+        self.publish_status(state, text)
+
+    def _obey(self, request: str, sender: str, reason: str) -> str:
+        """Carry out an admitted control; ``'ok'`` or ``'refused: why'``."""
+        why = f' ({reason})' if reason else ''
         if request == 'reset':
-            ok, text = self.reset()
+            ok, text = self.reset(by=sender)
         elif request == 'reset_emergency_stop':
-            ok, text = self.reset(clear_emergency=True)
+            ok, text = self.reset(clear_emergency=True, by=sender)
         elif request == 'hold':
-            self._on_driver_fault('hold requested by operator')
-            self.publish_status(TestStatus.STATE_HOLDING, 'hold requested by operator')
-            return
+            held = f'held by {sender}{why}'
+            self.record.append(self.holds.operator_hold(held))
+            self._auto_held = False
+            self._on_driver_fault(held)
+            self.publish_status(TestStatus.STATE_HOLDING, held)
+            return 'ok'
+        elif request == 'auto_hold':  # the supervisor: a process of the test died
+            holding = self.bridge is not None and self.bridge.state == 'holding'
+            self._auto_held = not holding and not self._latched()
+            held = f'held by {sender}{why}'
+            self._on_driver_fault(held)
+            if not holding:
+                self.publish_status(TestStatus.STATE_HOLDING, held)
+            return 'ok'
+        elif request == 'auto_reset':  # the supervisor, after the restart it held for
+            blocked = self.holds.blocks_automatic
+            if blocked is not None:
+                return f'refused: {blocked}; a person resets it'
+            if not self._auto_held and self.bridge is not None and self.bridge.state == 'holding':
+                return (f'refused: the bridge holds for another reason '
+                        f'({self.bridge.hold_reason}); a person resets it')
+            ok, text = self.reset(by=sender)
+        elif request in LIFECYCLE_CONTROLS:
+            if not self.trigger(request):
+                return (f'refused: the {request} transition failed (state '
+                        f'{self._state_machine.current_state[1]})')
+            return 'ok'
         else:
-            self.get_logger().warning(f'bridge/control: unknown request {control.command!r} '
-                                      '(reset, reset_emergency_stop, hold)')
-            return
-        if not ok:
-            self.get_logger().warning(f'bridge/control {request}: {text}')
+            return (f'refused: unknown request {request!r} (reset, reset_emergency_stop, hold, '
+                    f'{", ".join(LIFECYCLE_CONTROLS)})')
+        return 'ok' if ok else text if text.startswith('refused') else f'refused: {text}'
+
+
+def _limits_in_force(limits: SafetyLimits) -> dict[str, float]:
+    """The limits as a mapping of the ones set (for the record and the offer)."""
+    return {name: value for name, value in dataclasses.asdict(limits).items()
+            if value is not None}
 
 
 def _positions(values: Any) -> str:
@@ -610,12 +846,12 @@ def _positions(values: Any) -> str:
 
 def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
     """Configure, wait for the driver, activate (simulated set-ups)."""
-    if node.trigger_configure() != SUCCESS:
+    if not node.trigger('configure'):
         return
     driver = node.driver
     while rclpy.ok() and isinstance(driver, SimServoDriver) and not driver.ready():
         executor.spin_once(timeout_sec=0.05)
-    node.trigger_activate()
+    node.trigger('activate')
 
 
 
@@ -631,6 +867,7 @@ def main(args: list[str] | None = None) -> int:
     def cleanup(node: ActuatorBridgeNode) -> None:
         node._hold_driver()
         node._release()
+        node.record.close()
 
     return run_node('pd_actuator_bridge', ActuatorBridgeNode, (AuthError, BridgeError), body,
                     cleanup=cleanup, teardown_timeout=TEARDOWN_TIMEOUT)

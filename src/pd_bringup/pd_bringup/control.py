@@ -1,14 +1,20 @@
-"""Send a signed operator control: ``./pd control COMMAND [options]``.
+"""Send a signed operator control and wait until its receiver confirms it: ``./pd control``.
 
-To the integrator (``/pd/test_control``): ``pause``, ``resume``, ``hold``, ``abort``, and
-``restarted --reason WHAT`` (records in the run that a process was restarted by hand). To a
-bridge (``--bridge``, ``/pd/[<site>/]bridge/control``): ``reset``, ``reset_emergency_stop``,
-``hold``. The control is signed with the rig's or test's key, stamped now and sent once; the
-receiver obeys it only if the signature, the stamp (within 30 s of its clock) and the sequence
-are right. The emergency stop needs no key: ``./pd control estop`` waits until the number of
-listeners on the lab-wide ``/pd/emergency_stop`` topic stops growing (every bridge and the
-integrator listen), then publishes the stop ten times in one second (every listener latches it,
-so a repeat changes nothing and a late-matched bridge still gets it).
+To the integrator (``/pd/test_control``): ``pause``, ``resume``, ``hold``, ``abort``. To a
+bridge (``--bridge [--site SITE]``, ``/pd/[<site>/]bridge/control``): ``reset``,
+``reset_emergency_stop``, ``hold``, and its lifecycle transitions ``configure``,
+``activate``, ``deactivate``, ``cleanup`` (with a key, the bridge takes them only so). The
+control is bound to its receiver as the receiver's signed status names it (its node, its
+instance session, its test), signed with the rig's or test's key and stamped now; the receiver
+acknowledges it in its status, and the command waits for that: it prints what the receiver did
+(exit 0), or why it refused (exit 1), and sends the control again (signed anew) when no
+acknowledgement comes within a second, until ``--timeout`` (exit 1, naming the receiver).
+
+The emergency stop needs no key: ``./pd control estop`` waits until the number of listeners
+on the lab-wide ``/pd/emergency_stop`` topic stops growing, publishes the stop ten times in
+one second (every listener latches it, a repeat changes nothing), and then waits until every
+bridge and integrator that listens says it holds (its status' ``emergency_stop``), sending the
+stop again meanwhile; it exits 1 naming any that did not confirm.
 """
 
 from __future__ import annotations
@@ -23,86 +29,176 @@ import rclpy
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from pd_common.auth import KEY_FILE_ENV, AuthError, Signer, load_key
-from pd_common.protocol import GLOBAL_EMERGENCY_STOP, site_topic_name
-from pd_common.ros import CONTROL_DEPTH, repeat_emergency_stop, settle_listeners
-from pd_msgs.msg import Control as ControlMessage
+from pd_common.auth import KEY_FILE_ENV, AuthError, Key, describe_refusals, load_key
+from pd_common.protocol import (
+    BRIDGE_CONTROLS,
+    GLOBAL_EMERGENCY_STOP,
+    TEST_CONTROLS,
+    clip_reason,
+    operator_name,
+    site_topic_name,
+)
+from pd_common.ros import (
+    CONTROL_DEPTH,
+    RESEND_S,
+    ControlSender,
+    emergency_stop_receivers,
+    repeat_emergency_stop,
+    settle_listeners,
+)
 
-from .operator import signed_control
 from .rig import default_rig_key
-
-TEST_COMMANDS = ('pause', 'resume', 'hold', 'abort', 'restarted')
-BRIDGE_COMMANDS = ('reset', 'reset_emergency_stop', 'hold')
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """Command-line arguments."""
     parser = argparse.ArgumentParser(prog='control', description=__doc__.splitlines()[0])
-    parser.add_argument('command', help=f'{", ".join(TEST_COMMANDS)} (integrator); '
-                        f'{", ".join(BRIDGE_COMMANDS)} (with --bridge); estop (no key)')
+    parser.add_argument('command', help=f'{", ".join(TEST_CONTROLS)} (integrator); '
+                        f'{", ".join(BRIDGE_CONTROLS)} (with --bridge); estop (no key)')
     parser.add_argument('--bridge', action='store_true', help="to a bridge's bridge/control")
     parser.add_argument('--site', default='', help='the site of a substructured test')
     parser.add_argument('--key', type=Path, default=None,
                         help=f'key file (default: ${KEY_FILE_ENV}, then {default_rig_key()})')
-    parser.add_argument('--reason', default='', help='why (shown in the logs and statuses)')
+    parser.add_argument('--reason', default='', help='why (shown in the logs, statuses and the '
+                        'record; at most 256 characters)')
     parser.add_argument('--timeout', type=float, default=10.0,
-                        help='seconds to wait for the receiver (default 10)')
+                        help='seconds to wait for the receiver and its confirmation '
+                        '(default 10)')
     return parser.parse_args(argv)
 
 
+def _key_path(args: argparse.Namespace) -> Path:
+    return args.key or Path(os.environ.get(KEY_FILE_ENV) or default_rig_key())
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; 0 when the control was delivered to a subscriber, 1 if none, 2 on input."""
+    """Entry point: 0 when the receiver confirmed the control, 1 if it refused it or did not
+    confirm it, 2 on bad input."""
     args = parse_args(argv)
     command = args.command.strip().lower()
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    allowed = BRIDGE_COMMANDS if args.bridge else (*TEST_COMMANDS, 'estop')
+    allowed = BRIDGE_CONTROLS if args.bridge else (*TEST_CONTROLS, 'estop')
     if command not in allowed:
         print(f'control: error: {command!r} is not a {"bridge" if args.bridge else "test"} '
               f'control ({", ".join(allowed)})', file=sys.stderr)
         return 2
-    signer = None
+    if not args.timeout > 0.0:
+        print(f'control: error: --timeout: must be a positive number of seconds, got '
+              f'{args.timeout}', file=sys.stderr)
+        return 2
+    key: Key | None = None
     if command != 'estop':
-        path = args.key or Path(os.environ.get(KEY_FILE_ENV) or default_rig_key())
         try:
-            signer = Signer(load_key(path))
+            key = load_key(_key_path(args))
         except AuthError as err:
             print(f'control: error: {err}', file=sys.stderr)
             return 2
+    else:  # anyone may stop; a key (if one is at hand) only checks the confirmations
+        try:
+            key = load_key(_key_path(args)) if _key_path(args).exists() else None
+        except AuthError:
+            key = None
     rclpy.init()
     try:
         node = Node('pd_control', namespace='pd')
-        if command == 'estop':
-            topic, publisher = GLOBAL_EMERGENCY_STOP, node.create_publisher(
-                String, GLOBAL_EMERGENCY_STOP, CONTROL_DEPTH)
-            message: object = String(data=args.reason or 'pd control estop')
-        else:
-            assert signer is not None
-            topic = (site_topic_name(args.site, 'bridge/control') if args.bridge
-                     else site_topic_name('', 'test_control'))
-            publisher = node.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
-            message = signed_control(signer, command, args.site, args.reason)
 
         def spin(seconds: float) -> None:
             until = time.monotonic() + seconds
             while (left := until - time.monotonic()) > 0.0:
                 rclpy.spin_once(node, timeout_sec=left)
 
-        # The e-stop goes to every bridge and the integrator; a control to its one receiver.
-        listeners = settle_listeners(publisher.get_subscription_count, timeout=args.timeout,
-                                     settle=0.5 if command == 'estop' else 0.0, wait=spin)
-        if listeners == 0:
-            print(f'control: error: nobody listens on {topic} (is the test running? same '
-                  'ROS_DOMAIN_ID?)', file=sys.stderr)
-            return 1
         if command == 'estop':
-            repeat_emergency_stop(lambda: publisher.publish(message), sleep=spin)
-        else:
-            publisher.publish(message)
-        spin(0.5)  # let the reliable transport deliver it
-        print(f'control: {command} sent on {topic} ({listeners} listening)')
-        return 0
+            return _emergency_stop(node, key, args, spin)
+        return _control(node, key, command, args, spin)
     finally:
         rclpy.try_shutdown()
+
+
+def _control(node: Node, key: Key | None, command: str, args: argparse.Namespace,
+             spin: object) -> int:
+    """A signed control, bound to its receiver, until it is acknowledged."""
+    assert callable(spin)
+    sender = ControlSender(node, key, operator_name('pd control'))
+    if args.bridge:
+        topic = site_topic_name(args.site, 'bridge/control')
+        status_topic = site_topic_name(args.site, 'bridge/status')
+    else:
+        topic, status_topic = (site_topic_name('', 'test_control'),
+                               site_topic_name('', 'test_status'))
+    sender.watch(status_topic)
+    deadline = time.monotonic() + args.timeout
+    while not sender.ready(topic, status_topic):
+        if time.monotonic() > deadline:
+            refused = describe_refusals(sender.gate.refused)
+            why = (f'its statuses were refused ({refused}: the right key?)' if refused else
+                   'no status from its node, or it does not listen (is the test running? '
+                   'same ROS_DOMAIN_ID?)')
+            print(f'control: error: no receiver for {command} on {topic}: {why}',
+                  file=sys.stderr)
+            return 1
+        spin(0.05)
+    sent = sender.send(command, topic, status_topic, clip_reason(args.reason))
+    assert sent is not None
+    receiver = sent.control.target
+    while time.monotonic() < deadline:
+        ack = sender.acknowledgement(sent)
+        if ack is not None:
+            if ack.ok:
+                print(f'control: {command} taken by {receiver} (test {sent.control.test_id!r})'
+                      f': {ack.outcome}')
+                return 0
+            print(f'control: error: {receiver} did not take {command}: {ack.outcome}',
+                  file=sys.stderr)
+            return 1
+        if time.monotonic() - sent.sent_at >= RESEND_S:
+            sent = sender.resend(sent)
+        spin(0.05)
+    print(f'control: error: {command} not confirmed by {receiver} within {args.timeout:g} s '
+          f'(sent {sent.attempts} times on {topic})', file=sys.stderr)
+    return 1
+
+
+def _emergency_stop(node: Node, key: Key | None, args: argparse.Namespace,
+                    spin: object) -> int:
+    """The lab-wide stop, until every bridge and integrator listening confirms it holds."""
+    assert callable(spin)
+    topic = GLOBAL_EMERGENCY_STOP
+    publisher = node.create_publisher(String, topic, CONTROL_DEPTH)
+    message = String(data=clip_reason(args.reason) or 'pd control estop')
+    deadline = time.monotonic() + args.timeout
+    listeners = settle_listeners(publisher.get_subscription_count, timeout=args.timeout,
+                                 settle=0.5, wait=spin)
+    if listeners == 0:
+        print(f'control: error: nobody listens on {topic} (is the test running? same '
+              'ROS_DOMAIN_ID?)', file=sys.stderr)
+        return 1
+    receivers = emergency_stop_receivers(node, topic)
+    sender = ControlSender(node, key, operator_name('pd control'))
+    for status_topic in receivers.values():
+        sender.watch(status_topic)
+    repeat_emergency_stop(lambda: publisher.publish(message), sleep=spin)
+    last_sent = time.monotonic()
+
+    def unconfirmed() -> list[str]:
+        return [name for name, status_topic in sorted(receivers.items())
+                if not (status_topic in sender.statuses
+                        and sender.statuses[status_topic].emergency_stop)]
+
+    while (missing := unconfirmed()) and time.monotonic() < max(deadline, last_sent + 1.0):
+        if time.monotonic() - last_sent >= 0.5:  # (a latched stop: a repeat changes nothing)
+            publisher.publish(message)
+            last_sent = time.monotonic()
+        spin(0.05)
+    others = listeners - len(receivers)
+    extra = f'; {others} other listener(s)' if others > 0 else ''
+    if missing:
+        print(f'control: error: estop sent on {topic} ({listeners} listening{extra}), but not '
+              f'confirmed by {", ".join(missing)} within {args.timeout:g} s', file=sys.stderr)
+        return 1
+    names = ', '.join(sorted(receivers))
+    print(f'control: estop sent on {topic} ({listeners} listening{extra}); holding: '
+          f'{names or "no bridge or integrator listens"}')
+    return 0
 
 
 if __name__ == '__main__':

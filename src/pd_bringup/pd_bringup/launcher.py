@@ -76,7 +76,10 @@ from .plan import (
     with_key,
 )
 from .rig import RigError, RigSettings, default_rig_key, load_rig, test_key_path
-from .supervisor import POLICIES, Supervisor
+from .supervisor import HUNG_TIMEOUT, POLICIES, Supervisor
+
+#: run_test's own output once its terminal is gone (SIGHUP), in the run folder.
+LOG_FILE = 'run_test.log'
 
 __all__ = ['LaunchError', 'main', 'parse_overrides', 'resolve_key']
 
@@ -137,6 +140,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--max-restarts', type=int, default=3, metavar='N',
                         help='restarts of one process before the test is left holding '
                         '(default 3)')
+    parser.add_argument('--hung-timeout', type=float, default=HUNG_TIMEOUT, metavar='S',
+                        help='seconds a live node may say nothing (no status, no session offer)'
+                        f' before it is reported as hung and the test held (default '
+                        f'{HUNG_TIMEOUT:g}; 0: off)')
     return parser.parse_args(argv)
 
 
@@ -376,6 +383,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.max_restarts < 0:
             msg = f'--max-restarts: must be 0 or more, got {args.max_restarts}'
             raise LaunchError(msg)
+        if not math.isfinite(args.hung_timeout) or args.hung_timeout < 0.0:
+            msg = (f'--hung-timeout: must be 0 (off) or a number of seconds, got '
+                   f'{args.hung_timeout}')
+            raise LaunchError(msg)
         if args.resume:
             plan = plan_resumed_run(args)
         else:
@@ -412,6 +423,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
     stop = threading.Event()
     previous = {number: signal.signal(number, lambda *_: stop.set())
                 for number in (signal.SIGINT, signal.SIGTERM)}
+    previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, _on_hangup(plan.out / LOG_FILE))
     ros = _OperatorNode(env, key)
     reported: list[bool] = []
 
@@ -427,7 +439,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
     supervisor = Supervisor(plan, policy, env, ros.operator, ros.spin_checked(stop),
                             max_restarts=args.max_restarts,
                             log=lambda line: print(line, file=sys.stderr, flush=True),
-                            on_outputs=report)
+                            on_outputs=report, hung_timeout=args.hung_timeout)
     code = 1
     try:
         supervisor.start(resume=bool(args.resume), confirm=args.confirm,
@@ -447,6 +459,24 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
 
 class _InterruptedError(Exception):
     """The launcher got SIGINT or SIGTERM."""
+
+
+def _on_hangup(log_file: Path) -> Any:
+    """The SIGHUP handler: the terminal is gone (closed, an SSH link dropped), the test is not.
+    run_test's output goes on in ``log_file`` (the nodes it started are in sessions of their
+    own: the hang-up does not reach them)."""
+    def handler(number: int, frame: Any) -> None:
+        try:
+            descriptor = os.open(log_file, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        except OSError:
+            descriptor = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(descriptor, 1)
+        os.dup2(descriptor, 2)
+        os.close(descriptor)
+        print(f'run_test: the terminal hung up (SIGHUP); the test goes on (its output: '
+              f'{log_file})', file=sys.stderr, flush=True)
+
+    return handler
 
 
 class _OperatorNode:

@@ -1,10 +1,13 @@
 """The launcher's hands on the graph: signed controls, and what the nodes say of themselves.
 
-:class:`Operator` is a small rclpy node of ``run_test`` (and the sender of ``./pd control``):
-it signs controls with the test's key (the launcher is the test's owner, as the operator at
-the console is) and sends them to the integrator (``/pd/test_control``) or to a bridge
-(``/pd/[<site>/]bridge/control``); it keeps the last status of the integrator and of every
-bridge, and every session offer it saw (which tells when a restarted process is up again).
+:class:`Operator` is a small rclpy node part of ``run_test``: it sends the supervisor's
+controls (``auto_hold``, ``auto_resume``, ``restarted`` to the integrator on
+``/pd/test_control``; ``auto_hold``, ``auto_reset`` to a bridge on
+``/pd/[<site>/]bridge/control``), bound to their receivers and signed with the test's key (the
+launcher is the test's owner), through :class:`pd_common.ros.ControlSender`, which also reads
+their acknowledgements. It keeps the last genuine status of the integrator and of every bridge
+and every genuine session offer it saw (which tells when a restarted process is up again, and
+that a live one still answers): a status or an offer its node did not sign is not believed.
 """
 
 from __future__ import annotations
@@ -15,18 +18,26 @@ from typing import Any
 
 from rclpy.node import Node
 
-from pd_common.auth import Key, Signer
-from pd_common.protocol import site_topic_name
-from pd_common.ros import CONTROL_DEPTH, LATCHED_QOS, signed_control
-from pd_msgs.msg import Control as ControlMessage
-from pd_msgs.msg import SessionOffer, TestStatus
+from pd_common.auth import Key, StatusGate
+from pd_common.protocol import SUPERVISOR, Acknowledgement, site_topic_name
+from pd_common.ros import LATCHED_QOS, ControlSender, Sent, read_offer
+from pd_msgs.msg import SessionOffer
 
-__all__ = ['Operator', 'SeenOffer', 'signed_control']
+__all__ = ['Operator', 'SeenOffer', 'control_topics']
+
+
+def control_topics(bridge_site: str | None) -> tuple[str, str]:
+    """The control topic and the status topic of the integrator (``None``) or of the bridge
+    of ``bridge_site`` ('' = the default site)."""
+    if bridge_site is None:
+        return site_topic_name('', 'test_control'), site_topic_name('', 'test_status')
+    return (site_topic_name(bridge_site, 'bridge/control'),
+            site_topic_name(bridge_site, 'bridge/status'))
 
 
 @dataclass(frozen=True)
 class SeenOffer:
-    """A session offer and when (``time.monotonic()``) it arrived."""
+    """A genuine session offer and when (``time.monotonic()``) it arrived."""
 
     at: float
     epoch: str
@@ -36,7 +47,7 @@ class SeenOffer:
 
 
 class Operator:
-    """Signed controls to the integrator and the bridges; their statuses and offers.
+    """The supervisor's signed controls; the nodes' statuses and offers (see the module).
 
     Args:
         node: the rclpy node to work on.
@@ -45,45 +56,64 @@ class Operator:
 
     def __init__(self, node: Node, key: Key | None) -> None:
         self.node = node
-        self._signer = Signer(key) if key is not None else None
-        self._publishers: dict[str, Any] = {}
-        self.statuses: dict[str, Any] = {}
+        self.controls = ControlSender(node, key, SUPERVISOR)
+        self._offer_gate = StatusGate(key)
         self.offers: dict[str, SeenOffer] = {}
+        self.pending: list[Sent] = []
 
-    def _publisher(self, topic: str) -> Any:
-        if topic not in self._publishers:
-            self._publishers[topic] = self.node.create_publisher(ControlMessage, topic,
-                                                                 CONTROL_DEPTH)
-        return self._publishers[topic]
+    @property
+    def statuses(self) -> dict[str, Any]:
+        """The last genuine status per status topic."""
+        return self.controls.statuses
 
-    def send(self, command: str, *, bridge_site: str | None = None, reason: str = '') -> bool:
-        """Send one control (to a bridge when ``bridge_site`` is given); whether anyone
-        listens."""
-        topic = (site_topic_name(bridge_site, 'bridge/control') if bridge_site is not None
-                 else site_topic_name('', 'test_control'))
-        publisher = self._publisher(topic)
-        if publisher.get_subscription_count() == 0:
-            return False
-        publisher.publish(signed_control(self._signer, command, bridge_site or '', reason))
-        return True
+    def send(self, command: str, *, bridge_site: str | None = None, reason: str = ''
+             ) -> Sent | None:
+        """Send one control to the integrator (or to the bridge of ``bridge_site``); ``None``
+        when its receiver is not known or not listening. Its acknowledgement is awaited by
+        :meth:`check` (sent again if it does not come)."""
+        topic, status_topic = control_topics(bridge_site)
+        sent = self.controls.send(command, topic, status_topic, reason)
+        if sent is not None:
+            self.pending.append(sent)
+        return sent
+
+    def check(self, resend_after: float = 1.0, attempts: int = 5
+              ) -> list[tuple[Sent, Acknowledgement | None]]:
+        """The controls whose fate is known now: acknowledged, or given up after
+        ``attempts`` sends; the others are sent again after ``resend_after`` s of silence."""
+        done: list[tuple[Sent, Acknowledgement | None]] = []
+        waiting: list[Sent] = []
+        now = time.monotonic()
+        for sent in self.pending:
+            ack = self.controls.acknowledgement(sent)
+            if ack is not None:
+                done.append((sent, ack))
+            elif now - sent.sent_at < resend_after:
+                waiting.append(sent)
+            elif sent.attempts >= attempts:
+                done.append((sent, None))
+            else:
+                waiting.append(self.controls.resend(sent))
+        self.pending = waiting
+        return done
 
     def watch_status(self, topic: str) -> None:
-        """Keep the last status published on ``topic`` (latched)."""
-        def keep(message: Any, topic: str = topic) -> None:
-            self.statuses[topic] = message
-
-        self.node.create_subscription(TestStatus, topic, keep, LATCHED_QOS)
+        """Keep the last genuine status published on ``topic`` (latched)."""
+        self.controls.watch(topic)
 
     def watch_offer(self, namespace: str) -> None:
-        """Keep the last session offer of the receiver in ``namespace``."""
-        def keep(message: Any, namespace: str = namespace) -> None:
-            self.offers[namespace] = SeenOffer(
-                at=time.monotonic(), epoch=str(message.epoch), challenge=str(message.challenge),
-                active_session=str(message.active_session),
-                authenticated=bool(message.authenticated))
+        """Keep the last genuine session offer of the receiver in ``namespace``."""
+        topic = f'{namespace}/session/offer'
 
-        self.node.create_subscription(SessionOffer, f'{namespace}/session/offer', keep,
-                                      LATCHED_QOS)
+        def keep(message: Any) -> None:
+            offer, _ = read_offer(self._offer_gate, topic, message)
+            if offer is None:
+                return
+            self.offers[namespace] = SeenOffer(
+                at=time.monotonic(), epoch=offer.epoch, challenge=offer.challenge,
+                active_session=offer.active_session, authenticated=offer.authenticated)
+
+        self.node.create_subscription(SessionOffer, topic, keep, LATCHED_QOS)
 
     def status_state(self, topic: str) -> int | None:
         """The state of the last status on ``topic`` (``None``: none seen)."""

@@ -25,7 +25,7 @@ from .reports import add_to_summary, read_reports
 
 __all__ = ['BEHIND', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child',
            'LaunchError', 'LaunchPlan', 'attach_fault_reports', 'attach_realtime_reports',
-           'bridge_driver', 'discovery_profile',
+           'bridge_driver', 'bridge_record_file', 'discovery_profile',
            'fault_report_name', 'insert_fault_proxies', 'opensees_command',
            'realtime_report_name', 'site_commands', 'with_key']
 
@@ -149,8 +149,9 @@ class LaunchPlan:
             raise LaunchError(msg) from None
 
     def integrator_command(self, *, resume: bool, note: str = '',
-                           confirm: bool = False) -> list[str]:
-        """The integrator's command line: a new run, or continuing this folder's run."""
+                           confirm: bool = False, held: bool = False) -> list[str]:
+        """The integrator's command line: a new run, or continuing this folder's run (held:
+        it moves nothing before a person's signed resume)."""
         if not resume:
             return list(self.integrator)
         command: list[str] = []
@@ -168,6 +169,8 @@ class LaunchPlan:
             command += ['-p', f'resume_note:={json.dumps(note)}']
         if confirm:
             command += ['-p', 'confirm_resume:=true']
+        if held:
+            command += ['-p', 'hold_on_resume:=true']
         return command
 
 
@@ -208,6 +211,12 @@ def _state_file(out: Path, site: str) -> str:
                .resolve())
 
 
+def bridge_record_file(out: Path, site: str) -> str:
+    """A bridge's durable record in the run folder (emergency stops, holds, controls)."""
+    return str((out / (f'bridge-{site}.record.jsonl' if site else 'bridge.record.jsonl'))
+               .resolve())
+
+
 def site_commands(definition: TestDefinition, test_file: Path, mode: str,
                   bridge_params: Path | None, out: Path) -> tuple[list[Child], bool]:
     """The processes of the specimen side: per site a simulator (and its bridge); whether a
@@ -237,7 +246,8 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
         opensees = (definition.sites or {}).get(site, {}).get('opensees') if site else None
         bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
                   '--params-file', str(params), '-r', f'__ns:={namespace}',
-                  '-p', f'dof_names:={json.dumps(names)}']
+                  '-p', f'dof_names:={json.dumps(names)}',
+                  '-p', f'record_file:={bridge_record_file(out, site)}']
         if opensees is not None:
             port = _free_port()
             children.append(Child(f'opensees_site{label}', 'opensees', site, '',

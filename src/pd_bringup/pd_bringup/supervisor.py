@@ -4,20 +4,33 @@
 unexpectedly, what happens is the ``--on-child-exit`` policy (default ``restart`` for a simulated
 specimen, ``hold`` for a physical one):
 
-* ``restart`` — the test is held (a signed ``hold``), the process is started again *with its
-  state* (the integrator continues from its journal, ``resume_from``; a simulator replays its
-  state file; a bridge reads the actuator's position back), and once it is up the launcher
-  resets a bridge it held and resumes the test (signed ``restarted`` and ``resume``); each
-  restart is in the run's record, its status and ``summary.json``. A process that cannot come
-  back with its state (an OpenSees site), or one that died ``max_restarts`` times, is not
-  restarted: the test holds.
-* ``hold`` — the test holds and waits for the operator (who restarts the process, then
-  ``./pd control resume``, or ``./pd control abort``).
+* ``restart`` — the test is held (a signed ``auto_hold``), the process is started again *with
+  its state* (the integrator continues from its journal, ``resume_from``; a simulator replays
+  its state file; a bridge reads the actuator's position back and its record's latched holds),
+  and once it is up the launcher leaves the hold it made at a bridge (``auto_reset``) and
+  continues the test (signed ``restarted`` and ``auto_resume``); each restart is in the run's
+  record, its status and ``summary.json``. A process that cannot come back with its state (an
+  OpenSees site), or one that died ``max_restarts`` times, is not restarted: the test holds.
+* ``hold`` (a physical specimen) — the test holds and waits for the operator (who restarts
+  the process, then ``./pd control resume``, or ``./pd control abort``). A dead integrator is
+  restarted from its journal *held*: nothing moves before a person's signed ``resume``; every
+  bridge stays up, holding its actuator.
 * ``abort`` — the test is aborted (its outputs are written) and everything stops.
 
-Children die with the launcher (``PR_SET_PDEATHSIG``): no orphan keeps a specimen side alive
-with nobody supervising it. The integrator gets SIGTERM then: it interrupts the test cleanly
-(resumable with ``./pd run --resume``).
+The supervisor never undoes a person's stop: a bridge or an integrator refuses ``auto_reset``
+and ``auto_resume`` while an emergency stop or a person's pause or hold is latched (durable in
+their records, so a restart does not clear it either), and the supervisor does not even send
+them then: it says who holds the test and waits.
+
+Every node says it is alive at least once a second (its signed status or session offer); a
+process that is alive but silent for ``hung_timeout`` s has stopped answering: it is reported,
+the test held, and under ``restart`` the process is killed and restarted with its state.
+
+Children die with the launcher (``PR_SET_PDEATHSIG``), except, under ``hold``, the specimen
+side: a bridge holding a physical actuator outlives its launcher (and ``./pd run --resume``
+adopts it rather than starting a second one); it stops only on an explicit shutdown. The
+integrator gets SIGTERM then: it interrupts the test cleanly (resumable with
+``./pd run --resume``).
 
 Once the integrator has written its ``summary.json`` (the test is over: its last step is
 committed, or it ended otherwise) the specimen side is stopped at once, while the integrator
@@ -37,20 +50,77 @@ import subprocess
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
 
 from .operator import Operator
 from .plan import Child, LaunchPlan
 
-__all__ = ['POLICIES', 'Supervisor']
+__all__ = ['HUNG_TIMEOUT', 'POLICIES', 'PROCESSES_FILE', 'Supervisor']
 
 POLICIES = ('restart', 'hold', 'abort')
 STOP_TIMEOUT = 10.0
 READY_TIMEOUT = 30.0
+#: Seconds a live node may stay silent (no status, no offer) before it is reported as hung.
+HUNG_TIMEOUT = 10.0
+#: The run folder's record of the processes run_test started (what ``--resume`` adopts).
+PROCESSES_FILE = 'processes.json'
 _PR_SET_PDEATHSIG = 1
 #: Integrator exit codes of a test that ended on its own (finished; aborted, held or
 #: interrupted; invalid): anything else (a signal, a crash) is a death.
 _ENDED = (0, 1, 2)
 _HOLDING = 3
+#: States after which an integrator says nothing more (finished, aborted, interrupted).
+_FINAL_STATES = (4, 5, 6)
+
+
+class _Process(Protocol):
+    """What the supervisor needs of a process: a child's ``Popen``, or an adopted one."""
+
+    pid: int
+    returncode: int | None
+
+    def poll(self) -> int | None: ...
+
+    def wait(self, timeout: float | None = None) -> int: ...
+
+
+def _start_ticks(pid: int) -> int | None:
+    """The start time of process ``pid`` in clock ticks since boot (``None``: no such
+    process): with the pid, it names one process (pids are reused, start times are not)."""
+    try:
+        text = Path(f'/proc/{pid}/stat').read_text(encoding='ascii', errors='replace')
+    except OSError:
+        return None
+    fields = text[text.rfind(')') + 2:].split()
+    try:
+        return int(fields[19])
+    except (IndexError, ValueError):
+        return None
+
+
+class _Adopted:
+    """A process a previous launcher started and left running (a bridge holding its
+    actuator under ``hold``): watched by its pid and start time, stopped by signals."""
+
+    def __init__(self, pid: int, ticks: int) -> None:
+        self.pid = pid
+        self._ticks = ticks
+        self.returncode: int | None = None
+
+    def poll(self) -> int | None:
+        if self.returncode is None and _start_ticks(self.pid) != self._ticks:
+            self.returncode = -1  # gone (its parent, not this launcher, reaped it)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if deadline is not None and time.monotonic() > deadline:
+                raise subprocess.TimeoutExpired(str(self.pid), timeout or 0.0)
+            time.sleep(0.05)
+        assert self.returncode is not None
+        return self.returncode
 
 
 def _die_with_parent(parent: int) -> Callable[[], None]:
@@ -70,11 +140,12 @@ def _die_with_parent(parent: int) -> Callable[[], None]:
 @dataclass
 class _Running:
     child: Child
-    process: subprocess.Popen[bytes]
+    process: _Process
     started: float
     restarts: int = 0
     down: bool = False  # dead and not restarted (the test holds for it)
     spawned_at: float = 0.0  # time.time() at the start (file times are wall-clock times)
+    hung: bool = False  # reported as not answering (once)
 
 
 @dataclass
@@ -108,9 +179,11 @@ class Supervisor:
     def __init__(self, plan: LaunchPlan, policy: str, env: Mapping[str, str],
                  operator: Operator | None, spin: Callable[[float], None], *,
                  max_restarts: int = 3, log: Callable[[str], None] = print,
-                 on_outputs: Callable[[], None] | None = None) -> None:
+                 on_outputs: Callable[[], None] | None = None,
+                 hung_timeout: float = HUNG_TIMEOUT) -> None:
         self.plan = plan
         self.policy = policy
+        self.hung_timeout = hung_timeout
         self.env = dict(env)
         self.operator = operator
         self._spin = spin
@@ -131,33 +204,84 @@ class Supervisor:
             operator.watch_status('/pd/test_status')
 
     # -- processes --------------------------------------------------------------------------
-    def _spawn(self, command: list[str]) -> subprocess.Popen[bytes]:
+    def _spawn(self, command: list[str], *, outlive: bool = False) -> subprocess.Popen[bytes]:
+        """Start ``command`` in a session of its own; it dies with the launcher unless
+        ``outlive`` (the specimen side under ``hold``)."""
         return subprocess.Popen(command, start_new_session=True, env=self.env,
-                                preexec_fn=_die_with_parent(os.getpid()))
+                                preexec_fn=None if outlive else _die_with_parent(os.getpid()))
+
+    @property
+    def _outlive(self) -> bool:
+        """Whether the specimen side outlives the launcher (``hold``: a physical rig)."""
+        return self.policy == 'hold'
 
     def start(self, *, resume: bool, note: str = '', confirm: bool = False) -> None:
-        """Start the specimen side, then the integrator (a new run, or continuing)."""
+        """Start the specimen side (adopting what a previous launcher left running), then the
+        integrator (a new run, or continuing)."""
+        adopted = self._adoptable() if resume else {}
         for child in self.plan.children:
-            self.children.append(_Running(child, self._spawn(child.command), time.monotonic()))
+            process = adopted.get(child.name)
+            if process is not None:
+                self._log(f'run_test: {child.name} is still running (pid {process.pid}): '
+                          'adopted, not started again')
+            self.children.append(_Running(
+                child, process or self._spawn(child.command, outlive=self._outlive),
+                time.monotonic()))
+        self._save_processes()
         self._start_integrator(resume=resume, note=note, confirm=confirm)
 
+    def _adoptable(self) -> dict[str, _Process]:
+        """The specimen-side processes a previous launcher left running (by the run folder's
+        ``processes.json``: same pid, start time and command line)."""
+        try:
+            recorded = json.loads((self.plan.out / PROCESSES_FILE).read_text(encoding='utf-8'))
+        except (OSError, ValueError):
+            return {}
+        found: dict[str, _Process] = {}
+        commands = {child.name: child.command for child in self.plan.children}
+        for name, entry in recorded.items() if isinstance(recorded, dict) else ():
+            try:
+                pid, ticks, command = int(entry['pid']), int(entry['ticks']), entry['command']
+            except (KeyError, TypeError, ValueError):
+                continue
+            if commands.get(name) == command and _start_ticks(pid) == ticks:
+                found[name] = _Adopted(pid, ticks)
+        return found
+
+    def _save_processes(self) -> None:
+        """Record the specimen side's processes in the run folder (for ``--resume``)."""
+        entries: dict[str, Any] = {}
+        for item in self.children:
+            ticks = _start_ticks(item.process.pid)
+            if ticks is not None:
+                entries[item.child.name] = {'pid': item.process.pid, 'ticks': ticks,
+                                            'command': item.child.command}
+        with contextlib.suppress(OSError):
+            (self.plan.out / PROCESSES_FILE).write_text(json.dumps(entries, indent=1) + '\n',
+                                                        encoding='utf-8')
+
     def _start_integrator(self, *, resume: bool, note: str = '', confirm: bool = False,
-                          restarts: int = 0) -> None:
-        command = self.plan.integrator_command(resume=resume, note=note, confirm=confirm)
+                          restarts: int = 0, held: bool = False) -> None:
+        command = self.plan.integrator_command(resume=resume, note=note, confirm=confirm,
+                                               held=held)
         child = Child('pd_integrator', 'integrator', '', '/pd', command)
         spawned_at = time.time()
         self.integrator = _Running(child, self._spawn(command), time.monotonic(), restarts,
                                    spawned_at=spawned_at)
 
     def stop(self) -> None:
-        """Stop everything: the integrator first (it writes the outputs), then the rest."""
+        """Stop everything: the integrator first (it writes the outputs), then the rest (the
+        explicit shutdown: the bridges go last)."""
         if self.integrator is not None:
             _stop([self.integrator], self._log)
         self.stop_children()
 
     def stop_children(self) -> None:
-        """Stop the specimen side's processes, all at once (SIGTERM to each, then the waits)."""
-        _stop(list(reversed(self.children)), self._log)
+        """Stop the specimen side's processes: the bridges last (SIGTERM to each group, then
+        the waits): a bridge holds its actuator until the very end."""
+        ordered = list(reversed(self.children))
+        _stop([item for item in ordered if item.child.kind != 'bridge'], self._log)
+        _stop([item for item in ordered if item.child.kind == 'bridge'], self._log)
 
     def _summary_written(self, integrator: _Running) -> bool:
         """Whether this integrator process has written its run's ``summary.json`` (complete:
@@ -191,8 +315,12 @@ class Supervisor:
                                   f'({_describe_exit(code)}); some figures may be missing '
                                   f'(./pd replay {self.plan.out / "bag"} writes them)')
                     return int(code) if code in _ENDED else 1
-                if code in _ENDED or not self._revive_integrator(integrator, code):
-                    return int(code) if code in _ENDED else 1
+                if code in _ENDED:
+                    return int(code)
+                if not self._revive_integrator(integrator, code):
+                    if self._outlive:  # a physical rig: the bridges hold until told to stop
+                        self._hold_until_shutdown()
+                    return 1
                 continue
             if self.outputs_written:
                 continue
@@ -202,6 +330,8 @@ class Supervisor:
                 if self._on_outputs is not None:
                     self._on_outputs()
                 continue
+            self._check_controls()
+            self._check_hung()
             for item in self.children:
                 if (not item.down and item.process.poll() is not None
                         and (self._restart is None or self._restart.running is not item)
@@ -210,28 +340,40 @@ class Supervisor:
             if self._restart is not None:
                 self._advance_restart(self._restart)
 
+    def _hold_until_shutdown(self) -> None:
+        """Keep the specimen side up (every bridge holding) until run_test is told to stop."""
+        self._log('run_test: every bridge holds its actuator and stays up; stop run_test '
+                  '(Ctrl-C, or SIGTERM) to shut them down, or resume it later with '
+                  './pd run --resume')
+        while True:
+            self._spin(0.5)
+
     def _revive_integrator(self, integrator: _Running, code: int) -> bool:
-        """The integrator died: continue it from its journal (policy restart)."""
+        """The integrator died: continue it from its journal (``restart``), or restore it
+        held (``hold``: nothing moves before a person's resume)."""
         what = f'pd_integrator died ({_describe_exit(code)})'
-        if self.policy != 'restart' or integrator.restarts >= self.max_restarts:
+        if self.policy == 'abort' or integrator.restarts >= self.max_restarts:
             self._log(f'run_test: {what}; the record is intact up to its last committed step: '
                       f'resume with ./pd run --resume {self.plan.out}')
             return False
         self.restarts += 1
+        held = self.policy == 'hold'
         self._log(f'run_test: {what}; restarting it from its journal '
-                  f'({integrator.restarts + 1}/{self.max_restarts})')
+                  f'({integrator.restarts + 1}/{self.max_restarts})'
+                  + ('; it holds until ./pd control resume (--on-child-exit hold)'
+                     if held else ''))
         self._start_integrator(resume=True, note=f'restarted by run_test: {what}',
-                               restarts=integrator.restarts + 1)
+                               restarts=integrator.restarts + 1, held=held)
         return True
 
     def _child_died(self, item: _Running) -> bool:
         """A specimen-side process died; ``True`` when the test must be aborted."""
         code = item.process.returncode
-        what = f'{item.child.name} exited ({_describe_exit(code)})'
+        what = f'{item.child.name} exited ({_describe_exit(code) if code is not None else "?"})'
         if self.policy == 'abort':
             self._log(f'run_test: {what}; aborting the test (--on-child-exit abort)')
             return True
-        self._send('hold', reason=what)
+        self._send('auto_hold', reason=what)
         if (self.policy == 'hold' or not item.child.restorable
                 or item.restarts >= self.max_restarts or self.operator is None):
             item.down = True
@@ -246,25 +388,41 @@ class Supervisor:
         held = []
         if item.child.kind == 'simulator':  # hold its bridge too: a clean, known state
             for bridge in self._bridges(item.child.site):
-                self._send('hold', bridge_site=bridge.site, reason=what)
+                self._send('auto_hold', bridge_site=bridge.site, reason=what)
                 held.append(bridge)
         epoch = (self.operator.offers[item.child.namespace].epoch
                  if item.child.namespace in self.operator.offers else '')
         self._log(f'run_test: {what}; the test holds; restarting it with its state '
                   f'({item.restarts + 1}/{self.max_restarts})')
-        item.process = self._spawn(item.child.command)
+        item.process = self._spawn(item.child.command, outlive=self._outlive)
         item.restarts += 1
         item.started = time.monotonic()
+        item.hung = False
         self.restarts += 1
-        self._restart = _Restart(item, time.monotonic(), epoch, code, held)
+        self._save_processes()
+        self._restart = _Restart(item, time.monotonic(), epoch,
+                                 code if code is not None else -1, held)
         return False
 
     def _bridges(self, site: str) -> list[Child]:
         return [child for child in self.plan.children
                 if child.kind == 'bridge' and child.site == site]
 
+    def _person_holds(self, topic: str) -> str:
+        """Who holds the node of status ``topic``, if a person does ('' if not)."""
+        assert self.operator is not None
+        status = self.operator.statuses.get(topic)
+        if status is None:
+            return ''
+        if status.emergency_stop:
+            return f'an emergency stop is latched ({status.message})'
+        if status.operator_hold:
+            return f'a person holds it ({status.message})'
+        return ''
+
     def _advance_restart(self, restart: _Restart) -> None:
-        """Once the restarted process is up: reset the bridges held, resume the test."""
+        """Once the restarted process is up: leave the holds it made at the bridges, and
+        continue the test, unless a person holds it."""
         operator = self.operator
         assert operator is not None
         item = restart.running
@@ -283,21 +441,28 @@ class Supervisor:
         for bridge in restart.held_bridges:
             topic = f'{bridge.namespace}/bridge/status'
             if operator.status_state(topic) == _HOLDING:
+                held_by = self._person_holds(topic)
+                if held_by:
+                    self._restart = None
+                    self._log(f'run_test: {bridge.name} is back, but {held_by}: the test '
+                              'holds (a person resets it: ./pd control reset --bridge, then '
+                              './pd control resume)')
+                    return
                 if now - restart.reset_sent > 2.0:
-                    if 'EMERGENCY' in operator.status_message(topic):
-                        self._restart = None
-                        self._log(f'run_test: {bridge.name} holds an emergency stop; the test '
-                                  'holds (clear it, then ./pd control resume)')
-                        return
-                    self._send('reset', bridge_site=bridge.site, reason='restart')
+                    self._send('auto_reset', bridge_site=bridge.site, reason='restart')
                     restart.reset_sent = now
                 return
         what = (f'{item.child.name} (it exited: {_describe_exit(restart.code)}) '
                 'restarted with its state')
         self._send('restarted', reason=what)
-        self._send('resume', reason=f'{item.child.name} restarted')
-        self._log(f'run_test: {item.child.name} is back; resuming the test')
         self._restart = None
+        held_by = self._person_holds('/pd/test_status')
+        if held_by:
+            self._log(f'run_test: {item.child.name} is back; the test stays held: {held_by} '
+                      '(./pd control resume goes on)')
+            return
+        self._send('auto_resume', reason=f'{item.child.name} restarted')
+        self._log(f'run_test: {item.child.name} is back; resuming the test')
 
     def _is_up(self, child: Child, restart: _Restart) -> bool:
         """Whether a restarted receiver offers itself again (and, behind a bridge, the
@@ -312,16 +477,80 @@ class Supervisor:
             if self._bridges(child.site) and offer.authenticated:
                 return bool(offer.active_session)  # the bridge drives it again
             return True
+        if child.kind == 'bridge':  # its status (and so its session) is known again
+            status = self.operator.statuses.get(f'{child.namespace}/bridge/status')
+            if status is None or self.operator.controls.heard.get(
+                    f'{child.namespace}/bridge/status', 0.0) < restart.since:
+                return False
         return bool(offer.challenge) or not offer.authenticated
 
+    # -- controls and liveness --------------------------------------------------------------
     def _send(self, command: str, *, bridge_site: str | None = None, reason: str = '') -> None:
         if self.operator is None:
             return
-        if not self.operator.send(command, bridge_site=bridge_site, reason=reason):
+        if self.operator.send(command, bridge_site=bridge_site, reason=reason) is None:
             target = f'bridge {bridge_site or "default"}' if bridge_site is not None else \
                 'the integrator'
-            self._log(f'run_test: could not send {command} to {target} (not listening)')
+            self._log(f'run_test: could not send {command} to {target} (not listening, or its '
+                      'status is not known)')
         self._spin(0.05)
+
+    def _check_controls(self) -> None:
+        """Report controls a receiver refused, or never acknowledged."""
+        if self.operator is None:
+            return
+        for sent, ack in self.operator.check():
+            command = sent.control.command
+            if ack is None:
+                self._log(f'run_test: {command} was not acknowledged by {sent.control.target} '
+                          f'after {sent.attempts} sends')
+            elif not ack.ok:
+                self._log(f'run_test: {sent.control.target} did not take {command}: '
+                          f'{ack.outcome}')
+
+    def _statement_topic(self, item: _Running) -> tuple[str, str] | None:
+        """Where a process says it is alive: ``('status'|'offer', topic or namespace)``."""
+        kind = item.child.kind
+        if kind == 'integrator':
+            return 'status', '/pd/test_status'
+        if kind == 'bridge':
+            return 'status', f'{item.child.namespace}/bridge/status'
+        if kind == 'simulator':
+            return 'offer', item.child.namespace
+        return None
+
+    def _check_hung(self) -> None:
+        """A live process that has said nothing for ``hung_timeout`` s stopped answering:
+        report it (once), hold the test, and under ``restart`` kill it (it is then restarted
+        with its state like any process that died)."""
+        if self.operator is None or self.hung_timeout <= 0.0:
+            return
+        now = time.monotonic()
+        items = [item for item in (self.integrator, *self.children) if item is not None]
+        for item in items:
+            where = self._statement_topic(item)
+            if where is None or item.hung or item.down or item.process.poll() is not None:
+                continue
+            if where[0] == 'status':
+                heard = self.operator.controls.heard.get(where[1])
+                status = self.operator.statuses.get(where[1])
+                if item.child.kind == 'integrator' and status is not None and int(
+                        status.state) in _FINAL_STATES:
+                    continue  # writing its outputs: it says nothing more
+            else:
+                offer = self.operator.offers.get(where[1])
+                heard = offer.at if offer is not None else None
+            if heard is None or heard < item.started or now - heard < self.hung_timeout:
+                continue
+            item.hung = True
+            self._log(f'run_test: {item.child.name} stopped answering: nothing from it for '
+                      f'{now - heard:.0f} s (pid {item.process.pid}, alive); the test holds')
+            if item.child.kind != 'integrator':
+                self._send('auto_hold', reason=f'{item.child.name} stopped answering')
+            if self.policy == 'restart':
+                self._log(f'run_test: killing {item.child.name} to restart it with its state')
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(item.process.pid, signal.SIGKILL)
 
     def _abort_and_wait(self) -> int:
         self._send('abort', reason='a process of the test died (--on-child-exit abort)')

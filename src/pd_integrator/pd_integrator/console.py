@@ -40,29 +40,28 @@ from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import String
 
-from pd_common.auth import AuthError, Key, Signer, load_key, operator_key_path
+from pd_common.auth import AuthError, Key, load_key, operator_key_path
 from pd_common.config import YAMLError, read_yaml_file
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
+    Status,
     command_from_message,
     feedback_from_message,
     site_topic,
     site_topic_name,
-    status_from_message,
 )
 from pd_common.resources import ResourceError, share_file
 from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
+    RESEND_S,
     STEP_QOS,
+    ControlSender,
     events_executor,
     init_with_stop_flag,
     repeat_emergency_stop,
-    settle_listeners,
-    signed_control,
 )
-from pd_msgs.msg import Control as ControlMessage
-from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import StepCommand, StepFeedback
 
 from .core.console import (
     BRIDGE_LIMITS,
@@ -79,6 +78,9 @@ from .core.console import (
     response_topic,
 )
 from .core.errors import BagError
+
+#: Seconds the console waits for a control's receiver and its acknowledgement.
+CONTROL_WAIT_S = 3.0
 
 DEFAULT_PORT = 8765
 STATIC_FILES = {'console.js': 'application/javascript', 'console.css': 'text/css',
@@ -159,11 +161,12 @@ class ConsoleNode(Node):
             self.key = load_key(operator_key_path(self.key_file or None))
         except AuthError as err:
             self.key_error = str(err)
-        self._signer = Signer(self.key) if self.key is not None else None
+        # Statuses are believed only as their nodes signed them; controls go out bound to
+        # their receivers and are confirmed (pd_common.ros.ControlSender).
+        self.controls = ControlSender(self, self.key, 'console')
         self._sites: set[str] = set()
-        self._control_pubs: dict[str, Any] = {}
         self._estop = self.create_publisher(String, GLOBAL_EMERGENCY_STOP, CONTROL_DEPTH)
-        self.create_subscription(TestStatus, 'test_status', self._on_status, LATCHED_QOS)
+        self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
         self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
         self._watch_site('')
 
@@ -183,8 +186,7 @@ class ConsoleNode(Node):
             with self.lock:
                 self.model.on_feedback(site, feedback)
 
-        def on_bridge(message: Any) -> None:
-            status = status_from_message(message)
+        def on_bridge(status: Status) -> None:
             with self.lock:
                 self.model.on_bridge_status(site, status)
 
@@ -192,11 +194,9 @@ class ConsoleNode(Node):
                                  STEP_QOS)
         self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'), on_feedback,
                                  STEP_QOS)
-        self.create_subscription(TestStatus, site_topic(site, 'bridge/status'), on_bridge,
-                                 LATCHED_QOS)
+        self.controls.watch(site_topic_name(site, 'bridge/status'), on_bridge)
 
-    def _on_status(self, message: Any) -> None:
-        status = status_from_message(message)
+    def _on_status(self, status: Status) -> None:
         with self.lock:
             self.model.on_status(status)
 
@@ -214,21 +214,33 @@ class ConsoleNode(Node):
             return tuple(self.model.sites)
 
     def send_control(self, request: ControlRequest) -> tuple[bool, str]:
-        """Publish a signed control as ``./pd control`` does; (delivered, topic or why not)."""
-        if self._signer is None:
+        """Send a signed control as ``./pd control`` does, bound to its receiver, and wait for
+        its acknowledgement (up to ``CONTROL_WAIT_S``); (taken, what the receiver said)."""
+        if self.key is None:
             return False, f'no key: {self.key_error}'
-        topic = (site_topic_name(request.bridge_site, 'bridge/control')
-                 if request.bridge_site is not None else site_topic_name('', 'test_control'))
-        publisher = self._control_pubs.get(topic)
-        if publisher is None:
-            publisher = self.create_publisher(ControlMessage, topic, CONTROL_DEPTH)
-            self._control_pubs[topic] = publisher
-        if settle_listeners(publisher.get_subscription_count, timeout=2.0, settle=0.0) == 0:
-            return False, f'nobody listens on {topic}'
-        publisher.publish(signed_control(self._signer, request.command,
-                                         request.bridge_site or '', request.reason))
-        self.get_logger().info(f'control {request.command} sent on {topic}')
-        return True, topic
+        if request.bridge_site is not None:
+            topic = site_topic_name(request.bridge_site, 'bridge/control')
+            status_topic = site_topic_name(request.bridge_site, 'bridge/status')
+        else:
+            topic = site_topic_name('', 'test_control')
+            status_topic = site_topic_name('', 'test_status')
+        deadline = time.monotonic() + CONTROL_WAIT_S
+        sent = None
+        while sent is None:
+            sent = self.controls.send(request.command, topic, status_topic, request.reason)
+            if sent is None:
+                if time.monotonic() > deadline:
+                    return False, f'no receiver on {topic} (no status from it, or not listening)'
+                time.sleep(0.05)
+        self.get_logger().info(f'control {request.command} sent to {sent.control.target}')
+        while time.monotonic() < deadline:
+            ack = self.controls.acknowledgement(sent)
+            if ack is not None:
+                return ack.ok, f'{sent.control.target}: {ack.outcome}'
+            if time.monotonic() - sent.sent_at >= RESEND_S:
+                sent = self.controls.resend(sent)
+            time.sleep(0.05)
+        return False, f'{request.command}: not confirmed by {sent.control.target}'
 
     def emergency_stop(self, reason: str) -> str:
         """Publish the lab-wide emergency stop (no key: anyone may stop a machine)."""

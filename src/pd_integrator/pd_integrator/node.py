@@ -24,6 +24,7 @@ Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing 
 from __future__ import annotations
 
 import dataclasses
+import json
 import shutil
 import threading
 import time
@@ -41,30 +42,35 @@ from std_msgs.msg import String
 from pd_common.auth import (
     AuthError,
     ControlGate,
+    Refusal,
     Signer,
-    control_payload,
+    StatusGate,
     describe_refusals,
     merge_refusals,
 )
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Command,
+    MalformedMessageError,
     Signature,
     StateOrigin,
     Status,
     TestState,
+    acknowledgement,
+    clip_reason,
     control_from_message,
     feedback_from_message,
     signature_from_message,
     site_topic,
     site_topic_name,
-    status_from_message,
 )
 from pd_common.ros import (
     CONTROL_DEPTH,
+    HEARTBEAT_S,
     LATCHED_QOS,
     STEP_QOS,
     TEARDOWN_TIMEOUT,
+    Announcer,
     RefusalLog,
     SessionSender,
     command_message,
@@ -72,9 +78,9 @@ from pd_common.ros import (
     exit_process,
     init_with_stop_flag,
     now_stamp,
+    read_status,
     run_node,
     stamp_from_ns,
-    status_message,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Control as ControlMessage
@@ -95,11 +101,14 @@ from .core.run.runner import (
     restore_dispatcher,
 )
 from .core.run.session import TestSession
+from .core.run.steering import Steering
 from .core.run.test_file import PARAMETER_PATHS, load_test_file
 
 #: Seconds between two checks of the feedback timeout and of the sites' sessions in the run
 #: loop (a few steps' time; the timeouts themselves are seconds).
 CHECK_INTERVAL_S = 0.01
+#: Seconds between two log lines about emergency stops received while one is latched.
+ESTOP_LOG_INTERVAL_S = 10.0
 
 _OVERRIDE_DESCRIPTIONS = {
     'test_id': 'identifier of the test (letters, digits, _ - .)',
@@ -158,6 +167,9 @@ class IntegratorNode(Node):
                         "operator's signed resume (the gap and positions are still reported)"))
         self.declare_parameter('resume_note', '', ParameterDescriptor(
             description='why the run is resumed (recorded; run_test notes its restarts)'))
+        self.declare_parameter('hold_on_resume', False, ParameterDescriptor(
+            description="resume_from: restore the run and hold until a person's signed resume "
+                        '(run_test restarts a dead integrator so under --on-child-exit hold)'))
         overrides: dict[str, Any] = {}
         for name in PARAMETER_PATHS:
             self.declare_parameter(name, None, ParameterDescriptor(
@@ -190,7 +202,17 @@ class IntegratorNode(Node):
                                    float(self.get_parameter('progress_interval').value))
 
         self.signer = Signer(self.key) if self.key is not None else None
-        self._control_gate = ControlGate(self.key)
+        self.announcer = Announcer(self, self.key)
+        self._control_gate = ControlGate(self.key, self.announcer.identity,
+                                         self.announcer.session)
+        self._status_gate = StatusGate(self.key)  # the bridges' statuses
+        self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
+        self._malformed = 0
+        self._acknowledged = ''
+        self._estop_logged = (0.0, 0)  # (when, repeats) of the last line about repeats
+        self._last_status_message: Any = None
+        self._status_at = 0.0
+        self._configurations: dict[str, str] = {}  # site -> its offer's configuration
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
         self._resume_requested = False
         self._offers_refused: set[str] = set()
@@ -201,8 +223,14 @@ class IntegratorNode(Node):
         self.bag = Journal(self.directory / JOURNAL_FILE, append=bool(resume_from),
                            sync_interval=float(self.get_parameter('sync_interval').value)).open()
         self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
+        self.steering = Steering(self.session, self._record_event)
+        if self.record is not None:  # what a person held before the restart still holds
+            self.steering.restore(self.record.run_events)
+            for event in self.record.run_events:
+                if event.get('what') == 'control' and event.get('session'):
+                    self._control_gate.remember(str(event['session']), int(event['sequence']))
         self.senders = {site: SessionSender(self, f'{site}/' if site else '', self.signer,
-                                            self.key)
+                                            self.key, on_refused=self._on_refused_offer)
                         for site in self.dispatcher.sites}
         # pd_msgs has no type information: the message type parameter is Any.
         self._command_pubs: dict[str, Publisher[Any]] = {}
@@ -251,6 +279,7 @@ class IntegratorNode(Node):
         self._last_state: TestState | None = None
         self._started = 0.0
         self._figure_worker: FigureWorker | None = None
+        self.create_timer(HEARTBEAT_S, self._heartbeat)
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
@@ -258,22 +287,32 @@ class IntegratorNode(Node):
         """Messages refused by authentication, by source and reason (for the summary)."""
         counts = {f'feedback[{site or "default"}]': dict(sender.reply_gate.refused)
                   for site, sender in self.senders.items()}
+        counts.update({f'session_offer[{site or "default"}]': dict(sender.offer_gate.refused)
+                       for site, sender in self.senders.items()})
+        counts['bridge_status'] = dict(self._status_gate.refused)
         counts['test_control'] = dict(self._control_gate.refused)
+        if self._malformed:
+            counts['malformed'] = {Refusal.MALFORMED.value: self._malformed}
         return {source: count for source, count in counts.items() if count}
 
     def status(self) -> Status:
-        """The dispatcher's status with the refused messages counted."""
+        """The dispatcher's status with the refused messages counted and the holds a person
+        made."""
         status = self.dispatcher.status()
         refused = merge_refusals(self.refusals().values())
-        if not refused:
-            return status
+        holds = self.steering.holds
         return dataclasses.replace(status, refused_messages=sum(refused.values()),
-                                   refused_by_reason=describe_refusals(refused))
+                                   refused_by_reason=describe_refusals(refused),
+                                   emergency_stop=holds.emergency is not None,
+                                   operator_hold=holds.operator is not None,
+                                   acknowledged=self._acknowledged)
 
     def publish_status(self) -> None:
-        """Publish (and record) the session's status."""
+        """Publish (signed) and record the session's status."""
         status = self.status()
-        self._status_pub.publish(status_message(status, now_stamp()))
+        self._last_status_message = self.announcer.status(status, now_stamp())
+        self._status_pub.publish(self._last_status_message)
+        self._status_at = time.monotonic()
         self.bag.write_status(status, time.time_ns())
         if status.state is not self._last_state:
             self._last_state = status.state
@@ -282,6 +321,24 @@ class IntegratorNode(Node):
                 self.get_logger().warning(line)
             else:
                 self.get_logger().info(line)
+
+    def _heartbeat(self) -> None:
+        """The status again (signed anew, not recorded again) if none went out for a second:
+        the supervisor hears a live integrator."""
+        if time.monotonic() - self._status_at < HEARTBEAT_S * 0.9:
+            return
+        self._last_status_message = self.announcer.status(self.status(), now_stamp())
+        self._status_pub.publish(self._last_status_message)
+        self._status_at = time.monotonic()
+
+    def _record_event(self, event: dict[str, Any]) -> None:
+        """One event of the steering (a hold, a control) in the journal, on disk now."""
+        info = {key: value for key, value in event.items() if key != 'what'}
+        self.bag.write_event(str(event['what']), time.time_ns(), **info)
+        self.bag.persist()
+
+    def _on_refused_offer(self, reason: Refusal, signature: Signature, topic: str) -> None:
+        self._refusal_log(reason, signature, topic)
 
     def _publish_command(self, site: str, command: Command) -> Signature:
         """Sign and publish one site command; restart the feedback timer."""
@@ -311,8 +368,10 @@ class IntegratorNode(Node):
                 continue
             topic = self.resolve_topic_name(site_topic(site, 'step_command'))
             sender = self.senders[site]
+            refused = describe_refusals(sender.offer_gate.refused)
             why = sender.mismatch or ('no session opened' if sender.receiver_ready()
-                                      else 'no session offer')
+                                      else f'its session offers are refused: {refused}'
+                                      if refused else 'no session offer')
             missing.append(f'{topic} ({why})')
         return missing
 
@@ -348,6 +407,11 @@ class IntegratorNode(Node):
         refused = []
         for site, sender in self.senders.items():
             offer = sender.offer
+            if offer is not None and offer.configuration and (
+                    self._configurations.get(site) != offer.configuration):
+                self._configurations[site] = offer.configuration
+                self._record_event({'what': 'specimen_side', 'site': site, 'node': offer.node,
+                                    'configuration': offer.configuration})
             if offer is None or not (offer.challenge or offer.active_session):
                 # It offers no session (a bridge not active yet): it announces no state that
                 # could be driven (a restarted bridge knows its specimen's once it is ready).
@@ -405,6 +469,14 @@ class IntegratorNode(Node):
             session.hold('cannot resume: ' + '; '.join(check.refused))
             session.message = 'cannot resume: ' + '; '.join(check.refused)
             return
+        blocked = self.steering.holds.blocks_automatic
+        if blocked is None and bool(self.get_parameter('hold_on_resume').value):
+            blocked = f'restored after a stop ({note or "resumed"}); the test holds'
+        if blocked is not None:  # a person stopped it before the crash: a person resumes it
+            if session.state is TestState.RUNNING:
+                session.state = TestState.HOLDING
+            session.message = f'{blocked}; resume with ./pd control resume'
+            return
         if check.confirm and not bool(self.get_parameter('confirm_resume').value):
             session.message = (f'resumed after a gap of {self._gap:.0f} s: '
                                + '; '.join(check.confirm)
@@ -420,15 +492,24 @@ class IntegratorNode(Node):
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        feedback = feedback_from_message(message)
-        signature = signature_from_message(message.signature)
+        try:
+            feedback = feedback_from_message(message)
+            signature = signature_from_message(message.signature)
+        except MalformedMessageError:
+            self._malformed += 1
+            self._refusal_log(Refusal.MALFORMED, Signature(), self.resolve_topic_name(
+                site_topic(site, 'step_feedback')))
+            self.publish_status()
+            return
         reason = self.senders[site].admit(feedback, signature)
         if reason is not None:  # unsigned, forged, replayed or of another session: not taken
             self._refusal_log(reason, signature, self.resolve_topic_name(
                 site_topic(site, 'step_feedback')))
             self.publish_status()
             return
+        was = self.session.state
         self.dispatcher.on_feedback(site, feedback, signature)
+        self.steering.after_feedback(feedback, was)
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):
             self._round_trips.append(received - sent_at)
@@ -439,45 +520,72 @@ class IntegratorNode(Node):
             self.publish_status()
 
     def _on_bridge_status(self, message: TestStatus, topic: str) -> None:
-        self.bag.write_status(status_from_message(message), time.time_ns(), topic=topic)
+        status, reason = read_status(self._status_gate, topic, message)
+        if status is None:  # not the bridge's word: never recorded as its own
+            if reason is not None:
+                self._refusal_log(reason, signature_from_message(message.signature)
+                                  if reason is not Refusal.MALFORMED else Signature(), topic)
+            return
+        last = self._bridge_statuses.get(topic)
+        if last == status:
+            return  # a heartbeat: the same status again (recorded once)
+        self._bridge_statuses[topic] = status
+        self.bag.write_status(status, time.time_ns(), topic=topic)
 
     def _on_trajectory(self, data: bytes, topic: str) -> None:
         self.bag.write_raw(topic, time.time_ns(), data)
 
     def _on_emergency_stop(self, message: String) -> None:
-        self.session.hold(f'emergency stop: {message.data or "no reason given"}')
+        if self.steering.emergency_stop(message.data[:1024]):
+            self.get_logger().error(f'EMERGENCY STOP: {self.steering.holds.emergency}')
+        else:
+            when, logged = self._estop_logged
+            now = time.monotonic()
+            if now - when >= ESTOP_LOG_INTERVAL_S:
+                repeats = self.steering.holds.repeats
+                self._estop_logged = (now, repeats)
+                self.get_logger().warning(f'{repeats - logged} more emergency stop(s) while '
+                                          'one is latched (counted)')
+                self.publish_status()
+            return
         self.publish_status()
 
     def _on_control(self, message: Any) -> None:
-        control = control_from_message(message)
-        signature = signature_from_message(message.signature)
-        reason = self._control_gate.admit(control_payload(control), signature, control.stamp)
+        try:
+            control = control_from_message(message)
+            signature = signature_from_message(message.signature)
+        except MalformedMessageError:
+            self._malformed += 1
+            self._refusal_log(Refusal.MALFORMED, Signature(),
+                              self.resolve_topic_name('test_control'))
+            self.publish_status()
+            return
+        reason = self._control_gate.admit(control, signature, self.session.definition.test_id)
         if reason is not None:
             self._refusal_log(reason, signature, self.resolve_topic_name('test_control'))
             self.publish_status()
             return
         request = control.command.strip().lower()
-        why = f' ({control.reason})' if control.reason else ''
-        if request == 'pause':
-            self.session.pause()
-        elif request == 'resume':
+        sender = clip_reason(control.sender or 'an unnamed sender', 120)
+        decision = self.steering.control(request, sender, control.reason)
+        if decision.restarted:  # run_test restarted a process of the test
+            for sender_ in self.senders.values():
+                sender_.reopen()  # no motion before every site offers itself anew
+            self.bag.write_event('restart', time.time_ns(), process=clip_reason(control.reason),
+                                 step=self.session.committed_step)
+            self.get_logger().warning(f'restarted: {clip_reason(control.reason)}')
+        self._acknowledged = acknowledgement(signature, request, decision.outcome)
+        # The audit trail (who did what), and the replay memory of a restarted integrator.
+        self._record_event({'what': 'control', 'command': clip_reason(request, 40),
+                            'sender': sender, 'reason': clip_reason(control.reason),
+                            'session': signature.session, 'sequence': signature.sequence,
+                            'outcome': decision.outcome})
+        if decision.outcome != 'ok':
+            self.get_logger().warning(f'test_control {request} from {sender}: '
+                                      f'{decision.outcome}')
+        if decision.resume:
             self._resume_requested = True
             self.check_sessions()
-        elif request == 'abort':
-            self.session.abort(f'aborted by operator{why}')
-        elif request == 'hold':
-            self.session.hold(f'held by operator{why}')
-        elif request == 'restarted':  # run_test restarted a process of the test
-            for sender in self.senders.values():
-                sender.reopen()  # no motion before every site offers itself anew
-            self.bag.write_event('restart', time.time_ns(), process=control.reason,
-                                 step=self.session.committed_step)
-            self.bag.flush()
-            self.get_logger().warning(f'restarted: {control.reason}')
-        else:
-            self.get_logger().warning(f'test_control: unknown request {control.command!r} '
-                                      '(pause, resume, hold, abort or restarted)')
-            return
         self.publish_status()
 
     def check_timeout(self) -> None:
@@ -518,7 +626,8 @@ class IntegratorNode(Node):
                 site_protocol=self.dispatcher.coordinator.summary(),
                 authentication={'enabled': self.key is not None,
                                 'key_id': self.key.key_id if self.key else None,
-                                'refused_messages': self.refusals()})
+                                'refused_messages': self.refusals()},
+                specimen_side=self.specimen_side())
         finally:  # (also when the outputs fail: the worker does not wait for its parent's end)
             if worker is not None:
                 worker.close()
@@ -526,6 +635,25 @@ class IntegratorNode(Node):
             self.get_logger().warning(f'{worker.error}; figures drawn by the integrator')
         self.get_logger().info(f'run folder: {self.directory}')
         return summary
+
+    def specimen_side(self) -> dict[str, Any]:
+        """Per site, the node that answered and what it had in force (a bridge: its driver
+        and limits), from its signed session offers."""
+        sides: dict[str, Any] = {}
+        for site, sender in self.senders.items():
+            offer = sender.offer
+            if offer is None:
+                continue
+            side: dict[str, Any] = {'node': offer.node,
+                                    'state_origin': _origin(offer.state_origin).name.lower()}
+            configuration = self._configurations.get(site) or offer.configuration
+            if configuration:
+                try:
+                    side.update(json.loads(configuration))
+                except ValueError:
+                    side['configuration'] = configuration
+            sides[site or 'default'] = side
+        return sides
 
     def _journal_to_bag(self) -> None:
         """The run's bag from its journal (a bag of an earlier recovery is replaced: the

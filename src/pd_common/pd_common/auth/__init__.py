@@ -17,6 +17,7 @@ from .gates import (
     CommandGate,
     ControlGate,
     ReplyGate,
+    StatusGate,
     describe_refusals,
     merge_refusals,
 )
@@ -30,7 +31,14 @@ from .keys import (
     new_key,
     operator_key_path,
 )
-from .payloads import command_payload, control_payload, feedback_payload, session_start_payload
+from .payloads import (
+    command_payload,
+    control_payload,
+    feedback_payload,
+    offer_payload,
+    session_start_payload,
+    status_payload,
+)
 from .signing import (
     Refusal,
     Signer,
@@ -53,6 +61,7 @@ __all__ = [
     'Refusal',
     'ReplyGate',
     'Signer',
+    'StatusGate',
     'canonical',
     'command_payload',
     'control_payload',
@@ -65,8 +74,10 @@ __all__ = [
     'merge_refusals',
     'new_key',
     'new_session',
+    'offer_payload',
     'operator_key_path',
     'session_start_payload',
     'sign_reply',
+    'status_payload',
     'verify_mac',
 ]

@@ -6,8 +6,14 @@
   only commands signed in that session, with increasing sequence numbers, are admitted.
 * :class:`ReplyGate` — the sender's side (the integrator, a bridge driving a simulator): only
   replies signed for its own session, with increasing sequence numbers, are admitted.
-* :class:`ControlGate` — operator controls (resume, abort, reset, ...): signed, stamped within
-  a time window of the receiver's clock, and never twice (session and sequence remembered).
+* :class:`ControlGate` — operator controls (resume, abort, reset, ...): signed, bound to the
+  receiving node, its instance session and its test, stamped within a time window of the
+  receiver's clock, and never twice (session and sequence remembered; the memory is seeded
+  from the receiver's record after a restart, :meth:`ControlGate.remember`).
+* :class:`StatusGate` — what a node says of itself (its status, its session offer): signed by
+  a key holder, and never older than what the same publisher said before (sequence within a
+  process, publication time across processes), so a recorded status or offer cannot be
+  replayed as the node's word.
 
 Each gate counts what it refused, by :class:`~.signing.Refusal`. A gate without a key admits
 everything (authentication off: a test on an isolated machine that asked for it).
@@ -19,11 +25,13 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
 
+from ..protocol.messages import Control
 from ..protocol.signature import Signature
 from .keys import Key
+from .payloads import control_payload
 from .signing import Refusal, new_session, verify_mac
 
-__all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate',
+__all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate', 'StatusGate',
            'describe_refusals', 'merge_refusals']
 
 #: Largest difference between a control's stamp and the receiver's clock, s.
@@ -134,42 +142,88 @@ class ReplyGate(_Gate):
 
 
 class ControlGate(_Gate):
-    """Admits signed operator controls stamped within ``window`` s, each at most once."""
+    """Admits signed operator controls bound to this receiver, fresh, each at most once.
 
-    def __init__(self, key: Key | None, window: float = DEFAULT_CONTROL_WINDOW,
+    A control is obeyed only if its MAC is right, it names this node (``identity``), this
+    node's instance ``session`` and the test it serves now, it is stamped within ``window`` s
+    of the receiver's clock, and its ``(session, sequence)`` was never admitted before.
+
+    Args:
+        key: the key (``None``: authentication off, everything is admitted).
+        identity: the receiving node's fully qualified name.
+        session: the receiving node's instance session (random per process start).
+        window: largest difference between a control's stamp and the clock, s.
+        clock: the receiver's clock (s since the epoch).
+    """
+
+    def __init__(self, key: Key | None, identity: str = '', session: str = '',
+                 window: float = DEFAULT_CONTROL_WINDOW,
                  clock: Callable[[], float] = time.time) -> None:
         super().__init__(key)
+        self.identity = identity
+        self.session = session
         self.window = window
         self._clock = clock
-        self._sessions: dict[str, tuple[int, float]] = {}  # session -> (last sequence, seen at)
+        self._seen: dict[str, int] = {}  # sender session -> last sequence admitted
 
-    def admit(self, payload: bytes, signature: Signature, stamp: float) -> Refusal | None:
-        """``None`` if the control may be obeyed; else why not (counted).
+    def admit(self, control: Control, signature: Signature, test_id: str) -> Refusal | None:
+        """``None`` if ``control`` may be obeyed by this node serving ``test_id``; else why
+        not (counted)."""
+        if self.key is None:
+            return None
+        reason = self._check_mac(control_payload(control), signature)
+        if reason is not None:
+            return reason
+        last = self._seen.get(signature.session)
+        if last is not None and signature.sequence <= last:
+            return self._refuse(Refusal.REPLAYED, signature)
+        if control.target != self.identity:
+            return self._refuse(Refusal.MISDIRECTED, signature)
+        if control.session != self.session:
+            return self._refuse(Refusal.FOREIGN_SESSION, signature)
+        if control.test_id != test_id:
+            return self._refuse(Refusal.FOREIGN_TEST, signature)
+        if abs(self._clock() - control.stamp) > self.window:
+            return self._refuse(Refusal.STALE, signature)
+        self._seen[signature.session] = signature.sequence
+        return None
 
-        Args:
-            payload: the control's canonical encoding (it includes ``stamp``).
-            signature: its signature.
-            stamp: when it was issued, s since the epoch.
-        """
+    def remember(self, session: str, sequence: int) -> None:
+        """A control admitted before (from the receiver's record): never admitted again."""
+        if sequence > self._seen.get(session, 0):
+            self._seen[session] = sequence
+
+
+class StatusGate(_Gate):
+    """Admits what nodes say of themselves (statuses, session offers) only as they signed it.
+
+    Per ``source`` (a topic) it remembers the publisher's session, last sequence and
+    publication time: within a session the sequence must increase; a new session (a
+    restarted node) must not be older than the one it replaces. So a recording of an earlier
+    status or offer is refused, and a forged one cannot be made without the key.
+    """
+
+    def __init__(self, key: Key | None) -> None:
+        super().__init__(key)
+        self._last: dict[str, tuple[str, int, int]] = {}  # source -> (session, sequence, ns)
+
+    def admit(self, source: str, payload: bytes, signature: Signature, stamp_ns: int
+              ) -> Refusal | None:
+        """``None`` if the statement published on ``source`` at ``stamp_ns`` is genuine and
+        new; else why not (counted)."""
         if self.key is None:
             return None
         reason = self._check_mac(payload, signature)
         if reason is not None:
             return reason
-        now = self._clock()
-        if abs(now - stamp) > self.window:
-            return self._refuse(Refusal.STALE, signature)
-        self._forget_before(now - 2.0 * self.window)
-        last = self._sessions.get(signature.session)
-        if last is not None and signature.sequence <= last[0]:
-            return self._refuse(Refusal.REPLAYED, signature)
-        self._sessions[signature.session] = (signature.sequence, now)
+        last = self._last.get(source)
+        if last is not None:
+            session, sequence, stamp = last
+            if (signature.session == session and signature.sequence <= sequence) or (
+                    signature.session != session and stamp_ns < stamp):
+                return self._refuse(Refusal.REPLAYED, signature)
+        self._last[source] = (signature.session, signature.sequence, stamp_ns)
         return None
-
-    def _forget_before(self, limit: float) -> None:
-        """Sessions last seen before ``limit`` (their stamps are stale anyway)."""
-        for session in [s for s, (_, seen) in self._sessions.items() if seen < limit]:
-            del self._sessions[session]
 
 
 def merge_refusals(counts: Iterable[Mapping[str, int]]) -> Counter[str]:

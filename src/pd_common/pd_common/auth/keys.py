@@ -30,6 +30,8 @@ KEY_FILE_ENV = 'PD_KEY_FILE'
 
 #: Length of a secret, bytes (256 bits, the HMAC-SHA256 block-size class).
 KEY_BYTES = 32
+#: Fewest distinct byte values a secret must have (a random one has about 30).
+MIN_DISTINCT_BYTES = 8
 _HEADER = 'pd-hmac-sha256 v1'
 _LINE = re.compile(r'^pd-hmac-sha256 v1 ([0-9a-f]{64})\s*$')
 
@@ -51,6 +53,12 @@ class Key:
         """The key of ``secret`` (its id derived from it)."""
         if len(secret) != KEY_BYTES:
             msg = f'a key must have {KEY_BYTES} bytes, got {len(secret)}'
+            raise KeyFileError(msg)
+        if len(set(secret)) < MIN_DISTINCT_BYTES:
+            # 32 random bytes have about 30 distinct values; fewer than 8 happens with
+            # probability below 1e-25: this is a made-up key (all zeros, a pattern).
+            msg = (f'a key must be random: this one has {len(set(secret))} distinct byte '
+                   'values in 32 (all zeros, or a pattern?); make one with ./pd keygen')
             raise KeyFileError(msg)
         digest = hashlib.sha256(b'pd key id\x00' + secret).hexdigest()
         return cls(key_id=digest[:16], secret=secret)
@@ -121,7 +129,11 @@ def load_key(path: str | Path) -> Key:
     if match is None:
         msg = f'{path}: not a key file (expected one line "{_HEADER} <64 hex digits>")'
         raise KeyFileError(msg)
-    return Key.from_secret(bytes.fromhex(match.group(1)))
+    try:
+        return Key.from_secret(bytes.fromhex(match.group(1)))
+    except KeyFileError as err:
+        msg = f'{path}: {err}'
+        raise KeyFileError(msg) from None
 
 
 def default_rig_key() -> Path:

@@ -38,6 +38,9 @@ class Refusal(Enum):
     FOREIGN_SESSION = 'foreign_session'  # signed, but not in the session this node accepted
     NO_SESSION = 'no_session'          # a command before any signed session start
     STALE = 'stale'                    # a control whose time stamp is too old or in the future
+    MISDIRECTED = 'misdirected'        # a control signed for another node
+    FOREIGN_TEST = 'foreign_test'      # a control signed for another test
+    MALFORMED = 'malformed'            # a field beyond its bound (pd_common.protocol.bounds)
 
 
 def new_session() -> str:

@@ -15,8 +15,8 @@ from typing import NamedTuple
 
 from ..types import FloatArray
 
-__all__ = ['Command', 'Control', 'ControlMode', 'Feedback', 'FeedbackStatus', 'SessionStart',
-           'StateOrigin', 'Status', 'StepKey', 'TestState']
+__all__ = ['Command', 'Control', 'ControlMode', 'Feedback', 'FeedbackStatus', 'Offer',
+           'SessionStart', 'StateOrigin', 'Status', 'StepKey', 'TestState']
 
 
 class FeedbackStatus(IntEnum):
@@ -165,7 +165,17 @@ class Feedback:
 
 @dataclass(frozen=True)
 class Status:
-    """The state of a test (``TestStatus``)."""
+    """The state of a node taking part in a test (``TestStatus``).
+
+    Attributes:
+        node: the publishing node's fully qualified name.
+        session: its instance session (random per process start): a control names it, so a
+            control meant for another node, or for an earlier process, is refused.
+        emergency_stop: an emergency stop is latched (only a signed reset clears it).
+        operator_hold: a person paused or held it (only a person's signed resume clears it).
+        acknowledged: the last control the node took, ``"<session>:<sequence> <command>:
+            <outcome>"``: how its sender knows it arrived and what it did.
+    """
 
     test_id: str
     state: TestState
@@ -177,24 +187,41 @@ class Status:
     message: str = ''
     refused_messages: int = 0
     refused_by_reason: str = ''
+    node: str = ''
+    session: str = ''
+    emergency_stop: bool = False
+    operator_hold: bool = False
+    acknowledged: str = ''
 
 
 @dataclass(frozen=True)
 class Control:
     """An operator's request to a node (``pause``, ``resume``, ``abort``, ``reset``, ...).
 
+    A signed control is bound to its purpose: the receiving node (``target``), that node's
+    instance (``session``) and the test it serves (``test_id``), all three as the receiver's
+    signed status names them (:mod:`pd_common.protocol.controls`).
+
     Attributes:
         command: what to do.
-        target: the node or site addressed ('' = whoever receives it on its topic).
+        target: the receiving node's fully qualified name ('' = whoever receives it, only
+            without authentication).
         reason: why (shown in logs and statuses).
         stamp: when it was issued, s since the epoch (a signed control is obeyed only within
             a time window of the receiver's clock, and only once).
+        test_id: the test the receiver serves.
+        session: the receiver's instance session.
+        sender: who sent it (``operator <user>@<host>``, ``run_test``, ``console``): the audit
+            trail names it.
     """
 
     command: str
     target: str = ''
     reason: str = ''
     stamp: float = 0.0
+    test_id: str = ''
+    session: str = ''
+    sender: str = ''
 
 
 @dataclass(frozen=True)
@@ -208,3 +235,35 @@ class SessionStart:
 
     test_id: str
     challenge: str
+
+
+@dataclass(frozen=True)
+class Offer:
+    """A receiver's session offer and state (``SessionOffer``), as its signature covers it.
+
+    Attributes:
+        stamp_ns: when it was published (the header stamp), ns since the epoch.
+        node: the receiver's fully qualified name.
+        challenge: its current challenge ('' while it offers no session).
+        active_session: the session it obeys ('' = none).
+        authenticated: whether it runs with a key.
+        epoch: its specimen state's epoch.
+        state_origin: where that state comes from.
+        restored: ``(test id, step, iteration)`` of the last command replayed into a restored
+            state (``('', 0, 0)`` otherwise).
+        position: the measured displacement now [m].
+        force: the measured force now [N].
+        configuration: JSON of what is in force (a bridge: its driver and limits).
+    """
+
+    stamp_ns: int
+    node: str
+    challenge: str
+    active_session: str
+    authenticated: bool
+    epoch: str
+    state_origin: int
+    restored: tuple[str, int, int]
+    position: tuple[float, ...]
+    force: tuple[float, ...]
+    configuration: str = ''

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .controls import RESEND_S, ControlSender, Sent, emergency_stop_receivers, listens
 from .estop import (
     EMERGENCY_STOP_INTERVAL,
     EMERGENCY_STOP_REPEATS,
@@ -23,35 +24,47 @@ from .messages import (
     feedback_message,
     fill_signature,
     now_stamp,
+    offer_message,
     signed_control,
     stamp_from_ns,
     status_message,
 )
 from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
 from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender, new_epoch
+from .statements import HEARTBEAT_S, Announcer, read_offer, read_status
 
 __all__ = [
     'CONTROL_DEPTH',
     'EMERGENCY_STOP_INTERVAL',
     'EMERGENCY_STOP_REPEATS',
+    'HEARTBEAT_S',
     'LATCHED_QOS',
     'MONITOR_QOS',
     'OFFER_REFRESH_S',
+    'RESEND_S',
     'STEP_QOS',
     'TEARDOWN_TIMEOUT',
+    'Announcer',
+    'ControlSender',
     'RefusalLog',
+    'Sent',
     'SessionReceiver',
     'SessionSender',
     'command_message',
     'control_message',
     'declare_key',
+    'emergency_stop_receivers',
     'events_executor',
     'exit_process',
     'feedback_message',
     'fill_signature',
     'init_with_stop_flag',
+    'listens',
     'new_epoch',
     'now_stamp',
+    'offer_message',
+    'read_offer',
+    'read_status',
     'repeat_emergency_stop',
     'run_node',
     'settle_listeners',

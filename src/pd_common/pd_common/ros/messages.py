@@ -7,16 +7,16 @@ import time
 from builtin_interfaces.msg import Time
 
 from pd_msgs.msg import Control as ControlMessage
+from pd_msgs.msg import SessionOffer, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Signature as SignatureMessage
-from pd_msgs.msg import StepCommand, StepFeedback, TestStatus
 
-from ..auth.payloads import control_payload
+from ..auth.payloads import control_payload, offer_payload, status_payload
 from ..auth.signing import Signer
-from ..protocol.messages import Command, Control, Feedback, Status
+from ..protocol.messages import Command, Control, Feedback, Offer, Status
 from ..protocol.signature import Signature
 
 __all__ = ['command_message', 'control_message', 'feedback_message', 'fill_signature',
-           'now_stamp', 'signed_control', 'stamp_from_ns', 'status_message']
+           'now_stamp', 'offer_message', 'signed_control', 'stamp_from_ns', 'status_message']
 
 _UNSIGNED = Signature()
 
@@ -82,24 +82,30 @@ def control_message(control: Control, signature: Signature = _UNSIGNED) -> Contr
     message.header.stamp = now_stamp()
     message.command = control.command
     message.target = control.target
+    message.test_id = control.test_id
+    message.session = control.session
+    message.sender = control.sender
     message.reason = control.reason
     message.stamp = float(control.stamp)
     fill_signature(message.signature, signature)
     return message
 
 
-def signed_control(signer: Signer | None, command: str, site: str = '', reason: str = ''
-                   ) -> ControlMessage:
-    """A control message stamped now, signed (unsigned without a signer): what
-    ``./pd control``, ``run_test`` and ``./pd console`` send."""
-    control = Control(command=command, target=site, reason=reason, stamp=time.time())
+def signed_control(signer: Signer | None, command: str, *, target: str = '', test_id: str = '',
+                   session: str = '', sender: str = '', reason: str = '') -> ControlMessage:
+    """A control message stamped now, bound to its receiver (``target``, its ``test_id`` and
+    instance ``session``, from the receiver's status), signed (unsigned without a signer):
+    what ``./pd control``, ``run_test`` and ``./pd console`` send."""
+    control = Control(command=command, target=target, reason=reason, stamp=time.time(),
+                      test_id=test_id, session=session, sender=sender)
     if signer is None:
         return control_message(control)
     return control_message(control, signer.sign(control_payload(control)))
 
 
-def status_message(status: Status, stamp: Time | None = None) -> TestStatus:
-    """``pd_msgs/TestStatus`` of ``status`` (stamp: now)."""
+def status_message(status: Status, stamp: Time | None = None, signer: Signer | None = None
+                   ) -> TestStatus:
+    """``pd_msgs/TestStatus`` of ``status`` (stamp: now), signed by ``signer`` if given."""
     message = TestStatus()
     message.header.stamp = now_stamp() if stamp is None else stamp
     message.test_id = status.test_id
@@ -112,4 +118,32 @@ def status_message(status: Status, stamp: Time | None = None) -> TestStatus:
     message.message = status.message
     message.refused_messages = status.refused_messages
     message.refused_by_reason = status.refused_by_reason
+    message.node = status.node
+    message.session = status.session
+    message.emergency_stop = bool(status.emergency_stop)
+    message.operator_hold = bool(status.operator_hold)
+    message.acknowledged = status.acknowledged
+    if signer is not None:
+        stamp_ns = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+        fill_signature(message.signature, signer.sign(status_payload(status, stamp_ns)))
+    return message
+
+
+def offer_message(offer: Offer, signer: Signer | None = None) -> SessionOffer:
+    """``pd_msgs/SessionOffer`` of ``offer`` (its stamp), signed by ``signer`` if given."""
+    message = SessionOffer()
+    message.header.stamp = stamp_from_ns(offer.stamp_ns)
+    message.node = offer.node
+    message.challenge = offer.challenge
+    message.active_session = offer.active_session
+    message.authenticated = bool(offer.authenticated)
+    message.epoch = offer.epoch
+    message.state_origin = int(offer.state_origin)
+    message.restored_test_id = offer.restored[0]
+    message.restored_step, message.restored_iteration = offer.restored[1], offer.restored[2]
+    message.position = [float(x) for x in offer.position]
+    message.force = [float(f) for f in offer.force]
+    message.configuration = offer.configuration
+    if signer is not None:
+        fill_signature(message.signature, signer.sign(offer_payload(offer)))
     return message

@@ -2,8 +2,11 @@
 
 A receiver of step commands (a bridge, a simulator) publishes a latched
 :class:`pd_msgs.msg.SessionOffer` on ``session/offer`` (its challenge, the session it obeys,
-its epoch and state) and takes :class:`pd_msgs.msg.SessionStart` on ``session/start``. A
-sender (the integrator; a bridge driving a simulator) opens a session with
+its epoch and state, what configuration is in force), signed by its
+:class:`~.statements.Announcer` and published again at least every :data:`OFFER_REFRESH_S`
+(a heartbeat), and takes :class:`pd_msgs.msg.SessionStart` on ``session/start``. A sender (the
+integrator; a bridge driving a simulator) believes only signed offers (an unsigned or forged
+one, or a recording of an earlier one, is refused and counted), opens a session with
 :class:`SessionSender` before its first command and checks every reply. The logic lives in
 :mod:`pd_common.auth`; this module only moves the messages.
 """
@@ -21,20 +24,22 @@ from rclpy.qos import QoSProfile
 from pd_msgs.msg import SessionOffer
 from pd_msgs.msg import SessionStart as SessionStartMessage
 
-from ..auth.gates import CommandGate, ReplyGate
+from ..auth.gates import CommandGate, ReplyGate, StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import command_payload, feedback_payload, session_start_payload
 from ..auth.signing import Refusal, Signer, sign_reply
+from ..protocol.bounds import MAX_NAME, MalformedMessageError, check_text, clip_reason
 from ..protocol.convert import signature_from_message
-from ..protocol.messages import Command, Feedback, SessionStart, StateOrigin, StepKey
+from ..protocol.messages import Command, Feedback, Offer, SessionStart, StateOrigin, StepKey
 from ..protocol.signature import Signature
 from ..types import FloatArray
-from .messages import fill_signature, now_stamp
+from .messages import fill_signature, now_stamp, offer_message
 from .qos import LATCHED_QOS, STEP_QOS
+from .statements import Announcer, read_offer
 
 __all__ = ['OFFER_REFRESH_S', 'RefusalLog', 'SessionReceiver', 'SessionSender', 'new_epoch']
 
-#: Seconds between checks whether a receiver's offer must be published again (its state moved).
+#: Seconds between two publications of a receiver's offer (at once when its state moved).
 OFFER_REFRESH_S = 1.0
 #: Seconds after which a session start whose challenge is still offered is sent again.
 START_RESEND_S = 1.0
@@ -64,8 +69,8 @@ class RefusalLog:
         where = f' on {source}' if source else ''
         if reason is Refusal.WRONG_KEY and self._key is not None:
             self._warn(f'refusing every {self._what}{where} signed with key '
-                       f'{signature.key_id}: this node has key {self._key.key_id} (wrong key '
-                       'file?)')
+                       f'{clip_reason(signature.key_id, 40)}: this node has key '
+                       f'{self._key.key_id} (wrong key file?)')
         else:
             self._warn(f'refused {self._what}{where}: {reason.value} (counted; further ones '
                        'are counted silently)')
@@ -84,14 +89,22 @@ class SessionReceiver:
         accepting: whether sessions are offered from the start (a lifecycle node offers none
             until it is active: its very first offer then carries no challenge, so no sender
             can open a session that is closed a moment later).
+        announcer: the node's signer of statements (default: one of its own).
+
+    Attributes:
+        configuration: JSON of what is in force, published with the offer (a bridge's driver
+            and limits).
     """
 
     def __init__(self, node: Node, key: Key | None, n_dof: int, epoch: str,
                  origin: StateOrigin = StateOrigin.FRESH,
                  on_refused: Callable[[Refusal, Signature], None] | None = None,
-                 accepting: bool = True) -> None:
+                 accepting: bool = True, announcer: Announcer | None = None) -> None:
         self._node = node
         self.key = key
+        self.announcer = announcer if announcer is not None else Announcer(node, key)
+        self.configuration = ''
+        self._published_at = 0.0
         self.gate = CommandGate(key)
         self.epoch = epoch
         self.origin = origin
@@ -112,30 +125,28 @@ class SessionReceiver:
         return self.gate.session
 
     def publish_offer(self) -> None:
-        """Publish the current offer and state (latched)."""
-        offer = SessionOffer()
-        offer.header.stamp = now_stamp()
-        offer.node = self._node.get_fully_qualified_name()
-        offer.challenge = self.gate.challenge if self.accepting else ''
-        offer.active_session = self.gate.session or ''
-        offer.authenticated = self.gate.enabled
-        offer.epoch = self.epoch
-        offer.state_origin = int(self.origin)
-        if self.restored is not None:
-            offer.restored_test_id = self.restored[0]
-            offer.restored_step, offer.restored_iteration = self.restored[1]
-        offer.position = [float(x) for x in self.position]
-        offer.force = [float(f) for f in self.force]
-        self._published = (self.epoch, int(self.origin), tuple(offer.position),
-                           tuple(offer.force))
-        self._offer_pub.publish(offer)
+        """Publish the current offer and state (latched, signed)."""
+        restored = ((self.restored[0], int(self.restored[1][0]), int(self.restored[1][1]))
+                    if self.restored is not None else ('', 0, 0))
+        offer = Offer(stamp_ns=time.time_ns(), node=self.announcer.identity,
+                      challenge=self.gate.challenge if self.accepting else '',
+                      active_session=self.gate.session or '', authenticated=self.gate.enabled,
+                      epoch=self.epoch, state_origin=int(self.origin), restored=restored,
+                      position=tuple(float(x) for x in self.position),
+                      force=tuple(float(f) for f in self.force),
+                      configuration=self.configuration)
+        self._published = (self.epoch, int(self.origin), offer.position, offer.force)
+        self._published_at = time.monotonic()
+        self._offer_pub.publish(offer_message(offer, self.announcer.signer))
 
     def refresh(self) -> None:
         """Publish the offer again if the state (epoch, origin, position, force) changed since
-        it was last published (called on a timer: a late joiner, such as a restarted bridge,
-        reads where the specimen is now, and whose state it is)."""
-        if self._published != (self.epoch, int(self.origin), tuple(self.position),
-                               tuple(self.force)):
+        it was last published, or ``OFFER_REFRESH_S`` after the last one (called on a timer: a
+        late joiner, such as a restarted bridge, reads where the specimen is now, and whose
+        state it is; a sender sees that the receiver still answers)."""
+        if (self._published != (self.epoch, int(self.origin), tuple(self.position),
+                                tuple(self.force))
+                or time.monotonic() - self._published_at >= OFFER_REFRESH_S * 0.9):
             self.publish_offer()
 
     def set_state(self, position: Sequence[float] | FloatArray,
@@ -165,8 +176,15 @@ class SessionReceiver:
         return sign_reply(self.key, feedback_payload(feedback), request)
 
     def _on_start(self, message: Any) -> None:
-        start = SessionStart(test_id=message.test_id, challenge=message.challenge)
-        signature = signature_from_message(message.signature)
+        try:
+            start = SessionStart(test_id=check_text('test_id', message.test_id, MAX_NAME),
+                                 challenge=check_text('challenge', message.challenge, MAX_NAME))
+            signature = signature_from_message(message.signature)
+        except MalformedMessageError:
+            self.gate.refused[Refusal.MALFORMED.value] += 1
+            if self._on_refused is not None:
+                self._on_refused(Refusal.MALFORMED, Signature())
+            return
         if not self.accepting:
             if self._on_refused is not None:
                 self._on_refused(Refusal.NO_SESSION, signature)
@@ -186,13 +204,20 @@ class SessionSender:
             ``'specimen/'``): its offer is ``<prefix>session/offer``.
         signer: the sender's signer (one session per sender and run), or ``None`` (no key).
         key: the key (``None``: authentication off).
+        on_refused: called with each refused offer's reason, an empty signature and the
+            offer topic.
     """
 
     def __init__(self, node: Node, prefix: str, signer: Signer | None,
-                 key: Key | None) -> None:
+                 key: Key | None,
+                 on_refused: Callable[[Refusal, Signature, str], None] | None = None) -> None:
         self._signer = signer
+        self._on_refused_offer = on_refused
         self.key = key
-        self.offer: Any = None
+        self.offer: Offer | None = None
+        #: Offers refused (unsigned, forged, replayed, malformed), counted by reason.
+        self.offer_gate = StatusGate(key)
+        self._offer_topic = node.resolve_topic_name(f'{prefix}session/offer')
         self._started_with = ''
         self._started_at = 0.0
         self._offer_doubted = False
@@ -269,6 +294,11 @@ class SessionSender:
         self._offer_doubted = True
         self._started_with = ''
 
-    def _on_offer(self, offer: Any) -> None:
+    def _on_offer(self, message: Any) -> None:
+        offer, reason = read_offer(self.offer_gate, self._offer_topic, message)
+        if offer is None:  # not the receiver's word: believed in nothing
+            if reason is not None and self._on_refused_offer is not None:
+                self._on_refused_offer(reason, Signature(), self._offer_topic)
+            return
         self.offer = offer
         self._offer_doubted = False

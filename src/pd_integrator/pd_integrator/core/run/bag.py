@@ -277,7 +277,10 @@ class BagRecorder:
             step=status.step, total_steps=status.total_steps, omega_dt=status.omega_dt,
             retries=status.retries, ignored_messages=status.ignored_messages,
             message=status.message, refused_messages=status.refused_messages,
-            refused_by_reason=status.refused_by_reason))
+            refused_by_reason=status.refused_by_reason, node=status.node,
+            session=status.session, emergency_stop=status.emergency_stop,
+            operator_hold=status.operator_hold, acknowledged=status.acknowledged,
+            signature=self._signature(None)))
 
 
 @dataclass

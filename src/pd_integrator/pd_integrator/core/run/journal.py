@@ -198,7 +198,7 @@ class Journal:
                    'total': status.total_steps, 'omega_dt': float(status.omega_dt),
                    'retries': status.retries, 'ignored': status.ignored_messages,
                    'msg': status.message, 'refused': status.refused_messages,
-                   'refused_by': status.refused_by_reason})
+                   'refused_by': status.refused_by_reason, **_status_extras(status)})
 
     def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
         """Record an already serialised (CDR) message (e.g. an actuator trajectory)."""
@@ -228,6 +228,14 @@ class Journal:
         if now - self._synced >= self.sync_interval:
             os.fsync(file.fileno())
             self._synced = now
+
+    def persist(self) -> None:
+        """Hand the new records to the operating system and ``fsync`` now (an emergency
+        stop, a person's hold: on disk before the node answers anything else)."""
+        self.flush(sync=False)
+        if self._file is not None:
+            os.fsync(self._file.fileno())
+            self._synced = self._clock()
 
     def close(self) -> None:
         """Write and sync what is pending; close the file."""
@@ -259,7 +267,22 @@ def _status(record: dict[str, Any]) -> Status:
                   total_steps=record['total'], omega_dt=record['omega_dt'],
                   retries=record['retries'], ignored_messages=record['ignored'],
                   message=record['msg'], refused_messages=record.get('refused', 0),
-                  refused_by_reason=record.get('refused_by', ''))
+                  refused_by_reason=record.get('refused_by', ''), node=record.get('node', ''),
+                  session=record.get('session', ''),
+                  emergency_stop=bool(record.get('estop', False)),
+                  operator_hold=bool(record.get('oper', False)),
+                  acknowledged=record.get('ack', ''))
+
+
+def _status_extras(status: Status) -> dict[str, Any]:
+    """The fields of a node's status that only some statuses set (kept out of the rest)."""
+    extras: dict[str, Any] = {}
+    for name, value in (('node', status.node), ('session', status.session),
+                        ('estop', status.emergency_stop), ('oper', status.operator_hold),
+                        ('ack', status.acknowledged)):
+        if value:
+            extras[name] = value
+    return extras
 
 
 def _record(raw: dict[str, Any]) -> JournalRecord:

@@ -378,13 +378,14 @@ def replay_run(run: RecordedRun, source: str = 'record') -> TestSession:
 
 
 def _apply_last_status(session: TestSession, run: RecordedRun) -> None:
-    """End the re-run in the recorded final state (aborted, holding, interrupted)."""
+    """End the re-run in the recorded final state (aborted, holding, paused, interrupted)."""
     last_status = run.statuses[-1][1] if run.statuses else None
     if last_status is None or session.state is TestState.FINISHED:
         return
     if last_status.state is TestState.ABORTED:
         session.abort(last_status.message)
-    elif last_status.state in (TestState.HOLDING, TestState.INTERRUPTED):
+    elif last_status.state in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
+        # (a pause stays a pause: a person paused it, a person resumes it)
         session.state = last_status.state
         session.message = last_status.message
 

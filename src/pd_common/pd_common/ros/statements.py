@@ -1,0 +1,92 @@
+"""What nodes say of themselves, signed: their statuses and session offers (pd_msgs wiring).
+
+Every node of a test has one :class:`Announcer`: a signer of its own whose session nonce is the
+node's *instance session* (random per process start). It signs the node's statuses (and a
+receiver's session offers), and an operator's control names that session, so a control meant
+for another node, or for a process that has since restarted, is refused.
+
+A reader (the integrator of its bridges' statuses and offers, the launcher, the console,
+``./pd control``) takes a status or an offer only through a :class:`~pd_common.auth.StatusGate`:
+:func:`read_status` and :func:`read_offer` convert the message, check its bounds and its
+signature, and return the record, or ``None`` with the reason counted on the gate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from builtin_interfaces.msg import Time
+from rclpy.node import Node
+
+from pd_msgs.msg import TestStatus
+
+from ..auth.gates import StatusGate
+from ..auth.keys import Key
+from ..auth.payloads import offer_payload, status_payload
+from ..auth.signing import Refusal, Signer, new_session
+from ..protocol.bounds import MalformedMessageError
+from ..protocol.convert import (
+    offer_from_message,
+    signature_from_message,
+    stamp_ns_of,
+    status_from_message,
+)
+from ..protocol.messages import Offer, Status
+from .messages import status_message
+
+__all__ = ['HEARTBEAT_S', 'Announcer', 'read_offer', 'read_status']
+
+#: Seconds between two publications of an unchanged status or offer (a heartbeat: a node
+#: whose statements stop coming has stopped answering).
+HEARTBEAT_S = 1.0
+
+
+class Announcer:
+    """A node's signed statements (see the module).
+
+    Args:
+        node: the node (its fully qualified name is :attr:`identity`).
+        key: the key (``None``: authentication off, statements go unsigned).
+
+    Attributes:
+        identity: the node's fully qualified name (what a control's ``target`` names).
+        session: the node's instance session (what a control's ``session`` names).
+        signer: the signer of its statements (``None`` without a key).
+    """
+
+    def __init__(self, node: Node, key: Key | None) -> None:
+        self.identity = node.get_fully_qualified_name()
+        self.signer = Signer(key) if key is not None else None
+        self.session = self.signer.session if self.signer is not None else new_session()
+
+    def status(self, status: Status, stamp: Time | None = None) -> TestStatus:
+        """The signed message of ``status`` (this node's name and session filled in)."""
+        return status_message(dataclasses.replace(status, node=self.identity,
+                                                  session=self.session), stamp, self.signer)
+
+
+def read_status(gate: StatusGate, source: str, message: Any
+                ) -> tuple[Status | None, Refusal | None]:
+    """The status in ``message`` published on ``source``, if it is genuine and new."""
+    try:
+        status = status_from_message(message)
+        signature = signature_from_message(message.signature)
+    except MalformedMessageError:
+        gate.refused[Refusal.MALFORMED.value] += 1
+        return None, Refusal.MALFORMED
+    reason = gate.admit(source, status_payload(status, stamp_ns_of(message)), signature,
+                        stamp_ns_of(message))
+    return (None, reason) if reason is not None else (status, None)
+
+
+def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | None, Refusal | None]:
+    """The session offer in ``message`` published on ``source``, if it is genuine and new."""
+    try:
+        offer = offer_from_message(message)
+        signature = signature_from_message(message.signature)
+    except MalformedMessageError:
+        gate.refused[Refusal.MALFORMED.value] += 1
+        return None, Refusal.MALFORMED
+    reason = gate.admit(source, offer_payload(offer), signature, offer.stamp_ns)
+    return (None, reason) if reason is not None else (offer, None)
