@@ -108,22 +108,46 @@ def remove_stale_segments(before: set[str]) -> None:
             pass
 
 
-def send_control(observer: Any, key: Any, command: str, *, topic: str = '/pd/test_control',
-                 reason: str = '', timeout: float = 10.0) -> None:
-    """Publish a signed control (as ``./pd control`` does) once a subscriber listens."""
-    from pd_common.auth import Signer, control_payload
-    from pd_common.protocol import Control
-    from pd_common.ros import control_message
-    from pd_msgs.msg import Control as ControlMessage
+def status_topic_of(topic: str) -> str:
+    """The status topic where the receiver of control ``topic`` acknowledges."""
+    if topic.endswith('/bridge/control'):
+        return topic[:-len('control')] + 'status'
+    return topic[:-len('test_control')] + 'test_status'
 
-    publisher = observer.create_publisher(ControlMessage, topic, 10)
+
+def control_sender(observer: Any, key: Any) -> Any:
+    """The observer's :class:`pd_common.ros.ControlSender` for ``key`` (made once)."""
+    from pd_common.ros import ControlSender
+
+    senders = observer.__dict__.setdefault('control_senders', {})
+    if id(key) not in senders:
+        senders[id(key)] = ControlSender(observer, key, 'operator test (graph test)')
+    return senders[id(key)]
+
+
+def send_control(observer: Any, key: Any, command: str, *, topic: str = '/pd/test_control',
+                 reason: str = '', timeout: float = 10.0, expect: str | None = 'ok') -> Any:
+    """Send a signed control bound to its receiver (as ``./pd control`` does) and wait for its
+    acknowledgement; fail unless its outcome starts with ``expect`` (``None``: any outcome).
+    Returns the acknowledgement."""
+    sender = control_sender(observer, key)
+    status_topic = status_topic_of(topic)
+    sender.watch(status_topic)
     deadline = time.monotonic() + timeout
-    while publisher.get_subscription_count() == 0:
+    while not sender.ready(topic, status_topic):
         if time.monotonic() > deadline:
-            pytest.fail(f'nobody subscribes to {topic}')
+            pytest.fail(f'no receiver for {command} on {topic} (statuses refused: '
+                        f'{dict(sender.gate.refused)})')
         observer.executor_for_test.spin_once(timeout_sec=0.05)
-    control = Control(command=command, reason=reason, stamp=time.time())
-    publisher.publish(control_message(control, Signer(key).sign(control_payload(control))))
-    end = time.monotonic() + 0.2
-    while time.monotonic() < end:
+    sent = sender.send(command, topic, status_topic, reason)
+    assert sent is not None
+    while time.monotonic() < deadline:
+        ack = sender.acknowledgement(sent)
+        if ack is not None:
+            if expect is not None and not ack.outcome.startswith(expect):
+                pytest.fail(f'{command} on {topic}: {ack.outcome}')
+            return ack
+        if time.monotonic() - sent.sent_at > 1.0:
+            sent = sender.resend(sent)
         observer.executor_for_test.spin_once(timeout_sec=0.05)
+    pytest.fail(f'{command} on {topic}: not acknowledged within {timeout} s')

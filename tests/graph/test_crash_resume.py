@@ -310,10 +310,11 @@ def test_a_restarted_bridge_limits_increments_from_the_measured_position(
 
 def test_killed_integrator_without_restart_then_resume_by_hand(
         crash_test: Path, reference: bytes, processes: Processes, tmp_path: Path) -> None:
-    """The literal recipe: SIGKILL the integrator, ``./pd run --resume RUN_DIR``."""
+    """The literal recipe: SIGKILL the integrator, ``./pd run --resume RUN_DIR`` (under
+    ``abort``: the launcher ends with it; under ``hold`` it would restart it held)."""
     out = tmp_path / 'run'
     launcher = run_launcher(processes, 'run_test', [str(crash_test), '--out', str(out),
-                                                    '--no-figures', '--on-child-exit', 'hold'])
+                                                    '--no-figures', '--on-child-exit', 'abort'])
     wait_for_step(out, kill_step('by-hand'), launcher, processes)
     os.kill(child_of(launcher, 'integrator'), signal.SIGKILL)
     assert wait_exit(launcher, 30.0, lambda: processes.log('run_test')) == 1

@@ -380,10 +380,15 @@ def test_bridge_lifecycle_and_latched_emergency_stop(
     # An unconfigured/inactive bridge does not answer: the integrator waits, nothing moves.
     time.sleep(1.0)
     assert not any(s.state == TestStatus.STATE_RUNNING for s in statuses)
-    for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
-        request = ChangeState.Request()
-        request.transition.id = transition
-        assert call_service(observer, ChangeState, f'{node}/change_state', request).success
+    # With a key the lifecycle service cannot be authenticated: refused; the owner's signed
+    # controls move it.
+    request = ChangeState.Request()
+    request.transition.id = Transition.TRANSITION_CONFIGURE
+    assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+    assert call_service(observer, GetState, f'{node}/get_state',
+                        GetState.Request()).current_state.label == 'unconfigured'
+    for transition in ('configure', 'activate'):
+        send_control(observer, rig_key, transition, topic='/pd/bridge/control')
     spin_until(observer, lambda: any(s.step >= 50 for s in statuses), RUN_TIMEOUT,
                'the test to pass step 50')
 
@@ -399,11 +404,13 @@ def test_bridge_lifecycle_and_latched_emergency_stop(
                             Trigger.Request())
     assert not unsigned.success and 'signed control' in unsigned.message
     # A plain (signed) reset does not clear it either; a signed reset_emergency_stop does.
-    send_control(observer, rig_key, 'reset', topic='/pd/bridge/control')
+    refusal = send_control(observer, rig_key, 'reset', topic='/pd/bridge/control',
+                           expect='refused')
+    assert 'EMERGENCY STOP' in refusal.outcome
     send_control(observer, rig_key, 'reset_emergency_stop', topic='/pd/bridge/control')
-    spin_until(observer, lambda: any('hold reset by operator' in s.message
+    spin_until(observer, lambda: any('reset by operator test' in s.message
                                      for s in bridge_statuses), 10.0, 'the e-stop to clear')
-    assert any('unsigned: 2' in s.refused_by_reason for s in bridge_statuses)
+    assert any('unsigned: 3' in s.refused_by_reason for s in bridge_statuses)
     Processes.signal(integrator, signal.SIGINT)
     assert wait_exit(integrator, 30.0, lambda: processes.log('integrator')) == 1
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))

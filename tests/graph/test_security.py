@@ -109,10 +109,14 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                and observer.count_subscribers('/pd/step_command') > 0, 20.0,
                'the specimen and the bridge')
     time.sleep(0.5)  # and the bridge has discovered the specimen
+    # The rogue cannot move the lifecycle (the service cannot be authenticated) ...
     for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
         request = ChangeState.Request()
         request.transition.id = transition
-        assert call_service(observer, ChangeState, f'{node}/change_state', request).success
+        assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+    # ... the owner does, with signed controls; the rogue then walks the active bridge.
+    for transition in ('configure', 'activate'):
+        send_control(observer, rig_key, transition, topic='/pd/bridge/control')
     spin_until(observer, lambda: commands.get_subscription_count() > 0, 20.0, 'the bridge')
     start = SessionStart()
     start.test_id = 'rogue'
@@ -246,9 +250,11 @@ def test_a_node_with_the_wrong_key_refuses_every_message_and_says_so_once(
         executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
         '-p', f'output_dir:={tmp_path / "run"}', '-p', 'figures:=false'])
     assert wait_exit(integrator, 60.0, lambda: processes.log('integrator')) == 1
-    assert 'no session opened' in processes.log('integrator')
+    # The integrator believes none of the specimen's offers (signed with another key): it
+    # opens no session, moves nothing, and says why once.
+    assert 'its session offers are refused: wrong_key' in processes.log('integrator')
     assert specimen.poll() is None
-    refusals = [line for line in processes.log('specimen').splitlines()
+    refusals = [line for line in processes.log('integrator').splitlines()
                 if 'refusing every' in line]
     assert len(refusals) == 1 and 'wrong key file' in refusals[0]
     summary = json.loads((tmp_path / 'run' / 'summary.json').read_text(encoding='utf-8'))

@@ -322,10 +322,10 @@ def test_a_made_up_key_is_refused(tmp_path: Path) -> None:
     path = tmp_path / 'zero.key'
     path.write_text('pd-hmac-sha256 v1 ' + '00' * 32 + '\n', encoding='ascii')
     path.chmod(0o600)
-    with pytest.raises(KeyFileError, match='zero.key: a key must be random'):
+    with pytest.raises(KeyFileError, match=r'zero\.key: a key must be random'):
         load_key(path)
     path.write_text('pd-hmac-sha256 v1 ' + '0102' * 16 + '\n', encoding='ascii')
-    with pytest.raises(KeyFileError, match='2 distinct byte values'):
+    with pytest.raises(KeyFileError, match=r'2 distinct byte values'):
         load_key(path)
 
 

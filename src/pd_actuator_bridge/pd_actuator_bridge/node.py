@@ -97,6 +97,7 @@ from pd_common.jsonl import EventFile
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     LIFECYCLE_CONTROLS,
+    Acknowledgements,
     Feedback,
     FeedbackStatus,
     MalformedMessageError,
@@ -105,7 +106,6 @@ from pd_common.protocol import (
     Status,
     StepKey,
     TestState,
-    acknowledgement,
     clip_reason,
     command_from_message,
     control_from_message,
@@ -207,7 +207,7 @@ class ActuatorBridgeNode(LifecycleNode):
         for event in self.record.events:
             if event.get('what') == 'control' and event.get('session'):
                 self._control_gate.remember(str(event['session']), int(event['sequence']))
-        self._acknowledged = ''
+        self._acknowledged = Acknowledgements()
         self._auto_held = False  # the current hold is the supervisor's auto_hold alone
         self._estop_logged_at = 0.0
         self._estop_repeats_logged = 0
@@ -503,7 +503,7 @@ class ActuatorBridgeNode(LifecycleNode):
                         refused_by_reason=describe_refusals(refused),
                         emergency_stop=self.holds.emergency is not None,
                         operator_hold=self.holds.operator is not None,
-                        acknowledged=self._acknowledged)
+                        acknowledged=self._acknowledged.text)
         self._status_pub.publish(self.announcer.status(status))
         self._last_status = (state, message)
         self._status_at = time.monotonic()
@@ -782,7 +782,7 @@ class ActuatorBridgeNode(LifecycleNode):
         request = control.command.strip().lower()
         sender = clip_reason(control.sender or 'an unnamed sender', 120)
         outcome = self._obey(request, sender, clip_reason(control.reason))
-        self._acknowledged = acknowledgement(signature, request, outcome)
+        self._acknowledged.add(signature, request, outcome)
         # The audit trail, and the replay memory a restarted bridge starts from.
         self.record.append({'what': 'control', 'command': clip_reason(request, 40),
                             'sender': sender, 'reason': clip_reason(control.reason),

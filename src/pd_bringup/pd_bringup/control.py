@@ -190,14 +190,14 @@ def _emergency_stop(node: Node, key: Key | None, args: argparse.Namespace,
             last_sent = time.monotonic()
         spin(0.05)
     others = listeners - len(receivers)
-    extra = f'; {others} other listener(s)' if others > 0 else ''
+    extra = f'; {others} other listener(s) cannot confirm' if others > 0 else ''
     if missing:
-        print(f'control: error: estop sent on {topic} ({listeners} listening{extra}), but not '
-              f'confirmed by {", ".join(missing)} within {args.timeout:g} s', file=sys.stderr)
+        print(f'control: error: estop sent on {topic} ({listeners} listening), but not '
+              f'confirmed by {", ".join(missing)} within {args.timeout:g} s{extra}',
+              file=sys.stderr)
         return 1
-    names = ', '.join(sorted(receivers))
-    print(f'control: estop sent on {topic} ({listeners} listening{extra}); holding: '
-          f'{names or "no bridge or integrator listens"}')
+    names = ', '.join(sorted(receivers)) or 'no bridge or integrator listens'
+    print(f'control: estop sent on {topic} ({listeners} listening); holding: {names}{extra}')
     return 0
 
 

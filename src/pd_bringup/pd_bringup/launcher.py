@@ -76,7 +76,7 @@ from .plan import (
     with_key,
 )
 from .rig import RigError, RigSettings, default_rig_key, load_rig, test_key_path
-from .supervisor import HUNG_TIMEOUT, POLICIES, Supervisor
+from .supervisor import HUNG_TIMEOUT, POLICIES, Supervisor, recorded_processes
 
 #: run_test's own output once its terminal is gone (SIGHUP), in the run folder.
 LOG_FILE = 'run_test.log'
@@ -399,7 +399,9 @@ def main(argv: list[str] | None = None) -> int:
     except (PdIntegratorError, ResourceError, RigError, SpecimenError) as err:
         print(f'run_test: error: {err}', file=sys.stderr)
         return 2
-    policy = args.on_child_exit or ('hold' if plan.physical else 'restart')
+    recorded = recorded_processes(plan.out).get('policy') if args.resume else None
+    policy = args.on_child_exit or (recorded if recorded in POLICIES else None) or (
+        'hold' if plan.physical else 'restart')
     env = {**os.environ, **plan.environment}
     env.update(discovery_profile(env))  # every process, the launcher's own node too
     key = load_key(plan.key_file) if plan.key_file is not None else None

@@ -56,7 +56,7 @@ from typing import Any, Protocol
 from .operator import Operator
 from .plan import Child, LaunchPlan
 
-__all__ = ['HUNG_TIMEOUT', 'POLICIES', 'PROCESSES_FILE', 'Supervisor']
+__all__ = ['HUNG_TIMEOUT', 'POLICIES', 'PROCESSES_FILE', 'Supervisor', 'recorded_processes']
 
 POLICIES = ('restart', 'hold', 'abort')
 STOP_TIMEOUT = 10.0
@@ -93,6 +93,8 @@ def _start_ticks(pid: int) -> int | None:
     except OSError:
         return None
     fields = text[text.rfind(')') + 2:].split()
+    if not fields or fields[0] in ('Z', 'X'):  # a zombie has ended (its parent did not reap)
+        return None
     try:
         return int(fields[19])
     except (IndexError, ValueError):
@@ -121,6 +123,16 @@ class _Adopted:
             time.sleep(0.05)
         assert self.returncode is not None
         return self.returncode
+
+
+def recorded_processes(run_dir: Path) -> dict[str, Any]:
+    """The run folder's ``processes.json`` (``{}`` if there is none, or it is unreadable):
+    ``policy`` (the child-exit policy) and ``processes`` (name: pid, start ticks, command)."""
+    try:
+        data = json.loads((run_dir / PROCESSES_FILE).read_text(encoding='utf-8'))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
 
 
 def _die_with_parent(parent: int) -> Callable[[], None]:
@@ -233,10 +245,7 @@ class Supervisor:
     def _adoptable(self) -> dict[str, _Process]:
         """The specimen-side processes a previous launcher left running (by the run folder's
         ``processes.json``: same pid, start time and command line)."""
-        try:
-            recorded = json.loads((self.plan.out / PROCESSES_FILE).read_text(encoding='utf-8'))
-        except (OSError, ValueError):
-            return {}
+        recorded = recorded_processes(self.plan.out).get('processes')
         found: dict[str, _Process] = {}
         commands = {child.name: child.command for child in self.plan.children}
         for name, entry in recorded.items() if isinstance(recorded, dict) else ():
@@ -256,8 +265,9 @@ class Supervisor:
             if ticks is not None:
                 entries[item.child.name] = {'pid': item.process.pid, 'ticks': ticks,
                                             'command': item.child.command}
+        data = {'policy': self.policy, 'processes': entries}
         with contextlib.suppress(OSError):
-            (self.plan.out / PROCESSES_FILE).write_text(json.dumps(entries, indent=1) + '\n',
+            (self.plan.out / PROCESSES_FILE).write_text(json.dumps(data, indent=1) + '\n',
                                                         encoding='utf-8')
 
     def _start_integrator(self, *, resume: bool, note: str = '', confirm: bool = False,

@@ -50,13 +50,13 @@ from pd_common.auth import (
 )
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
+    Acknowledgements,
     Command,
     MalformedMessageError,
     Signature,
     StateOrigin,
     Status,
     TestState,
-    acknowledgement,
     clip_reason,
     control_from_message,
     feedback_from_message,
@@ -208,7 +208,7 @@ class IntegratorNode(Node):
         self._status_gate = StatusGate(self.key)  # the bridges' statuses
         self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
         self._malformed = 0
-        self._acknowledged = ''
+        self._acknowledged = Acknowledgements()
         self._estop_logged = (0.0, 0)  # (when, repeats) of the last line about repeats
         self._last_status_message: Any = None
         self._status_at = 0.0
@@ -305,7 +305,7 @@ class IntegratorNode(Node):
                                    refused_by_reason=describe_refusals(refused),
                                    emergency_stop=holds.emergency is not None,
                                    operator_hold=holds.operator is not None,
-                                   acknowledged=self._acknowledged)
+                                   acknowledged=self._acknowledged.text)
 
     def publish_status(self) -> None:
         """Publish (signed) and record the session's status."""
@@ -574,7 +574,7 @@ class IntegratorNode(Node):
             self.bag.write_event('restart', time.time_ns(), process=clip_reason(control.reason),
                                  step=self.session.committed_step)
             self.get_logger().warning(f'restarted: {clip_reason(control.reason)}')
-        self._acknowledged = acknowledgement(signature, request, decision.outcome)
+        self._acknowledged.add(signature, request, decision.outcome)
         # The audit trail (who did what), and the replay memory of a restarted integrator.
         self._record_event({'what': 'control', 'command': clip_reason(request, 40),
                             'sender': sender, 'reason': clip_reason(control.reason),

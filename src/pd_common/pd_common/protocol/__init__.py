@@ -5,6 +5,7 @@ from __future__ import annotations
 from .answers import KeyedAnswers
 from .bounds import MAX_REASON, MalformedMessageError, clip_reason
 from .controls import (
+    ACKNOWLEDGED,
     BRIDGE_CONTROLS,
     LIFECYCLE_CONTROLS,
     SUPERVISOR,
@@ -12,7 +13,9 @@ from .controls import (
     SUPERVISOR_TEST_CONTROLS,
     TEST_CONTROLS,
     Acknowledgement,
+    Acknowledgements,
     acknowledgement,
+    find_acknowledgement,
     operator_name,
     parse_acknowledgement,
 )
@@ -49,6 +52,7 @@ from .topics import (
 )
 
 __all__ = [
+    'ACKNOWLEDGED',
     'BRIDGE_CONTROLS',
     'DEFAULT_SITE',
     'GLOBAL_EMERGENCY_STOP',
@@ -61,6 +65,7 @@ __all__ = [
     'SUPERVISOR_TEST_CONTROLS',
     'TEST_CONTROLS',
     'Acknowledgement',
+    'Acknowledgements',
     'Command',
     'Control',
     'ControlMode',
@@ -81,6 +86,7 @@ __all__ = [
     'command_from_message',
     'control_from_message',
     'feedback_from_message',
+    'find_acknowledgement',
     'offer_from_message',
     'operator_name',
     'parse_acknowledgement',

@@ -11,10 +11,10 @@ a receiver can tell the two apart and never lets an automatic action undo a pers
   resets and the lifecycle transitions, which need the owner's signature); the supervisor's
   :data:`SUPERVISOR_BRIDGE_CONTROLS` (``auto_reset`` leaves only a hold ``auto_hold`` made).
 
-Every receiver acknowledges the last control it took in its signed status
-(:attr:`~pd_common.protocol.Status.acknowledged`): :func:`acknowledgement` writes it,
-:func:`parse_acknowledgement` reads it, so a sender knows that its control arrived and what it
-did.
+Every receiver acknowledges the last controls it took (:data:`ACKNOWLEDGED`, one per line) in
+its signed status (:attr:`~pd_common.protocol.Status.acknowledged`): :class:`Acknowledgements`
+writes them, :func:`find_acknowledgement` reads one, so a sender knows that its control
+arrived and what it did, even when other controls followed it at once.
 """
 
 from __future__ import annotations
@@ -24,8 +24,9 @@ import socket
 
 from .signature import Signature
 
-__all__ = ['BRIDGE_CONTROLS', 'LIFECYCLE_CONTROLS', 'SUPERVISOR', 'SUPERVISOR_BRIDGE_CONTROLS',
-           'SUPERVISOR_TEST_CONTROLS', 'TEST_CONTROLS', 'Acknowledgement', 'acknowledgement',
+__all__ = ['ACKNOWLEDGED', 'BRIDGE_CONTROLS', 'LIFECYCLE_CONTROLS', 'SUPERVISOR',
+           'SUPERVISOR_BRIDGE_CONTROLS', 'SUPERVISOR_TEST_CONTROLS', 'TEST_CONTROLS',
+           'Acknowledgement', 'Acknowledgements', 'acknowledgement', 'find_acknowledgement',
            'operator_name', 'parse_acknowledgement']
 
 #: A person's controls of a test (the integrator).
@@ -40,6 +41,8 @@ BRIDGE_CONTROLS = ('reset', 'reset_emergency_stop', 'hold', *LIFECYCLE_CONTROLS)
 SUPERVISOR_BRIDGE_CONTROLS = ('auto_hold', 'auto_reset')
 #: The sender name of the supervisor's controls.
 SUPERVISOR = 'run_test'
+#: How many of the last controls a status acknowledges.
+ACKNOWLEDGED = 8
 
 
 def operator_name(tool: str) -> str:
@@ -78,8 +81,34 @@ class Acknowledgement:
         return self.session == signature.session and self.sequence == signature.sequence
 
 
+class Acknowledgements:
+    """The last :data:`ACKNOWLEDGED` acknowledgements of a receiver (its status' text)."""
+
+    def __init__(self) -> None:
+        self._lines: list[str] = []
+
+    def add(self, signature: Signature, command: str, outcome: str) -> None:
+        """Acknowledge a control taken."""
+        self._lines = [*self._lines, acknowledgement(signature, command, outcome)][
+            -ACKNOWLEDGED:]
+
+    @property
+    def text(self) -> str:
+        """The status' ``acknowledged`` field (one per line, the latest last)."""
+        return '\n'.join(self._lines)
+
+
+def find_acknowledgement(text: str, signature: Signature) -> Acknowledgement | None:
+    """The acknowledgement of the control signed ``signature`` among a status' lines."""
+    for line in reversed(text.splitlines()):
+        ack = parse_acknowledgement(line)
+        if ack is not None and ack.answers(signature):
+            return ack
+    return None
+
+
 def parse_acknowledgement(text: str) -> Acknowledgement | None:
-    """The acknowledgement in a status, or ``None`` (none, or not one)."""
+    """The acknowledgement in one line of a status, or ``None`` (none, or not one)."""
     head, sep, outcome = text.partition(': ')
     ident, _, command = head.partition(' ')
     session, colon, sequence = ident.rpartition(':')

@@ -27,7 +27,7 @@ from ..auth.gates import StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import control_payload
 from ..auth.signing import Signer, new_session
-from ..protocol.controls import Acknowledgement, parse_acknowledgement
+from ..protocol.controls import Acknowledgement, find_acknowledgement
 from ..protocol.messages import Control, Status
 from ..protocol.signature import Signature
 from .messages import control_message
@@ -146,8 +146,7 @@ class ControlSender:
         status = self.statuses.get(sent.status_topic)
         if status is None:
             return None
-        ack = parse_acknowledgement(status.acknowledged)
-        return ack if ack is not None and ack.answers(sent.signature) else None
+        return find_acknowledgement(status.acknowledged, sent.signature)
 
     def resend(self, sent: Sent) -> Sent:
         """Send ``sent`` again, signed anew and bound to the receiver as its status names it
