@@ -18,7 +18,7 @@ from typing import Any
 
 import pytest
 from graph_support import Processes, send_control
-from test_crash_resume import child_of, children, command_line, committed_steps, wait_for_step
+from test_crash_resume import child_of, children, command_line, wait_for_step
 from test_graph import (
     RUN_TIMEOUT,
     latched_qos,
@@ -49,6 +49,16 @@ def long_reference(long_test: Path, tmp_path_factory: pytest.TempPathFactory) ->
     out = tmp_path_factory.mktemp('holds-reference') / 'run'
     run_offline(load_test_file(long_test), out, figures=False)
     return (out / 'response.csv').read_bytes()
+
+
+def committed_steps(out: Path) -> int:
+    """Steps committed so far: the OK feedback in the journal (a refusal, such as an
+    emergency stop's fault, commits nothing)."""
+    try:
+        lines = (out / 'journal.jsonl').read_bytes().splitlines()
+    except OSError:
+        return 0
+    return sum(b'"k":"fb"' in line and b'"status":0' in line for line in lines)
 
 
 class Watch:

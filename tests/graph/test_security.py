@@ -69,10 +69,14 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
         processes: Processes, observer: Any, rig_key: Any, tmp_path: Path) -> None:
     from lifecycle_msgs.msg import Transition
     from lifecycle_msgs.srv import ChangeState
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, SetParameters
     from std_srvs.srv import Trigger
 
+    from pd_common.protocol import Offer, Status, TestState
+    from pd_common.ros import offer_message, status_message
     from pd_msgs.msg import Control as ControlMessage
-    from pd_msgs.msg import SessionStart, StepCommand, StepFeedback, TestStatus
+    from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback, TestStatus
 
     test_file = write_test_file(tmp_path / 'secure.yaml', test__id='graph-secure',
                                 test__duration=40.0)
@@ -96,6 +100,11 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     starts = observer.create_publisher(SessionStart, '/pd/session/start', 10)
     test_control = observer.create_publisher(ControlMessage, '/pd/test_control', 10)
     bridge_control = observer.create_publisher(ControlMessage, '/pd/bridge/control', 10)
+    # (latched, as the nodes publish them: a volatile writer never matches their readers)
+    offers = {topic: observer.create_publisher(SessionOffer, topic, latched_qos())
+              for topic in ('/pd/session/offer', '/pd/specimen/session/offer')}
+    forged_statuses = {topic: observer.create_publisher(TestStatus, topic, latched_qos())
+                       for topic in ('/pd/test_status', '/pd/bridge/status')}
 
     processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args', '-r',
                                  '__ns:=/pd/specimen', '-p', f'test_file:={test_file}'])
@@ -180,9 +189,53 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                 test_control.publish(control_message(control, signature) if signature
                                      else control_message(control))
 
-    request = ChangeState.Request()
-    request.transition.id = Transition.TRANSITION_ACTIVATE  # already active: refused
-    assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+    def pause() -> None:
+        end = time.monotonic() + 0.2
+        while time.monotonic() < end:
+            observer.executor_for_test.spin_once(timeout_sec=0.05)
+
+    def forge() -> None:
+        """A fresh specimen far away, a bridge offering a foreign session, a bridge and a
+        test that say they hold: unsigned, and signed with the rogue's key."""
+        for publisher in offers.values():
+            offer = Offer(stamp_ns=time.time_ns(), node='/pd/pd_actuator_bridge',
+                          challenge='f' * 32, active_session='e' * 32, authenticated=True,
+                          epoch='0' * 16, state_origin=0, restored=('', 0, 0), position=(0.2,),
+                          force=(0.0,), configuration='{"driver": "emulator"}')
+            publisher.publish(offer_message(offer))
+            pause()  # (a latched reader keeps one: each must be taken before the next)
+            publisher.publish(offer_message(offer, rogue))
+            pause()
+        for publisher in forged_statuses.values():
+            status = Status(test_id='graph-secure', state=TestState.HOLDING, step=0,
+                            total_steps=0, omega_dt=0.0, message='rogue status',
+                            node='/pd/pd_actuator_bridge', session='e' * 32)
+            publisher.publish(status_message(status))
+            pause()
+            publisher.publish(status_message(status, signer=rogue))
+            pause()
+
+    # Nobody without the key reconfigures the active bridge: its parameters are sealed and its
+    # lifecycle moves only on the owner's signed controls.
+    setting = SetParameters.Request()
+    for name, value in (('max_displacement', 10.0), ('max_increment', 1.0),
+                        ('max_force', 1.0e9)):
+        setting.parameters.append(Parameter(name=name, value=ParameterValue(
+            type=ParameterType.PARAMETER_DOUBLE, double_value=value)))
+    setting.parameters.append(Parameter(name='driver', value=ParameterValue(
+        type=ParameterType.PARAMETER_STRING, string_value='emulator')))
+    results = call_service(observer, SetParameters, f'{node}/set_parameters', setting).results
+    assert results and not any(result.successful for result in results)
+    assert all('sealed' in result.reason for result in results)
+    for transition in (Transition.TRANSITION_ACTIVATE, Transition.TRANSITION_DEACTIVATE,
+                       Transition.TRANSITION_CLEANUP):
+        request = ChangeState.Request()
+        request.transition.id = transition
+        assert not call_service(observer, ChangeState, f'{node}/change_state', request).success
+    in_force = call_service(observer, GetParameters, f'{node}/get_parameters',
+                            GetParameters.Request(names=['max_displacement', 'driver'])).values
+    assert in_force[0].double_value == 0.25 and in_force[1].string_value == 'sim_servo'
+
     repeat_until(observer, attack,
                  lambda: all(reason in bridge_statuses[-1].refused_by_reason
                              for reason in ('unsigned', 'wrong_key', 'replayed')),
@@ -193,6 +246,22 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     while time.monotonic() < deadline:
         observer.executor_for_test.spin_once(timeout_sec=0.05)
     assert statuses[-1].state == TestStatus.STATE_PAUSED  # nor did the rogue resume it
+    # (the observer hears its own forgeries on the status topics too: they are left out)
+    def genuine(heard: list[Any]) -> list[Any]:
+        return [s for s in heard if s.message != 'rogue status']
+
+    before = (genuine(statuses)[-1].refused_messages,
+              genuine(bridge_statuses)[-1].refused_messages)
+
+    def refused_forgeries() -> bool:
+        # a round refuses 4 at the integrator (2 offers, 2 bridge statuses) and 2 at the
+        # bridge (the specimen's offers)
+        return (genuine(statuses)[-1].refused_messages >= before[0] + 4
+                and genuine(bridge_statuses)[-1].refused_messages >= before[1] + 2)
+
+    repeat_until(observer, forge, refused_forgeries,
+                 'the integrator and the bridge to refuse the forged offers and statuses')
+    assert genuine(statuses)[-1].state == TestStatus.STATE_PAUSED  # nor did a forged offer
     send_control(observer, rig_key, 'resume')
 
     assert wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator')) == 0
@@ -201,6 +270,14 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'finished'
     refused = summary['authentication']['refused_messages']
+    assert {'unsigned', 'wrong_key'} <= set(refused['session_offer[default]'])
+    assert {'unsigned', 'wrong_key'} <= set(refused['bridge_status'])
+    # The forged statuses never entered the record as the bridge's (or the test's) own, and
+    # the summary names the driver and the limits actually in force.
+    assert b'rogue status' not in (out / 'journal.jsonl').read_bytes()
+    side = summary['specimen_side']['default']
+    assert side['driver'] == 'sim_servo' and side['limits']['max_displacement'] == 0.25
+    assert side['node'] == '/pd/pd_actuator_bridge'
     assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
     assert refused['feedback[default]']['unsigned'] >= 10
     assert {'unsigned', 'wrong_key'} <= set(refused['test_control'])

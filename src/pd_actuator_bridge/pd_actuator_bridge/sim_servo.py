@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -157,8 +158,10 @@ class SimServoDriver(ActuatorDriver):
 
     @property
     def refused(self) -> dict[str, int]:
-        """The specimen answers refused by authentication, by reason."""
-        return dict(self._sender.reply_gate.refused)
+        """The specimen's answers and offers refused by authentication, by reason."""
+        counts = Counter(self._sender.reply_gate.refused)
+        counts.update(self._sender.offer_gate.refused)
+        return dict(counts)
 
     @property
     def in_flight(self) -> bool:

@@ -47,7 +47,11 @@ from pd_common.ros import (
     settle_listeners,
 )
 
+from .plan import discovery_profile
 from .rig import default_rig_key
+
+#: Seconds after the stop during which late-discovered listeners are still looked for.
+LATE_DISCOVERY_S = 2.0
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -98,6 +102,9 @@ def main(argv: list[str] | None = None) -> int:
             key = load_key(_key_path(args)) if _key_path(args).exists() else None
         except AuthError:
             key = None
+    # (the shipped Fast DDS profile: announcements every 100 ms at first, so the lab's nodes
+    # are found in a fraction of a second, not at the next 3 s announcement)
+    os.environ.update(discovery_profile(dict(os.environ)))
     rclpy.init()
     try:
         node = Node('pd_control', namespace='pd')
@@ -178,17 +185,30 @@ def _emergency_stop(node: Node, key: Key | None, args: argparse.Namespace,
         sender.watch(status_topic)
     repeat_emergency_stop(lambda: publisher.publish(message), sleep=spin)
     last_sent = time.monotonic()
+    # A receiver discovered late (a site's bridge on a loaded machine) still gets the stop and
+    # must confirm it: the listeners are looked up again while the confirmations come in, for
+    # at least LATE_DISCOVERY_S.
+    look_until = time.monotonic() + LATE_DISCOVERY_S
 
     def unconfirmed() -> list[str]:
         return [name for name, status_topic in sorted(receivers.items())
                 if not (status_topic in sender.statuses
                         and sender.statuses[status_topic].emergency_stop)]
 
-    while (missing := unconfirmed()) and time.monotonic() < max(deadline, last_sent + 1.0):
-        if time.monotonic() - last_sent >= 0.5:  # (a latched stop: a repeat changes nothing)
+    while time.monotonic() < max(deadline, look_until):
+        for name, status_topic in emergency_stop_receivers(node, topic).items():
+            if name not in receivers:
+                receivers[name] = status_topic
+                sender.watch(status_topic)
+        missing = unconfirmed()
+        if not missing and time.monotonic() >= look_until:
+            break
+        if missing and time.monotonic() - last_sent >= 0.5:  # (latched: a repeat is counted)
             publisher.publish(message)
             last_sent = time.monotonic()
         spin(0.05)
+    missing = unconfirmed()
+    listeners = max(listeners, publisher.get_subscription_count())
     others = listeners - len(receivers)
     extra = f'; {others} other listener(s) cannot confirm' if others > 0 else ''
     if missing:

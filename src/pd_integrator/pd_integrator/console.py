@@ -12,8 +12,12 @@ series): it never slows the test. The data handling is the pure
 Controls (pause, resume, abort; a bridge's reset and reset_emergency_stop) are signed with the
 test's key exactly as ``./pd control`` signs them, and only a browser that logged in with the
 one-time token printed on this terminal may send them; any other page can watch, and its
-control requests are refused (HTTP 403) with nothing published. The emergency stop is open to
-every page (unsigned, as the e-stop topic is by design).
+control requests are refused (HTTP 403) with nothing published. The emergency stop needs no
+login (unsigned, as the e-stop topic is by design), but like every request that changes
+anything it must be a JSON POST from the console's own page: another site's page (a form
+post) is refused. Every request must name the served address in its ``Host`` header (DNS
+rebinding is refused, HTTP 421). A client that drops its request costs one line on this
+terminal, never a traceback.
 
 ``./pd console runs/<run>`` shows a finished run (its bag, or its journal) and its figures.
 The server listens on 127.0.0.1 unless ``--host`` says otherwise (a lab network: a warning
@@ -26,15 +30,18 @@ import argparse
 import asyncio
 import ipaddress
 import json
+import logging
 import sys
 import threading
 import time
 from pathlib import Path
+from socket import gethostname
 from typing import Any
 
 import foxglove
 import rclpy
 from aiohttp import WSMsgType, web
+from aiohttp.typedefs import Handler
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
@@ -77,6 +84,7 @@ from .core.console import (
     response_message,
     response_topic,
 )
+from .core.console.access import WILDCARD_HOSTS, served_address
 from .core.errors import BagError
 
 #: Seconds the console waits for a control's receiver and its acknowledgement.
@@ -87,6 +95,14 @@ STATIC_FILES = {'console.js': 'application/javascript', 'console.css': 'text/css
                 'index.html': 'text/html', 'foxglove_layout.json': 'application/json'}
 DEFAULT_FOXGLOVE_PORT = 8766
 FOXGLOVE_ROWS = 4096  # rows per site buffered between two Foxglove ticks
+#: Methods that change nothing: every other one must come from the console's own page.
+SAFE_METHODS = frozenset({'GET', 'HEAD', 'OPTIONS'})
+#: aiohttp's loggers whose records may carry a traceback (see :class:`OneLineLog`).
+AIOHTTP_LOGGERS = ('aiohttp.server', 'aiohttp.web', 'aiohttp.websocket', 'aiohttp.internal')
+
+#: The console's lines on its terminal (warnings and errors reach stderr through Python's
+#: last-resort handler, one line each, even when nothing configured logging).
+LOG = logging.getLogger('pd_integrator.console')
 
 
 def web_directory() -> Path:
@@ -260,11 +276,18 @@ class ConsoleServer:
         node: the console node (``None``: a finished run, no controls).
         update_rate: frames per second pushed.
         run_dir: a finished run's folder (its figures are served).
+        host: the address it listens on: a request's ``Host`` header must name it.
+        port: the port it listens on (0: the port each connection reached; :func:`serve`
+            sets the bound one).
     """
 
     def __init__(self, model: ConsoleModel, lock: threading.Lock, access: ConsoleAccess,
-                 node: ConsoleNode | None, update_rate: float, run_dir: Path | None = None
-                 ) -> None:
+                 node: ConsoleNode | None, update_rate: float, run_dir: Path | None = None,
+                 *, host: str = '127.0.0.1', port: int = 0) -> None:
+        self.host = host
+        self.port = port
+        wildcard = host.strip() in WILDCARD_HOSTS
+        self.served = served_address(host, machine_names() if wildcard else ())
         self.model = model
         self.lock = lock
         self.access = access
@@ -275,13 +298,17 @@ class ConsoleServer:
         self.sockets: set[web.WebSocketResponse] = set()
         self.frames_sent = 0
         self.refused_controls = 0
+        self.refused_requests = 0
+        self.dropped_requests = 0
         self._frame_text = ''
         self._frame_version = -1
         self._frame_at = 0.0
 
     def app(self) -> web.Application:
         """The aiohttp application."""
-        app = web.Application(client_max_size=64 * 1024)
+        app = web.Application(client_max_size=64 * 1024, middlewares=[self.guard])
+        app.on_startup.append(_quiet_aiohttp)
+        app.on_cleanup.append(_loud_aiohttp)
         app.router.add_get('/', self.index)
         app.router.add_get('/static/{name}', self.static)
         app.router.add_get('/figures/{name}', self.figure)
@@ -294,21 +321,86 @@ class ConsoleServer:
         app.router.add_post('/api/estop', self.estop)
         return app
 
+    # -- every request ---------------------------------------------------------------------
+    @web.middleware
+    async def guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
+        """Every request: its ``Host`` must name the served address (else 421: DNS
+        rebinding), and one that changes anything (not GET) must be a JSON request of this
+        page (else 403: another site's page, a form post); nothing is done for a refused one.
+        The response is written here, so that a client that drops its request costs one line
+        on the terminal, and a failing handler one line with its error, never a traceback."""
+        where = f'{request.method} {request.path}'
+        response: web.StreamResponse | None = None
+        try:
+            if not self._host_allowed(request):
+                self.refused_requests += 1
+                response = web.json_response(
+                    {'error': "misdirected request: the Host header does not name this "
+                              "console's address"}, status=421)
+            elif request.method not in SAFE_METHODS and not self._same_origin(request):
+                self.refused_requests += 1
+                response = web.json_response(
+                    {'error': "not from this page: a request that changes anything must be "
+                              "a JSON POST from the console's own page"}, status=403)
+            else:
+                response = await handler(request)
+            if not response.prepared:
+                await response.prepare(request)
+                await response.write_eof()
+            return response
+        except web.HTTPException:
+            raise
+        except asyncio.CancelledError:
+            # aiohttp cancels a handler whose client went away only with
+            # ``handler_cancellation`` (its test server); a shutdown cancels one whose
+            # connection is still open
+            if _gone(request):
+                self._dropped_request(where)
+            raise
+        except ConnectionError as err:
+            if not (_gone(request) or isinstance(err, _CLIENT_ERRORS)):
+                return self._failed(request, where, err, response)
+            self._dropped_request(where)
+            return _abandon(request)
+        except Exception as err:  # noqa: BLE001 - one line on the terminal, not a traceback
+            return self._failed(request, where, err, response)
+
+    def _dropped_request(self, where: str) -> None:
+        self.dropped_requests += 1
+        LOG.warning('console: a client dropped its request (%s)', where)
+
+    def _failed(self, request: web.Request, where: str, err: Exception,
+                response: web.StreamResponse | None) -> web.StreamResponse:
+        """A handler failed: one line with the error; a 500 if nothing was sent yet."""
+        said = _one_line(err)
+        LOG.error('console: %s failed: %s', where, said)
+        if (response is not None and response.prepared) or request.writer.output_size:
+            return _abandon(request)
+        return web.json_response({'error': said}, status=500)
+
+    def _host_allowed(self, request: web.Request) -> bool:
+        """Whether the request's ``Host`` names the served address and port."""
+        sockname = request.get_extra_info('sockname')
+        local = sockname if isinstance(sockname, tuple) and len(sockname) >= 2 else None
+        port = self.port or (int(local[1]) if local is not None else 0)
+        return self.served.allows(request.headers.get('Host'), port,
+                                  str(local[0]) if local is not None else '')
+
     # -- pages -----------------------------------------------------------------------------
     async def index(self, request: web.Request) -> web.StreamResponse:
-        return web.FileResponse(self.web / 'index.html', headers=_NO_CACHE)
+        return await _file(self.web / 'index.html', STATIC_FILES['index.html'], _NO_CACHE)
 
     async def static(self, request: web.Request) -> web.StreamResponse:
         name = request.match_info['name']
         if name not in STATIC_FILES:
             raise web.HTTPNotFound
-        return web.FileResponse(self.web / name, headers=_NO_CACHE)
+        return await _file(self.web / name, STATIC_FILES[name], _NO_CACHE)
 
     async def figure(self, request: web.Request) -> web.StreamResponse:
         name = request.match_info['name']
         if self.run_dir is None or name not in self.model.figures:
             raise web.HTTPNotFound
-        return web.FileResponse(self.run_dir / name)
+        return await _file(self.run_dir / name, 'image/png')
 
     def frame_text(self) -> str:
         """The current frame as JSON (made again when the model changed, or each second for
@@ -331,8 +423,7 @@ class ConsoleServer:
                                   'token_spent': self.access.token_spent})
 
     async def websocket(self, request: web.Request) -> web.WebSocketResponse:
-        origin = request.headers.get('Origin')
-        if origin is not None and origin != f'{request.scheme}://{request.host}':
+        if not self._own_origin(request):
             raise web.HTTPForbidden(text='another site may not read this console')
         socket = web.WebSocketResponse(heartbeat=20.0)
         await socket.prepare(request)
@@ -369,17 +460,19 @@ class ConsoleServer:
         return self.access.allowed(request.cookies.get(SESSION_COOKIE))
 
     @staticmethod
-    def _same_origin(request: web.Request) -> bool:
-        """A JSON POST from this page (a cross-site form cannot send JSON without a
-        preflight, and a foreign Origin is refused)."""
-        if request.content_type != 'application/json':
-            return False
+    def _own_origin(request: web.Request) -> bool:
+        """No ``Origin`` (not a browser's cross-site request), or this console's own."""
         origin = request.headers.get('Origin')
-        return origin is None or origin == f'{request.scheme}://{request.host}'
+        return origin is None or origin.lower() == f'{request.scheme}://{request.host}'.lower()
+
+    @classmethod
+    def _same_origin(cls, request: web.Request) -> bool:
+        """A JSON request from this page: a cross-site form cannot send JSON without a CORS
+        preflight (never granted here), and a foreign ``Origin`` is refused. Checked by
+        :meth:`guard` on every request that changes anything, the e-stop included."""
+        return request.content_type == 'application/json' and cls._own_origin(request)
 
     async def login(self, request: web.Request) -> web.Response:
-        if not self._same_origin(request):
-            return web.json_response({'error': 'not from this page'}, status=403)
         try:
             body = await request.json()
         except ValueError:
@@ -400,7 +493,7 @@ class ConsoleServer:
         return response
 
     async def control(self, request: web.Request) -> web.Response:
-        if not self._same_origin(request) or not self._authenticated(request):
+        if not self._authenticated(request):
             self.refused_controls += 1
             return web.json_response(
                 {'error': 'not logged in: controls need the token printed on the '
@@ -434,6 +527,89 @@ class ConsoleServer:
 
 
 _NO_CACHE = {'Cache-Control': 'no-store'}
+
+
+async def _file(path: Path, content_type: str, headers: dict[str, str] | None = None
+                ) -> web.Response:
+    """A file's bytes (read in a worker thread); 404 if it cannot be read. Not aiohttp's
+    ``FileResponse``: :meth:`ConsoleServer.guard` writes every response itself (to see a
+    client drop it), and a ``FileResponse`` cannot be prepared twice."""
+    try:
+        body = await asyncio.get_running_loop().run_in_executor(None, path.read_bytes)
+    except OSError as err:
+        raise web.HTTPNotFound from err
+    charset = 'utf-8' if not content_type.startswith('image/') else None
+    return web.Response(body=body, content_type=content_type, charset=charset,
+                        headers=headers)
+
+
+#: What a client that goes away raises (aiohttp's ``ClientConnectionResetError`` is a
+#: ``ConnectionResetError``).
+_CLIENT_ERRORS = (ConnectionResetError, BrokenPipeError, ConnectionAbortedError)
+
+
+def _gone(request: web.Request) -> bool:
+    """Whether the request's connection is closed or closing."""
+    transport = request.transport
+    return transport is None or transport.is_closing()
+
+
+def _abandon(request: web.Request) -> web.StreamResponse:
+    """Close a connection whose response cannot be finished; aiohttp's own attempt to write
+    the returned response then fails quietly (it logs a closed connection at debug level)."""
+    transport = request.transport
+    if transport is not None:
+        transport.close()
+    return web.Response(status=500)
+
+
+class OneLineLog(logging.Filter):
+    """aiohttp's error records in one line, without their traceback: a dropped connection
+    (what the :meth:`ConsoleServer.guard` does not see, e.g. during aiohttp's own writing),
+    a malformed request. The console's terminal shows the login token: no tracebacks."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.exc_info and record.exc_info[1] is not None:
+            err = record.exc_info[1]
+            said = ' '.join(record.getMessage().split())
+            if isinstance(err, ConnectionError | asyncio.CancelledError):
+                record.msg = f'console: a client dropped its connection ({said})'
+            else:
+                record.msg = f'console: {said}: {_one_line(err)}'
+            record.args = ()
+            record.exc_info = None
+            record.exc_text = None
+            record.stack_info = None
+        return True
+
+
+_ONE_LINE = OneLineLog()
+
+
+def _one_line(err: BaseException) -> str:
+    """``Type: message`` of an error, on one line."""
+    return ' '.join(f'{type(err).__name__}: {err}'.split())
+
+
+async def _quiet_aiohttp(app: web.Application) -> None:
+    for name in AIOHTTP_LOGGERS:
+        logging.getLogger(name).addFilter(_ONE_LINE)
+
+
+async def _loud_aiohttp(app: web.Application) -> None:
+    for name in AIOHTTP_LOGGERS:
+        logging.getLogger(name).removeFilter(_ONE_LINE)
+
+
+def machine_names() -> tuple[str, ...]:
+    """This machine's own names, found without asking DNS: its host name and its mDNS
+    name (``<host>.local``). Its addresses need no list: a console listening on every
+    address accepts the one each connection reached."""
+    name = gethostname().strip().lower()
+    if not name:
+        return ()
+    short = name.split('.')[0]
+    return tuple(dict.fromkeys((name, short, f'{short}.local')))
 
 
 class FoxgloveFeed:
@@ -516,19 +692,28 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-async def serve(server: ConsoleServer, host: str, port: int, stop: threading.Event) -> None:
-    """Serve until ``stop`` is set; prints the address and the login token."""
+async def serve(server: ConsoleServer, stop: threading.Event) -> None:
+    """Serve on ``server.host`` and ``server.port`` until ``stop`` is set; prints the
+    address and the login token."""
+    host, port = server.host, server.port
     runner = web.AppRunner(server.app(), access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, host, port)
     await site.start()
     addresses = runner.addresses
     bound = int(addresses[0][1]) if addresses else port
+    # the Host header must name this port (port 0 on every address may bind several)
+    server.port = bound if len({int(address[1]) for address in addresses}) <= 1 else 0
     shown = host if ':' not in host else f'[{host}]'
     print(f'console: serving http://{shown}:{bound}/', flush=True)
     if not _is_loopback(host):
         print(f'console: WARNING: listening on {host}: anyone who reaches this address can '
               'watch the test (controls still need the token)', flush=True)
+        names = ', '.join(sorted(server.served.names))
+        also = " and to the machine's address a browser connects to" if (
+            server.served.wildcard) else ''
+        print(f'console: the page answers to {names}{also}; any other name in the address '
+              'bar is refused (start with --host NAME to use one)', flush=True)
     if server.node is not None:
         if server.node.key is None:
             print(f'console: WARNING: no key ({server.node.key_error}): the page can watch, '
@@ -582,10 +767,11 @@ def main(args: list[str] | None = None) -> int:
             print(f'console: error: {err}', file=sys.stderr)
             return 2
         stop = threading.Event()
-        server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir)
+        server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir,
+                               host=options.host or '127.0.0.1',
+                               port=DEFAULT_PORT if options.port is None else options.port)
         try:
-            asyncio.run(serve(server, options.host or '127.0.0.1',
-                              DEFAULT_PORT if options.port is None else options.port, stop))
+            asyncio.run(serve(server, stop))
         except KeyboardInterrupt:
             pass
         return 0
@@ -600,8 +786,9 @@ def main(args: list[str] | None = None) -> int:
 
         thread = threading.Thread(target=spin, name='console-ros', daemon=True)
         thread.start()
-        server = ConsoleServer(model, lock, access, node, node.update_rate)
-        asyncio.run(serve(server, node.host, node.port, stop))
+        server = ConsoleServer(model, lock, access, node, node.update_rate, host=node.host,
+                               port=node.port)
+        asyncio.run(serve(server, stop))
         stop.set()
         thread.join(timeout=2.0)
         executor.shutdown()
