@@ -11,7 +11,14 @@ import pytest
 
 from pd_bringup.launcher import resolve_key
 from pd_bringup.plan import LaunchError, with_key
-from pd_bringup.rig import RigError, RigSettings, load_rig
+from pd_bringup.rig import (
+    RigError,
+    RigSettings,
+    load_rig,
+    prune_test_keys,
+    state_key_dir,
+    test_key_path,
+)
 from pd_common.auth import generate_key, load_key
 
 
@@ -103,3 +110,23 @@ def test_every_node_gets_the_key_parameter() -> None:
     assert with_key(node, None)[-2:] == ['-p', 'authentication:=false']
     opensees = ['opensees_site', '--port', '1234']
     assert with_key(opensees, Path('/k/rig.key')) == opensees  # not a ROS node
+
+
+def test_old_per_test_keys_are_pruned_the_newest_kept(tmp_path: Path) -> None:
+    directory = tmp_path / 'keys'
+    now = 1.0e9
+    ages = {f'old{i}': 40.0 for i in range(5)} | {f'new{i}': 1.0 for i in range(3)}
+    for name, days in ages.items():
+        generate_key(directory / f'{name}.key')
+        os.utime(directory / f'{name}.key', (now - days * 86400.0,) * 2)
+    (directory / 'notes.txt').write_text('not a key', encoding='utf-8')
+    removed = prune_test_keys(directory, days=30.0, kept=4, now=now)
+    # 8 keys, the newest 4 kept whatever their age: the 3 new ones and one old one stay
+    assert len(removed) == 4 and all(path.name.startswith('old') for path in removed)
+    left = sorted(path.name for path in directory.glob('*.key'))
+    assert len(left) == 4 and {f'new{i}.key' for i in range(3)} <= set(left)
+    assert (directory / 'notes.txt').exists()  # only keys are pruned
+    assert prune_test_keys(directory, days=30.0, kept=4, now=now) == []
+    # run_test's new key prunes the real folder (nothing old there: nothing removed)
+    path = test_key_path('t')
+    assert path.parent == state_key_dir() and path.exists()

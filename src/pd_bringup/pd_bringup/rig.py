@@ -10,7 +10,9 @@ keys; the test file's values win)::
       key_file: ~/.config/pd/keys/rig.key   # the rig's key (a physical rig has one)
 
 Keys: ``./pd keygen`` makes the rig's key; ``run_test`` makes a key per test in
-``~/.local/state/pd/keys/`` when every site is simulated and no key is given.
+``~/.local/state/pd/keys/`` when every site is simulated and no key is given, and removes the
+test keys older than :data:`TEST_KEY_DAYS` days (the newest :data:`TEST_KEYS_KEPT` always
+stay): keep a run's key elsewhere to check its bag's signatures later.
 """
 
 from __future__ import annotations
@@ -25,8 +27,13 @@ from typing import Any
 from pd_common.auth import default_rig_key, generate_key
 from pd_common.config import YAMLError, read_yaml_file
 
-__all__ = ['DISCOVERY', 'RigError', 'RigSettings', 'default_rig_key', 'load_rig', 'state_key_dir',
-           'test_key_path']
+__all__ = ['DISCOVERY', 'TEST_KEYS_KEPT', 'TEST_KEY_DAYS', 'RigError', 'RigSettings',
+           'default_rig_key', 'load_rig', 'prune_test_keys', 'state_key_dir', 'test_key_path']
+
+#: Days a per-test key is kept after it was made.
+TEST_KEY_DAYS = 30
+#: Per-test keys always kept (the newest), whatever their age.
+TEST_KEYS_KEPT = 20
 
 DISCOVERY = ('localhost', 'subnet')
 _KEYS = {'domain_id', 'discovery', 'static_peers', 'key_file'}
@@ -137,8 +144,34 @@ def state_key_dir() -> Path:
 
 
 def test_key_path(test_id: str) -> Path:
-    """A new key file for one simulated test (created, owner-only)."""
+    """A new key file for one simulated test (created, owner-only); the old ones pruned
+    (:func:`prune_test_keys`)."""
     stamp = datetime.now(tz=UTC).strftime('%Y%m%d-%H%M%S-%f')
     path = state_key_dir() / f'{test_id}-{stamp}.key'
     generate_key(path)
+    prune_test_keys(path.parent)
     return path
+
+
+def prune_test_keys(directory: Path, *, days: float = TEST_KEY_DAYS,
+                    kept: int = TEST_KEYS_KEPT, now: float | None = None) -> list[Path]:
+    """Remove the per-test keys in ``directory`` older than ``days`` (by their modification
+    time), except the newest ``kept``; the files removed (a file that cannot be removed is
+    left). Only ``*.key`` files are considered; the rig's key lives elsewhere."""
+    limit = (datetime.now(tz=UTC).timestamp() if now is None else now) - days * 86400.0
+    keys = []
+    for path in directory.glob('*.key'):
+        try:
+            keys.append((path.stat().st_mtime, path))
+        except OSError:
+            continue
+    keys.sort(reverse=True)
+    removed = []
+    for mtime, path in keys[kept:]:
+        if mtime < limit:
+            try:
+                path.unlink()
+            except OSError:
+                continue
+            removed.append(path)
+    return removed
