@@ -17,8 +17,8 @@ from pd_bringup.rig import (
     load_rig,
     prune_test_keys,
     state_key_dir,
-    test_key_path,
 )
+from pd_bringup.rig import test_key_path as new_test_key
 from pd_common.auth import generate_key, load_key
 
 
@@ -128,5 +128,5 @@ def test_old_per_test_keys_are_pruned_the_newest_kept(tmp_path: Path) -> None:
     assert (directory / 'notes.txt').exists()  # only keys are pruned
     assert prune_test_keys(directory, days=30.0, kept=4, now=now) == []
     # run_test's new key prunes the real folder (nothing old there: nothing removed)
-    path = test_key_path('t')
+    path = new_test_key('t')
     assert path.parent == state_key_dir() and path.exists()
