@@ -102,6 +102,7 @@ from pd_common.protocol import (
     FeedbackStatus,
     MalformedMessageError,
     PersonHolds,
+    RunTags,
     Signature,
     Status,
     StepKey,
@@ -110,6 +111,7 @@ from pd_common.protocol import (
     command_from_message,
     control_from_message,
     signature_from_message,
+    untag,
 )
 from pd_common.ros import (
     CONTROL_DEPTH,
@@ -208,6 +210,7 @@ class ActuatorBridgeNode(LifecycleNode):
             if event.get('what') == 'control' and event.get('session'):
                 self._control_gate.remember(str(event['session']), int(event['sequence']))
         self._acknowledged = Acknowledgements()
+        self._runs = RunTags()
         self._auto_held = False  # the current hold is the supervisor's auto_hold alone
         self._estop_logged_at = 0.0
         self._estop_repeats_logged = 0
@@ -540,7 +543,7 @@ class ActuatorBridgeNode(LifecycleNode):
         step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
         driver = self.driver
         feedback = Feedback(
-            test_id=reply.test_id, step=step, iteration=iteration,
+            test_id=untag(reply.test_id), step=step, iteration=iteration,
             measured_displacement=reply.displacement, restoring_force=reply.force,
             status=reply.status, message=reply.message,
             epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
@@ -624,16 +627,18 @@ class ActuatorBridgeNode(LifecycleNode):
         self._request = signature
         self._test_id, self._step = message.test_id, message.step
         key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
-        self._target = (message.test_id, key, tuple(message.target_displacement.tolist()))
+        # (the same test file run again by a new integrator: a new run, not stale steps)
+        run = self._runs.tag(message.test_id, key, signature.session)
+        self._target = (run, key, tuple(message.target_displacement.tolist()))
         was_holding = bridge.state == 'holding'
         if isinstance(self.driver, SimServoDriver):
-            self.driver.move_test_id = message.test_id  # its moves are keyed like the command
+            self.driver.move_test_id = run  # its moves are keyed like the command
         reply = bridge.handle_command(
-            message.test_id, key, tuple(message.target_displacement.tolist()),
+            run, key, tuple(message.target_displacement.tolist()),
             control_mode=tuple(int(mode) for mode in message.control_mode),
             target_force=tuple(float(force) for force in message.target_force))
         if (reply is None and isinstance(self.driver, SimServoDriver)
-                and bridge.in_flight == (message.test_id, key)):
+                and bridge.in_flight == (run, key)):
             self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
         if reply is not None:
             self._publish_reply(reply)

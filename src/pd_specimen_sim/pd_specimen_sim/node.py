@@ -43,6 +43,7 @@ from rclpy.node import Node
 from pd_common.auth import AuthError
 from pd_common.protocol import (
     FeedbackStatus,
+    RunTags,
     StateOrigin,
     StepKey,
     command_from_message,
@@ -105,6 +106,7 @@ class SpecimenSimNode(Node):
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
         self._feedback = StepFeedback()
+        self._runs = RunTags()
         self.get_logger().info(f'simulated specimen ready: {len(dof_names)} DOF '
                                f'({", ".join(dof_names)}) on '
                                f'{self.resolve_topic_name("step_command")}')
@@ -143,19 +145,22 @@ class SpecimenSimNode(Node):
             self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
             return
         before = self.server.last
+        # (the same test file run again by a new integrator: a new run, not stale steps)
+        run = self._runs.tag(command.test_id, command.key, signature.session)
         # The server checks the modes and forces with command.control_error() itself: an
         # inconsistent command is a FAULT of one line and moves nothing.
-        answer = self.server.handle(command.test_id, command.step, command.target_displacement,
+        answer = self.server.handle(run, command.step, command.target_displacement,
                                     iteration=command.iteration,
                                     control_mode=command.control_mode,
                                     target_force=command.target_force)
         if answer is None:
             return
         if answer is not before and self.record is not None:  # a new move: on record first
-            self.record.add(command.test_id, command.step, command.iteration,
+            self.record.add(run, command.step, command.iteration,
                             command.target_displacement, command.control_mode,
                             command.target_force)
-        answer = dataclasses.replace(answer, epoch=self.epoch, state_origin=self.receiver.origin)
+        answer = dataclasses.replace(answer, test_id=command.test_id, epoch=self.epoch,
+                                     state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
         self._feedback_pub.publish(feedback_message(answer, message=self._feedback,
                                                     signature=self.receiver.sign(answer,

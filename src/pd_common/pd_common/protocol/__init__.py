@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .answers import KeyedAnswers
+from .answers import KeyedAnswers, RunTags, untag
 from .bounds import MAX_REASON, MalformedMessageError, clip_reason
 from .controls import (
     ACKNOWLEDGED,
@@ -75,6 +75,7 @@ __all__ = [
     'MalformedMessageError',
     'Offer',
     'PersonHolds',
+    'RunTags',
     'SessionStart',
     'Signature',
     'StateOrigin',
@@ -95,4 +96,5 @@ __all__ = [
     'site_topic_name',
     'stamp_ns_of',
     'status_from_message',
+    'untag',
 ]

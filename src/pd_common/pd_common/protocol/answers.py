@@ -11,9 +11,9 @@ from __future__ import annotations
 import abc
 from collections.abc import Sequence
 
-from .messages import Feedback
+from .messages import Feedback, StepKey
 
-__all__ = ['KeyedAnswers']
+__all__ = ['RUN_SEPARATOR', 'KeyedAnswers', 'RunTags', 'untag']
 
 
 class KeyedAnswers(abc.ABC):
@@ -60,3 +60,35 @@ class KeyedAnswers(abc.ABC):
     def _move(self, test_id: str, step: int, iteration: int, target: Sequence[float],
               control_mode: Sequence[int], target_force: Sequence[float]) -> Feedback:
         """Move for a new command and return the answer."""
+
+
+#: Separates a test id from its run number in a run tag (a test id never holds it).
+RUN_SEPARATOR = '#'
+
+
+class RunTags:
+    """Which run of a test a command belongs to: a receiver started by hand serves the same
+    test file run twice (two integrators, one after the other) as two runs.
+
+    A command for step 0 (iteration 0) of a test whose later steps this receiver answered,
+    from another sender session (a new integrator process), starts a new run: its commands
+    are keyed ``<test id>#<n>`` inside the receiver, so they are new commands, not stale ones
+    to ignore (a resumed run never goes back to step 0 after later steps: it re-sends the
+    step it owes). :meth:`tag` gives the key, :func:`untag` the test id back for the answer.
+    """
+
+    def __init__(self) -> None:
+        self._runs: dict[str, tuple[int, str, StepKey]] = {}  # id -> (run, session, last)
+
+    def tag(self, test_id: str, key: StepKey, session: str) -> str:
+        """The run tag of the command ``key`` of ``test_id`` sent in ``session``."""
+        run, last_session, last = self._runs.get(test_id, (1, session, key))
+        if key == StepKey(0, 0) and last > key and (not session or session != last_session):
+            run, last = run + 1, key
+        self._runs[test_id] = (run, session, max(key, last))
+        return test_id if run == 1 else f'{test_id}{RUN_SEPARATOR}{run}'
+
+
+def untag(tagged: str) -> str:
+    """The test id of a run tag (:class:`RunTags`)."""
+    return tagged.split(RUN_SEPARATOR, 1)[0]
