@@ -239,3 +239,21 @@ def test_peaks_survive_the_decimation() -> None:
     assert len(kept) <= 66
     assert np.max(np.abs(kept[:, 1])) == np.max(np.abs(x))  # the largest peak is drawn
     assert np.all(np.diff(kept[:, 0]) > 0)
+
+
+def test_a_finished_tests_bridge_is_not_shown_running() -> None:
+    model = ConsoleModel(Clock())
+    active = Status(test_id='t', state=State.RUNNING, step=0, total_steps=0, omega_dt=0.0,
+                    message='active (sim_servo): |x| <= 0.25 m')
+    model.on_bridge_status('', active)
+    model.on_status(Status(test_id='t', state=State.RUNNING, step=5, total_steps=9,
+                           omega_dt=0.1))
+    assert model.frame()['sites'][0]['bridge']['state_name'] == 'RUNNING'
+    for ended in (State.FINISHED, State.ABORTED, State.INTERRUPTED):
+        model.on_status(Status(test_id='t', state=ended, step=9, total_steps=9, omega_dt=0.1))
+        bridge = model.frame()['sites'][0]['bridge']
+        assert bridge['state_name'] == 'IDLE' and 'the test is over' in bridge['message']
+    # a bridge that holds (a limit, an emergency stop) still shows it
+    model.on_bridge_status('', Status(test_id='t', state=State.HOLDING, step=9, total_steps=0,
+                                      omega_dt=0.0, message='EMERGENCY STOP: x'))
+    assert model.frame()['sites'][0]['bridge']['state_name'] == 'HOLDING'

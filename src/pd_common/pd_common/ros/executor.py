@@ -46,19 +46,20 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
     """Spin ``executor`` until the context shuts down (SIGINT/SIGTERM), calling ``between``
     after every ``spin_once``.
 
-    A callback that was running when a signal shut the context down fails to publish
-    ("publisher's context is invalid"): that is the shutdown, not an error, and ends the loop
-    quietly; the same failure while the context is still up is raised.
+    A callback (or ``between``) that was running when a signal shut the context down fails
+    to publish or to count a publisher's matches ("publisher's context is invalid"): that is
+    the shutdown, not an error, and ends the loop quietly; the same failure while the context
+    is still up is raised. ``between`` is not called once the context is down.
     """
     while rclpy.ok():
         try:
             executor.spin_once(timeout_sec=timeout_sec)
+            if between is not None and rclpy.ok():
+                between()
         except Exception:
             if rclpy.ok():
                 raise
             return
-        if between is not None:
-            between()
 
 
 def init_with_stop_flag(args: list[str] | None = None) -> threading.Event:

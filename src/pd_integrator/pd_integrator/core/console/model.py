@@ -162,8 +162,9 @@ class SiteView:
         """Only the gauges of :meth:`to_json` (cheap)."""
         return {'gauges': [gauge.to_json() for gauge in self.gauges.values()]}
 
-    def to_json(self) -> dict[str, Any]:
-        """The site for the page."""
+    def to_json(self, test_over: bool = False) -> dict[str, Any]:
+        """The site for the page (``test_over``: the test ended, so a bridge that says it is
+        active is shown idle: it answers nothing more of this test)."""
         dofs = []
         for name, history in zip(self.dof_names, self.histories, strict=True):
             t, command, measured, force, error, indicator = history.columns(6)
@@ -178,8 +179,21 @@ class SiteView:
                        'ok': self.feedback_ok, 'limit': self.feedback_limit,
                        'fault': self.feedback_fault},
             'message': self.last_message,
-            'bridge': None if status is None else _status_json(status),
+            'bridge': None if status is None else _bridge_json(status, test_over),
         }
+
+
+#: Test states after which the test's bridges answer nothing more of it.
+ENDED = (TestState.FINISHED, TestState.ABORTED, TestState.INTERRUPTED)
+
+
+def _bridge_json(status: TestStatusData, test_over: bool) -> dict[str, Any]:
+    """A bridge's status for the page: once the test is over, an active bridge is idle."""
+    shown = _status_json(status)
+    if test_over and TestState(status.state) == TestState.RUNNING:
+        shown.update(state=int(TestState.IDLE), state_name=TestState.IDLE.name,
+                     message=f'idle: the test is over ({status.message})')
+    return shown
 
 
 def _status_json(status: TestStatusData) -> dict[str, Any]:
@@ -358,5 +372,6 @@ class ConsoleModel:
             energy = {'t': t, 'error': error}
         return {'type': 'frame', 'mode': self.mode, 'source': self.source,
                 'version': self.version, 'test': self.test_json(),
-                'sites': [view.to_json() for view in self.sites.values()],
+                'sites': [view.to_json(test_over=self.status is not None and TestState(
+                    self.status.state) in ENDED) for view in self.sites.values()],
                 'energy': energy, 'figures': list(self.figures)}
