@@ -247,3 +247,30 @@ def test_a_hung_process_is_found_and_restarted(
     assert code == 0, log[-3000:]
     assert 'pd_specimen_sim stopped answering: nothing from it for' in log
     assert (out / 'response.csv').read_bytes() == long_reference
+
+
+def test_finished_and_interrupted_runs_print_no_traceback(
+        processes: Processes, tmp_path: Path) -> None:
+    """The demo's end, several times: the nodes' teardown (a bridge's last check of its
+    driver after the context is down, a log line after rclpy shut down) prints nothing but its
+    lines: no traceback, no rosout failure."""
+    short = write_test_file(tmp_path / 'short.yaml', test__duration=2.0, test__id='graph-end')
+    logs = []
+    for run in range(3):
+        name = f'run{run}'
+        launcher = run_launcher(processes, name, [str(short), '--out', str(tmp_path / name),
+                                                  '--no-figures'])
+        assert wait_exit(launcher, RUN_TIMEOUT, lambda name=name: processes.log(name)) == 0
+        logs.append(processes.log(name))
+    long = write_test_file(tmp_path / 'long.yaml', test__duration=600.0, test__id='graph-int')
+    launcher = run_launcher(processes, 'interrupted', [str(long), '--out',
+                                                      str(tmp_path / 'interrupted'),
+                                                      '--no-figures'])
+    wait_for_step(tmp_path / 'interrupted', 300, launcher, processes)
+    Processes.signal(launcher, signal.SIGINT)
+    assert wait_exit(launcher, 60.0, lambda: processes.log('interrupted')) != 0
+    logs.append(processes.log('interrupted'))
+    for log in logs:
+        assert 'Traceback' not in log, log[-3000:]
+        assert 'Failed to publish log message' not in log, log[-3000:]
+        assert 'RCLError' not in log, log[-3000:]

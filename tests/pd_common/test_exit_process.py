@@ -7,9 +7,11 @@ cut short later."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 
@@ -84,7 +86,7 @@ def test_a_node_process_shut_down_then_ended_at_once(tmp_path: Path) -> None:
 
 
 _HANGING_TEARDOWN = '''
-    import sys, time
+    import re, sys, time
     import rclpy
     from pd_common.ros import exit_process, run_node
 
@@ -95,6 +97,8 @@ _HANGING_TEARDOWN = '''
         node = rclpy.create_node('teardown_probe')
         if HANG:  # as a reliable publisher's destroy that never returns
             node.destroy_node = lambda: time.sleep(600)
+        if sys.argv[2] == 'gil':  # ... and one that holds the GIL all along (re does)
+            node.destroy_node = lambda: re.match(r'(a+)+$', 'a' * 60 + 'b')
         return node
 
     def body(node, executor):
@@ -135,3 +139,13 @@ def test_a_teardown_in_time_cancels_its_deadline(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == 'after run_node 5'
     assert 'teardown' not in result.stderr
+
+
+def test_a_teardown_that_holds_the_gil_still_ends(tmp_path: Path) -> None:
+    """The timer's thread never runs while the teardown holds the GIL: the kernel's alarm
+    (SIGALRM's default action) ends the process a few seconds after the deadline."""
+    start = time.monotonic()
+    result = _run_teardown(tmp_path, 1.0, 'gil')
+    assert result.returncode == -signal.SIGALRM, result.stderr
+    assert time.monotonic() - start < 30.0
+    assert 'after run_node' not in result.stdout

@@ -131,6 +131,7 @@ def run_node(program: str, make_node: Callable[[], NodeT],
         rclpy.try_shutdown()
         if deadline is not None:
             deadline.cancel()
+            signal.alarm(0)
     return code
 
 
@@ -149,6 +150,11 @@ def _teardown_deadline(program: str, seconds: float, code: int) -> threading.Tim
     timer = threading.Timer(seconds, expire)
     timer.daemon = True
     timer.start()
+    # A backstop the interpreter cannot delay: a teardown blocked in C code that holds the
+    # GIL never lets the timer's thread run; SIGALRM's default action ends the process anyway
+    # (its records are closed already).
+    if threading.current_thread() is threading.main_thread():
+        signal.alarm(int(seconds) + 5)
     return timer
 
 
