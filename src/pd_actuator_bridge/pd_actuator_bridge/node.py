@@ -74,8 +74,9 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
@@ -100,7 +101,6 @@ from pd_common.protocol import (
     Acknowledgements,
     Feedback,
     FeedbackStatus,
-    MalformedMessageError,
     PersonHolds,
     RunTags,
     Signature,
@@ -110,7 +110,7 @@ from pd_common.protocol import (
     clip_reason,
     command_from_message,
     control_from_message,
-    signature_from_message,
+    signed_from_message,
     untag,
 )
 from pd_common.ros import (
@@ -149,6 +149,7 @@ from .core import (
 )
 from .sim_servo import SimServoDriver
 
+Item = TypeVar('Item')
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
 #: Seconds between two log lines about emergency stops received while one is latched.
@@ -534,6 +535,15 @@ class ActuatorBridgeNode(LifecycleNode):
         state, message = self._last_status
         self.publish_status(state, message)
 
+    def _well_formed(self, convert: Callable[[Any], Item], message: Any, source: str
+                     ) -> tuple[Item, Signature] | None:
+        """A message's item and signature; ``None`` (counted, reported) if it is malformed."""
+        signed = signed_from_message(convert, message)
+        if signed is None:
+            self._malformed += 1
+            self._refused(Refusal.MALFORMED, Signature(), source)
+        return signed
+
     def _on_refused_start(self, reason: Any, signature: Signature) -> None:
         self._refused(reason, signature, 'session/start')
 
@@ -613,13 +623,10 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge = self.bridge
         if bridge is None:
             return
-        try:
-            command = command_from_message(message)
-            signature = signature_from_message(message.signature)
-        except MalformedMessageError:
-            self._malformed += 1
-            self._refused(Refusal.MALFORMED, Signature(), 'step_command')
+        signed = self._well_formed(command_from_message, message, 'step_command')
+        if signed is None:
             return
+        command, signature = signed
         reason = self.receiver.admit(command, signature)
         if reason is not None:  # never moves on a message it cannot authenticate
             self._refused(reason, signature, 'step_command')
@@ -773,13 +780,10 @@ class ActuatorBridgeNode(LifecycleNode):
         return response
 
     def _on_control(self, message: Any) -> None:
-        try:
-            control = control_from_message(message)
-            signature = signature_from_message(message.signature)
-        except MalformedMessageError:
-            self._malformed += 1
-            self._refused(Refusal.MALFORMED, Signature(), 'bridge/control')
+        signed = self._well_formed(control_from_message, message, 'bridge/control')
+        if signed is None:
             return
+        control, signature = signed
         reason = self._control_gate.admit(control, signature, self._test_id)
         if reason is not None:
             self._refused(reason, signature, 'bridge/control')

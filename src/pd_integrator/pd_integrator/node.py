@@ -28,8 +28,9 @@ import json
 import shutil
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeVar
 
 import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
@@ -52,7 +53,6 @@ from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Acknowledgements,
     Command,
-    MalformedMessageError,
     Signature,
     StateOrigin,
     Status,
@@ -61,6 +61,7 @@ from pd_common.protocol import (
     control_from_message,
     feedback_from_message,
     signature_from_message,
+    signed_from_message,
     site_topic,
     site_topic_name,
 )
@@ -103,6 +104,8 @@ from .core.run.runner import (
 from .core.run.session import TestSession
 from .core.run.steering import Steering
 from .core.run.test_file import PARAMETER_PATHS, load_test_file
+
+Item = TypeVar('Item')
 
 #: Seconds between two checks of the feedback timeout and of the sites' sessions in the run
 #: loop (a few steps' time; the timeouts themselves are seconds).
@@ -337,6 +340,16 @@ class IntegratorNode(Node):
         self.bag.write_event(str(event['what']), time.time_ns(), **info)
         self.bag.persist()
 
+    def _well_formed(self, convert: Callable[[Any], Item], message: Any, topic: str
+                     ) -> tuple[Item, Signature] | None:
+        """A message's item and signature; ``None`` (counted, reported) if it is malformed."""
+        signed = signed_from_message(convert, message)
+        if signed is None:
+            self._malformed += 1
+            self._refusal_log(Refusal.MALFORMED, Signature(), self.resolve_topic_name(topic))
+            self.publish_status()
+        return signed
+
     def _on_refused_offer(self, reason: Refusal, signature: Signature, topic: str) -> None:
         self._refusal_log(reason, signature, topic)
 
@@ -492,15 +505,11 @@ class IntegratorNode(Node):
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        try:
-            feedback = feedback_from_message(message)
-            signature = signature_from_message(message.signature)
-        except MalformedMessageError:
-            self._malformed += 1
-            self._refusal_log(Refusal.MALFORMED, Signature(), self.resolve_topic_name(
-                site_topic(site, 'step_feedback')))
-            self.publish_status()
+        signed = self._well_formed(feedback_from_message, message,
+                                   site_topic(site, 'step_feedback'))
+        if signed is None:
             return
+        feedback, signature = signed
         reason = self.senders[site].admit(feedback, signature)
         if reason is not None:  # unsigned, forged, replayed or of another session: not taken
             self._refusal_log(reason, signature, self.resolve_topic_name(
@@ -551,15 +560,10 @@ class IntegratorNode(Node):
         self.publish_status()
 
     def _on_control(self, message: Any) -> None:
-        try:
-            control = control_from_message(message)
-            signature = signature_from_message(message.signature)
-        except MalformedMessageError:
-            self._malformed += 1
-            self._refusal_log(Refusal.MALFORMED, Signature(),
-                              self.resolve_topic_name('test_control'))
-            self.publish_status()
+        signed = self._well_formed(control_from_message, message, 'test_control')
+        if signed is None:
             return
+        control, signature = signed
         reason = self._control_gate.admit(control, signature, self.session.definition.test_id)
         if reason is not None:
             self._refusal_log(reason, signature, self.resolve_topic_name('test_control'))

@@ -25,6 +25,7 @@ from .convert import (
     feedback_from_message,
     offer_from_message,
     signature_from_message,
+    signed_from_message,
     stamp_ns_of,
     status_from_message,
 )
@@ -92,6 +93,7 @@ __all__ = [
     'operator_name',
     'parse_acknowledgement',
     'signature_from_message',
+    'signed_from_message',
     'site_topic',
     'site_topic_name',
     'stamp_ns_of',

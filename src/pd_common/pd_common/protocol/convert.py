@@ -11,9 +11,18 @@ verifies, logs or records anything of it).
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
-from .bounds import MAX_NAME, MAX_REASON, MAX_TEXT, check_array, check_names, check_text
+from .bounds import (
+    MAX_NAME,
+    MAX_REASON,
+    MAX_TEXT,
+    MalformedMessageError,
+    check_array,
+    check_names,
+    check_text,
+)
 from .messages import (
     Command,
     Control,
@@ -27,8 +36,10 @@ from .messages import (
 from .signature import Signature
 
 __all__ = ['command_from_message', 'control_from_message', 'feedback_from_message',
-           'offer_from_message', 'signature_from_message', 'stamp_ns_of',
-           'status_from_message']
+           'offer_from_message', 'signature_from_message', 'signed_from_message',
+           'stamp_ns_of', 'status_from_message']
+
+Item = TypeVar('Item')
 
 
 def command_from_message(message: Any) -> Command:
@@ -134,3 +145,13 @@ def control_from_message(message: Any) -> Control:
     return Control(command=message.command, target=message.target, reason=message.reason,
                    stamp=float(message.stamp), test_id=message.test_id,
                    session=message.session, sender=message.sender)
+
+
+def signed_from_message(convert: Callable[[Any], Item], message: Any
+                        ) -> tuple[Item, Signature] | None:
+    """A signed message's item (``convert(message)``) and its signature, or ``None`` when a
+    field is beyond its bound (a malformed message: refuse it, count it, nothing else)."""
+    try:
+        return convert(message), signature_from_message(message.signature)
+    except MalformedMessageError:
+        return None

@@ -14,7 +14,8 @@ signature, and return the record, or ``None`` with the reason counted on the gat
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 from builtin_interfaces.msg import Time
 from rclpy.node import Node
@@ -25,10 +26,9 @@ from ..auth.gates import StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import offer_payload, status_payload
 from ..auth.signing import Refusal, Signer, new_session
-from ..protocol.bounds import MalformedMessageError
 from ..protocol.convert import (
     offer_from_message,
-    signature_from_message,
+    signed_from_message,
     stamp_ns_of,
     status_from_message,
 )
@@ -36,6 +36,8 @@ from ..protocol.messages import Offer, Status
 from .messages import status_message
 
 __all__ = ['HEARTBEAT_S', 'Announcer', 'read_offer', 'read_status']
+
+Item = TypeVar('Item')
 
 #: Seconds between two publications of an unchanged status or offer (a heartbeat: a node
 #: whose statements stop coming has stopped answering).
@@ -69,24 +71,24 @@ class Announcer:
 def read_status(gate: StatusGate, source: str, message: Any
                 ) -> tuple[Status | None, Refusal | None]:
     """The status in ``message`` published on ``source``, if it is genuine and new."""
-    try:
-        status = status_from_message(message)
-        signature = signature_from_message(message.signature)
-    except MalformedMessageError:
-        gate.refused[Refusal.MALFORMED.value] += 1
-        return None, Refusal.MALFORMED
-    reason = gate.admit(source, status_payload(status, stamp_ns_of(message)), signature,
-                        stamp_ns_of(message))
-    return (None, reason) if reason is not None else (status, None)
+    return _read(gate, source, message, status_from_message,
+                 lambda status: status_payload(status, stamp_ns_of(message)),
+                 stamp_ns_of(message))
 
 
 def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | None, Refusal | None]:
     """The session offer in ``message`` published on ``source``, if it is genuine and new."""
-    try:
-        offer = offer_from_message(message)
-        signature = signature_from_message(message.signature)
-    except MalformedMessageError:
+    return _read(gate, source, message, offer_from_message, offer_payload,
+                 stamp_ns_of(message))
+
+
+def _read(gate: StatusGate, source: str, message: Any, convert: Callable[[Any], Item],
+          payload: Callable[[Item], bytes], stamp_ns: int) -> tuple[Item | None, Refusal | None]:
+    """A statement if it is well-formed, genuine and new; else ``None`` and why (counted)."""
+    signed = signed_from_message(convert, message)
+    if signed is None:
         gate.refused[Refusal.MALFORMED.value] += 1
         return None, Refusal.MALFORMED
-    reason = gate.admit(source, offer_payload(offer), signature, offer.stamp_ns)
-    return (None, reason) if reason is not None else (offer, None)
+    item, signature = signed
+    reason = gate.admit(source, payload(item), signature, stamp_ns)
+    return (None, reason) if reason is not None else (item, None)
