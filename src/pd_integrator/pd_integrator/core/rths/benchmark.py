@@ -7,6 +7,17 @@ plant or on plant ``i`` of the seed's perturbed plants
 white noise (seeded), 2⁻¹⁸ m converters and the ±8,900 N capacity. The noise floor is
 ``100 σ_noise / std(x_ref,1)``: the J2 no controller can go below (x_d of a run that tracks is
 x_ref,1; the reference keeps the floor the same for every controller).
+
+The record: the benchmark runs its records (``ElCentroAccelNoScaling.mat`` etc., which carry
+5 s of zeros at each end) from 0 to their last time; a record without them (the shipped El
+Centro) gets them here, a record with them is run as it is (:func:`benchmark_ground_motion`).
+
+``ideal``: the transfer system of the loop's own error, x_m = x_d at every sample (no delay,
+noise or converters). In the benchmark loop that is the perfect actuator of
+:func:`~.benchmark_loop.run_benchmark_loop` (``x_m[k] = u[k] = x_d[k]``, the same sample); in
+the native loop the ``ideal`` plant (``x[k+1] = u[k]``) driven by the compensator ``none``,
+whose command at sample ``k`` is the next sample's desired displacement. Either way the
+controller is ``none``.
 """
 
 from __future__ import annotations
@@ -51,6 +62,7 @@ __all__ = [
     'BenchmarkOptions',
     'BenchmarkRecord',
     'BenchmarkRun',
+    'benchmark_ground_motion',
     'j_table',
     'load_record',
     'native_benchmark_file',
@@ -61,7 +73,8 @@ __all__ = [
     'write_test_file',
 ]
 
-#: The benchmark's controller rate, Hz, and zeros before and after the record, s.
+#: The benchmark's controller rate, Hz, and zeros before and after the record, s (added
+#: only where the record does not hold them: :func:`~.problem.padding_needed`).
 CONTROLLER_RATE = 4096.0
 PADDING = 5.0
 LOOPS = ('benchmark', 'native')
@@ -93,8 +106,8 @@ class BenchmarkOptions:
         integration_dt: Native loop: Δt_int, s (a whole multiple of 1/4096 s).
         scheme: Native loop: the integration scheme.
         interpolation: Native loop: the predictor–corrector polynomial (linear or cubic).
-        ideal: An ideal transfer system (x_m = u), no noise, no converters: the loop's own
-            error (with the controller ``none``).
+        ideal: An ideal transfer system, x_m = x_d at every sample (module docstring), no
+            noise, no converters: the loop's own error. Only with the controller ``none``.
     """
 
     case: int = 1
@@ -129,6 +142,10 @@ class BenchmarkOptions:
                    f'{self.integration_dt!r}')
             raise ConfigError(msg)
         compensator_spec(self.controller).resolve(self.controller_parameters)
+        if self.ideal and self.controller != 'none':
+            msg = ('--ideal: the ideal transfer system follows x_d itself (x_m = x_d at every '
+                   f'sample); --controller must be none, got {self.controller!r}')
+            raise ConfigError(msg)
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,6 +251,22 @@ def _noise(options: BenchmarkOptions) -> SensorNoise | None:
                        seed=options.seed)
 
 
+def benchmark_ground_motion(record: BenchmarkRecord, intensity: float
+                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The loop's sample times and ground acceleration (m/s²): ``record`` × ``intensity`` with
+    the benchmark's 5 s of zeros at each end that does not hold them yet, at 4096 Hz
+    (:func:`~.problem.prepare_ground_motion`). A record that carries them (the benchmark's
+    own) runs from 0 to its last time: ``⌊t_end · 4096⌋ + 1`` samples, as the benchmark's
+    model runs to ``tend = record(1, end)``.
+
+    Raises:
+        ConfigError: A bad record or intensity.
+    """
+    padding_samples = round(PADDING / record.dt)
+    return prepare_ground_motion(record.acceleration, record.dt, intensity, CONTROLLER_RATE,
+                                 padding_samples * record.dt)
+
+
 def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
                   perturbed: int | None = None) -> BenchmarkRun:
     """Run the benchmark: the nominal plant, or perturbed plant ``perturbed`` of the seed.
@@ -245,18 +278,18 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
     params, _section, plant_label = _plant(options, perturbed)
     parameters = compensator_spec(options.controller).resolve(options.controller_parameters)
     h = 1.0 / CONTROLLER_RATE
-    padding_samples = round(PADDING / record.dt)
-    t, ag = prepare_ground_motion(record.acceleration, record.dt, options.intensity,
-                                  CONTROLLER_RATE, padding_samples * record.dt)
+    t, ag = benchmark_ground_motion(record, options.intensity)
     reference = reference_response(case, t, ag)
     noise = _noise(options)
     noise_std = noise.displacement_std(h) if noise is not None else 0.0
     quantum = 0.0 if options.ideal else BENCHMARK_QUANTUM
     if options.loop == 'benchmark':
+        # --ideal: the perfect actuator, x_m[k] = u[k] = x_d[k] (the plant is not used).
         plant: TransferSystem = IdealPlant(h) if options.ideal else BenchmarkPlant(h, params)
         result = run_benchmark_loop(
             case, t, ag, make_compensator(options.controller, h, parameters), plant,
-            params.specimen, noise, quantum, BENCHMARK_CAPACITY)
+            params.specimen, noise, quantum, BENCHMARK_CAPACITY,
+            perfect_actuator=options.ideal)
         j = j_criteria(result.x_d, result.x_m, result.floors, reference, h)
         return BenchmarkRun(
             case=options.case, controller=options.controller,

@@ -42,7 +42,7 @@ from ..run.dispatch import StepDispatcher
 from ..run.runner import serve_queue, site_servers
 from ..run.session import TestSession
 from ..run.test_file import from_dict
-from .problem import BenchmarkCase, numerical_substructure
+from .problem import BenchmarkCase, numerical_substructure, padding_needed
 
 __all__ = ['DOF_NAMES', 'SITE', 'NativeLoopResult', 'native_test_file', 'run_native_loop']
 
@@ -95,7 +95,9 @@ def native_test_file(case: BenchmarkCase, record: NDArray[np.float64], record_dt
         case: The benchmark case.
         record: The ground acceleration, m/s², at ``record_dt`` (before ``intensity``).
         record_dt: Its sample period, s.
-        padding_samples: Zeros before and after (the benchmark's 5 s, in record samples).
+        padding_samples: Zeros before and after (the benchmark's 5 s, in record samples),
+            added only at an end that does not hold them yet
+            (:func:`~.problem.padding_needed`: the benchmark's own records carry them).
         intensity: The factor on the record.
         integration_dt: Δt_int, s.
         transfer_system: The site's ``transfer_system`` section.
@@ -107,8 +109,10 @@ def native_test_file(case: BenchmarkCase, record: NDArray[np.float64], record_dt
     m_n, c_n, k_n = numerical_substructure(case, specimen)
     inertia = transfer_system.get('inertia', 'subtract')
     mass = np.diag(case.mass if inertia == 'subtract' else m_n).tolist()
-    zeros = [0.0] * padding_samples
-    acceleration = [*zeros, *(float(a) for a in record), *zeros]
+    pad_before, pad_after = padding_needed(record, padding_samples)
+    acceleration = [*([0.0] * padding_samples if pad_before else []),
+                    *(float(a) for a in record),
+                    *([0.0] * padding_samples if pad_after else [])]
     duration = (len(acceleration) - 1) * record_dt
     site: dict[str, Any] = {'transfer_system': {**dict(transfer_system), 'inertia': inertia}}
     if bridge is not None:

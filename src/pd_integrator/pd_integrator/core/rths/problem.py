@@ -33,6 +33,7 @@ __all__ = [
     'benchmark_case',
     'classical_damping',
     'numerical_substructure',
+    'padding_needed',
     'prepare_ground_motion',
     'reference_response',
     'sampled_ground_motion',
@@ -118,15 +119,40 @@ def numerical_substructure(case: BenchmarkCase, specimen: PhysicalSpecimen
     return m_n, c_n, k_n
 
 
+def padding_needed(acceleration: ArrayLike, samples: int) -> tuple[bool, bool]:
+    """Whether the record still needs its zeros before and after: ``(before, after)``.
+
+    The benchmark ships its records (``ElCentroAccelNoScaling.mat`` etc.) with the zeros
+    already added (``F1_input_file.m``: "a zero vector of around 10 sec has been added to each
+    earthquake"), and runs them as they are, up to the record's last time. An end that already
+    holds ``samples`` zero samples (the benchmark's 5 s, in record samples) is left as it is;
+    an end that does not gets all of them, as the benchmark added them. (A record such as the
+    shipped El Centro, which starts and ends with one zero sample, gets both.)
+    """
+    record = np.asarray(acceleration, dtype=np.float64)
+    if samples <= 0:
+        return False, False
+    nonzero = np.flatnonzero(record != 0.0)
+    if nonzero.size == 0:
+        return False, False
+    leading = int(nonzero[0])
+    trailing = record.size - 1 - int(nonzero[-1])
+    return leading < samples, trailing < samples
+
+
 def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
                           intensity: float = 0.4, rate: float = 4096.0,
                           padding: float = 5.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The benchmark's input: the record × ``intensity`` with ``padding`` s of zeros before and
-    after, resampled at ``rate`` Hz by linear interpolation (the zeros are samples: the record
-    goes to zero over one record step at each end, as the zero-padded array does).
+    after where it does not have them yet (:func:`padding_needed`, ``round(padding /
+    dt_record)`` zero samples), resampled at ``rate`` Hz by linear interpolation (the zeros are
+    samples: the record goes to zero over one record step at each padded end, as the
+    zero-padded array does).
 
-    The record's sample ``i`` is at ``padding + i dt_record``; the output runs from 0 to
-    ``2 padding + (N − 1) dt_record`` (the last loop sample at or before it).
+    The record's sample ``i`` is at ``before + i dt_record`` (``before`` = ``padding`` or 0);
+    the output runs from 0 to ``before + after + (N − 1) dt_record`` (the last loop sample at or
+    before it): a record that carries its zeros (the benchmark's own) runs from 0 to its last
+    time, as the benchmark runs it.
 
     Returns:
         ``(t, ag)``: times (s) and ground acceleration (m/s²) at the loop rate.
@@ -147,12 +173,15 @@ def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
         if not (math.isfinite(value) and value >= 0.0):
             msg = f'ground motion: {name} must be >= 0 and finite, got {value!r}'
             raise ConfigError(msg)
-    duration = 2.0 * padding + (record.size - 1) * dt_record
+    pad_before, pad_after = padding_needed(record, round(padding / dt_record))
+    before = padding if pad_before else 0.0
+    after = padding if pad_after else 0.0
+    duration = before + after + (record.size - 1) * dt_record
     n = math.floor(duration * rate + 1e-9) + 1
     t = np.arange(n, dtype=np.float64) / rate
     # The zeros are samples of the record (one record step from the first and last sample to
     # zero, as a zero-padded array is interpolated), not a jump at the record's ends.
-    record_t = padding + np.arange(-1, record.size + 1, dtype=np.float64) * dt_record
+    record_t = before + np.arange(-1, record.size + 1, dtype=np.float64) * dt_record
     ag = intensity * np.interp(t, record_t, np.concatenate([[0.0], record, [0.0]]),
                                left=0.0, right=0.0)
     return t, ag
