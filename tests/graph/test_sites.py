@@ -21,6 +21,7 @@ from rosbags.highlevel import AnyReader
 from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
 from pd_integrator.core.run.bag import read_bag
+from pd_integrator.core.run.bridge_limits import site_limits
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 from pd_integrator.core.run.test_file import load_test_file
 
@@ -214,6 +215,15 @@ def test_a_limit_at_one_site_holds_the_whole_test(
     lab1_commands = {item.step: item for _, item in run.site_events['lab1']
                      if isinstance(item, Command)}
     assert abs(lab1_commands[held_step].target_displacement[0]) > limit
+    # The ROS-free rehearsal with the sites' bridge limits holds at the same step, the same way.
+    definition = load_test_file(test_file)
+    offline = run_offline(definition, tmp_path / 'offline', figures=False,
+                          limits=site_limits(definition))
+    held = offline.summary['bridge_limits']['held']
+    assert offline.summary['state'] == 'held'
+    assert (held['site'], held['step'], held['limit']) == ('lab1', held_step, 'max_displacement')
+    assert held['message'] == refused[0].message
+    assert offline.summary['message'] == holding.message
 
 
 def test_pd_control_estop_reaches_every_listener(processes: Processes, observer: Any) -> None:

@@ -147,6 +147,7 @@ from .core import (
     driver_spec,
     make_driver,
 )
+from .core.limits import LIMIT_PARAMETERS, limits_from_parameters
 from .sim_servo import SimServoDriver
 
 Item = TypeVar('Item')
@@ -175,9 +176,11 @@ class ActuatorBridgeNode(LifecycleNode):
             ('driver', 'sim_servo', f'actuator driver: {", ".join(driver_names())}'),
             ('dof_names', ['top'], 'one name per actuator DOF'),
             ('autostart', False, 'configure and activate at start (simulated set-ups)'),
-            ('max_displacement', 0.25, 'absolute displacement limit of every DOF [m]'),
-            ('max_increment', 0.02, 'largest displacement change in one step [m]'),
-            ('max_force', 1.0e5, 'absolute measured force limit [N]'),
+            ('max_displacement', LIMIT_PARAMETERS['max_displacement'],
+             'absolute displacement limit of every DOF [m]'),
+            ('max_increment', LIMIT_PARAMETERS['max_increment'],
+             'largest displacement change in one step [m]'),
+            ('max_force', LIMIT_PARAMETERS['max_force'], 'absolute measured force limit [N]'),
             ('max_velocity', 0.0, 'velocity limit [m/s] (0 = off; needs step_duration)'),
             ('step_duration', 0.0, 'time the actuator takes for one step [s] (0 = off)'),
             ('tracking_tolerance', 0.0, '|measured - commanded| limit [m] (0 = off)'),
@@ -422,13 +425,10 @@ class ActuatorBridgeNode(LifecycleNode):
     def _configure(self) -> None:
         value = self.get_parameter
         names = list(value('dof_names').value)
-        limits: dict[str, float] = {key: float(value(key).value) for key in
-                                    ('max_displacement', 'max_increment', 'max_force',
-                                     'max_force_increment')}
-        for key in ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout'):
-            if float(value(key).value) > 0.0:
-                limits[key] = float(value(key).value)
-        self.limits = SafetyLimits.from_mapping(limits, source='pd_actuator_bridge parameters')
+        # (the rule the ROS-free rehearsals apply to the same parameters: 0 = off)
+        self.limits = limits_from_parameters(
+            {key: value(key).value for key in LIMIT_PARAMETERS},
+            source='pd_actuator_bridge parameters')
         if len(names) != len(self.receiver.position):
             msg = 'parameter dof_names: changed after the node started (restart it)'
             raise BridgeConfigError(msg)

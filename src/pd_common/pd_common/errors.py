@@ -1,4 +1,5 @@
-"""Exception classes of pd_common (specimen models, their configuration, experimental errors)."""
+"""Exception classes of pd_common (specimen models, their configuration, experimental errors,
+the actuator bridge's safety limits)."""
 
 from __future__ import annotations
 
@@ -26,3 +27,13 @@ class SetupError(ValueError):
 class RthsError(ValueError):
     """A real-time hybrid simulation piece (transfer system, compensator, continuous actuator)
     or its configuration is invalid."""
+
+
+class BridgeError(Exception):
+    """Base class of every actuator bridge error (``pd_actuator_bridge.core`` re-exports it)."""
+
+
+class BridgeConfigError(BridgeError, ValueError):
+    """Invalid bridge configuration (safety limits, DOF names, options): raised by the safety
+    limits of :mod:`pd_common.experimental.limits` wherever they are applied (the bridge, the
+    ROS-free rehearsals)."""

@@ -91,8 +91,6 @@ from .limits import (
     KIND_LIMIT,
     LimitViolation,
     SafetyLimits,
-    _dof_label,
-    _fmt,
     check_command,
     check_control,
     check_feedback,
@@ -101,6 +99,8 @@ from .limits import (
     check_tracking,
     saturate_command,
 )
+from .limits import dof_label as _dof_label
+from .limits import format_value as _fmt
 
 STATUS_OK = FeedbackStatus.OK
 STATUS_LIMIT = FeedbackStatus.LIMIT

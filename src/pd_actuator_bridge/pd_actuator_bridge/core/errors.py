@@ -1,10 +1,14 @@
-"""Exceptions raised by the actuator bridge core."""
+"""Exceptions raised by the actuator bridge core.
+
+:class:`BridgeError` and :class:`BridgeConfigError` are defined in :mod:`pd_common.errors`
+(the safety limits, shared with the ROS-free rehearsals, raise them) and re-exported here.
+"""
 
 from __future__ import annotations
 
+from pd_common.errors import BridgeConfigError, BridgeError
 
-class BridgeError(Exception):
-    """Base class of every actuator bridge error."""
+__all__ = ['BridgeConfigError', 'BridgeError', 'DriverError', 'LimitError']
 
 
 class LimitError(BridgeError):
@@ -13,7 +17,3 @@ class LimitError(BridgeError):
 
 class DriverError(BridgeError):
     """The actuator driver failed (hardware, communication or a specimen model)."""
-
-
-class BridgeConfigError(BridgeError, ValueError):
-    """Invalid bridge configuration (safety limits, DOF names, options)."""

@@ -11,7 +11,7 @@ bridge's limits. Pure numpy, no ROS.
 * :mod:`.integrator` — Newmark explicit, vectorised;
 * :mod:`.plan` — the runs of a test file (records, scales, ``--vary``);
 * :mod:`.execute` — batches (and processes) of systems;
-* :mod:`.limits` — the bridge's limits and which runs trip them;
+* :mod:`.limits` — the bridge's limits, which runs trip them and where the bridge holds them;
 * :mod:`.spectra` — elastic response spectra of the records;
 * :mod:`.report`, :mod:`.figures` — CSV, summary table and figures.
 """
@@ -21,7 +21,7 @@ from __future__ import annotations
 from .errors import PretestError
 from .execute import RunOutcome, execute, integrate
 from .integrator import BatchResult, BatchSystems, run_newmark_explicit
-from .limits import LIMIT_NAMES, BridgeLimits, read_bridge_limits, trips
+from .limits import LIMIT_NAMES, BridgeLimits, Hold, first_holds, read_bridge_limits, trips
 from .models import (
     SUPPORTED_MODELS,
     BatchModel,
@@ -44,6 +44,7 @@ __all__ = [
     'BridgeLimits',
     'EPPBatch',
     'ElasticBatch',
+    'Hold',
     'Plan',
     'PretestError',
     'PushoverBatch',
@@ -53,6 +54,7 @@ __all__ = [
     'batch_from_models',
     'build_plan',
     'execute',
+    'first_holds',
     'integrate',
     'parse_scales',
     'parse_variation',

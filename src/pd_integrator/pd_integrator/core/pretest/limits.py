@@ -1,13 +1,20 @@
-"""The actuator bridge's safety limits, read from its parameter file, and which runs trip them.
+"""The actuator bridge's safety limits, read from its parameter file, which runs trip them, and
+the step at which the bridge would hold each of them.
 
-The limits are those the bridge enforces (``pd_actuator_bridge.core.limits``): ``|x_target| <=
-max_displacement``, ``|x_target − x_current| <= max_increment``, ``|x_target − x_current| /
-step_duration <= max_velocity`` (only with both set) and ``|f_measured| <= max_force``; a value
-exactly at a limit passes. They come from the bridge's ROS parameter file
-(``pd_actuator_bridge/config/bridge.yaml``: ``/**: ros__parameters: {...}``, 0 = off for
-``max_velocity`` and ``step_duration``), then the test file's ``bridge`` mapping (as
-``run_test`` passes it to the bridge), then explicit overrides (command line). The integrator
-does not import the bridge (the node packages are peers), so the file is read here.
+The limits are those the bridge enforces, checked by the bridge's own functions
+(:mod:`pd_common.experimental.limits`, which the bridge re-exports as
+``pd_actuator_bridge.core.limits``): ``|x_target| <= max_displacement``, ``|x_target −
+x_current| <= max_increment``, ``|x_target − x_current| / step_duration <= max_velocity`` (only
+with both set) on each command, from the position last measured, then ``|f_measured| <=
+max_force`` on its measurement; a value exactly at a limit passes. They come from the bridge's
+ROS parameter file (``pd_actuator_bridge/config/bridge.yaml``: ``/**: ros__parameters: {...}``,
+0 = off for ``max_velocity`` and ``step_duration``), then the test file's ``bridge`` mapping,
+then explicit overrides (command line).
+
+:func:`trips` says which limits a run exceeds anywhere (its whole demand, for study);
+:func:`first_holds` the step at which the bridge would hold it (the first command or
+measurement beyond a limit, in the bridge's order), with the bridge's message, as ``./pd
+offline`` and ``./pd run`` hold there.
 """
 
 from __future__ import annotations
@@ -21,12 +28,20 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pd_common.config import load_yaml
+from pd_common.config import read_yaml_file, yaml_problem
+from pd_common.errors import BridgeConfigError
+from pd_common.experimental.limits import (
+    SafetyLimits,
+    bridge_parameters,
+    check_command,
+    check_feedback,
+)
+from pd_common.protocol import FeedbackStatus
 from pd_common.types import FloatArray
 
 from .errors import PretestError
 
-__all__ = ['LIMIT_NAMES', 'BridgeLimits', 'read_bridge_limits', 'trips']
+__all__ = ['LIMIT_NAMES', 'BridgeLimits', 'Hold', 'first_holds', 'read_bridge_limits', 'trips']
 
 #: The limits checked, in the bridge's order (a command's, then the measured force's).
 LIMIT_NAMES = ('max_displacement', 'max_increment', 'max_velocity', 'max_force')
@@ -61,17 +76,23 @@ class BridgeLimits:
         number: float = getattr(self, name)
         return number
 
+    @property
+    def safety(self) -> SafetyLimits:
+        """The same limits as the bridge's :class:`~pd_common.experimental.SafetyLimits` (the
+        velocity limit only with a step duration, as :meth:`value`)."""
+        velocity = self.max_velocity if self.step_duration is not None else None
+        return SafetyLimits(max_displacement=self.max_displacement,
+                            max_increment=self.max_increment, max_force=self.max_force,
+                            max_velocity=velocity, step_duration=self.step_duration)
+
 
 def _parameters(raw: Any, source: str) -> Mapping[str, Any]:
-    """The ``ros__parameters`` mapping of a ROS parameter file (or a plain mapping)."""
-    if not isinstance(raw, Mapping):
-        msg = f'{source}: must be a mapping of ROS parameters'
-        raise PretestError(msg)
-    for value in raw.values():
-        if isinstance(value, Mapping) and isinstance(value.get('ros__parameters'), Mapping):
-            parameters: Mapping[str, Any] = value['ros__parameters']
-            return parameters
-    return raw
+    """The ``ros__parameters`` mapping of a ROS parameter file (or a plain mapping), found as
+    the bridge's rehearsals find it (:func:`~pd_common.experimental.bridge_parameters`)."""
+    try:
+        return bridge_parameters(raw, source)
+    except BridgeConfigError as err:
+        raise PretestError(str(err)) from None
 
 
 def _number(value: Any, where: str, *, zero_off: bool) -> float | None:
@@ -95,12 +116,12 @@ def read_bridge_limits(path: str | Path, *layers: tuple[Mapping[str, Any] | None
     """
     path = Path(path)
     try:
-        raw = load_yaml(path.read_text(encoding='utf-8'))
+        raw = read_yaml_file(path, what='a parameter file')
     except OSError as err:
         msg = f'{path}: cannot read the bridge parameters ({err.strerror})'
         raise PretestError(msg) from None
     except yaml.YAMLError as err:
-        msg = f'{path}: not a YAML file ({getattr(err, "problem", None) or err})'
+        msg = f'{path}: not a YAML file ({yaml_problem(err)})'
         raise PretestError(msg) from None
     values: dict[str, tuple[Any, str]] = {
         key: (value, f'{path.name}: {key}') for key, value in _parameters(raw, path.name).items()}
@@ -149,3 +170,63 @@ def trips(limits: BridgeLimits, *, peak_displacement: FloatArray, max_increment:
     if limits.max_velocity is not None and limits.step_duration is not None:
         result['max_velocity'] = max_increment / limits.step_duration > limits.max_velocity
     return result
+
+
+@dataclass(frozen=True)
+class Hold:
+    """Where the bridge would hold a run.
+
+    Attributes:
+        step: the step whose command (or measurement) is beyond a limit.
+        limit: the limit of :data:`LIMIT_NAMES`.
+        message: the bridge's message, word for word.
+    """
+
+    step: int
+    limit: str
+    message: str
+
+
+def first_holds(limits: BridgeLimits, displacement: FloatArray, force: FloatArray,
+                dof_name: str) -> list[Hold | None]:
+    """Per run, the first step at which the bridge would hold it (``None``: none).
+
+    Args:
+        limits: the bridge's limits.
+        displacement: the commanded (= measured: a simulated specimen) displacement of each
+            step, shape ``(n_steps + 1, n_runs)``; step 0 is commanded from the specimen at 0.
+        force: the measured force of each step, the same shape.
+        dof_name: the actuator's name (the bridge's messages name it).
+
+    The candidates are found for every run at once (the bridge's comparisons on the same
+    floats); the step found is then checked with the bridge's own
+    :func:`~pd_common.experimental.limits.check_command` and
+    :func:`~pd_common.experimental.limits.check_feedback`, which give the limit and the
+    message. A non-finite command is no hold: the session fails that step before sending it.
+    """
+    safety = limits.safety
+    x = np.asarray(displacement, dtype=float)
+    f = np.asarray(force, dtype=float)
+    previous = np.zeros_like(x)
+    previous[1:] = x[:-1]
+    with np.errstate(invalid='ignore'):
+        increment = np.abs(x - previous)
+        beyond = ((np.abs(x) > safety.max_displacement) | (increment > safety.max_increment)
+                  | (np.abs(f) > safety.max_force))
+        if safety.max_velocity is not None and safety.step_duration is not None:
+            beyond |= increment / safety.step_duration > safety.max_velocity
+    names = [dof_name]
+    holds: list[Hold | None] = []
+    for run in range(x.shape[1]):
+        steps = np.flatnonzero(beyond[:, run])
+        hold = None
+        if steps.size:
+            step = int(steps[0])
+            target, current = float(x[step, run]), float(previous[step, run])
+            violation = check_command([target], [current], safety, names)
+            if violation is None:
+                violation = check_feedback([target], [float(f[step, run])], safety, names)
+            if violation is not None and violation.kind is FeedbackStatus.LIMIT:
+                hold = Hold(step=step, limit=violation.limit, message=violation.message)
+        holds.append(hold)
+    return holds

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pd_common.config import load_yaml
+from pd_common.config import MAX_TEXT_BYTES, load_yaml, read_text, yaml_problem
 from pd_common.specimen import HysteresisModel, Specimen, SpecimenError, server_from_config
 from pd_common.specimen.server import split_errors
 from pd_common.types import FloatArray
@@ -184,14 +184,14 @@ def read_test_file(path: str | Path) -> tuple[dict[str, Any], str, Path]:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as err:
-        msg = f'{path}: cannot read the test file ({err.strerror})'
+        text = read_text(path, limit=MAX_TEXT_BYTES, what='a test file')
+    except OSError as err:  # (also not a regular file, too large, not UTF-8: InputFileError)
+        msg = f'{path}: cannot read the test file ({err.strerror or type(err).__name__})'
         raise PretestError(msg) from None
     try:
         raw = load_yaml(text)
     except yaml.YAMLError as err:
-        msg = f'{path.name}: {getattr(err, "problem", None) or "invalid YAML"}'
+        msg = f'{path.name}: {yaml_problem(err)}'
         raise PretestError(msg) from None
     if not isinstance(raw, dict):
         msg = f'{path.name}: a test file must be a mapping of sections'
@@ -357,7 +357,7 @@ def _record(raw: dict[str, Any], record: Path | None, source: str, base_dir: Pat
     ground = dict(ground)
     ground['scale'] = 1.0
     if record is not None:
-        if not record.is_file():
+        if not record.exists():  # (anything else is refused by the reader, in one line)
             msg = f'{record}: --records: no such file'
             raise PretestError(msg)
         ground.pop('inline', None)
@@ -440,6 +440,11 @@ def build_plan(test_file: str | Path, *, records: Sequence[str | Path] = (),
                     loads[key] = _record(varied, path, source, base_dir)
                     plan_records.setdefault(r, loads[key])
                 for scale in scales:
+                    peak = loads[key].motion.pga
+                    if not math.isfinite(scale * peak):  # refused here, not warned in numpy
+                        msg = (f'--scales: {scale:g} × the peak {peak:.4g} m/s2 of '
+                               f'{loads[key].name} is beyond the largest number')
+                        raise PretestError(msg)
                     runs.append(Run(index=len(runs), record=r, scale=float(scale),
                                     values=tuple(float(c) for c in combo), load_key=key,
                                     structure_key=struct_values))

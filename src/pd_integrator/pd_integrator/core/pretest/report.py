@@ -21,7 +21,8 @@ def csv_columns(plan: Plan) -> list[str]:
     dof = plan.dof_name
     return (['run', 'record', 'scale', *(v.name for v in plan.variations), 'status',
              'omega_dt', f'peak_stroke_{dof}', f'max_increment_{dof}', f'peak_velocity_{dof}',
-             f'peak_force_{dof}', f'residual_{dof}', f'structure_velocity_{dof}', 'trips'])
+             f'peak_force_{dof}', f'residual_{dof}', f'structure_velocity_{dof}', 'trips',
+             'held_step', 'held_limit'])
 
 
 def _number(value: float) -> str:
@@ -41,7 +42,8 @@ def write_runs_csv(plan: Plan, outcomes: Sequence[RunOutcome], path: Path) -> No
                              _number(o.peak_stroke), _number(o.max_increment),
                              _number(o.peak_velocity), _number(o.peak_force),
                              _number(o.residual), _number(o.structure_velocity),
-                             ';'.join(o.trips)])
+                             ';'.join(o.trips), '' if o.hold is None else o.hold.step,
+                             '' if o.hold is None else o.hold.limit])
 
 
 def write_spectra_csv(plan: Plan, spectra: Sequence[Spectrum], path: Path) -> None:
@@ -112,7 +114,9 @@ def summary_table(plan: Plan, outcomes: Sequence[RunOutcome], limits: BridgeLimi
             f'{run.index:>4}  {plan.records[run.record].name:<{record_width}}  {run.scale:>6.3g}'
             + ''.join(f'  {v:>12.6g}' for v in run.values)
             + f'  {o.status:<8}  {1e3 * o.peak_stroke:9.2f}  {1e3 * o.max_increment:8.3f}'
-            f'  {velocity}  {1e-3 * o.peak_force:9.3f}  {",".join(o.trips) or "-"}')
+            f'  {velocity}  {1e-3 * o.peak_force:9.3f}  {",".join(o.trips) or "-"}'
+            + (f' (held at step {o.hold.step}: {o.hold.limit})' if o.hold is not None
+               else ''))
     if len(outcomes) > max_rows:
         lines.append(f'... {len(outcomes) - max_rows} more runs in the CSV')
     total = len(outcomes)
@@ -123,6 +127,11 @@ def summary_table(plan: Plan, outcomes: Sequence[RunOutcome], limits: BridgeLimi
             lines.append(f'{name}: not checked (off)')
         else:
             lines.append(f'{name}: {count} of {total} runs would trip it')
+    held = [(o.hold, o.run.index) for o in outcomes if o.hold is not None]
+    if held:
+        hold, index = min(held, key=lambda item: (item[0].step, item[1]))
+        lines.append(f'{len(held)} of {total} runs would be held by the bridge; the earliest: '
+                     f'run {index} at step {hold.step} ({hold.limit}): {hold.message}')
     bad = [o for o in outcomes if o.status != 'ok']
     if bad:
         lines.append(f'{len(bad)} of {total} runs would not run to the end '
