@@ -274,3 +274,25 @@ def test_finished_and_interrupted_runs_print_no_traceback(
         assert 'Traceback' not in log, log[-3000:]
         assert 'Failed to publish log message' not in log, log[-3000:]
         assert 'RCLError' not in log, log[-3000:]
+
+
+def test_a_full_disk_ends_the_test_in_one_line(processes: Processes, tmp_path: Path) -> None:
+    """The integrator's journal cannot grow (a file-size limit: the disk is full for it): the
+    test ends with one line naming the journal and ./pd recover, exit 1, no traceback."""
+    from graph_support import executable
+
+    test_file = write_test_file(tmp_path / 'full.yaml', test__duration=60.0,
+                                test__id='graph-full')
+    processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args',
+                                 '-p', f'test_file:={test_file}'])
+    out = tmp_path / 'run'
+    integrator = processes.start('integrator', [
+        'bash', '-c', 'ulimit -f 200 && exec "$@"', 'integrator', executable('pd_integrator'),
+        '--ros-args', '-p', f'test_file:={test_file}', '-p', f'output_dir:={out}',
+        '-p', 'figures:=false'])
+    assert wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator')) == 1
+    log = processes.log('integrator')
+    assert 'Traceback' not in log and 'FATAL' not in log, log[-3000:]
+    errors = [line for line in log.splitlines() if '[ERROR]' in line]
+    assert len(errors) == 1 and 'journal.jsonl: cannot write the journal' in errors[0]
+    assert f'./pd recover {out}' in errors[0]

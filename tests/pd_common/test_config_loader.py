@@ -1,13 +1,23 @@
-"""Tests of pd_common.config.loader: the one YAML loader of the project (aliases refused)."""
+"""Tests of pd_common.config.loader: the one YAML loader of the project (aliases, deep
+nesting and repeated keys refused), and of pd_common.config.files (regular files only,
+bounded, UTF-8)."""
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
 import pytest
 import yaml
 
+from pd_common.config import (
+    InputFileError,
+    YAMLDepthError,
+    YAMLDuplicateKeyError,
+    existing_path,
+    read_text,
+)
 from pd_common.config.loader import YAMLAliasError, YAMLError, load_yaml, read_yaml_file
 from pd_common.errors import SpecimenError
 from pd_common.specimen import load_specimen_section
@@ -93,3 +103,98 @@ def test_the_specimen_section_reader_reports_the_bomb_on_one_line(tmp_path: Path
     assert '\n' not in message
     assert str(path) in message
     assert 'line 2: b[0]: YAML aliases (*a) are not allowed in test files' in message
+
+
+# -- nesting ------------------------------------------------------------------------------------
+def nested(levels: int) -> str:
+    """A mapping holding ``levels - 1`` nested lists: ``levels`` collections deep."""
+    return 'a: ' + '[' * (levels - 1) + '1' + ']' * (levels - 1) + '\n'
+
+
+def test_sixty_four_levels_are_read_and_sixty_five_are_not() -> None:
+    value = load_yaml(nested(64))
+    for _ in range(63):
+        value = value['a'] if isinstance(value, dict) else value[0]
+    assert value == [1]
+    with pytest.raises(YAMLDepthError) as info:
+        load_yaml(nested(65))
+    assert str(info.value) == 'line 1: nesting deeper than 64 levels'
+    assert isinstance(info.value, yaml.YAMLError)
+
+
+@pytest.mark.parametrize('text', [
+    'a: ' + '[' * 100_000 + ']' * 100_000,
+    'a: ' + '{b: ' * 100_000 + '1' + '}' * 100_000,
+    ''.join(f'{" " * level}k:\n' for level in range(70)) + ' ' * 70 + 'v: 1',
+], ids=['lists', 'flow-mappings', 'block-mappings'])
+def test_thousands_of_levels_are_refused_at_once_without_recursion(text: str) -> None:
+    start = time.perf_counter()
+    with pytest.raises(YAMLDepthError, match=r'^line \d+: nesting deeper than 64 levels$'):
+        load_yaml(text)
+    assert time.perf_counter() - start < 1.0
+
+
+# -- keys given twice ----------------------------------------------------------------------------
+@pytest.mark.parametrize(('text', 'message'), [
+    ('a: 1\na: 2\n', 'line 2: a: given twice (first on line 1)'),
+    ('structure:\n  mass: 1\n  dt: 2\n  mass: 3\n',
+     'line 4: structure.mass: given twice (first on line 2)'),
+    ('e:\n  - {k: 1, "k": 2}\n', 'line 2: e[0].k: given twice (first on line 2)'),
+])
+def test_a_key_given_twice_is_refused_with_its_line_and_path(text: str, message: str) -> None:
+    with pytest.raises(YAMLDuplicateKeyError) as info:
+        load_yaml(text)
+    assert str(info.value) == message
+
+
+def test_the_same_key_in_different_mappings_is_fine() -> None:
+    assert load_yaml('a: {k: 1}\nb: {k: 2}\nc: [{k: 3}, {k: 4}]\n') == {
+        'a': {'k': 1}, 'b': {'k': 2}, 'c': [{'k': 3}, {'k': 4}]}
+    assert load_yaml('a: {<<: {k: 1}, k: 2}\n') == {'a': {'k': 2}}  # a merge: overridden
+
+
+# -- files that are no test files -------------------------------------------------------------
+def test_a_fifo_a_device_and_a_folder_are_refused_before_they_are_read(tmp_path: Path) -> None:
+    fifo = tmp_path / 'pipe.yaml'
+    os.mkfifo(fifo)
+    for path, kind in ((fifo, 'a FIFO'), (Path('/dev/zero'), 'a character device'),
+                       (tmp_path, 'a directory')):
+        start = time.perf_counter()
+        with pytest.raises(InputFileError) as info:
+            read_yaml_file(path)
+        assert time.perf_counter() - start < 1.0
+        assert str(info.value) == f'{path}: not a regular file but {kind}'
+        assert isinstance(info.value, OSError)
+
+
+def test_a_file_too_large_is_refused_before_it_is_read(tmp_path: Path) -> None:
+    path = tmp_path / 'big.yaml'
+    with path.open('wb') as file:
+        file.truncate(2**40)  # sparse
+    with pytest.raises(InputFileError, match=r'big\.yaml: 1\.02e\+03 GiB, more than the 4 MiB '
+                                             r'a test file may have$'):
+        read_yaml_file(path, what='a test file')
+    path.write_bytes(b'x' * 11)
+    assert read_text(path, limit=11) == 'x' * 11
+    path.write_bytes(b'x' * 12)
+    with pytest.raises(InputFileError, match=r'12 bytes, more than the 11 bytes a file may have'):
+        read_text(path, limit=11)
+
+
+def test_text_that_is_not_utf8_names_the_line_and_the_byte(tmp_path: Path) -> None:
+    path = tmp_path / 'latin.yaml'
+    path.write_bytes('a: 1\nb: caf\xe9\n'.encode('latin-1'))
+    with pytest.raises(InputFileError) as info:
+        read_yaml_file(path)
+    assert str(info.value) == f'{path}: line 2: not UTF-8 text, byte 0xe9 at offset 11'
+    assert info.value.strerror == 'line 2: not UTF-8 text, byte 0xe9 at offset 11'
+
+
+def test_a_symbolic_link_loop_is_named(tmp_path: Path) -> None:
+    (tmp_path / 'a').symlink_to('b')
+    (tmp_path / 'b').symlink_to('a')
+    with pytest.raises(InputFileError, match=r'/a: a symbolic link loop$'):
+        existing_path(tmp_path / 'a')
+    with pytest.raises(FileNotFoundError):
+        existing_path(tmp_path / 'missing')
+    assert existing_path(tmp_path) == tmp_path.resolve()

@@ -1,12 +1,15 @@
 """Bad input is refused fast, before anything starts, with one line naming the file and the key.
 
 The YAML alias bomb, the ambiguous MDOF initial stiffness, non-positive masses and stiffnesses,
-and broken AT2 records, through ``load_test_file`` (as ``./pd run`` reads a test).
+broken AT2 records, more steps than memory holds, records that overflow and booleans where
+numbers belong, through ``load_test_file`` (as ``./pd run`` reads a test). The same through
+the commands themselves: ``test_bad_input_limits.py``.
 """
 
 from __future__ import annotations
 
 import copy
+import math
 import re
 import time
 from pathlib import Path
@@ -17,7 +20,7 @@ import pytest
 import yaml
 
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.run.test_file import from_dict, load_test_file
+from pd_integrator.core.run.test_file import from_dict, load_test_file, steps_refusal
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
@@ -242,3 +245,67 @@ def test_a_bad_at2_record_is_one_line_naming_the_test_file_and_the_record(
     message = refused(write(tmp_path, raw), r'^case\.yaml: ground_motion: ground motion ')
     assert str(tmp_path / 'rec.AT2') in message
     assert re.search(what, message)
+
+
+# -- bounds: steps, overflow, booleans (the CLI side: test_bad_input_limits.py) ---------------
+def test_the_steps_a_history_needs_are_bounded_by_count_and_memory() -> None:
+    assert steps_refusal(3118, 1) is None
+    assert steps_refusal(1e11, 1) == '1e+11 steps; at most 5e+07'
+    assert steps_refusal(math.inf, 1) == 'inf steps; at most 5e+07'
+    # 4e7 steps of 1000 DOFs: 1.9 TB of history, beyond this machine whatever it is.
+    refusal = steps_refusal(4e7, 1000)
+    assert refusal is not None
+    assert re.match(r"^4e\+07 steps of 1000 DOF\(s\): the history needs 1\.79e\+03 GiB, more "
+                    r"than 50% of this machine's [\d.]+ [KMGT]iB$", refusal)
+
+
+def test_a_duration_that_overflows_the_step_count_is_refused(tmp_path: Path) -> None:
+    raw = default_raw()
+    raw['test'].update(duration=1e308, dt=1e-300)
+    refused(write(tmp_path, raw), r'^case\.yaml: test\.duration: 1e\+308 s at dt 1e-300 s is inf '
+                                  r'steps; at most 5e\+07$')
+
+
+@pytest.mark.filterwarnings('error')  # a numpy RuntimeWarning (overflow) fails the test
+@pytest.mark.parametrize(('ground', 'message'), [
+    ({'scale': 1e308}, (r"ground_motion\.scale: 1e\+308 × the record's peak 3\.128 m/s2 is "
+                        r'beyond the largest number$')),
+    ({'inline': {'dt': 0.01, 'acceleration': [0.0, 1e300, -1e300]}, 'units': 'g', 'g': 1e10},
+     r"ground_motion: ground motion 'inline': non-finite acceleration"),
+    ({'inline': {'dt': 0.01, 'acceleration': [0.0, 2.0]}, 'units': 'm/s2', 'scale': 1e308},
+     r"ground_motion\.scale: 1e\+308 × the record's peak 2 m/s2 is beyond the largest number$"),
+], ids=['file-scale', 'inline-g', 'inline-scale'])
+def test_an_overflowing_record_is_one_line_without_warnings(
+        tmp_path: Path, ground: dict[str, Any], message: str) -> None:
+    raw = default_raw()
+    if 'inline' in ground:
+        raw['ground_motion'] = ground
+    else:
+        raw['ground_motion'].update(ground)
+    refused(write(tmp_path, raw), r'^case\.yaml: ' + message)
+
+
+@pytest.mark.parametrize(('structure', 'key'), [
+    ({'mass': True}, 'structure.mass'),
+    ({'mass': [[True]]}, 'structure.mass'),
+    ({'initial_stiffness': False}, 'structure.initial_stiffness'),
+    ({'damping': {'coefficient': True}}, 'structure.damping.coefficient'),
+    ({'influence': [True]}, 'structure.influence'),
+])
+def test_a_boolean_is_no_number(tmp_path: Path, structure: dict[str, Any], key: str) -> None:
+    refused(write(tmp_path, default_raw(**structure)), rf'^case\.yaml: {re.escape(key)}: ')
+
+
+def test_a_boolean_in_an_inline_record_is_no_number(tmp_path: Path) -> None:
+    raw = default_raw()
+    raw['ground_motion'] = {'inline': {'dt': 0.01, 'acceleration': [0.0, True, 0.1]},
+                            'units': 'm/s2'}
+    refused(write(tmp_path, raw), r'^case\.yaml: ground_motion\.inline\.acceleration: must be '
+                                  r'a list of numbers$')
+
+
+def test_an_error_of_a_record_key_is_not_wrapped_twice(tmp_path: Path) -> None:
+    raw = default_raw()
+    raw['ground_motion'] = {'inline': {'dt': 0.01, 'acceleration': [0.0, 0.1]}, 'units': 'ft'}
+    refused(write(tmp_path, raw), r"^case\.yaml: ground_motion\.units: must be 'g' or 'm/s2', "
+                                  r"got 'ft'$")

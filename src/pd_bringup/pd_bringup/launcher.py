@@ -394,6 +394,7 @@ def main(argv: list[str] | None = None) -> int:
                 msg = '--confirm: only with --resume'
                 raise LaunchError(msg)
             plan, definition, _ = plan_new_run(args)
+            plan.save()  # the run folder can be written: before a line says it is there
             for warning in definition.warnings:
                 print(f'run_test: warning: {warning}', file=sys.stderr)
     except (PdIntegratorError, ResourceError, RigError, SpecimenError) as err:
@@ -414,8 +415,6 @@ def main(argv: list[str] | None = None) -> int:
     verb = 'resuming' if args.resume else 'run folder:'
     print(f'run_test: {plan.test_id} ({plan.n_steps} steps), site: {plan.site_mode}, '
           f'{verb} {plan.out}; on child exit: {policy}', flush=True)
-    if not args.resume:
-        plan.save()
     return _supervise(plan, policy, env, key, args)
 
 

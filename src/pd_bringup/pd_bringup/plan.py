@@ -4,18 +4,21 @@ Every node is its own process, started exactly as ``ros2 run`` would (the execut
 ``lib/<package>/main`` of the package's ament prefix). The plan (:class:`LaunchPlan`) is written
 to ``launch.json`` in the run folder before anything starts, so ``./pd run --resume RUN_DIR``
 starts the same graph again (the integrator continuing from its journal, every simulator from
-its state file) without the original command line.
+its state file) without the original command line. The plan is read back for the folder it is
+in: a run folder moved or copied elsewhere resumes there, its processes' files (state files,
+records, reports) taken from it, not from where the run started.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import socket
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pd_common.config import read_yaml_file
+from pd_common.config import read_text, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
@@ -89,7 +92,8 @@ class LaunchPlan:
     Attributes:
         test_id: the test.
         n_steps: its steps.
-        out: the run folder.
+        out: the run folder (read back: the folder the plan was read from, see
+            :meth:`load`).
         site_mode: ``bridge``, ``direct`` or ``none``.
         physical: whether a physical specimen is driven (a bridge with a hardware driver, or
             the specimen side started elsewhere).
@@ -114,39 +118,90 @@ class LaunchPlan:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def save(self) -> Path:
-        """Write ``launch.json`` into the run folder (created); its path."""
-        self.out.mkdir(parents=True, exist_ok=True)
+        """Write ``launch.json`` into the run folder (created); its path.
+
+        Raises:
+            LaunchError: the folder or the file cannot be written (a read-only file system,
+                a full disk): one line, and no ``launch.json`` left behind.
+        """
         data = asdict(self)
         data['out'] = str(self.out)
         data['key_file'] = str(self.key_file) if self.key_file is not None else None
         data['version'] = _VERSION
         path = self.out / LAUNCH_FILE
-        path.write_text(json.dumps(data, indent=1) + '\n', encoding='utf-8')
+        try:
+            self.out.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(data, indent=1) + '\n', encoding='utf-8')
+        except OSError as err:
+            with contextlib.suppress(OSError):  # a file cut short by a full disk
+                path.unlink(missing_ok=True)
+            msg = (f'--out {self.out}: cannot write the run folder '
+                   f'({err.strerror or type(err).__name__})')
+            raise LaunchError(msg) from None
         return path
 
     @classmethod
     def load(cls, run_dir: Path) -> LaunchPlan:
-        """The plan of a run folder.
+        """The plan of a run folder, for that folder: ``out`` is ``run_dir``, and every path of
+        the plan that pointed into the folder the run started in (a moved or copied folder)
+        points into ``run_dir`` (:meth:`rebased`).
 
         Raises:
             LaunchError: no readable ``launch.json`` there.
         """
         path = run_dir / LAUNCH_FILE
         try:
-            data = json.loads(path.read_text(encoding='utf-8'))
+            text = read_text(path, what='a launch plan')
+            data = json.loads(text)
+            if not isinstance(data, dict):
+                msg = f'a JSON {type(data).__name__}, not an object'
+                raise TypeError(msg)
             data.pop('version', None)
             data['out'] = Path(data['out'])
             data['key_file'] = Path(data['key_file']) if data['key_file'] else None
             data['children'] = [Child(**child) for child in data['children']]
-            return cls(**data)
+            plan = cls(**data)
+            _check_types(plan)
         except FileNotFoundError:
             msg = (f'{run_dir}: no {LAUNCH_FILE}: not a run folder of run_test (an integrator '
                    'run alone resumes with: ros2 run pd_integrator main --ros-args -p '
                    'resume_from:=RUN_DIR)')
             raise LaunchError(msg) from None
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            msg = f'{path}: unreadable launch plan ({err})'
+        except RecursionError:
+            msg = f'{path}: unreadable launch plan (JSON nested too deep)'
             raise LaunchError(msg) from None
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            reason = (err.strerror if isinstance(err, OSError)
+                      else f'no {err}' if isinstance(err, KeyError) else err)
+            msg = f'{path}: unreadable launch plan ({reason})'
+            raise LaunchError(msg) from None
+        return plan.rebased(run_dir)
+
+    def started_in(self) -> str | None:
+        """The absolute run folder the plan's paths were made in (the integrator's
+        ``output_dir``), or ``None`` if the plan does not say."""
+        for item in self.integrator:
+            if item.startswith('output_dir:='):
+                return item.removeprefix('output_dir:=')
+        return str(self.out) if self.out.is_absolute() else None
+
+    def rebased(self, run_dir: Path) -> LaunchPlan:
+        """This plan for the folder ``run_dir``: ``out`` is ``run_dir``, and every path in a
+        command line, state file or report that was in the folder the run started in is in
+        ``run_dir`` now (the integrator's journal and output folder, simulators' state files,
+        bridges' records and real-time reports, fault proxies' reports). Paths elsewhere (the
+        test file, the key, executables) are kept."""
+        old = self.started_in()
+        new = str(run_dir.resolve())
+        plan = replace(self, out=run_dir)
+        if old is None or old == new:
+            return plan
+        plan.integrator = [_rebase(item, old, new) for item in self.integrator]
+        plan.children = [replace(child, command=[_rebase(item, old, new)
+                                                 for item in child.command],
+                                 state_file=_rebase(child.state_file, old, new))
+                         for child in self.children]
+        return plan
 
     def integrator_command(self, *, resume: bool, note: str = '',
                            confirm: bool = False, held: bool = False) -> list[str]:
@@ -172,6 +227,35 @@ class LaunchPlan:
         if held:
             command += ['-p', 'hold_on_resume:=true']
         return command
+
+
+def _rebase(item: str, old: str, new: str) -> str:
+    """``item`` (a path, or a ``name:=path`` parameter) with the folder ``old`` replaced by
+    ``new``; anything else unchanged."""
+    name, sep, value = item.partition(':=')
+    if not sep:
+        name, value = '', item
+    root = old.rstrip('/')
+    if value == root or value.startswith(root + '/'):
+        return f'{name}{sep}{new}{value[len(root):]}'
+    return item
+
+
+def _check_types(plan: LaunchPlan) -> None:
+    """Refuse a plan whose command lines are not lists of strings (a damaged file).
+
+    Raises:
+        TypeError: naming the field.
+    """
+    commands = {'integrator': plan.integrator,
+                **{f'children.{child.name}': child.command for child in plan.children}}
+    for name, command in commands.items():
+        if not isinstance(command, list) or not all(isinstance(item, str) for item in command):
+            msg = f'{name}: not a command line'
+            raise TypeError(msg)
+    if not all(isinstance(child.state_file, str) for child in plan.children):
+        msg = 'children: a state_file is not a path'
+        raise TypeError(msg)
 
 
 def discovery_profile(env: dict[str, str]) -> dict[str, str]:

@@ -53,6 +53,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
+from pd_common.config.files import read_text
+
 from .operator import Operator
 from .plan import Child, LaunchPlan
 
@@ -128,9 +130,9 @@ class _Adopted:
 def recorded_processes(run_dir: Path) -> dict[str, Any]:
     """The run folder's ``processes.json`` (``{}`` if there is none, or it is unreadable):
     ``policy`` (the child-exit policy) and ``processes`` (name: pid, start ticks, command)."""
-    try:
-        data = json.loads((run_dir / PROCESSES_FILE).read_text(encoding='utf-8'))
-    except (OSError, ValueError):
+    try:  # (a regular file of bounded size only: a FIFO there must not hang a resume)
+        data = json.loads(read_text(run_dir / PROCESSES_FILE, limit=1 << 20))
+    except (OSError, ValueError, RecursionError):
         return {}
     return data if isinstance(data, dict) else {}
 

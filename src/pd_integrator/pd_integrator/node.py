@@ -90,7 +90,7 @@ from .core.errors import PdIntegratorError
 from .core.run.bag import RecordedRun
 from .core.run.dispatch import StepDispatcher
 from .core.run.figure_worker import FigureWorker
-from .core.run.journal import JOURNAL_FILE, Journal, journal_to_bag
+from .core.run.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
 from .core.run.progress import ProgressMeter
 from .core.run.resume import SiteState, check_sites, last_measured, load_resumable
 from .core.run.runner import (
@@ -205,6 +205,8 @@ class IntegratorNode(Node):
                                    float(self.get_parameter('progress_interval').value))
 
         self.signer = Signer(self.key) if self.key is not None else None
+        #: The run's record could not be written (a full disk): the test ends with one line.
+        self.record_error: RecordWriteError | None = None
         self.announcer = Announcer(self, self.key)
         self._control_gate = ControlGate(self.key, self.announcer.identity,
                                          self.announcer.session)
@@ -243,24 +245,25 @@ class IntegratorNode(Node):
                 StepCommand, site_topic(site, 'step_command'), STEP_QOS)
             self._feedback_subs[site] = self.create_subscription(
                 StepFeedback, site_topic(site, 'step_feedback'),
-                lambda message, site=site: self._on_feedback(site, message), STEP_QOS)
+                self._guard(lambda message, site=site: self._on_feedback(site, message)),
+                STEP_QOS)
             status_topic = site_topic_name(site, 'bridge/status')
             trajectory_topic = site_topic_name(site, 'bridge/trajectory')
             self.create_subscription(
                 TestStatus, site_topic(site, 'bridge/status'),
-                lambda message, topic=status_topic: self._on_bridge_status(message, topic),
-                LATCHED_QOS)
+                self._guard(lambda message, topic=status_topic: self._on_bridge_status(
+                    message, topic)), LATCHED_QOS)
             self.create_subscription(
                 ActuatorTrajectory, site_topic(site, 'bridge/trajectory'),
-                lambda data, topic=trajectory_topic: self._on_trajectory(data, topic),
-                STEP_QOS, raw=True)
+                self._guard(lambda data, topic=trajectory_topic: self._on_trajectory(
+                    data, topic)), STEP_QOS, raw=True)
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
-        self.create_subscription(ControlMessage, 'test_control', self._on_control,
+        self.create_subscription(ControlMessage, 'test_control', self._guard(self._on_control),
                                  CONTROL_DEPTH)
         # The lab-wide emergency stop (every bridge holds on it too): hold at once.
-        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_stop,
-                                 CONTROL_DEPTH)
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP,
+                                 self._guard(self._on_emergency_stop), CONTROL_DEPTH)
 
         text = definition.to_json()
         if self.record is None:
@@ -282,7 +285,7 @@ class IntegratorNode(Node):
         self._last_state: TestState | None = None
         self._started = 0.0
         self._figure_worker: FigureWorker | None = None
-        self.create_timer(HEARTBEAT_S, self._heartbeat)
+        self.create_timer(HEARTBEAT_S, self._guard(self._heartbeat))
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
@@ -324,6 +327,20 @@ class IntegratorNode(Node):
                 self.get_logger().warning(line)
             else:
                 self.get_logger().info(line)
+
+    def _guard(self, callback: Callable[..., None]) -> Callable[..., None]:
+        """``callback`` for the executor: a record it cannot write (a full disk) is kept in
+        :attr:`record_error` for the run loop (one line and the end of the test) instead of
+        escaping into the executor (a FATAL log and a traceback); nothing more is done."""
+        def guarded(*args: Any) -> None:
+            if self.record_error is not None:
+                return
+            try:
+                callback(*args)
+            except RecordWriteError as err:
+                self.record_error = err
+
+        return guarded
 
     def _heartbeat(self) -> None:
         """The status again (signed anew, not recorded again) if none went out for a second:
@@ -699,8 +716,24 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
 
     ``stop`` (set by SIGINT/SIGTERM) interrupts the test cleanly: the final status is
     published and the outputs so far are written while the node is still alive; the run can be
-    resumed (``./pd run --resume``).
+    resumed (``./pd run --resume``). A record that cannot be written (a full disk) ends the
+    test with one line (the journal's, naming the file and ``./pd recover``), exit code 1.
     """
+    try:
+        return _run(node, executor, stop)
+    except RecordWriteError as err:
+        node.get_logger().error(str(err))
+        return 1
+
+
+def _spin(node: IntegratorNode, executor: Executor, timeout_sec: float) -> None:
+    """One turn of the executor; a record a callback could not write ends the run."""
+    executor.spin_once(timeout_sec=timeout_sec)
+    if node.record_error is not None:
+        raise node.record_error
+
+
+def _run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
     _describe(node)
     deadline = time.monotonic() + node.session.definition.protocol.start_timeout
     # A resumed run is never aborted for want of its specimen side: it stays resumable.
@@ -710,7 +743,7 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
             end('interrupted before the test started')
             node.finish()
             return 1
-        executor.spin_once(timeout_sec=0.05)
+        _spin(node, executor, 0.05)
         if time.monotonic() > deadline:
             end('no specimen side (bridge or simulator) answered on '
                 f'{", ".join(node.missing_sites())} within '
@@ -727,7 +760,7 @@ def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
                                    f'{node.session.state.name.lower()}: {node.session.message}; '
                                    'resume with ./pd run --resume')
             break
-        executor.spin_once(timeout_sec=0.05)
+        _spin(node, executor, 0.05)
         now = time.monotonic()
         if now >= next_check:  # not after every message: a step is a fraction of this
             next_check = now + CHECK_INTERVAL_S
@@ -752,7 +785,7 @@ def main(args: list[str] | None = None) -> int:
             node.finish()
         return 1
 
-    return run_node('pd_integrator', IntegratorNode, (PdIntegratorError, AuthError),
+    return run_node('pd_integrator', IntegratorNode, (PdIntegratorError, AuthError, OSError),
                     lambda node, executor: run(node, executor, stop), on_interrupt=interrupted,
                     teardown_timeout=TEARDOWN_TIMEOUT)
 

@@ -28,6 +28,11 @@ def main(argv: list[str] | None = None) -> int:
     except (PdIntegratorError, ValueError) as err:
         print(f'recover: error: {err}', file=sys.stderr)
         return 2
+    except OSError as err:  # the outputs cannot be written (a full disk, a read-only folder)
+        where = f'{err.filename}: ' if err.filename else ''
+        print(f'recover: error: {where}cannot write ({err.strerror or type(err).__name__}); '
+              f'once there is room, ./pd recover {args.run_dir} again', file=sys.stderr)
+        return 1
     summary = result.summary
     notes = ''.join(f'; {note}' for note in summary.get('record_notes', []))
     print(f'recovered {summary["steps"]} committed steps ({summary["state"]}) of '

@@ -16,13 +16,15 @@ import sys
 from pathlib import Path
 
 from pd_common.auth import AuthError, load_key
+from pd_common.config import existing_path
 
 from .core.errors import PdIntegratorError
 from .core.run.runner import rebuild_outputs
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns 0 on success, 2 if the bag cannot be replayed."""
+    """Entry point; returns 0 on success, 1 if a signature fails or the outputs cannot be
+    written, 2 if the bag cannot be replayed."""
     parser = argparse.ArgumentParser(prog='replay', description=__doc__.splitlines()[0])
     parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag), its run "
                         'folder or its journal.jsonl')
@@ -31,7 +33,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--key', help="the test's key file: check the recorded signatures")
     args = parser.parse_args(argv)
     bag = Path(args.bag)
-    run_dir = bag.resolve() if bag.is_dir() and bag.name != 'bag' else bag.resolve().parent
+    try:
+        resolved = existing_path(bag)  # (a symbolic link loop: one line, not a RuntimeError)
+    except OSError as err:
+        print(f'replay: error: {bag}: {err.strerror or type(err).__name__}', file=sys.stderr)
+        return 2
+    run_dir = resolved if resolved.is_dir() and bag.name != 'bag' else resolved.parent
     out = Path(args.out) if args.out else run_dir / 'replay'
     try:
         key = load_key(args.key) if args.key else None
@@ -39,6 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     except (PdIntegratorError, AuthError, ValueError) as err:
         print(f'replay: error: {err}', file=sys.stderr)
         return 2
+    except OSError as err:  # the outputs cannot be written (a full disk, a read-only folder)
+        where = err.filename or out
+        print(f'replay: error: {where}: cannot write ({err.strerror or type(err).__name__})',
+              file=sys.stderr)
+        return 1
     print(f'replayed {result.summary["steps"]} steps ({result.summary["state"]}); outputs in '
           f'{result.directory}')
     check = result.summary.get('signature_check')

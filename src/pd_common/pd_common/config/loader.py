@@ -1,9 +1,17 @@
 """Reading test and configuration files: one YAML loader for every package.
 
 PyYAML's safe loader, with YAML 1.2's reading of exponent floats such as ``1e5`` and
-``3.5e7`` (YAML 1.1 reads them as strings), that refuses aliases (``*name``): a test file has
-no use for them, and a few lines of nested aliases (a "billion laughs") expand to billions of
-values. Anchors (``&name``) alone are harmless and allowed.
+``3.5e7`` (YAML 1.1 reads them as strings), that refuses what a test file has no use for and
+what would make reading it blow up or lie:
+
+* aliases (``*name``): a few lines of nested aliases (a "billion laughs") expand to billions
+  of values. Anchors (``&name``) alone are harmless and allowed;
+* nesting deeper than :data:`MAX_DEPTH` levels (``a: [[[[...]]]]``): the composer recurses per
+  level, and thousands of levels end in a ``RecursionError``;
+* a key given twice in one mapping (PyYAML keeps the last one silently);
+* a file that is not a regular one or is larger than
+  :data:`~pd_common.config.files.MAX_TEXT_BYTES`, or not UTF-8 (:func:`read_yaml_file`, see
+  :mod:`.files`).
 """
 
 from __future__ import annotations
@@ -14,14 +22,55 @@ from typing import Any
 
 import yaml
 from yaml.error import Mark
-from yaml.nodes import Node, ScalarNode
+from yaml.nodes import MappingNode, Node, ScalarNode
 
-__all__ = ['YAMLAliasError', 'YAMLError', 'load_yaml', 'read_yaml_file']
+from .files import MAX_TEXT_BYTES, read_text
+
+__all__ = ['MAX_DEPTH', 'YAMLAliasError', 'YAMLDepthError', 'YAMLDuplicateKeyError',
+           'YAMLError', 'load_yaml', 'read_yaml_file', 'yaml_problem']
 
 YAMLError = yaml.YAMLError
 
+#: The deepest nesting of collections (mappings and lists) a YAML file may have; a test file
+#: needs a handful of levels.
+MAX_DEPTH = 64
 
-class YAMLAliasError(yaml.MarkedYAMLError):
+
+class _OneLineError(yaml.MarkedYAMLError):
+    """A refusal of the loader: ``str()`` is one line, ``line N: <problem>``."""
+
+    def __str__(self) -> str:
+        where = '' if self.problem_mark is None else f'line {self.problem_mark.line + 1}: '
+        return f'{where}{self.problem}'
+
+
+class YAMLDepthError(_OneLineError):
+    """Collections nested deeper than :data:`MAX_DEPTH` levels: refused before the composer
+    recurses any deeper.
+
+    ``str()`` is e.g. ``line 1: nesting deeper than 64 levels``.
+    """
+
+    def __init__(self, mark: Mark | None) -> None:
+        super().__init__(problem=f'nesting deeper than {MAX_DEPTH} levels', problem_mark=mark)
+
+
+class YAMLDuplicateKeyError(_OneLineError):
+    """A key given twice in one mapping (the last one would silently win).
+
+    ``str()`` is e.g. ``line 17: structure.mass: given twice (first on line 16)``.
+
+    Attributes:
+        key: the path of the repeated key (``structure.mass``).
+    """
+
+    def __init__(self, key: str, first: Mark | None, mark: Mark | None) -> None:
+        before = f' (first on line {first.line + 1})' if first is not None else ''
+        super().__init__(problem=f'{key}: given twice{before}', problem_mark=mark)
+        self.key = key
+
+
+class YAMLAliasError(_OneLineError):
     """A YAML alias (``*name``) in a file: refused, whatever it refers to.
 
     ``str()`` is one line, e.g. ``line 12: structure.dof_names: YAML aliases (*i) are not
@@ -41,13 +90,10 @@ class YAMLAliasError(yaml.MarkedYAMLError):
         self.alias = alias
         self.key = key
 
-    def __str__(self) -> str:
-        where = '' if self.problem_mark is None else f'line {self.problem_mark.line + 1}: '
-        return f'{where}{self.problem}'
-
 
 class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e5`` as a number (YAML 1.2) and refusing aliases."""
+    """PyYAML's safe loader, reading ``1e5`` as a number (YAML 1.2) and refusing aliases,
+    deep nesting and repeated keys."""
 
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
@@ -60,11 +106,32 @@ class _Loader(yaml.SafeLoader):
             event = self.current_event  # the alias (check_event peeked at it)
             mark = event.start_mark if isinstance(event.start_mark, Mark) else None
             raise YAMLAliasError(str(event.anchor), self._key(index), mark)
+        if len(self._where) > MAX_DEPTH:  # its ancestors: the collections it is nested in
+            self.check_event()  # peeks at the node's first event (its current_event)
+            mark = getattr(self.current_event, 'start_mark', None)
+            raise YAMLDepthError(mark if isinstance(mark, Mark) else None)
         self._where.append(index)
         try:
-            return super().compose_node(parent, index)
+            node = super().compose_node(parent, index)
         finally:
             self._where.pop()
+        if isinstance(node, MappingNode):
+            self._check_keys(node, index)
+        return node
+
+    def _check_keys(self, node: MappingNode, index: Any) -> None:
+        """Refuse a scalar key given twice in ``node`` (at ``index`` of the current node)."""
+        seen: dict[tuple[str, str], Mark | None] = {}
+        for key_node, _ in node.value:
+            if not isinstance(key_node, ScalarNode) or key_node.tag.endswith(':merge'):
+                continue
+            mark = key_node.start_mark if isinstance(key_node.start_mark, Mark) else None
+            name = (key_node.tag, key_node.value)
+            if name in seen:
+                path = self._key(index)
+                key = f'{path}.{key_node.value}' if path else str(key_node.value)
+                raise YAMLDuplicateKeyError(key, seen[name], mark)
+            seen[name] = mark
 
     def _key(self, index: Any) -> str:
         """The path of the node at ``index`` of the current one: ``structure.mass``, ``b[2]``."""
@@ -85,22 +152,40 @@ _Loader.add_implicit_resolver(
     list('-+0123456789.'))
 
 
+def yaml_problem(err: yaml.YAMLError) -> str:
+    """A YAML error on one line: ``line N: <problem>`` (PyYAML's own messages span several
+    lines, with the text around the mark)."""
+    mark = getattr(err, 'problem_mark', None)
+    where = f'line {mark.line + 1}: ' if isinstance(mark, Mark) else ''
+    return f'{where}{getattr(err, "problem", None) or "invalid YAML"}'
+
+
 def load_yaml(text: str) -> Any:
     """Parse a test file's YAML text (safe; exponent floats without a dot or sign allowed).
 
     Raises:
         YAMLAliasError: the text holds an alias (``*name``); a :class:`yaml.YAMLError`.
+        YAMLDepthError: collections nested deeper than :data:`MAX_DEPTH`; a
+            :class:`yaml.YAMLError`.
+        YAMLDuplicateKeyError: a mapping has a key twice; a :class:`yaml.YAMLError`.
         yaml.YAMLError: the text is not YAML.
     """
     return yaml.load(text, Loader=_Loader)
 
 
-def read_yaml_file(path: str | Path) -> Any:
-    """Read and parse a YAML file with :func:`load_yaml`.
+def read_yaml_file(path: str | Path, *, what: str = 'a YAML file') -> Any:
+    """Read and parse a YAML file with :func:`load_yaml`: a regular file of at most
+    :data:`~pd_common.config.files.MAX_TEXT_BYTES`, UTF-8 (see :mod:`.files`).
+
+    Args:
+        path: the file.
+        what: what the file is, for the message of a file too large (``'a test file'``).
 
     Raises:
-        OSError: the file cannot be read.
-        YAMLAliasError: the file holds an alias (``*name``); a :class:`yaml.YAMLError`.
+        OSError: the file cannot be read; an
+            :class:`~pd_common.config.files.InputFileError` (one line naming it) for a file
+            that is not a regular one, too large, or not UTF-8.
+        YAMLAliasError, YAMLDepthError, YAMLDuplicateKeyError: see :func:`load_yaml`.
         yaml.YAMLError: the text is not YAML.
     """
-    return load_yaml(Path(path).read_text(encoding='utf-8'))
+    return load_yaml(read_text(Path(path), limit=MAX_TEXT_BYTES, what=what))

@@ -50,7 +50,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..config.loader import YAMLError, read_yaml_file
+from ..config.loader import YAMLError, read_yaml_file, yaml_problem
 from ..errors import SpecimenConfigError, SpecimenError
 from .backbone import (
     BEYOND_MODES,
@@ -391,9 +391,12 @@ def load_specimen_section(path: str | Path, site: str = ''
     """
     path = Path(path)
     try:
-        raw = read_yaml_file(path) or {}
-    except (OSError, YAMLError) as err:
-        msg = f'{path}: cannot read the test file ({err})'
+        raw = read_yaml_file(path, what='a test file') or {}
+    except OSError as err:  # (also a FIFO, a device, too large, not UTF-8: one line)
+        msg = f'{path}: cannot read the test file ({err.strerror or type(err).__name__})'
+        raise SpecimenError(msg) from err
+    except YAMLError as err:
+        msg = f'{path}: cannot read the test file ({yaml_problem(err)})'
         raise SpecimenError(msg) from err
     if not isinstance(raw, dict):
         msg = f'{path.name}: a test file must be a mapping of sections'

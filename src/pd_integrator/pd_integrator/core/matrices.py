@@ -18,6 +18,7 @@ __all__ = [
     'as_float_array',
     'as_matrix',
     'as_vector',
+    'first_boolean',
     'readonly',
     'readonly_copy',
     'square_matrix',
@@ -35,13 +36,34 @@ def readonly_copy(array: Any) -> NDArray[np.float64]:
     return readonly(np.array(array, dtype=float))
 
 
+def first_boolean(value: Any) -> bool | None:
+    """The first boolean in ``value`` (a scalar, nested lists or tuples, an array), or
+    ``None``: YAML's ``true`` is no number, but numpy reads it as 1.0."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, (bool, np.bool_)):
+            return bool(item)
+        if isinstance(item, (list, tuple)):
+            stack.extend(reversed(item))
+        elif isinstance(item, np.ndarray) and item.dtype == np.bool_ and item.size:
+            return bool(item.flat[0])
+    return None
+
+
 def as_float_array(value: Any, name: str) -> NDArray[np.float64]:
-    """``value`` as a finite float array; a ConfigError naming ``name`` otherwise."""
+    """``value`` as a finite float array; a ConfigError naming ``name`` otherwise (a boolean
+    is not a number)."""
     if value is None:
         msg = f'{name}: a value is required'
         raise ConfigError(msg)
     if isinstance(value, (str, bytes)):
         msg = f'{name}: expected a number or an array of numbers, got {value!r}'
+        raise ConfigError(msg)
+    flag = first_boolean(value)
+    if flag is not None:  # numpy reads true as 1.0: a flag where a number belongs is a typo
+        msg = (f'{name}: expected a number or an array of numbers, got a boolean '
+               f'({"true" if flag else "false"})')
         raise ConfigError(msg)
     try:
         array = np.array(value, dtype=float)

@@ -6,8 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
+from pd_common.config import existing_path
 from pd_common.protocol import Command, Feedback
 
+from ..errors import BagError
 from ..run.outputs import ENERGY_CSV, read_response_csv
 from ..run.runner import BAG_DIRECTORY, load_run
 from .model import ConsoleModel
@@ -19,8 +21,12 @@ FIGURE_SUFFIXES = ('.png',)
 
 
 def run_directory(path: str | Path) -> Path:
-    """The run folder of ``path`` (a run folder, its bag folder or its journal)."""
-    path = Path(path).resolve()
+    """The run folder of ``path`` (a run folder, its bag folder or its journal).
+
+    Raises:
+        OSError: ``path`` does not exist, or is a symbolic link loop (one line naming it).
+    """
+    path = existing_path(path)
     if path.is_file() or path.name == BAG_DIRECTORY:
         return path.parent
     return path
@@ -33,7 +39,9 @@ def load_run_folder(path: str | Path, model: ConsoleModel) -> Path:
         The run folder (its figures are the ``*.png`` files there).
 
     Raises:
-        BagError: neither a complete bag nor a journal is there.
+        BagError: neither a complete bag nor a journal is there, or the record (or the
+            folder's ``energy.csv``) is not one (one line naming the file and the line).
+        OSError: ``path`` does not exist, or is a symbolic link loop (one line naming it).
     """
     record = load_run(path)
     directory = run_directory(path)
@@ -54,7 +62,11 @@ def load_run_folder(path: str | Path, model: ConsoleModel) -> Path:
         model.on_bridge_status(bridges[0], status)
     energy = directory / ENERGY_CSV
     if energy.is_file():
-        columns = read_response_csv(energy)
+        try:
+            columns = read_response_csv(energy)
+        except (ValueError, OSError) as err:  # (a UnicodeDecodeError is a ValueError)
+            msg = f'{energy}: not an energy table ({str(err).splitlines()[0]})'
+            raise BagError(msg) from None
         if 'time' in columns and 'E_error' in columns:
             model.set_energy([float(x) for x in np.asarray(columns['time'])],
                              [float(x) for x in np.asarray(columns['E_error'])])

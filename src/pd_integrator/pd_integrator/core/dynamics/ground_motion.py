@@ -153,11 +153,16 @@ class GroundMotion:
             A new record with the same dt and source.
 
         Raises:
-            GroundMotionError: If ``factor`` is not finite.
+            GroundMotionError: If ``factor`` is not finite, or takes the peak beyond the
+                largest float (one line, no numpy warning).
         """
         factor = float(factor)
         if not math.isfinite(factor):
             msg = f"ground motion '{self.source}': scale factor must be finite, got {factor!r}"
+            raise GroundMotionError(msg)
+        if not math.isfinite(factor * self.pga):
+            msg = (f"ground motion '{self.source}': scale factor {factor:g} × the peak "
+                   f'{self.pga:.4g} m/s2 is beyond the largest number')
             raise GroundMotionError(msg)
         return GroundMotion(self.dt, self.acceleration * factor, self.source)
 

@@ -28,6 +28,7 @@ Every reader returns a :class:`~.ground_motion.GroundMotion` and raises
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import re
@@ -37,11 +38,14 @@ from typing import Union
 
 import numpy as np
 
+from pd_common.config import read_bytes
+
 from ..errors import GroundMotionError
 from .ground_motion import G_THESIS, GroundMotion, dt_close
 
 __all__ = [
     'FORMATS',
+    'MAX_RECORD_BYTES',
     'UNITS',
     'read_at2',
     'read_ground_motion',
@@ -56,6 +60,11 @@ FORMATS = ('auto', 'two_column', 'single_column', 'multi_column', 'at2', 'mat')
 
 UNITS = ('g', 'm/s2', 'm/s^2')
 """Values accepted by the ``units`` argument of the readers."""
+
+MAX_RECORD_BYTES = 32 * 2**20
+"""The largest record file read (a million samples of time and acceleration are about 25 MB;
+the text readers take some 6 s for the largest). Only regular files are read: a FIFO or a
+device (``/dev/zero``) is refused before anything is read."""
 
 PathLike = Union[str, 'os.PathLike[str]']
 
@@ -225,8 +234,9 @@ def read_mat(path: PathLike, *, units: str = 'm/s2', g: float = G_THESIS,
     label = _label(path)
     from scipy import io as scipy_io  # noqa: PLC0415 - only .mat files need it
 
+    data_bytes = _read_file(path, label)
     try:
-        content = scipy_io.loadmat(os.fspath(path))
+        content = scipy_io.loadmat(io.BytesIO(data_bytes))
     except NotImplementedError:
         msg = f'ground motion {label}: MATLAB v7.3 (HDF5) files are not supported; save with -v7'
         raise GroundMotionError(msg) from None
@@ -435,15 +445,20 @@ def _load_lines(path: PathLike) -> tuple[str, list[str]]:
     return label, text.splitlines()
 
 
-def _load_text(path: PathLike) -> tuple[str, str]:
-    """Read the file as text (BOM removed); an empty file is an error."""
-    label = _label(path)
+def _read_file(path: PathLike, label: str) -> bytes:
+    """The bytes of a record file: a regular file of at most :data:`MAX_RECORD_BYTES`."""
     try:
-        data = Path(path).read_bytes()
+        return read_bytes(path, limit=MAX_RECORD_BYTES, what='a ground-motion record')
     except OSError as exc:
         reason = exc.strerror or exc.__class__.__name__
         msg = f'ground motion {label}: cannot read file: {reason}'
-        raise GroundMotionError(msg) from exc
+        raise GroundMotionError(msg) from None
+
+
+def _load_text(path: PathLike) -> tuple[str, str]:
+    """Read the file as text (BOM removed); an empty file is an error."""
+    label = _label(path)
+    data = _read_file(path, label)
     try:
         text = data.decode('utf-8-sig')
     except UnicodeDecodeError:

@@ -18,6 +18,14 @@ When the test ends the journal is converted to the run's rosbag2 (MCAP) bag
 with ``repr`` (exact round trip): a journal and its bag give the same history bit for bit. A
 last line cut by the crash is ignored (and reported).
 
+Reading a journal ends with its records or one line (:class:`~..errors.BagError`) naming the
+file and the line: only a regular file is read (a FIFO or a device is refused before), a line
+is at most :data:`MAX_LINE_BYTES`, and a line that is not UTF-8, not JSON (or JSON nested
+deeper than its decoder recurses), not an object or not a record of its kind is malformed. A
+journal or bag that cannot be written (a full disk) raises :class:`RecordWriteError`: one
+line with what to do (``./pd recover``); the journal is closed, what reached the disk stays
+readable, and no half-written bag is left.
+
 Record kinds (``k``): ``def`` (the resolved definition), ``cmd``, ``fb``, ``st`` (a status),
 ``raw`` (a serialised message, base64), ``ev`` (an event: resumed, restarted, ...).
 """
@@ -27,12 +35,14 @@ from __future__ import annotations
 import base64
 import json
 import os
+import shutil
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from pd_common.config import open_regular_file
 from pd_common.jsonl import end_last_line
 from pd_common.protocol import (
     Command,
@@ -56,11 +66,15 @@ from .bag import (
     typestore,
 )
 
-__all__ = ['JOURNAL_FILE', 'Journal', 'JournalRecord', 'RunRecorder', 'iter_journal_records',
-           'journal_to_bag', 'read_journal', 'read_journal_records']
+__all__ = ['JOURNAL_FILE', 'MAX_LINE_BYTES', 'Journal', 'JournalRecord', 'RecordWriteError',
+           'RunRecorder', 'iter_journal_records', 'journal_to_bag', 'read_journal',
+           'read_journal_records']
 
 #: The journal's file name in a run folder.
 JOURNAL_FILE = 'journal.jsonl'
+#: The longest line read back (the definition's line holds the whole record, inlined: a few
+#: MB for the longest records; a longer line is no record of this project's).
+MAX_LINE_BYTES = 256 * 2**20
 _VERSION = 1
 #: One encoder for every record (``json.dumps`` with these options builds one per call).
 _ENCODE = json.JSONEncoder(separators=(',', ':'), allow_nan=True).encode
@@ -88,6 +102,11 @@ class RunRecorder(Protocol):
     def flush(self, *, sync: bool = True) -> None: ...
 
     def close(self) -> None: ...
+
+
+class RecordWriteError(BagError):
+    """The run's record (its journal, or the bag made of it) cannot be written: a full disk, a
+    file system gone read-only. One line naming the file, the reason and what to do."""
 
 
 def _signature(signature: Signature | None) -> list[Any] | None:
@@ -215,36 +234,76 @@ class Journal:
     def flush(self, *, sync: bool = True) -> None:
         """Hand the new records to the operating system; ``fsync`` if the interval is over
         (and ``sync``: records a crash may lose, as a command the resumed run recomputes,
-        need no ``fsync`` of their own)."""
+        need no ``fsync`` of their own).
+
+        Raises:
+            RecordWriteError: the records cannot be written (the file is closed then).
+        """
         file = self._file
         if file is None or not self._pending:
             return
-        file.write('\n'.join(self._pending) + '\n')
-        self._pending.clear()
-        file.flush()
-        if not sync:
-            return
-        now = self._clock()
-        if now - self._synced >= self.sync_interval:
-            os.fsync(file.fileno())
-            self._synced = now
+        try:
+            file.write('\n'.join(self._pending) + '\n')
+            self._pending.clear()
+            file.flush()
+            if not sync:
+                return
+            now = self._clock()
+            if now - self._synced >= self.sync_interval:
+                os.fsync(file.fileno())
+                self._synced = now
+        except OSError as err:
+            raise self._write_failed(err) from None
 
     def persist(self) -> None:
         """Hand the new records to the operating system and ``fsync`` now (an emergency
-        stop, a person's hold: on disk before the node answers anything else)."""
+        stop, a person's hold: on disk before the node answers anything else).
+
+        Raises:
+            RecordWriteError: the records cannot be written (the file is closed then).
+        """
         self.flush(sync=False)
         if self._file is not None:
-            os.fsync(self._file.fileno())
+            try:
+                os.fsync(self._file.fileno())
+            except OSError as err:
+                raise self._write_failed(err) from None
             self._synced = self._clock()
 
     def close(self) -> None:
-        """Write and sync what is pending; close the file."""
+        """Write and sync what is pending; close the file (a journal whose writing failed is
+        only closed: its error was raised already).
+
+        Raises:
+            RecordWriteError: what was pending cannot be written (the file is closed).
+        """
         if self._file is None:
             return
         self.flush()
-        os.fsync(self._file.fileno())
-        self._file.close()
+        if self._file is None:
+            return
+        try:
+            os.fsync(self._file.fileno())
+            self._file.close()
+        except OSError as err:
+            raise self._write_failed(err) from None
         self._file = None
+
+    def _write_failed(self, err: OSError) -> RecordWriteError:
+        """Close the file after a failed write (what it still buffers is dropped) and return
+        the error to raise."""
+        self._pending.clear()
+        file, self._file = self._file, None
+        if file is not None:
+            try:
+                file.close()  # flushes its buffer again (and fails again): closed all the same
+            except OSError:
+                pass
+        reason = err.strerror or type(err).__name__
+        msg = (f'{self.path}: cannot write the journal ({reason}); the run stops, its record '
+               f'ends at the last step on disk: once there is room, ./pd recover '
+               f'{self.path.parent} rebuilds its outputs')
+        return RecordWriteError(msg)
 
 
 @dataclass(frozen=True)
@@ -285,29 +344,58 @@ def _status_extras(status: Status) -> dict[str, Any]:
     return extras
 
 
-def _record(raw: dict[str, Any]) -> JournalRecord:
-    kind = raw['k']
+def _text(value: Any, name: str) -> str:
+    """A record's string field (a ``TypeError`` otherwise: the record is malformed)."""
+    if not isinstance(value, str):
+        msg = f'{name} is not a string'
+        raise TypeError(msg)
+    return value
+
+
+def _integer(value: Any, name: str) -> int:
+    """A record's integer field (a ``TypeError`` otherwise: the record is malformed)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        msg = f'{name} is not an integer'
+        raise TypeError(msg)
+    return value
+
+
+def _record(raw: Any) -> JournalRecord:
+    """One record of its JSON object.
+
+    Raises:
+        ValueError, KeyError, TypeError, ArithmeticError: not a record of its kind.
+    """
+    if not isinstance(raw, dict):
+        msg = f'a JSON {type(raw).__name__}, not an object'
+        raise TypeError(msg)
+    kind = _text(raw['k'], 'k')
     t_ns = int(raw.get('t', 0))
-    topic = raw.get('topic', '')
+    topic = _text(raw.get('topic', ''), 'topic')
     signature = _unsignature(raw.get('sig'))
     item: Any
     if kind == 'cmd':
-        item = Command(test_id=raw['id'], step=raw['step'], test_time=raw['time'],
-                       dof_names=tuple(raw['dofs']), target_displacement=tuple(raw['x']),
-                       iteration=raw['it'], control_mode=tuple(raw.get('mode', ())),
-                       target_force=tuple(raw.get('fx', ())))
+        item = Command(test_id=_text(raw['id'], 'id'), step=_integer(raw['step'], 'step'),
+                       test_time=float(raw['time']),
+                       dof_names=tuple(_text(name, 'dofs') for name in raw['dofs']),
+                       target_displacement=tuple(_floats(raw['x'])),
+                       iteration=_integer(raw['it'], 'it'),
+                       control_mode=tuple(_integer(mode, 'mode') for mode in raw.get('mode', ())),
+                       target_force=tuple(_floats(raw.get('fx', ()))))
     elif kind == 'fb':
-        item = Feedback(test_id=raw['id'], step=raw['step'],
-                        measured_displacement=tuple(raw['xm']), restoring_force=tuple(raw['r']),
-                        status=FeedbackStatus(raw['status']), message=raw['msg'],
-                        iteration=raw['it'], epoch=raw.get('epoch', ''),
+        item = Feedback(test_id=_text(raw['id'], 'id'), step=_integer(raw['step'], 'step'),
+                        measured_displacement=tuple(_floats(raw['xm'])),
+                        restoring_force=tuple(_floats(raw['r'])),
+                        status=FeedbackStatus(raw['status']), message=_text(raw['msg'], 'msg'),
+                        iteration=_integer(raw['it'], 'it'),
+                        epoch=_text(raw.get('epoch', ''), 'epoch'),
                         state_origin=StateOrigin(raw.get('origin', 0)))
     elif kind == 'st':
         item = _status(raw)
     elif kind == 'def':
-        item = raw['json']
+        item = _text(raw['json'], 'json')
     elif kind == 'raw':
-        item = base64.b64decode(raw['cdr'])
+        item = base64.b64decode(_text(raw['cdr'], 'cdr'), validate=True)
     else:
         item = raw
     return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature)
@@ -323,29 +411,48 @@ def iter_journal_records(path: str | Path, notes: list[str] | None = None
     """
     path = Path(path)
     try:
-        with path.open('r', encoding='utf-8') as file:
-            for number, line in enumerate(file, start=1):
-                cut = not line.endswith('\n')  # only the very last line can lack it
-                line = line.rstrip('\n')
-                if not line:
+        with open_regular_file(path) as file:
+            number = 0
+            while data := file.readline(MAX_LINE_BYTES + 1):
+                number += 1
+                if len(data) > MAX_LINE_BYTES:
+                    msg = (f'{path}: line {number}: longer than {MAX_LINE_BYTES // 2**20} MiB: '
+                           'not a journal record')
+                    raise BagError(msg)
+                cut = not data.endswith(b'\n')  # only the very last line can lack it
+                data = data.rstrip(b'\n')
+                if not data:
                     continue
                 try:
+                    line = data.decode('utf-8')
                     raw = json.loads(line)
-                    if raw.get('k') == 'journal':
+                    if isinstance(raw, dict) and raw.get('k') == 'journal':
                         continue
                     record = _record(raw)
-                except (ValueError, KeyError, TypeError) as err:
+                except (ValueError, KeyError, TypeError, ArithmeticError,
+                        RecursionError) as err:
                     if cut:  # the line a crash cut short
                         if notes is not None:
                             notes.append(f'ignored the last record of {path.name}, cut short '
-                                         f'({len(line)} bytes)')
+                                         f'({len(data)} bytes)')
                         return
-                    msg = f'{path}: line {number}: malformed journal record ({err})'
+                    msg = f'{path}: line {number}: malformed journal record ({_reason(err)})'
                     raise BagError(msg) from None
                 yield record
     except OSError as err:
-        msg = f'{path}: cannot read the journal ({err.strerror})'
+        msg = f'{path}: cannot read the journal ({err.strerror or type(err).__name__})'
         raise BagError(msg) from None
+
+
+def _reason(err: Exception) -> str:
+    """Why a line is not a record, in a few words."""
+    if isinstance(err, UnicodeDecodeError):
+        return f'not UTF-8 text: byte 0x{err.object[err.start]:02x} at column {err.start + 1}'
+    if isinstance(err, RecursionError):
+        return 'JSON nested too deep'
+    if isinstance(err, KeyError):
+        return f'no {err}'
+    return str(err)
 
 
 def read_journal_records(path: str | Path) -> tuple[list[JournalRecord], str]:
@@ -376,7 +483,7 @@ def read_journal(path: str | Path) -> RecordedRun:
         elif record.kind == 'st':
             index.status(record.topic, record.t_ns, record.item)
         elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
-            index.trajectory(record.t_ns, store.deserialize_cdr(record.item, MSG_TRAJECTORY))
+            index.trajectory(record.t_ns, _trajectory(store, record, path))
         elif record.kind == 'ev':
             index.event(record.t_ns, _event(record.item))
     run = index.result(str(path))
@@ -384,12 +491,51 @@ def read_journal(path: str | Path) -> RecordedRun:
     return run
 
 
+def _trajectory(store: Any, record: JournalRecord, path: str | Path) -> Any:
+    """An actuator trajectory's message from its serialised record.
+
+    Raises:
+        BagError: the bytes are not such a message.
+    """
+    try:
+        return store.deserialize_cdr(record.item, MSG_TRAJECTORY)
+    except Exception as err:
+        msg = f'{path}: a {record.topic} record is not an actuator trajectory ({err})'
+        raise BagError(msg) from err
+
+
 def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
     """Write the rosbag2 bag of a journal (what the recorder would have written); its records.
 
+    The bag is written in a folder beside it (``.<bag>.partial/<bag>``) and moved to its place
+    once complete: a journal that turns out unreadable, or a disk that fills up, leaves no bag
+    behind.
+
     Raises:
-        BagError: unreadable journal, or the bag cannot be written.
+        BagError: unreadable journal; a :class:`RecordWriteError` if the bag cannot be written.
     """
+    bag = Path(bag)
+    if bag.exists():
+        msg = f'{bag}: bag exists already, not overwriting'
+        raise BagError(msg)
+    partial = bag.parent / f'.{bag.name}.partial'
+    try:
+        if partial.exists():  # left by a process killed while it converted
+            shutil.rmtree(partial)
+        partial.mkdir()
+        count = _write_bag(journal, partial / bag.name)
+        (partial / bag.name).rename(bag)
+    except OSError as err:
+        msg = (f'{bag}: cannot write the bag ({err.strerror or type(err).__name__}); once '
+               f'there is room, ./pd recover {bag.parent} writes it from the journal')
+        raise RecordWriteError(msg) from None
+    finally:
+        shutil.rmtree(partial, ignore_errors=True)
+    return count
+
+
+def _write_bag(journal: str | Path, bag: Path) -> int:
+    """:func:`journal_to_bag` into ``bag`` (created); the records written."""
     count = 0
     with BagRecorder(bag) as recorder:
         for record in iter_journal_records(journal):

@@ -23,13 +23,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pd_common.config import read_text
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StateOrigin, TestState
 
 from ..errors import ConfigError
 from .bag import TOPIC_STATUS, RecordedRun, site_of
 from .definition import TestDefinition
 from .epochs import EpochGuard
-from .journal import JOURNAL_FILE
+from .journal import JOURNAL_FILE, MAX_LINE_BYTES
 from .runner import DEFINITION_JSON, load_run
 from .test_file import from_json
 
@@ -79,8 +80,12 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
     if not (directory / JOURNAL_FILE).is_file():
         msg = f'{directory}: no {JOURNAL_FILE} (a run recorded before journals cannot resume)'
         raise ConfigError(msg)
-    definition = from_json(definition_file.read_text(encoding='utf-8'),
-                           source=definition_file.name)
+    try:  # a regular file, bounded, UTF-8: a damaged one is one line, never a hang
+        text = read_text(definition_file, limit=MAX_LINE_BYTES, what='a test definition')
+    except OSError as err:
+        msg = f'{definition_file}: cannot read the test definition ({err.strerror})'
+        raise ConfigError(msg) from None
+    definition = from_json(text, source=definition_file.name)
     record = load_run(directory / JOURNAL_FILE)
     last = record.statuses[-1][1] if record.statuses else None
     if last is not None and last.state not in RESUMABLE:

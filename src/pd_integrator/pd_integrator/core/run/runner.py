@@ -2,7 +2,9 @@
 
 :func:`run_offline` drives the same :class:`~.session.TestSession` as the integrator node, with
 the same specimen models as the ``pd_specimen_sim`` node, in one process, and writes the same
-run folder (journal, bag, ``response.csv``, ``summary.json``, figures). :func:`replay_run`
+run folder (journal, bag, ``response.csv``, ``summary.json``, figures); given each site's bridge
+limits (:func:`~.bridge_limits.site_limits`) it holds where the bridges would
+(:class:`~.bridge_limits.BridgeGate`). :func:`replay_run`
 feeds a record's commands and feedback through the same step protocol and integrator: it
 checks that every recomputed command equals the recorded one (bit for bit) and returns the
 history. :func:`restore_dispatcher` does the same through the whole step loop (sites and
@@ -35,6 +37,7 @@ from pd_common.specimen import (
 from ..errors import BagError, ConfigError
 from .actuators import ActuatorHistory, actuator_history, write_actuator_outputs
 from .bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
+from .bridge_limits import BridgeGate, SiteLimits, limits_summary
 from .definition import TestDefinition
 from .dispatch import StepDispatcher, refuse_fresh_state
 from .energy import energy_balance
@@ -131,7 +134,8 @@ def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
     if definition.initial_stiffness is not None:  # (a probe that never finished: no damping)
         structure = definition.structure()
         energy = energy_balance(session.history, structure.mass, structure.damping,
-                                structure.influence, loads=definition.loads())
+                                structure.influence, loads=definition.loads(),
+                                initial_stiffness=structure.initial_stiffness)
     tracking = tracking_history(session.history)
     # A test that did not finish (a fault, an abort, a crash) still gets its outputs, up to
     # its last committed step, marked partial.
@@ -171,14 +175,30 @@ def _actuator_history(session: TestSession, directory: Path, record: RecordedRun
 
 
 def run_offline(definition: TestDefinition, directory: str | Path, *, figures: bool = True,
-                progress: Callable[[str], None] | None = None) -> RunResult:
+                progress: Callable[[str], None] | None = None,
+                limits: Mapping[str, SiteLimits] | None = None,
+                past_limits: bool = False) -> RunResult:
     """Run ``definition`` against its simulated specimen in this process (no ROS).
+
+    With ``limits`` (per site, :func:`~.bridge_limits.site_limits`) each site's commands and
+    measurements go through its bridge's checks (:class:`~.bridge_limits.BridgeGate`): the run
+    holds where ``./pd run`` would, ``summary.json`` says ``state: held`` and ``bridge_limits``
+    which limit held it at which step, with the bridge's message. ``past_limits`` checks
+    without refusing: the run goes on, and ``bridge_limits`` says where the bridges would have
+    held. Without ``limits`` nothing is checked (a specimen rehearsal, as ``--site direct``).
 
     Raises:
         ConfigError: the definition has no usable ``specimen`` section.
         StabilityError: ω_max·Δt is above the scheme's limit (nothing is commanded).
     """
-    servers = site_servers(definition)
+    specimens = site_servers(definition)
+    servers: dict[str, SiteServer | BridgeGate] = dict(specimens)
+    gates: dict[str, BridgeGate] = {}
+    if limits is not None:
+        for site, server in specimens.items():
+            gates[site] = BridgeGate(server, limits[site], len(limits[site].dof_names),
+                                     apply=not past_limits)
+        servers.update(gates)
     session = TestSession(definition)  # checks stability before anything moves
     directory = prepare_run_directory(directory)
     (directory / DEFINITION_JSON).write_text(definition.to_json(), encoding='utf-8')
@@ -202,12 +222,20 @@ def run_offline(definition: TestDefinition, directory: str | Path, *, figures: b
         bag.write_status(dispatcher.status(), time.time_ns())
     wall_time = time.perf_counter() - start
     journal_to_bag(directory / JOURNAL_FILE, directory / BAG_DIRECTORY)
+    extra: dict[str, Any] = {'bridge_limits': limits_summary(gates)} if gates else {}
     summary = finish_outputs(session, directory, wall_time=wall_time, figures=figures,
-                             mode='offline', site_protocol=dispatcher.coordinator.summary())
+                             mode='offline', site_protocol=dispatcher.coordinator.summary(),
+                             **extra)
+    if (not past_limits and session.state is TestState.HOLDING
+            and any(gate.held is not None for gate in gates.values())):
+        # Held by a bridge: ./pd run holds there until an operator decides; nobody will here.
+        summary['state'] = 'held'
+        write_summary(summary, directory / 'summary.json')
     return RunResult(session=session, directory=directory, summary=summary)
 
 
-def serve_queue(queue: deque[tuple[str, Command]], servers: Mapping[str, SiteServer],
+def serve_queue(queue: deque[tuple[str, Command]],
+                servers: Mapping[str, SiteServer | BridgeGate],
                 dispatcher: StepDispatcher, *,
                 after_answer: Callable[[], None] | None = None) -> bool:
     """Answer the queued commands with in-process specimens until none is left.

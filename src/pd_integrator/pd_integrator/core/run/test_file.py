@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -21,14 +22,14 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pd_common.config import load_yaml
+from pd_common.config import MAX_TEXT_BYTES, describe_size, load_yaml, read_text, yaml_problem
 from pd_common.specimen import SpecimenError, specimen_from_config
 
 from ..dynamics.ground_motion import GroundMotion
 from ..dynamics.record_readers import read_ground_motion
 from ..dynamics.structure import SYMMETRY_RTOL
 from ..errors import ConfigError, GroundMotionError
-from ..matrices import as_float_array, as_matrix
+from ..matrices import as_float_array, as_matrix, first_boolean
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
 from ..schemes.linalg import large_diagonal
@@ -40,8 +41,8 @@ from .definition import (
     TestDefinition,
 )
 
-__all__ = ['PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict', 'from_json',
-           'load_test_file']
+__all__ = ['MAX_STEPS', 'PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict',
+           'from_json', 'load_test_file', 'steps_refusal']
 
 #: The sections of a test file (``rig`` is read by ``run_test`` only: the rig's ROS domain and
 #: discovery; the integrator does not need it).
@@ -70,6 +71,12 @@ PARAMETER_PATHS: dict[str, tuple[str, str]] = {
 }
 
 _TEST_ID = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
+
+#: The most integration steps a test may have (its history is held in memory: five arrays per
+#: DOF, the loads and the ground motion, per step: 5e7 steps of one DOF take 3 GB).
+MAX_STEPS = 50_000_000
+#: The part of this machine's memory a test's history may take.
+MEMORY_FRACTION = 0.5
 
 #: Relative (Frobenius) difference between ``structure.initial_stiffness`` and the specimen's own
 #: initial stiffness above which the definition carries a warning.
@@ -153,17 +160,14 @@ def load_test_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     path = Path(path)
     source = path.name
     try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as err:
-        msg = f'{path}: cannot read the test file ({err.strerror})'
-        raise ConfigError(msg) from err
+        text = read_text(path, limit=MAX_TEXT_BYTES, what='a test file')
+    except OSError as err:  # (also not a regular file, too large, not UTF-8: InputFileError)
+        msg = f'{path}: cannot read the test file ({err.strerror or type(err).__name__})'
+        raise ConfigError(msg) from None
     try:
         raw = load_yaml(text)
     except yaml.YAMLError as err:
-        mark = getattr(err, 'problem_mark', None)
-        where = f'line {mark.line + 1}: ' if mark is not None else ''
-        problem = getattr(err, 'problem', None) or 'invalid YAML'
-        msg = f'{source}: {where}{problem}'
+        msg = f'{source}: {yaml_problem(err)}'
         raise ConfigError(msg) from err
     if raw is None:
         raw = {}
@@ -177,6 +181,9 @@ def from_json(text: str, *, source: str = 'bag') -> TestDefinition:
     except json.JSONDecodeError as err:
         msg = f'{source}: test definition is not valid JSON ({err.msg} at char {err.pos})'
         raise ConfigError(msg) from err
+    except RecursionError:  # json's decoder recurses per level: thousands of them
+        msg = f'{source}: test definition is not a test (JSON nested too deep)'
+        raise ConfigError(msg) from None
     protocol = raw.get('protocol') if isinstance(raw, dict) else None
     if isinstance(protocol, dict) and 'tracking_tolerance' not in protocol:
         protocol['tracking_tolerance'] = 0.0  # recorded before the check existed: as it ran
@@ -289,6 +296,11 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     influence_raw = structure.get('influence', [1.0] * n)
     influence_full = _vector(structure, 'influence', influence_raw, n)
     structure.finish()
+    if duration is not None:
+        refusal = steps_refusal(duration / dt, n)
+        if refusal is not None:
+            error = test.error('duration', f'{duration:g} s at dt {dt:g} s is {refusal}')
+            raise error
 
     components, record_steps = _ground_components(
         raw.get('ground_motion'), source, base_dir, dof_names=dof_names, retained=retained,
@@ -526,6 +538,8 @@ def _show_matrix(matrix: np.ndarray) -> str:
 
 
 def _vector(reader: _Reader, key: str, value: Any, n: int) -> np.ndarray:
+    if first_boolean(value) is not None:
+        raise reader.error(key, f'must be a list of {n} numbers, got {value!r}')
     try:
         vector = np.array(value, dtype=float).reshape(-1)
     except (ValueError, TypeError) as err:
@@ -590,6 +604,30 @@ def _ratios(reader: _Reader, key: str, value: Any, count: int | None) -> list[fl
     return [float(v) for v in value]
 
 
+def steps_refusal(steps: float, n_dof: int) -> str | None:
+    """Why ``steps`` integration steps of ``n_dof`` DOFs are too many for a test, as the end of
+    a message (``1e+11 steps; at most 5e+07``), or ``None`` when they fit (at most
+    :data:`MAX_STEPS`, and a history within :data:`MEMORY_FRACTION` of this machine's
+    memory)."""
+    if not steps <= MAX_STEPS:  # (an infinite count too)
+        return f'{steps:.4g} steps; at most {MAX_STEPS:.0e}'
+    need = (steps + 1.0) * (6 * n_dof + 2) * 8.0  # history, loads and ground motion [bytes]
+    memory = _physical_memory()
+    if memory is not None and need > MEMORY_FRACTION * memory:
+        return (f'{steps:.4g} steps of {n_dof} DOF(s): the history needs '
+                f"{describe_size(int(need))}, more than {MEMORY_FRACTION:.0%} of this machine's "
+                f'{describe_size(memory)}')
+    return None
+
+
+def _physical_memory() -> int | None:
+    """This machine's memory [bytes] (``None``: unknown)."""
+    try:
+        return os.sysconf('SC_PHYS_PAGES') * os.sysconf('SC_PAGE_SIZE')
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
 def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tuple[str, ...],
                        retained: list[int], default_influence: np.ndarray,
                        influence_given: bool, dt: float
@@ -631,6 +669,11 @@ def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tupl
             full = _vector(_Reader({}, path, source), 'influence', influence_raw, n)
         influence = np.array(full[retained], dtype=float)
         influence.setflags(write=False)
+        refusal = steps_refusal(motion.duration / dt, n)
+        if refusal is not None:  # before the record is resampled to that many steps
+            msg = (f'{source}: test.dt: {dt:g} s over the {motion.duration:g} s of the record '
+                   f"'{motion.source}' is {refusal}")
+            raise ConfigError(msg)
         resampled = motion.resampled(dt).acceleration
         components.append(GroundComponent(
             name=name, motion=motion, acceleration=resampled, influence=influence,
@@ -689,9 +732,14 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
             if units not in ('m/s2', 'm/s^2', 'g'):
                 error = reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
                 raise error
-            acceleration = np.asarray(values, dtype=float) * factor
-            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration,
-                                  source='inline').scaled(scale * direction)
+            if first_boolean(values) is not None or isinstance(values, (str, bytes)):
+                error = inline_reader.error('acceleration', 'must be a list of numbers')
+                raise error
+            with np.errstate(over='ignore', invalid='ignore'):  # refused below, not warned
+                acceleration = np.asarray(values, dtype=float) * factor
+            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration, source='inline')
+            _check_scale(reader, scale, motion)
+            motion = motion.scaled(scale * direction)
             info = dict(record) if isinstance(record, dict) else {
                 'file': 'inline', 'scale': scale, 'direction': direction}
         else:
@@ -699,12 +747,16 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
             path = Path(file)
             if not path.is_absolute():
                 path = base_dir / path
-            motion = read_ground_motion(path, format=fmt or 'auto', units=units or 'g',
-                                        dt=record_dt, g=g or 9.81)
+            with np.errstate(over='ignore', invalid='ignore'):  # refused, not warned
+                motion = read_ground_motion(path, format=fmt or 'auto', units=units or 'g',
+                                            dt=record_dt, g=g or 9.81)
             info = {'file': path.name, 'format': fmt, 'units': units, 'g': g,
                     'scale': scale, 'direction': direction, 'record_dt': motion.dt,
                     'record_samples': motion.n_samples}
+            _check_scale(reader, scale, motion)
             motion = motion.scaled(scale * direction)
+    except ConfigError:  # (a ValueError) names its key already
+        raise
     except GroundMotionError as err:
         msg = f'{source}: {where}: {err}'
         raise ConfigError(msg) from err
@@ -712,3 +764,12 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
         msg = f'{source}: {where}: {err}'
         raise ConfigError(msg) from err
     return motion, info
+
+
+def _check_scale(reader: _Reader, scale: float, motion: GroundMotion) -> None:
+    """Refuse a ``scale`` that takes the record's peak beyond the largest float."""
+    peak = motion.pga
+    if not math.isfinite(scale * peak):
+        error = reader.error('scale', f"{scale:g} × the record's peak {peak:.4g} m/s2 is "
+                                      'beyond the largest number')
+        raise error

@@ -1,0 +1,372 @@
+"""Every command tells the truth: bad input is one line naming the file and the parameter.
+
+Each class of input goes through the real entry points (``offline``, ``pretest``, ``run_test``,
+``replay``, ``recover``, ``console``, ``rths_benchmark``) in a subprocess: exit code 2 (1 for a
+run whose files could not be written), one line on stderr, nothing on stdout, no traceback,
+within seconds, nothing written (the run folder is not made). The inputs: YAML nested
+thousands of levels deep, a test of 1e11 steps, files that are no files (``/dev/zero``, a
+FIFO, a directory), binary test files, damaged journals and a symbolic link loop as a run
+folder, numbers that overflow, booleans where numbers belong, keys given twice, a read-only
+folder and a full disk.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
+INSTALL = REPO / 'ros2_ws' / 'install'
+#: The modules of the entry points (when the workspace is not installed).
+MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline',
+           'pretest': 'pd_integrator.pretest', 'replay': 'pd_integrator.replay',
+           'recover': 'pd_integrator.recover', 'console': 'pd_integrator.console',
+           'rths_benchmark': 'pd_integrator.rths_benchmark'}
+#: Seconds a refusal may take (a process start with numpy and scipy is about one).
+PROMPT = 10.0
+#: The test-file commands, with options that keep them from writing anywhere but ``--out``.
+TEST_FILE_COMMANDS = {'offline': ['--quiet', '--no-figures'], 'pretest': ['--no-figures'],
+                      'run_test': ['--no-authentication']}
+
+
+@dataclass(frozen=True)
+class Result:
+    code: int
+    stdout: str
+    stderr: str
+    seconds: float
+
+
+def command(program: str) -> list[str]:
+    """The entry point ``./pd <program>`` runs (or its module, without the install)."""
+    package = 'pd_bringup' if program == 'run_test' else 'pd_integrator'
+    executable = INSTALL / package / 'lib' / package / program
+    if executable.is_file():
+        return [str(executable)]
+    return [sys.executable, '-m', MODULES[program]]
+
+
+def run(program: str, *args: str, cwd: Path, limit_file_size: int | None = None) -> Result:
+    """Run ``program`` in ``cwd``; it must end within ``PROMPT`` seconds (a hang fails)."""
+    env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+
+    def limits() -> None:  # a full disk, for files past the size: writes fail with EFBIG
+        if limit_file_size is not None:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit_file_size, limit_file_size))
+
+    start = time.monotonic()
+    completed = subprocess.run([*command(program), *args], cwd=cwd, env=env, text=True,
+                               capture_output=True, stdin=subprocess.DEVNULL,
+                               timeout=PROMPT + 20.0, preexec_fn=limits, check=False)
+    seconds = time.monotonic() - start
+    return Result(completed.returncode, completed.stdout, completed.stderr, seconds)
+
+
+def refused(result: Result, program: str, pattern: str, *, code: int = 2) -> str:
+    """``result`` is one line ``<program>: error: <pattern>`` on stderr, and nothing else."""
+    assert 'Traceback' not in result.stderr, result.stderr
+    assert 'Warning' not in result.stderr, result.stderr
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    assert re.match(rf'^{program}: error: {pattern}', lines[0]), lines[0]
+    assert result.code == code, result
+    assert result.stdout == '', result.stdout
+    assert result.seconds < PROMPT, result.seconds
+    return lines[0]
+
+
+def default_text(**values: str) -> str:
+    """The default test file (its record's path absolute), with ``key: value`` lines replaced
+    (the first line of each key)."""
+    text = DEFAULT_TEST.read_text(encoding='utf-8').replace(
+        'file: ../data/', f'file: {DEFAULT_TEST.parent}/../data/')
+    for key, value in values.items():
+        text, count = re.subn(rf'^(\s*){key}: .*$', rf'\g<1>{key}: {value}', text, count=1,
+                              flags=re.MULTILINE)
+        assert count == 1, key
+    return text
+
+
+def write(folder: Path, name: str, text: str) -> str:
+    (folder / name).write_text(text, encoding='utf-8')
+    return name
+
+
+def run_test_file(program: str, test_file: str, cwd: Path) -> Result:
+    """``program`` on ``test_file``, its outputs in ``cwd/out`` (which must not appear)."""
+    result = run(program, test_file, '--out', str(cwd / 'out'), *TEST_FILE_COMMANDS[program],
+                 cwd=cwd)
+    assert not (cwd / 'out').exists()
+    return result
+
+
+def every_command_and(*cases: str) -> list[tuple[str, str]]:
+    """``(program, case)``: the first case through every test-file command, the others
+    through ``offline`` (they take the same path: the one loader)."""
+    return ([(program, cases[0]) for program in sorted(TEST_FILE_COMMANDS)]
+            + [('offline', case) for case in cases[1:]])
+
+
+# -- 1. YAML nested thousands of levels deep ------------------------------------------------
+NESTINGS = {
+    'lists': 'a: ' + '[' * 5000 + ']' * 5000,
+    'flow-mappings': 'a: ' + '{b: ' * 5000 + '1' + '}' * 5000,
+    'block-mappings': ''.join(f'{" " * level}k{level}:\n' for level in range(200))
+                      + ' ' * 200 + 'v: 1',
+}
+
+
+@pytest.mark.parametrize(('program', 'nesting'),
+                         every_command_and('lists', 'flow-mappings', 'block-mappings'))
+def test_yaml_nested_thousands_deep_is_one_line(tmp_path: Path, program: str,
+                                                nesting: str) -> None:
+    name = write(tmp_path, 'deep.yaml', NESTINGS[nesting] + '\n')
+    result = run_test_file(program, name, tmp_path)
+    refused(result, program, r'deep\.yaml: line \d+: nesting deeper than 64 levels$')
+
+
+# -- 2. more steps than memory holds ----------------------------------------------------------
+STEPS = {
+    'duration': ({'duration': '1e9'}, (r'case\.yaml: test\.duration: 1e\+09 s at dt 0\.01 s is '
+                                       r'1e\+11 steps; at most 5e\+07$')),
+    'dt': ({'dt': '1e-9'}, (r"case\.yaml: test\.dt: 1e-09 s over the 31\.18 s of the record "
+                            r"'elcentro_1940_ns_chopra\.csv' is 3\.118e\+10 steps; at most "
+                            r'5e\+07$')),
+}
+
+
+@pytest.mark.parametrize(('program', 'case'), every_command_and('duration', 'dt'))
+def test_a_test_of_more_steps_than_memory_holds_is_one_line(tmp_path: Path, program: str,
+                                                            case: str) -> None:
+    values, message = STEPS[case]
+    name = write(tmp_path, 'case.yaml', default_text(**values))
+    refused(run_test_file(program, name, tmp_path), program, message)
+
+
+# -- 3. files that are no files: devices, FIFOs, folders ------------------------------------
+@pytest.fixture
+def fifo(tmp_path: Path) -> Path:
+    path = tmp_path / 'pipe'
+    os.mkfifo(path)
+    return path
+
+
+@pytest.mark.parametrize(('program', 'kind'),
+                         [*every_command_and('fifo', 'folder'), ('run_test', 'device')])
+def test_a_test_file_that_is_no_file_is_refused_before_it_is_read(
+        tmp_path: Path, fifo: Path, program: str, kind: str) -> None:
+    path = {'device': '/dev/zero', 'fifo': str(fifo), 'folder': str(tmp_path)}[kind]
+    what = {'device': 'a character device', 'fifo': 'a FIFO', 'folder': 'a directory'}[kind]
+    result = run_test_file(program, path, tmp_path)
+    refused(result, program,
+            rf'{re.escape(path)}: cannot read the test file \(not a regular file but {what}\)$')
+
+
+@pytest.mark.parametrize(('program', 'kind'), every_command_and('fifo', 'device'))
+def test_a_record_that_is_no_file_is_refused_before_it_is_read(
+        tmp_path: Path, fifo: Path, program: str, kind: str) -> None:
+    path = {'device': '/dev/zero', 'fifo': str(fifo)}[kind]
+    what = {'device': 'a character device', 'fifo': 'a FIFO'}[kind]
+    name = write(tmp_path, 'case.yaml', default_text(file=path))
+    refused(run_test_file(program, name, tmp_path), program,
+            rf"case\.yaml: ground_motion: ground motion '{re.escape(path)}': cannot read file: "
+            rf'not a regular file but {what}$')
+
+
+def test_files_too_large_are_refused_before_they_are_read(tmp_path: Path) -> None:
+    with (tmp_path / 'huge.yaml').open('wb') as file:  # sparse: nothing on the disk
+        file.truncate(5 * 2**30)
+    refused(run_test_file('offline', 'huge.yaml', tmp_path), 'offline',
+            r'huge\.yaml: cannot read the test file \(5 GiB, more than the 4 MiB a test file '
+            r'may have\)$')
+    with (tmp_path / 'huge.csv').open('wb') as file:
+        file.truncate(5 * 2**30)
+    name = write(tmp_path, 'case.yaml', default_text(file=str(tmp_path / 'huge.csv')))
+    refused(run_test_file('pretest', name, tmp_path), 'pretest',
+            r"case\.yaml: ground_motion: ground motion '.*huge\.csv': cannot read file: 5 GiB, "
+            r'more than the 32 MiB a ground-motion record may have$')
+
+
+# -- 4. binary and non-UTF-8 test files -------------------------------------------------------
+NOT_UTF8 = {
+    'binary': (b'\xff\xfe\x00\x01binary\x80\x81',
+               r'line 1: not UTF-8 text, byte 0xff at offset 0'),
+    'latin-1': ('test: {}\n# caf\xe9\n'.encode('latin-1'),
+                r'line 2: not UTF-8 text, byte 0xe9 at offset 14'),
+}
+
+
+@pytest.mark.parametrize(('program', 'case'), every_command_and('binary', 'latin-1'))
+def test_a_test_file_that_is_not_utf8_is_one_line_naming_it(tmp_path: Path, program: str,
+                                                            case: str) -> None:
+    content, where = NOT_UTF8[case]
+    (tmp_path / 'case.yaml').write_bytes(content)
+    refused(run_test_file(program, 'case.yaml', tmp_path), program,
+            rf'case\.yaml: cannot read the test file \({where}\)$')
+
+
+# -- 5. damaged run folders and journals --------------------------------------------------
+JOURNALS = {
+    'garbage': (b'hello, not a journal\n', r'Expecting value'),
+    'not-utf8': (b'\xff\xfe garbage \x80\n', r'not UTF-8 text: byte 0xff at column 1'),
+    'deep': (b'[' * 100_000 + b']' * 100_000 + b'\n', r'JSON nested too deep'),
+    'a-list': (b'[1, 2]\n', r'a JSON list, not an object'),
+    'overflow': (b'{"k": "cmd", "t": 1e999}\n{"k": "st"}\n', r'cannot convert float infinity'),
+}
+
+
+@pytest.mark.parametrize(('program', 'journal'), [
+    *((program, journal) for program in ('console', 'recover', 'replay')
+      for journal in ('not-utf8', 'deep')),
+    *(('replay', journal) for journal in ('garbage', 'a-list', 'overflow'))])
+def test_a_damaged_journal_is_one_line_naming_the_line(tmp_path: Path, program: str,
+                                                       journal: str) -> None:
+    content, reason = JOURNALS[journal]
+    folder = tmp_path / 'run'
+    folder.mkdir()
+    (folder / 'journal.jsonl').write_bytes(content)
+    args = ['--port', '0'] if program == 'console' else ['--no-figures']
+    result = run(program, 'run', *args, cwd=tmp_path)
+    refused(result, program, rf'run/journal\.jsonl: line 1: malformed journal record \(.*'
+                             rf'{reason}.*\)$')
+    assert sorted(p.name for p in folder.iterdir()) == ['journal.jsonl']  # no bag, no output
+
+
+@pytest.mark.parametrize(('program', 'message'), [
+    ('replay', r'loop: a symbolic link loop$'),
+    ('recover', r'loop: no journal\.jsonl: nothing to recover from$'),
+    ('console', r'loop: no complete bag and no journal \(journal\.jsonl\): not a run folder$'),
+], ids=['replay', 'recover', 'console'])
+def test_a_run_folder_that_is_a_symbolic_link_loop_is_one_line(tmp_path: Path, program: str,
+                                                               message: str) -> None:
+    (tmp_path / 'loop').symlink_to('other')
+    (tmp_path / 'other').symlink_to('loop')
+    args = ['--port', '0'] if program == 'console' else ['--no-figures']
+    refused(run(program, 'loop', *args, cwd=tmp_path), program, message)
+
+
+def test_a_journal_that_is_a_fifo_or_a_device_never_hangs(tmp_path: Path, fifo: Path) -> None:
+    for target in (fifo, Path('/dev/zero')):
+        folder = tmp_path / f'run-{target.name}'
+        folder.mkdir()
+        (folder / 'journal.jsonl').symlink_to(target)
+        refused(run('replay', folder.name, '--no-figures', cwd=tmp_path), 'replay',
+                rf'{folder.name}: no complete bag and no journal')
+
+
+# -- 6. numbers that overflow -----------------------------------------------------------------
+def test_an_intensity_that_overflows_is_one_line(tmp_path: Path) -> None:
+    result = run('rths_benchmark', '--intensity', '1e308', '--out', str(tmp_path / 'out'),
+                 cwd=tmp_path)
+    refused(result, 'rths_benchmark', r"--intensity: 1e\+308 takes the record's peak "
+                                      r'3\.128 m/s2 to inf m/s2; at most 981 m/s2 \(100 g\)$')
+    assert not (tmp_path / 'out').exists()
+
+
+@pytest.mark.parametrize('program', ['offline', 'pretest'])
+def test_a_scale_that_overflows_is_one_line_without_warnings(tmp_path: Path,
+                                                             program: str) -> None:
+    name = write(tmp_path, 'case.yaml', default_text(scale='1e308'))
+    refused(run_test_file(program, name, tmp_path), program,
+            r"case\.yaml: ground_motion\.scale: 1e\+308 × the record's peak 3\.128 m/s2 is "
+            r'beyond the largest number$')
+
+
+def test_scales_that_overflow_are_one_line_without_warnings(tmp_path: Path) -> None:
+    result = run('pretest', '--scales', '1e308', '--out', str(tmp_path / 'out'),
+                 '--no-figures', cwd=tmp_path)
+    refused(result, 'pretest', r'--scales: 1e\+308 × the peak 3\.128 m/s2 of '
+                               r'elcentro_1940_ns_chopra\.csv is beyond the largest number$')
+
+
+# -- 7. what was accepted silently: booleans, keys given twice -----------------------------
+BOOLEANS = {
+    'mass': ({'mass': 'true'}, (r'case\.yaml: structure\.mass: expected a number or an array '
+                                r'of numbers, got a boolean \(true\)$')),
+    'influence': ({'influence': '[true]'}, (r'case\.yaml: structure\.influence: must be a list '
+                                            r'of 1 numbers, got \[True\]$')),
+    'specimen': ({'stiffness': 'true'}, (r'case\.yaml: specimen\.elements\[0\]\.backbone\.'
+                                         r'bilinear\.stiffness: must be a positive finite '
+                                         r'number, got true$')),
+}
+
+
+@pytest.mark.parametrize(('program', 'case'), [('offline', 'mass'), ('run_test', 'mass'),
+                                               ('offline', 'influence'),
+                                               ('offline', 'specimen')])
+def test_a_boolean_where_a_number_belongs_is_refused(tmp_path: Path, program: str,
+                                                     case: str) -> None:
+    values, message = BOOLEANS[case]
+    name = write(tmp_path, 'case.yaml', default_text(**values))
+    refused(run_test_file(program, name, tmp_path), program, message)
+
+
+@pytest.mark.parametrize('program', sorted(TEST_FILE_COMMANDS))
+def test_a_key_given_twice_is_refused_with_its_line(tmp_path: Path, program: str) -> None:
+    text = default_text().replace('  mass: 2543.4', '  mass: 2543.4\n  mass: 1000.0', 1)
+    line = next(number for number, row in enumerate(text.splitlines(), start=1)
+                if row.startswith('  mass: 1000.0'))
+    name = write(tmp_path, 'case.yaml', text)
+    refused(run_test_file(program, name, tmp_path), program,
+            rf'case\.yaml: line {line}: structure\.mass: given twice \(first on line '
+            rf'{line - 1}\)$')
+
+
+# -- 8. a folder that cannot be written, a full disk ------------------------------------------
+#: A folder no one can make (/proc/self holds no folders of ours), whoever runs the tests.
+UNWRITABLE = '/proc/self/pd-run'
+
+
+def test_offline_into_a_folder_that_cannot_be_made_is_one_line(tmp_path: Path) -> None:
+    result = run('offline', '--out', UNWRITABLE, '--quiet', cwd=tmp_path)
+    refused(result, 'offline', rf'{UNWRITABLE}: cannot write \(No such file or directory\)$',
+            code=1)
+
+
+def test_run_test_into_a_folder_that_cannot_be_made_says_so_before_anything(
+        tmp_path: Path) -> None:
+    result = run('run_test', '--out', UNWRITABLE, '--no-authentication', cwd=tmp_path)
+    refused(result, 'run_test', rf'--out {UNWRITABLE}: cannot write the run folder '
+                                r'\(No such file or directory\)$')  # no 'run folder:' line
+
+
+def test_offline_on_a_full_disk_is_one_line(tmp_path: Path) -> None:
+    out = tmp_path / 'out'
+    out.mkdir()
+    (out / 'test_definition.json').symlink_to('/dev/full')  # writes fail: ENOSPC
+    result = run('offline', '--out', str(out), '--quiet', cwd=tmp_path)
+    refused(result, 'offline', rf'{out}: cannot write \(No space left on device\)$', code=1)
+
+
+def test_offline_whose_journal_cannot_grow_says_how_to_recover(tmp_path: Path) -> None:
+    out = tmp_path / 'out'
+    result = run('offline', '--out', str(out), '--quiet', '--no-figures', cwd=tmp_path,
+                 limit_file_size=100_000)
+    refused(result, 'offline', rf'{out}/journal\.jsonl: cannot write the journal \(File too '
+                               rf'large\); the run stops, .*: once there is room, ./pd recover '
+                               rf'{out} rebuilds its outputs$', code=1)
+    assert not (out / 'bag').exists()
+    # As the line says: the journal on disk is the run up to its last step.
+    recovered = run('recover', str(out), '--no-figures', cwd=tmp_path)
+    assert recovered.code == 0, recovered.stderr
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['recovered'] and summary['steps'] > 0
+
+
+# -- 9. a run folder whose launch plan is no file -------------------------------------------
+def test_resume_of_a_folder_whose_launch_plan_is_a_fifo_never_hangs(tmp_path: Path) -> None:
+    folder = tmp_path / 'run'
+    folder.mkdir()
+    os.mkfifo(folder / 'launch.json')
+    refused(run('run_test', '--resume', 'run', cwd=tmp_path), 'run_test',
+            r'run/launch\.json: unreadable launch plan \(not a regular file but a FIFO\)$')
