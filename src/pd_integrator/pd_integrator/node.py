@@ -285,7 +285,9 @@ class IntegratorNode(Node):
         self._last_state: TestState | None = None
         self._started = 0.0
         self._figure_worker: FigureWorker | None = None
-        self.create_timer(HEARTBEAT_S, self._guard(self._heartbeat))
+        heartbeat = self._guard(self._heartbeat)
+        # (a timer's callback takes no argument: rclpy would hand ``*args`` a TimerInfo)
+        self.create_timer(HEARTBEAT_S, lambda: heartbeat())
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
