@@ -92,7 +92,14 @@ from .core.run.dispatch import StepDispatcher
 from .core.run.figure_worker import FigureWorker
 from .core.run.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
 from .core.run.progress import ProgressMeter
-from .core.run.resume import SiteState, check_sites, last_measured, load_resumable
+from .core.run.resume import (
+    ResumeAction,
+    SiteState,
+    check_sites,
+    decide_resume,
+    last_measured,
+    load_resumable,
+)
 from .core.run.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
@@ -493,30 +500,18 @@ class IntegratorNode(Node):
                              note=note)
         for line in check.report:
             self.get_logger().info(f'resume: {line}')
-        was = session.state
-        if session.state in (TestState.RUNNING, TestState.INTERRUPTED):
-            session.state = TestState.HOLDING  # it goes on from where the record stops
-            session.message = 'resumed from the record'
-        if check.refused:
-            session.hold('cannot resume: ' + '; '.join(check.refused))
-            session.message = 'cannot resume: ' + '; '.join(check.refused)
-            return
-        blocked = self.steering.holds.blocks_automatic
-        if blocked is None and bool(self.get_parameter('hold_on_resume').value):
-            blocked = f'restored after a stop ({note or "resumed"}); the test holds'
-        if blocked is not None:  # a person stopped it before the crash: a person resumes it
-            if session.state is TestState.RUNNING:
-                session.state = TestState.HOLDING
-            session.message = f'{blocked}; resume with ./pd control resume'
-            return
-        if check.confirm and not bool(self.get_parameter('confirm_resume').value):
-            session.message = (f'resumed after a gap of {self._gap:.0f} s: '
-                               + '; '.join(check.confirm)
-                               + '; check the specimen, then confirm with ./pd control resume')
-            return
-        if was in (TestState.RUNNING, TestState.INTERRUPTED):
+        decision = decide_resume(session.state, check,
+                                 person_hold=self.steering.holds.blocks_automatic,
+                                 hold_on_resume=bool(self.get_parameter('hold_on_resume').value),
+                                 confirm_resume=bool(self.get_parameter('confirm_resume').value),
+                                 note=note, gap_s=self._gap)
+        session.state = decision.state
+        if decision.action is ResumeAction.REFUSE:
+            session.hold(decision.message or '')
+        if decision.message is not None:
+            session.message = decision.message
+        if decision.action is ResumeAction.GO_ON:
             self.dispatcher.resume()
-        # A run held or paused on record stays so: the operator resumes it.
 
     # -- callbacks ----------------------------------------------------------------------------
     def _on_feedback(self, site: str, message: StepFeedback) -> None:

@@ -14,6 +14,12 @@ anything moves again, each site's specimen side is compared with the record
 * a physical site (``HARDWARE``) stood still, unsupervised by this test, for the gap: its
   position and the gap are reported and motion waits for the operator's confirmation (a signed
   ``resume``, or the integrator's ``confirm_resume`` parameter).
+
+What the restored run then does is :func:`decide_resume`'s policy (the node only applies it):
+a check that refused holds the test; a person's stop on record (an e-stop or an operator's
+pause or hold, :class:`~pd_common.protocol.holds.PersonHolds`) or ``hold_on_resume`` waits for
+a person's signed ``resume``; a physical site waits for the operator's confirmation; a run
+that was running goes on; a run held or paused on record stays so.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 
 from pd_common.config import read_text
@@ -34,8 +41,8 @@ from .journal import JOURNAL_FILE, MAX_LINE_BYTES
 from .runner import DEFINITION_JSON, load_run
 from .test_file import from_json
 
-__all__ = ['RESUMABLE', 'ResumeCheck', 'SiteState', 'check_sites', 'last_measured',
-           'load_resumable']
+__all__ = ['RESUMABLE', 'ResumeAction', 'ResumeCheck', 'ResumeDecision', 'SiteState',
+           'check_sites', 'decide_resume', 'last_measured', 'load_resumable']
 
 #: States a record can be resumed from (a killed run's last status is RUNNING).
 RESUMABLE = (TestState.IDLE, TestState.RUNNING, TestState.PAUSED, TestState.HOLDING,
@@ -152,3 +159,66 @@ def check_sites(sites: Mapping[str, SiteState], guard: EpochGuard,
         if state.origin is StateOrigin.HARDWARE:
             check.confirm.append(f'site {name}: physical specimen, {line.split(": ", 1)[1]}')
     return check
+
+
+class ResumeAction(Enum):
+    """What a restored run does first (:func:`decide_resume`)."""
+
+    GO_ON = 'go_on'  #: the run was running: the loop re-sends what it owes and goes on
+    STAY = 'stay'  #: held or paused on record: it stays so until the operator resumes it
+    WAIT_FOR_PERSON = 'wait_for_person'  #: a person's stop on record: a person resumes
+    WAIT_FOR_CONFIRMATION = 'wait_for_confirmation'  #: a physical site: the operator confirms
+    REFUSE = 'refuse'  #: the specimen side is not the one the test left: the test holds
+
+
+@dataclass(frozen=True)
+class ResumeDecision:
+    """:func:`decide_resume`'s answer, applied by the integrator's shell.
+
+    Attributes:
+        action: what happens first.
+        state: the session's state before anything moves (for :attr:`ResumeAction.REFUSE`,
+            the state the session then holds from).
+        message: the session's message (why it waits, or why it cannot resume); ``None``:
+            the record's message stands (a run held or paused on record says why itself).
+    """
+
+    action: ResumeAction
+    state: TestState
+    message: str | None
+
+
+def decide_resume(recorded: TestState, check: ResumeCheck, *, person_hold: str | None,
+                  hold_on_resume: bool, confirm_resume: bool, note: str,
+                  gap_s: float) -> ResumeDecision:
+    """The resume policy of a run restored from its record (see the module).
+
+    Args:
+        recorded: the session's state as the record leaves it.
+        check: :func:`check_sites` of the specimen sides.
+        person_hold: why a person's stop on record blocks automatic actions (``None``: none;
+            :attr:`~pd_common.protocol.holds.PersonHolds.blocks_automatic`).
+        hold_on_resume: hold for a person's resume whatever the record says (the launcher's
+            restart of a crashed integrator under the hold policy).
+        confirm_resume: the operator confirmed beforehand that a physical site may move.
+        note: why the run is resumed (in the message of a hold on resume).
+        gap_s: how long the run stood still [s] (in the confirmation's message).
+    """
+    interrupted = recorded in (TestState.RUNNING, TestState.INTERRUPTED)
+    state = TestState.HOLDING if interrupted else recorded
+    if check.refused:
+        reason = 'cannot resume: ' + '; '.join(check.refused)
+        return ResumeDecision(ResumeAction.REFUSE, state, reason)
+    blocked = person_hold
+    if blocked is None and hold_on_resume:
+        blocked = f'restored after a stop ({note or "resumed"}); the test holds'
+    if blocked is not None:  # a person stopped it before the crash: a person resumes it
+        return ResumeDecision(ResumeAction.WAIT_FOR_PERSON, state,
+                              f'{blocked}; resume with ./pd control resume')
+    if check.confirm and not confirm_resume:
+        message = (f'resumed after a gap of {gap_s:.0f} s: ' + '; '.join(check.confirm)
+                   + '; check the specimen, then confirm with ./pd control resume')
+        return ResumeDecision(ResumeAction.WAIT_FOR_CONFIRMATION, state, message)
+    if interrupted:
+        return ResumeDecision(ResumeAction.GO_ON, state, 'resumed from the record')
+    return ResumeDecision(ResumeAction.STAY, state, None)
