@@ -5,6 +5,7 @@ bounded, UTF-8)."""
 from __future__ import annotations
 
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -39,7 +40,7 @@ def test_the_alias_bomb_is_refused_at_once() -> None:
     with pytest.raises(YAMLAliasError) as info:
         load_yaml(text)
     elapsed = time.perf_counter() - start
-    assert elapsed < 1.0
+    assert elapsed < 10.0  # (expanded: 9**9 items, minutes)
     # The first alias, on line 2 (b's first item), is named with its line.
     assert str(info.value) == ('line 2: b[0]: YAML aliases (*a) are not allowed in test files; '
                                'write the value out')
@@ -88,7 +89,7 @@ def test_read_yaml_file_refuses_the_bomb(tmp_path: Path) -> None:
     start = time.perf_counter()
     with pytest.raises(YAMLAliasError, match=r'^line 2: '):
         read_yaml_file(path)
-    assert time.perf_counter() - start < 1.0
+    assert time.perf_counter() - start < 10.0  # (expanded or read: minutes, or never)
 
 
 def test_the_specimen_section_reader_reports_the_bomb_on_one_line(tmp_path: Path) -> None:
@@ -98,7 +99,7 @@ def test_the_specimen_section_reader_reports_the_bomb_on_one_line(tmp_path: Path
     start = time.perf_counter()
     with pytest.raises(SpecimenError) as info:
         load_specimen_section(path)
-    assert time.perf_counter() - start < 1.0
+    assert time.perf_counter() - start < 10.0  # (expanded or read: minutes, or never)
     message = str(info.value)
     assert '\n' not in message
     assert str(path) in message
@@ -128,10 +129,15 @@ def test_sixty_four_levels_are_read_and_sixty_five_are_not() -> None:
     ''.join(f'{" " * level}k:\n' for level in range(70)) + ' ' * 70 + 'v: 1',
 ], ids=['lists', 'flow-mappings', 'block-mappings'])
 def test_thousands_of_levels_are_refused_at_once_without_recursion(text: str) -> None:
-    start = time.perf_counter()
-    with pytest.raises(YAMLDepthError, match=r'^line \d+: nesting deeper than 64 levels$'):
-        load_yaml(text)
-    assert time.perf_counter() - start < 1.0
+    # With a recursion limit far below the depth, a loader that recursed per level would
+    # raise RecursionError: the refusal comes from counting, before any deep structure.
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(400)
+    try:
+        with pytest.raises(YAMLDepthError, match=r'^line \d+: nesting deeper than 64 levels$'):
+            load_yaml(text)
+    finally:
+        sys.setrecursionlimit(limit)
 
 
 # -- keys given twice ----------------------------------------------------------------------------
@@ -162,7 +168,7 @@ def test_a_fifo_a_device_and_a_folder_are_refused_before_they_are_read(tmp_path:
         start = time.perf_counter()
         with pytest.raises(InputFileError) as info:
             read_yaml_file(path)
-        assert time.perf_counter() - start < 1.0
+        assert time.perf_counter() - start < 10.0  # (expanded or read: minutes, or never)
         assert str(info.value) == f'{path}: not a regular file but {kind}'
         assert isinstance(info.value, OSError)
 
