@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -66,8 +66,8 @@ class _Synthetic(Integrator):
     def _correct(self, restoring_force: Any, load: Any) -> tuple[Any, Any]:
         return self._a, self._v
 
-    PARAMETERS = (SchemeParameter('scale', 1.0, 0.0, 2.0),
-                  SchemeParameter('spurious', None, -2.0, 2.0))
+    PARAMETERS = (SchemeParameter('scale', 1.0, 'a scale', low=0.0, high=2.0),
+                  SchemeParameter('spurious', None, 'a spurious root', low=-2.0, high=2.0))
 
     @classmethod
     def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
@@ -101,8 +101,8 @@ class _Diagonal(_Synthetic):
 
     name = 'diagonal'
 
-    PARAMETERS = (SchemeParameter('first', 0.5, -2.0, 2.0),
-                  SchemeParameter('second', 0.3, -2.0, 2.0))
+    PARAMETERS = (SchemeParameter('first', 0.5, 'first root', low=-2.0, high=2.0),
+                  SchemeParameter('second', 0.3, 'second root', low=-2.0, high=2.0))
 
     @classmethod
     def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
@@ -124,9 +124,10 @@ class _Opaque(_Synthetic):
 
 
 @pytest.fixture
-def synthetic(monkeypatch: pytest.MonkeyPatch) -> None:
-    for cls in (_Synthetic, _Diagonal, _Opaque):
-        monkeypatch.setitem(SCHEMES, cls.name, cls)
+def synthetic() -> Iterator[None]:
+    with (SCHEMES.added(_Synthetic.name, _Synthetic), SCHEMES.added(_Diagonal.name, _Diagonal),
+          SCHEMES.added(_Opaque.name, _Opaque)):
+        yield
 
 
 # --------------------------------------------------------------------------- Newmark explicit

@@ -31,10 +31,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import RthsError
+from ..registry import GROUPS, Registry
 from .base import BENCHMARK_SPECIMEN, IdealPlant, PhysicalSpecimen, TransferSystem
 
 __all__ = [
     'PERTURBATION_STD',
+    'PLANT_MODELS',
     'BenchmarkPlant',
     'BenchmarkPlantParameters',
     'PlantFactory',
@@ -268,24 +270,39 @@ PlantFactory = Callable[[Mapping[str, Any], float, str], TransferSystem]
 """``factory(section, dt, where)``: the transfer system of a ``plant:`` section at the
 controller period ``dt`` (one-line :class:`RthsError` naming ``where`` and the key)."""
 
-_PLANT_MODELS: dict[str, PlantFactory] = {}
+
+
+def _admit(name: str, factory: Any) -> PlantFactory:
+    """A callable plant factory.
+
+    Raises:
+        RthsError: Anything else.
+    """
+    if not callable(factory):
+        msg = f'plant model {name}: the factory must be callable, got {factory!r}'
+        raise RthsError(msg)
+    admitted: PlantFactory = factory
+    return admitted
+
+
+#: The plant models by name (``plant: {model: name}``): the built-ins, the bridge's
+#: ``emulator`` and the installed ``pd.plants`` plug-ins (an entry point names a factory).
+PLANT_MODELS: Registry[PlantFactory] = Registry('plant model', GROUPS['plant model'],
+                                                admit=_admit, error=RthsError)
 
 
 def register_plant_model(name: str, factory: PlantFactory) -> None:
     """Register the plant model ``name`` (``plant: {model: name, ...}``).
 
     Raises:
-        RthsError: On a name already taken.
+        RthsError: On a bad or taken name.
     """
-    if name in _PLANT_MODELS:
-        msg = f'plant model {name}: already registered'
-        raise RthsError(msg)
-    _PLANT_MODELS[name] = factory
+    PLANT_MODELS.register(name, factory)
 
 
 def plant_model_names() -> tuple[str, ...]:
     """The registered plant models, sorted."""
-    return tuple(sorted(_PLANT_MODELS))
+    return PLANT_MODELS.names()
 
 
 def plant_from_config(section: Mapping[str, Any] | None, dt: float,
@@ -305,7 +322,7 @@ def plant_from_config(section: Mapping[str, Any] | None, dt: float,
         msg = f'{where}: must be a mapping, got {type(section).__name__}'
         raise RthsError(msg)
     model = section.get('model', 'benchmark')
-    factory = _PLANT_MODELS.get(model) if isinstance(model, str) else None
+    factory = PLANT_MODELS.get(model) if isinstance(model, str) else None
     if factory is None:
         msg = (f'{where}.model: must be one of {", ".join(plant_model_names())}, got '
                f'{model!r}' + (' (registered by the bridge: run it there)'

@@ -32,6 +32,12 @@ from .hysteresis import (
     HysteresisModel,
     PushoverHysteresis,
 )
+from .models import (
+    HYSTERESIS_MODELS,
+    ElementReader,
+    HysteresisModelSpec,
+    register_hysteresis_model,
+)
 from .served import ServedRecord, restore_served, specimen_fingerprint
 from .server import (
     SiteGeometry,
@@ -44,6 +50,7 @@ from .specimen import TOPOLOGIES, Specimen
 
 __all__ = [
     'BEYOND_MODES',
+    'HYSTERESIS_MODELS',
     'MEMORY_MODES',
     'TOPOLOGIES',
     'Backbone',
@@ -53,8 +60,10 @@ __all__ = [
     'ColumnSpecimen',
     'Elastic',
     'ElasticPerfectlyPlastic',
+    'ElementReader',
     'HysteresisError',
     'HysteresisModel',
+    'HysteresisModelSpec',
     'PushoverHysteresis',
     'ServedRecord',
     'SiteGeometry',
@@ -70,6 +79,7 @@ __all__ = [
     'load_site_server',
     'load_specimen_section',
     'model_from_config',
+    'register_hysteresis_model',
     'restore_served',
     'server_from_config',
     'site_geometry',

@@ -41,6 +41,10 @@ Schema (SI units)::
 
 Relative file paths resolve against ``base_dir``. Every error is a one-line
 :class:`SpecimenConfigError` naming the YAML file and the parameter path.
+
+An element's ``model`` is looked up in :data:`~.models.HYSTERESIS_MODELS`: the built-in models
+are registered at the end of this module, a plug-in package adds its own through the
+``pd.hysteresis`` entry-point group (:mod:`.models`).
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from typing import Any
 
 from ..config.loader import YAMLError, read_yaml_file, yaml_problem
 from ..errors import SpecimenConfigError, SpecimenError
+from ..registry import Parameter
 from .backbone import (
     BEYOND_MODES,
     Backbone,
@@ -69,16 +74,14 @@ from .hysteresis import (
     HysteresisModel,
     PushoverHysteresis,
 )
+from .models import (
+    HYSTERESIS_MODELS,
+    ElementReader,
+    HysteresisModelSpec,
+    register_hysteresis_model,
+)
 from .specimen import TOPOLOGIES, Specimen
 
-_MODEL_KEYS: dict[str, tuple[set[str], set[str]]] = {
-    'elastic': ({'stiffness'}, set()),
-    'epp': ({'stiffness', 'yield_force'}, set()),
-    'bilinear': ({'stiffness', 'yield_force', 'hardening_ratio'}, {'residual_force'}),
-    'pushover': ({'backbone'}, {'unloading_stiffness', 'beyond_last_point', 'memory'}),
-    'bouc_wen': ({'stiffness', 'post_yield_ratio', 'exponent', 'beta', 'gamma'},
-                 {'a0', 'delta_a', 'delta_nu', 'delta_eta', 'tolerance', 'max_iterations'}),
-}
 _BACKBONE_KINDS = ('bilinear', 'csv', 'opensees')
 #: The key of a column specimen (instead of ``elements``).
 COLUMN_KEY = 'column'
@@ -216,41 +219,53 @@ def _backbone(ctx: _Context, value: Any, path: str, base_dir: Path) -> Backbone:
 
 
 def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> HysteresisModel:
-    """Build one element."""
+    """Build one element: its model's registry entry checks the keys and builds it."""
     if not isinstance(value, Mapping):
         raise ctx.error(path, f'must be a mapping, got {_show(value)}')
     if 'model' not in value:
         raise ctx.error(path, "missing key 'model'")
     model = value['model']
-    if not isinstance(model, str) or model not in _MODEL_KEYS:
+    if not isinstance(model, str) or model not in HYSTERESIS_MODELS:
         model_key = f'{path}.model'
-        raise ctx.error(model_key, f"must be one of {', '.join(_MODEL_KEYS)}, got "
-                                   f'{_show(model)}')
-    required, optional = _MODEL_KEYS[model]
-    spec = ctx.mapping(value, path, required | {'model'}, optional)
+        broken = HYSTERESIS_MODELS.broken.get(model) if isinstance(model, str) else None
+        raise ctx.error(model_key, f"must be one of {', '.join(HYSTERESIS_MODELS)}, got "
+                                   f'{_show(model)}' + (f' (its plug-in did not load: {broken})'
+                                                        if broken else ''))
+    entry = HYSTERESIS_MODELS[model]
+    spec = ctx.mapping(value, path, entry.required_keys | {'model'}, entry.optional_keys)
+    return entry.make(spec, path=path, source=ctx.source, base_dir=base_dir)
 
-    def number(key: str) -> float:
-        return ctx.number(spec[key], f'{path}.{key}')
 
-    if model == 'elastic':
-        return Elastic(number('stiffness'))
-    if model == 'epp':
-        return ElasticPerfectlyPlastic(number('stiffness'), number('yield_force'))
-    if model == 'bilinear':
-        residual = spec.get('residual_force')
-        try:
-            return BilinearKinematic(
-                number('stiffness'), number('yield_force'),
-                ctx.ratio(spec['hardening_ratio'], f'{path}.hardening_ratio'),
-                None if residual is None else ctx.number(
-                    residual, f'{path}.residual_force', positive=False))
-        except SpecimenConfigError:
-            raise
-        except SpecimenError as exc:
-            raise ctx.error(path, str(exc)) from None
-    if model == 'bouc_wen':
-        return _bouc_wen(ctx, spec, path)
-    backbone = _backbone(ctx, spec['backbone'], f'{path}.backbone', base_dir)
+def _number(reader: ElementReader, key: str, *, positive: bool = True) -> float:
+    """The element's number ``key`` (positive unless ``positive`` is False)."""
+    return _Context(reader.source).number(reader.spec[key], f'{reader.path}.{key}',
+                                          positive=positive)
+
+
+def _elastic(reader: ElementReader) -> HysteresisModel:
+    """``{model: elastic, stiffness}``."""
+    return Elastic(_number(reader, 'stiffness'))
+
+
+def _epp(reader: ElementReader) -> HysteresisModel:
+    """``{model: epp, stiffness, yield_force}``."""
+    return ElasticPerfectlyPlastic(_number(reader, 'stiffness'), _number(reader, 'yield_force'))
+
+
+def _bilinear(reader: ElementReader) -> HysteresisModel:
+    """``{model: bilinear, stiffness, yield_force, hardening_ratio[, residual_force]}``."""
+    ctx, spec, path = _Context(reader.source), reader.spec, reader.path
+    residual = spec.get('residual_force')
+    return BilinearKinematic(
+        _number(reader, 'stiffness'), _number(reader, 'yield_force'),
+        ctx.ratio(spec['hardening_ratio'], f'{path}.hardening_ratio'),
+        None if residual is None else _number(reader, 'residual_force', positive=False))
+
+
+def _pushover(reader: ElementReader) -> HysteresisModel:
+    """``{model: pushover, backbone[, unloading_stiffness, beyond_last_point, memory]}``."""
+    ctx, spec, path = _Context(reader.source), reader.spec, reader.path
+    backbone = _backbone(ctx, spec['backbone'], f'{path}.backbone', reader.base_dir)
     ku = spec.get('unloading_stiffness')
     beyond = spec.get('beyond_last_point', 'extrapolate')
     if beyond not in BEYOND_MODES:
@@ -262,15 +277,13 @@ def _element(ctx: _Context, value: Any, path: str, base_dir: Path) -> Hysteresis
         memory_key = f'{path}.memory'
         raise ctx.error(memory_key,
                         f"must be one of {', '.join(MEMORY_MODES)}, got {_show(memory)}")
-    try:
-        return PushoverHysteresis(
-            backbone, None if ku is None else number('unloading_stiffness'), beyond, memory)
-    except SpecimenError as exc:
-        raise ctx.error(path, str(exc)) from None
+    return PushoverHysteresis(
+        backbone, None if ku is None else _number(reader, 'unloading_stiffness'), beyond, memory)
 
 
-def _bouc_wen(ctx: _Context, spec: Mapping[str, Any], path: str) -> BoucWen:
+def _bouc_wen(reader: ElementReader) -> HysteresisModel:
     """A Bouc–Wen element (numbers checked here, ranges by the model, both naming the key)."""
+    ctx, spec, path = _Context(reader.source), reader.spec, reader.path
     values: dict[str, Any] = {}
     for key in ('stiffness', 'post_yield_ratio', 'exponent', 'beta', 'gamma', 'a0', 'delta_a',
                 'delta_nu', 'delta_eta', 'tolerance'):
@@ -280,10 +293,7 @@ def _bouc_wen(ctx: _Context, spec: Mapping[str, Any], path: str) -> BoucWen:
                                                       'tolerance'))
     if 'max_iterations' in spec:
         values['max_iterations'] = ctx.integer(spec['max_iterations'], f'{path}.max_iterations')
-    try:
-        return BoucWen(**values)
-    except SpecimenError as exc:
-        raise ctx.error(path, str(exc)) from None
+    return BoucWen(**values)
 
 
 def hysteresis_from_config(value: Any, *, path: str, base_dir: Path, source: str
@@ -419,3 +429,43 @@ def load_specimen_section(path: str | Path, site: str = ''
         mass = structure.get('mass') if isinstance(structure, dict) else None
         names = [f'u{i + 1}' for i in range(len(mass) if isinstance(mass, list) else 1)]
     return raw['specimen'], list(names)
+
+
+def _key(name: str, description: str, *, required: bool = True) -> Parameter:
+    """One key of a built-in model (checked by its builder, which names it in messages)."""
+    return Parameter(name, None, description, required=required)
+
+
+_STIFFNESS = _key('stiffness', 'initial stiffness k, N/m (> 0)')
+_YIELD_FORCE = _key('yield_force', 'yield force, N (> 0)')
+
+for _spec in (
+    HysteresisModelSpec('elastic', _elastic, (_STIFFNESS,), 'linear elastic spring'),
+    HysteresisModelSpec('epp', _epp, (_STIFFNESS, _YIELD_FORCE), 'elastic-perfectly plastic'),
+    HysteresisModelSpec('bilinear', _bilinear, (
+        _STIFFNESS, _YIELD_FORCE,
+        _key('hardening_ratio', 'post-yield stiffness over k, in (-1, 1) (< 0: softening)'),
+        _key('residual_force', 'strength floor of a softening branch, N', required=False)),
+        'bilinear with kinematic hardening (or softening to a floor)'),
+    HysteresisModelSpec('pushover', _pushover, (
+        _key('backbone', 'the backbone curve: one of bilinear, csv, opensees'),
+        _key('unloading_stiffness', "unloading stiffness, N/m (default: the backbone's "
+                                    'initial stiffness)', required=False),
+        _key('beyond_last_point', 'extrapolate, plateau or error', required=False),
+        _key('memory', "none (the thesis's rule) or kinematic", required=False)),
+        "a pushover backbone with the thesis's unloading rule"),
+    HysteresisModelSpec('bouc_wen', _bouc_wen, (
+        _STIFFNESS,
+        _key('post_yield_ratio', 'post-yield stiffness over k'),
+        _key('exponent', 'smoothness n (> 0)'),
+        _key('beta', 'shape parameter beta, 1/m^n'),
+        _key('gamma', 'shape parameter gamma, 1/m^n'),
+        *(_key(name, description, required=False) for name, description in (
+            ('a0', 'initial a (> 0)'), ('delta_a', 'degradation of a per J'),
+            ('delta_nu', 'strength degradation per J'),
+            ('delta_eta', 'stiffness degradation per J'),
+            ('tolerance', 'Newton tolerance (> 0)'),
+            ('max_iterations', 'Newton iterations (integer >= 0)')))),
+        'Bouc-Wen with degradation'),
+):
+    register_hysteresis_model(_spec)

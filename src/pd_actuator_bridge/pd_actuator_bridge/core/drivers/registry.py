@@ -13,16 +13,23 @@ their defaults and descriptions, a one-line description) and registers it::
     register_driver(GENERIC_TCP)
 
 Importing :mod:`pd_actuator_bridge.core.drivers` registers the built-in pure drivers
-(``emulator``, ``generic_tcp``, ``opensees_adapter``, ``daqmx``); the node shell registers
-``sim_servo`` (:mod:`pd_actuator_bridge.sim_servo`, which needs ``rclpy``). The node declares
-every registered driver's parameters as ROS parameters and builds the selected driver with
-:func:`make_driver`. A parameter several drivers declare (``tcp_host``, ``driver_config``, ...)
-is one ROS parameter, so every declaration of it must have the same default.
+(``emulator``, ``generic_tcp``, ``opensees_adapter``, ``daqmx``, ``transfer_system``); the node
+shell registers ``sim_servo`` (:mod:`pd_actuator_bridge.sim_servo`, which needs ``rclpy``). A
+separate package adds a driver without editing ours through the ``pd.drivers`` entry-point
+group (the entry point's name is the driver's name, its value the :class:`DriverSpec`)::
+
+    [project.entry-points."pd.drivers"]
+    my_controller = "my_package.driver:MY_CONTROLLER"
+
+The node declares every registered driver's parameters as ROS parameters and builds the
+selected driver with :func:`make_driver`. A parameter several drivers declare (``tcp_host``,
+``driver_config``, ...) is one ROS parameter, so every declaration of it must have the same
+default. The registry is a :class:`pd_common.registry.Registry` (:data:`DRIVERS`) and a
+driver's parameters are :class:`pd_common.registry.Parameter` values (``DriverParameter``).
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,12 +40,17 @@ import yaml
 
 from pd_common.auth import Key
 from pd_common.config import load_yaml
+from pd_common.registry import (
+    GROUPS,
+    NAME_PATTERN,
+    Parameter,
+    ParameterError,
+    Registry,
+    resolve_parameters,
+)
 
 from ..errors import BridgeConfigError
 from .base import ActuatorDriver
-
-ParameterValue = bool | int | float | str
-"""Types a driver parameter (a ROS parameter) may have."""
 
 FaultCallback = Callable[[str], None]
 """``cb(message)``: an asynchronous driver reports a fault found outside :meth:`command`."""
@@ -47,40 +59,10 @@ TrajectoryCallback = Callable[[Any, Any], None]
 """``cb(step, execution)``: a driver reports the sub-step trajectory of a step (the emulator's
 :class:`~.ramp_hold.StepExecution`)."""
 
-_NAME = re.compile(r'[a-z][a-z0-9_]*')
-
-_REGISTRY: dict[str, DriverSpec] = {}
-
-
-@dataclass(frozen=True)
-class DriverParameter:
-    """One parameter a driver needs (declared by the node as a ROS parameter).
-
-    Attributes:
-        name: Parameter name (lower case, digits and underscores), e.g. ``'tcp_port'``.
-        default: Default value; its type is the parameter's type.
-        description: One line for the parameter's ROS descriptor.
-
-    Raises:
-        BridgeConfigError: On a bad name, default or description.
-    """
-
-    name: str
-    default: ParameterValue
-    description: str
-
-    def __post_init__(self) -> None:
-        """Check the fields."""
-        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
-            msg = f'driver parameter {self.name!r}: name must match {_NAME.pattern}'
-            raise BridgeConfigError(msg)
-        if not isinstance(self.default, ParameterValue):
-            msg = (f'driver parameter {self.name}: default must be a bool, int, float or str, '
-                   f'got {type(self.default).__name__}')
-            raise BridgeConfigError(msg)
-        if not isinstance(self.description, str) or not self.description:
-            msg = f'driver parameter {self.name}: description must be a non-empty string'
-            raise BridgeConfigError(msg)
+#: One parameter a driver needs, declared by the node as a ROS parameter: the shared
+#: :class:`~pd_common.registry.Parameter` (name, default, one-line description); its default
+#: must not be ``None`` (its type is the ROS parameter's type).
+DriverParameter = Parameter
 
 
 @dataclass(frozen=True)
@@ -134,8 +116,8 @@ class DriverSpec:
 
     def __post_init__(self) -> None:
         """Check the fields."""
-        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
-            msg = f'driver {self.name!r}: name must match {_NAME.pattern}'
+        if not isinstance(self.name, str) or not NAME_PATTERN.fullmatch(self.name):
+            msg = f'driver {self.name!r}: name must match {NAME_PATTERN.pattern}'
             raise BridgeConfigError(msg)
         if not callable(self.factory):
             msg = f'driver {self.name}: factory must be callable'
@@ -144,6 +126,11 @@ class DriverSpec:
                 isinstance(parameter, DriverParameter) for parameter in self.parameters):
             msg = f'driver {self.name}: parameters must be a tuple of DriverParameter'
             raise BridgeConfigError(msg)
+        for parameter in self.parameters:
+            if parameter.default is None:
+                msg = (f'driver {self.name}: parameter {parameter.name} needs a default (its '
+                       'type is the ROS parameter\'s type)')
+                raise BridgeConfigError(msg)
         names = [parameter.name for parameter in self.parameters]
         for name in names:
             if names.count(name) > 1:
@@ -171,15 +158,44 @@ class DriverSpec:
         Raises:
             BridgeConfigError: If ``values`` has a key the driver does not declare.
         """
-        resolved = {parameter.name: parameter.default for parameter in self.parameters}
-        for name in values:
-            if name not in resolved:
-                expected = ', '.join(self.parameter_names) or 'none'
-                msg = (f'driver {self.name}: unknown parameter {name!r} '
-                       f'(its parameters: {expected})')
+        try:
+            return resolve_parameters(self.parameters, values, check=False)
+        except ParameterError as err:
+            expected = ', '.join(self.parameter_names) or 'none'
+            msg = (f'driver {self.name}: unknown parameter {err.parameter!r} '
+                   f'(its parameters: {expected})')
+            raise BridgeConfigError(msg) from None
+
+
+def _admit(name: str, spec: Any) -> DriverSpec:
+    """A :class:`DriverSpec` named ``name`` whose shared parameters keep their defaults.
+
+    Raises:
+        BridgeConfigError: Not a :class:`DriverSpec`, another name, or a parameter that another
+            driver declares with a different default (both are one ROS parameter).
+    """
+    if not isinstance(spec, DriverSpec):
+        msg = f'register_driver: expected a DriverSpec, got {type(spec).__name__}'
+        raise BridgeConfigError(msg)
+    if spec.name != name:
+        msg = f'driver {name}: its DriverSpec is named {spec.name!r}'
+        raise BridgeConfigError(msg)
+    for parameter in spec.parameters:
+        for other in DRIVERS.loaded().values():
+            theirs = other.parameter(parameter.name)
+            if theirs is not None and (type(theirs.default), theirs.default) != (
+                    type(parameter.default), parameter.default):
+                msg = (f'driver {spec.name}: parameter {parameter.name}: default '
+                       f'{parameter.default!r} differs from {theirs.default!r} of driver '
+                       f'{other.name}')
                 raise BridgeConfigError(msg)
-        resolved.update(values)
-        return resolved
+    return spec
+
+
+#: The drivers by name: the built-ins and the installed ``pd.drivers`` plug-ins.
+DRIVERS: Registry[DriverSpec] = Registry(
+    'driver', GROUPS['driver'], admit=_admit, error=BridgeConfigError,
+    unknown='parameter driver: unknown driver {name!r} (available: {known})')
 
 
 def register_driver(spec: DriverSpec) -> DriverSpec:
@@ -193,25 +209,12 @@ def register_driver(spec: DriverSpec) -> DriverSpec:
     if not isinstance(spec, DriverSpec):
         msg = f'register_driver: expected a DriverSpec, got {type(spec).__name__}'
         raise BridgeConfigError(msg)
-    if spec.name in _REGISTRY:
-        msg = f'driver {spec.name}: a driver of that name is already registered'
-        raise BridgeConfigError(msg)
-    for parameter in spec.parameters:
-        for other in _REGISTRY.values():
-            theirs = other.parameter(parameter.name)
-            if theirs is not None and (type(theirs.default), theirs.default) != (
-                    type(parameter.default), parameter.default):
-                msg = (f'driver {spec.name}: parameter {parameter.name}: default '
-                       f'{parameter.default!r} differs from {theirs.default!r} of driver '
-                       f'{other.name}')
-                raise BridgeConfigError(msg)
-    _REGISTRY[spec.name] = spec
-    return spec
+    return DRIVERS.register(spec.name, spec)
 
 
 def driver_names() -> tuple[str, ...]:
     """Names of the registered drivers, sorted."""
-    return tuple(sorted(_REGISTRY))
+    return DRIVERS.names()
 
 
 def driver_spec(name: str) -> DriverSpec:
@@ -220,11 +223,7 @@ def driver_spec(name: str) -> DriverSpec:
     Raises:
         BridgeConfigError: If no driver of that name is registered (the message lists them).
     """
-    spec = _REGISTRY.get(name)
-    if spec is None:
-        msg = f'parameter driver: unknown driver {name!r} (available: {", ".join(driver_names())})'
-        raise BridgeConfigError(msg)
-    return spec
+    return DRIVERS.lookup(name)
 
 
 def driver_parameters() -> tuple[tuple[DriverParameter, tuple[str, ...]], ...]:
@@ -236,7 +235,7 @@ def driver_parameters() -> tuple[tuple[DriverParameter, tuple[str, ...]], ...]:
     users: dict[str, list[str]] = {}
     first: dict[str, DriverParameter] = {}
     for name in driver_names():
-        for parameter in _REGISTRY[name].parameters:
+        for parameter in DRIVERS[name].parameters:
             first.setdefault(parameter.name, parameter)
             users.setdefault(parameter.name, []).append(name)
     return tuple((first[key], tuple(users[key])) for key in sorted(first))

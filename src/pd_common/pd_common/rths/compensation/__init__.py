@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from . import adaptive, model_based, pi_p, polynomial  # noqa: F401  (register them)
 from .base import (
+    COMPENSATORS,
     Compensator,
     CompensatorParameter,
     CompensatorSpec,
@@ -18,6 +19,7 @@ from .base import (
 DEFAULT_COMPENSATOR: str = 'adaptive'
 
 __all__ = [
+    'COMPENSATORS',
     'DEFAULT_COMPENSATOR',
     'Compensator',
     'CompensatorParameter',

@@ -7,23 +7,22 @@ displacement ``x_d[k]`` and the newest measured displacement ``x_m[k]`` and retu
     u = compensator.command(target, measured)
 
 Adding one is one module with its class and one :class:`CompensatorSpec` registered with
-:func:`register_compensator`; its parameters are named in the test file (``compensator:
-{name: ..., <parameter>: value}``) and on ``./pd rths_benchmark``.
+:func:`register_compensator` (or, from a separate package, named by an entry point of the
+``pd.compensators`` group); its parameters (:class:`~pd_common.registry.Parameter`) are named in
+the test file (``compensator: {name: ..., <parameter>: value}``) and on
+``./pd rths_benchmark``.
 """
 
 from __future__ import annotations
 
 import abc
 import math
-import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from ...errors import RthsError
-
-_NAME = re.compile(r'[a-z][a-z0-9_]*')
-_REGISTRY: dict[str, CompensatorSpec] = {}
+from ...registry import GROUPS, Parameter, ParameterError, Registry, resolve_parameters
 
 
 class Compensator(abc.ABC):
@@ -57,14 +56,9 @@ class Compensator(abc.ABC):
         """The command ``u[k]`` (m) for desired ``x_d[k]`` and measured ``x_m[k]`` (m)."""
 
 
-@dataclass(frozen=True)
-class CompensatorParameter:
-    """One parameter of a compensator: name, default (its type is the parameter's type),
-    one-line description."""
-
-    name: str
-    default: float | int | bool | str
-    description: str
+#: One parameter of a compensator: the shared :class:`~pd_common.registry.Parameter` (name,
+#: default whose type is the parameter's type, one-line description).
+CompensatorParameter = Parameter
 
 
 CompensatorFactory = Callable[[float, Mapping[str, Any]], Compensator]
@@ -86,30 +80,36 @@ class CompensatorSpec:
         Raises:
             RthsError: On an unknown parameter or a value of the wrong type.
         """
-        resolved: dict[str, Any] = {p.name: p.default for p in self.parameters}
-        for name, value in values.items():
-            if name not in resolved:
-                known = ', '.join(resolved) or 'none'
-                msg = (f'compensator {self.name}: unknown parameter {name!r} '
-                       f'(its parameters: {known})')
-                raise RthsError(msg)
-            default = resolved[name]
-            if isinstance(default, bool):
-                ok = isinstance(value, bool)
-            elif isinstance(default, int):
-                ok = isinstance(value, int) and not isinstance(value, bool)
-            elif isinstance(default, float):
-                ok = (isinstance(value, int | float) and not isinstance(value, bool)
-                      and math.isfinite(float(value)))
-                value = float(value) if ok else value
-            else:
-                ok = isinstance(value, str)
-            if not ok:
-                msg = (f'compensator {self.name}: parameter {name} must be '
-                       f'{type(default).__name__}, got {value!r}')
-                raise RthsError(msg)
-            resolved[name] = value
-        return resolved
+        declared = {parameter.name for parameter in self.parameters}
+        unknown = [name for name in values if name not in declared]
+        if unknown:
+            known = ', '.join(parameter.name for parameter in self.parameters) or 'none'
+            msg = (f'compensator {self.name}: unknown parameter {unknown[0]!r} '
+                   f'(its parameters: {known})')
+            raise RthsError(msg)
+        try:
+            return resolve_parameters(self.parameters, values)
+        except ParameterError as err:
+            msg = f'compensator {self.name}: parameter {err.parameter} {err.reason}'
+            raise RthsError(msg) from None
+
+
+def _admit(name: str, spec: Any) -> CompensatorSpec:
+    """A :class:`CompensatorSpec` named ``name``.
+
+    Raises:
+        RthsError: Anything else.
+    """
+    if not isinstance(spec, CompensatorSpec) or spec.name != name:
+        msg = f'compensator {name}: expected a CompensatorSpec named {name!r}, got {spec!r}'
+        raise RthsError(msg)
+    return spec
+
+
+#: The compensators by name: the built-ins and the installed ``pd.compensators`` plug-ins.
+COMPENSATORS: Registry[CompensatorSpec] = Registry(
+    'compensator', GROUPS['compensator'], admit=_admit, error=RthsError,
+    unknown='unknown compensator {name!r} (registered: {known})')
 
 
 def register_compensator(spec: CompensatorSpec) -> CompensatorSpec:
@@ -118,19 +118,12 @@ def register_compensator(spec: CompensatorSpec) -> CompensatorSpec:
     Raises:
         RthsError: On a bad or taken name.
     """
-    if not _NAME.fullmatch(spec.name):
-        msg = f'compensator {spec.name!r}: name must match {_NAME.pattern}'
-        raise RthsError(msg)
-    if spec.name in _REGISTRY:
-        msg = f'compensator {spec.name}: a compensator of that name is already registered'
-        raise RthsError(msg)
-    _REGISTRY[spec.name] = spec
-    return spec
+    return COMPENSATORS.register(spec.name, spec)
 
 
 def compensator_names() -> tuple[str, ...]:
     """The registered names, sorted."""
-    return tuple(sorted(_REGISTRY))
+    return COMPENSATORS.names()
 
 
 def compensator_spec(name: str) -> CompensatorSpec:
@@ -139,12 +132,7 @@ def compensator_spec(name: str) -> CompensatorSpec:
     Raises:
         RthsError: If no compensator has that name.
     """
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        msg = (f'unknown compensator {name!r} (registered: '
-               f'{", ".join(compensator_names())})')
-        raise RthsError(msg) from None
+    return COMPENSATORS.lookup(name)
 
 
 def make_compensator(name: str, dt: float,

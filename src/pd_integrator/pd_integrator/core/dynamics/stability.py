@@ -17,24 +17,17 @@ Conventions used here (``T = 2π/ω``, ``T̄ = 2π/ω̄``, so ``T̄/T = Ω/Ω̄`
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..errors import ConfigError, PdIntegratorError, StabilityError
-from ..schemes import (
-    Integrator,
-    newmark_explicit_numerical_frequency,
-    scheme_class,
-)
+from ..schemes import Integrator, scheme_class
 from . import analysis
 from .structure import omega_max as structure_omega_max
 
 __all__ = [
-    'NEGATIVE_TANGENT',
-    'NUMERICAL_FREQUENCY',
     'StabilityReport',
     'check_stability',
     'period_distortion',
@@ -50,34 +43,33 @@ def spectral_radius(matrix: Any) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(np.asarray(matrix, dtype=float)))))
 
 
-#: Numerical frequency ``Ω̄(Ω)`` per scheme name, for the period distortion.
-NUMERICAL_FREQUENCY: dict[str, Callable[[float], float]] = {
-    'newmark_explicit': newmark_explicit_numerical_frequency,
-}
-
-
 def period_distortion(omega_dt: float, scheme: str = 'newmark_explicit') -> float:
     """Relative period error ``(T̄ − T)/T = Ω/Ω̄ − 1`` (negative: the period shrinks).
 
-    Newmark explicit uses the closed form of eq. 3.19; any other registered scheme with an
-    ``amplification_matrix`` (default parameters, no viscous damping) uses the spectral
-    analysis of :mod:`pd_integrator.core.dynamics.analysis`.
+    A scheme with a closed-form numerical frequency (its
+    :meth:`~pd_integrator.core.schemes.Integrator.numerical_frequency`: Newmark explicit,
+    eq. 3.19) uses it; any other registered scheme with an ``amplification_matrix`` (default
+    parameters, no viscous damping) uses the spectral analysis of
+    :mod:`pd_integrator.core.dynamics.analysis`.
 
     Args:
         omega_dt: ``Ω = ωΔt``.
-        scheme: Scheme name (a key of :data:`NUMERICAL_FREQUENCY` or of ``SCHEMES``).
+        scheme: Scheme name (a key of ``SCHEMES``).
 
     Returns:
         The distortion, ``0`` at ``Ω = 0``, NaN above the stability limit, for an unknown
         scheme or for a scheme without a known numerical frequency.
     """
-    frequency = NUMERICAL_FREQUENCY.get(scheme)
-    if frequency is None:
-        return _expected_accuracy(scheme, omega_dt, {})[0]
+    try:
+        cls = scheme_class(scheme)
+    except ConfigError:
+        return math.nan
     omega = float(omega_dt)
+    omega_bar = cls.numerical_frequency(omega)
+    if omega_bar is None:
+        return _expected_accuracy(cls, omega_dt, {})[0]
     if omega == 0.0:
         return 0.0
-    omega_bar = frequency(omega)
     if math.isnan(omega_bar):
         return math.nan
     return omega / omega_bar - 1.0
@@ -157,34 +149,6 @@ def _expected_accuracy(
             properties.spectral_radius)
 
 
-_EXPLICIT_NOTE = (
-    'a tangent below K_I lowers omega, so the limit from K_I stays sufficient; a negative '
-    'tangent is a physical divergence (x ~ exp(sqrt(-k_t/m) t)), which the scheme follows')
-_SPLIT_NOTE = (
-    'its unconditional stability assumes K_t <= K_I (softening); a negative tangent is '
-    'the physical divergence, which the scheme follows (its error grows with K_I - K_t)')
-_IMPLICIT_NOTE = (
-    'its iterations use K_I and converge while M/(beta dt^2) + gamma C/(beta dt) + K_t stays '
-    'positive definite; a negative tangent is the physical divergence, which it follows')
-
-#: What each scheme assumes of the tangent stiffness ``K_t`` when the structure may soften
-#: (printed with the stability line when the test states a ``collapse`` drift). Checked by
-#: ``tests/pd_integrator/test_negative_tangent.py``: on a linear SDOF with ``K_t = −0.2 K_I``
-#: every scheme follows the exact divergence.
-NEGATIVE_TANGENT: dict[str, str] = {
-    'newmark_explicit': _EXPLICIT_NOTE,
-    'explicit_generalized_alpha': _EXPLICIT_NOTE,
-    'modified_newmark': _EXPLICIT_NOTE,
-    'alpha_os': _SPLIT_NOTE,
-    'generalized_alpha_os': _SPLIT_NOTE,
-    'cr': _SPLIT_NOTE.replace('its unconditional', 'its (model-based) unconditional'),
-    'kr_alpha': _SPLIT_NOTE.replace('its unconditional', 'its (model-based) unconditional'),
-    'newmark_implicit': _IMPLICIT_NOTE,
-    'average_acceleration': _IMPLICIT_NOTE,
-    'linear_acceleration': _IMPLICIT_NOTE,
-}
-
-
 def _format_limit(limit: float) -> str:
     return '∞' if math.isinf(limit) else f'{limit:g}'
 
@@ -201,8 +165,8 @@ def check_stability(
         stiffness: Initial stiffness matrix (or scalar), N/m.
         dt: Time step in s.
         softening: The structure may reach a negative tangent (the test states a collapse
-            drift): the message adds what the scheme assumes of the tangent
-            (:data:`NEGATIVE_TANGENT`).
+            drift): the message adds what the scheme assumes of the tangent (its
+            :attr:`~pd_integrator.core.schemes.Integrator.softening_note`).
 
     Returns:
         A :class:`StabilityReport` (use :func:`require_stable` to raise on instability).
@@ -239,8 +203,8 @@ def check_stability(
             message += f'; numerical damping {100.0 * damping:.2g} %'.replace('-', '−')
         if rho > 1.0 + 1e-6:
             message += f'; but the spectral radius is {rho:.6g} > 1'
-        if softening and cls.name in NEGATIVE_TANGENT:
-            message += f'; softening: {NEGATIVE_TANGENT[cls.name]}'
+        if softening and cls.softening_note:
+            message += f'; softening: {cls.softening_note}'
     else:
         message = (
             f'{head}: UNSTABLE; dt = {dt_value:g} s must be ≤ {limit / w_max:.6g} s '

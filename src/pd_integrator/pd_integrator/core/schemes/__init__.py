@@ -1,7 +1,8 @@
 """Step-by-step time-integration schemes for the pseudo-dynamic loop.
 
 One module per family, behind one interface (:class:`Integrator`: predict → measured force →
-correct → commit, or revert) and one registry (:data:`SCHEMES`):
+correct → commit, or revert) and one registry (:data:`SCHEMES`, a
+:class:`pd_common.registry.Registry`: the built-ins and the ``pd.schemes`` plug-ins):
 
 * :mod:`.newmark_explicit` — the thesis's Newmark explicit scheme;
 * :mod:`.explicit_alpha` — explicit schemes with numerical dissipation (no ``K_I``);
@@ -29,7 +30,7 @@ from .newmark_explicit import (
 )
 from .operator_splitting import AlphaOS, GeneralizedAlphaOS
 from .parameters import SchemeParameter, SchemeParameterError, check_parameter
-from .registry import SCHEMES, make_integrator, scheme_class
+from .registry import SCHEMES, make_integrator, register_scheme, scheme_class
 
 __all__ = [
     'SCHEMES',
@@ -53,5 +54,6 @@ __all__ = [
     'check_parameter',
     'make_integrator',
     'newmark_explicit_numerical_frequency',
+    'register_scheme',
     'scheme_class',
 ]

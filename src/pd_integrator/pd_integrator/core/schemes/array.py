@@ -93,8 +93,9 @@ class GeneralizedAlphaFamily(ArrayIntegrator):
     needs_initial_stiffness: ClassVar[bool] = True
     numerical_damping_parameter: ClassVar[str | None] = 'rho_inf'
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
-        SchemeParameter('rho_inf', 0.5, 0.0, 1.0,
-                        description='spectral radius at infinite frequency (1: no dissipation)'),
+        SchemeParameter('rho_inf', 0.5,
+                        'spectral radius at infinite frequency (1: no dissipation)',
+                        low=0.0, high=1.0),
     )
 
     def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:

@@ -52,8 +52,23 @@ __all__ = [
     'CORRECTED',
     'ITERATING',
     'PREDICTED',
+    'SOFTENING_EXPLICIT',
+    'SOFTENING_IMPLICIT',
+    'SOFTENING_SPLIT',
     'Integrator',
 ]
+
+#: What a scheme assumes of the tangent stiffness ``K_t`` when the structure may soften
+#: (:attr:`Integrator.softening_note`), for the three families.
+SOFTENING_EXPLICIT = (
+    'a tangent below K_I lowers omega, so the limit from K_I stays sufficient; a negative '
+    'tangent is a physical divergence (x ~ exp(sqrt(-k_t/m) t)), which the scheme follows')
+SOFTENING_SPLIT = (
+    'its unconditional stability assumes K_t <= K_I (softening); a negative tangent is '
+    'the physical divergence, which the scheme follows (its error grows with K_I - K_t)')
+SOFTENING_IMPLICIT = (
+    'its iterations use K_I and converge while M/(beta dt^2) + gamma C/(beta dt) + K_t stays '
+    'positive definite; a negative tangent is the physical divergence, which it follows')
 
 #: Phases of a step (:attr:`Integrator.phase`).
 COMMITTED = 'committed'
@@ -86,6 +101,17 @@ class Integrator(abc.ABC):
             dissipation (``'rho_inf'``, ``'alpha'``, ``'rho_b'``), or ``None``.
         iterations_per_step: Trials (commands to the specimen) per time step: 1 for all but
             the implicit scheme.
+        accuracy_order: Order of accuracy at the default parameters: the displacement error
+            of a linear response started with no acceleration (``a_0 = 0``) falls as
+            ``Δt**accuracy_order`` (see :mod:`.model_based` for starts with ``a_0 ≠ 0``).
+        softening_note: What the scheme assumes of the tangent stiffness when the structure
+            may soften (printed with the stability line when the test states a ``collapse``
+            drift; ``''``: nothing to say).
+
+    The per-scheme facts (:attr:`name`, :attr:`stability_limit`, :attr:`accuracy_order`,
+    :attr:`PARAMETERS`, :attr:`softening_note` and the closed form
+    :meth:`numerical_frequency`, if any) live on the class, which is the scheme's registry
+    entry (:mod:`.registry`).
     """
 
     name: ClassVar[str] = ''
@@ -93,6 +119,8 @@ class Integrator(abc.ABC):
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = None
     iterations_per_step: int = 1
+    accuracy_order: ClassVar[int] = 2
+    softening_note: ClassVar[str] = ''
 
     #: The scheme's parameters, each declared once (default and range).
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = ()
@@ -279,6 +307,19 @@ class Integrator(abc.ABC):
     def _stability_limit(cls, parameters: Mapping[str, Any], xi: float) -> float:
         """Hook: the limit for validated parameters (default: the class's constant limit)."""
         return float(cls.stability_limit)
+
+    @classmethod
+    def numerical_frequency(cls, omega_dt: float) -> float | None:
+        """Closed-form numerical frequency ``Ω̄(Ω)`` of the undamped mode at the default
+        parameters, or ``None`` if the scheme has none (the spectral analysis is used).
+
+        Args:
+            omega_dt: ``Ω = ωΔt``.
+
+        Returns:
+            ``Ω̄`` in rad per step (NaN above the stability limit), or ``None``.
+        """
+        return None
 
     @classmethod
     def amplification_matrix(cls, omega_dt: float, xi: float = 0.0, **parameters: Any

@@ -24,6 +24,7 @@ import scipy.linalg
 from ..errors import ConfigError
 from .amplification import amplification_from, newmark_amplification, unit_sdof
 from .array import ArrayIntegrator
+from .base import SOFTENING_EXPLICIT
 from .linalg import Factorization
 from .parameters import SchemeParameter
 
@@ -85,12 +86,14 @@ class ExplicitGeneralizedAlpha(ArrayIntegrator):
 
     name: ClassVar[str] = 'explicit_generalized_alpha'
     stability_limit: float = 2.0
+    accuracy_order: ClassVar[int] = 2
+    softening_note: ClassVar[str] = SOFTENING_EXPLICIT
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = 'rho_b'
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
-        SchemeParameter('rho_b', 1.0, 0.0, 1.0, description=(
+        SchemeParameter('rho_b', 1.0, (
             'spectral radius at the bifurcation frequency (1: no dissipation; < 1 with '
-            'viscous damping)')),
+            'viscous damping)'), low=0.0, high=1.0),
     )
 
     def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
@@ -247,14 +250,16 @@ class ModifiedNewmark(ArrayIntegrator):
 
     name: ClassVar[str] = 'modified_newmark'
     stability_limit: float = 2.0 / math.sqrt(1.1)
+    accuracy_order: ClassVar[int] = 1  # first order for alpha > 0 (the default 0.05)
+    softening_note: ClassVar[str] = SOFTENING_EXPLICIT
     needs_initial_stiffness: ClassVar[bool] = False
     numerical_damping_parameter: ClassVar[str | None] = 'alpha'
 
     #: Largest accepted ``α`` (``Ω_s = √2`` there).
     ALPHA_MAX: ClassVar[float] = 0.5
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
-        SchemeParameter('alpha', 0.05, 0.0, ALPHA_MAX,
-                        description='dissipation parameter (0: Newmark explicit)'),
+        SchemeParameter('alpha', 0.05, 'dissipation parameter (0: Newmark explicit)',
+                        low=0.0, high=ALPHA_MAX),
     )
 
     def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:

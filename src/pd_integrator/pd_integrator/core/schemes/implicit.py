@@ -15,6 +15,7 @@ import numpy as np
 
 from .amplification import newmark_amplification, unit_sdof
 from .array import ArrayIntegrator
+from .base import SOFTENING_IMPLICIT
 from .linalg import Factorization
 from .parameters import SchemeParameter
 
@@ -26,16 +27,15 @@ MAX_ITERATIONS = 50
 #: converged iterations (measured: at most 3 ulp), not counted in ``reversals``.
 _NOISE_ULPS = 64
 
-_ITERATIONS = SchemeParameter('iterations', 3, 1, MAX_ITERATIONS, integer=True,
-                              description='trials (commands to the specimen) per step')
+_ITERATIONS = SchemeParameter('iterations', 3, 'trials (commands to the specimen) per step',
+                              low=1, high=MAX_ITERATIONS, integer=True)
 _INCREMENT_REDUCTION = SchemeParameter(
-    'increment_reduction', 0.9, 0.0, 1.0, low_open=True,
-    description='factor s on the imposed increments (1: plain modified Newton)')
-_FORWARD_ONLY = SchemeParameter.switch(
+    'increment_reduction', 0.9, 'factor s on the imposed increments (1: plain modified Newton)',
+    low=0.0, high=1.0, low_open=True)
+_FORWARD_ONLY = SchemeParameter(
     'forward_only', True,
-    description='true: a DOF holds rather than reverse within a step; false: it may reverse '
-                'and the iterations converge (specimens evaluated from their committed state, '
-                'or elastic)')
+    'true: a DOF holds rather than reverse within a step; false: it may reverse and the '
+    'iterations converge (specimens evaluated from their committed state, or elastic)')
 
 
 class NewmarkImplicit(ArrayIntegrator):
@@ -151,6 +151,8 @@ class NewmarkImplicit(ArrayIntegrator):
 
     name: ClassVar[str] = 'newmark_implicit'
     stability_limit: float = math.inf
+    accuracy_order: ClassVar[int] = 2  # for gamma = 1/2 (the default); 1 otherwise
+    softening_note: ClassVar[str] = SOFTENING_IMPLICIT
     needs_initial_stiffness: ClassVar[bool] = True
     numerical_damping_parameter: ClassVar[str | None] = None
     iterations_per_step: int = 3
@@ -158,10 +160,10 @@ class NewmarkImplicit(ArrayIntegrator):
     #: ``β`` of the aliases (``None``: free parameter).
     FIXED_BETA: ClassVar[float | None] = None
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
-        SchemeParameter('beta', 0.25, 0.0, 0.5, low_open=True,
-                        description='Newmark beta (1/4 average, 1/6 linear acceleration)'),
-        SchemeParameter('gamma', 0.5, 0.5, 1.0,
-                        description='Newmark gamma (1/2: no numerical damping, second order)'),
+        SchemeParameter('beta', 0.25, 'Newmark beta (1/4 average, 1/6 linear acceleration)',
+                        low=0.0, high=0.5, low_open=True),
+        SchemeParameter('gamma', 0.5, 'Newmark gamma (1/2: no numerical damping, second order)',
+                        low=0.5, high=1.0),
         _ITERATIONS,
         _INCREMENT_REDUCTION,
         _FORWARD_ONLY,

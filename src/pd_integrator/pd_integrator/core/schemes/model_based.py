@@ -35,6 +35,7 @@ import numpy as np
 
 from .amplification import amplification_from, unit_sdof
 from .array import ArrayIntegrator, GeneralizedAlphaFamily
+from .base import SOFTENING_SPLIT
 from .linalg import Factorization, is_sparse_structure, operator
 
 __all__ = ['ChenRicles', 'KRAlpha']
@@ -48,6 +49,10 @@ class _ModelBased(ArrayIntegrator):
     applies them as one sparse solve per step instead (the inverse of a sparse matrix is
     dense: O(n²) per product).
     """
+
+    accuracy_order: ClassVar[int] = 2
+    softening_note: ClassVar[str] = SOFTENING_SPLIT.replace(
+        'its unconditional', 'its (model-based) unconditional')
 
     _alpha1: np.ndarray
     _alpha2: np.ndarray

@@ -16,7 +16,7 @@ import scipy.sparse
 
 from ..errors import ConfigError
 from .amplification import amplification_from
-from .base import COMMITTED, CORRECTED, PREDICTED, Integrator
+from .base import COMMITTED, CORRECTED, PREDICTED, SOFTENING_EXPLICIT, Integrator
 from .linalg import (
     LARGE_MODEL_DOF,
     Tridiagonal,
@@ -117,6 +117,13 @@ class NewmarkExplicit(Integrator):
     name: ClassVar[str] = 'newmark_explicit'
     stability_limit: float = 2.0
     needs_initial_stiffness: ClassVar[bool] = False
+    accuracy_order: ClassVar[int] = 2
+    softening_note: ClassVar[str] = SOFTENING_EXPLICIT
+
+    @classmethod
+    def numerical_frequency(cls, omega_dt: float) -> float:
+        """Thesis eq. 3.19 (:func:`newmark_explicit_numerical_frequency`)."""
+        return newmark_explicit_numerical_frequency(omega_dt)
 
     @classmethod
     def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]

@@ -36,6 +36,7 @@ import numpy as np
 
 from .amplification import newmark_amplification, unit_sdof
 from .array import ArrayIntegrator, GeneralizedAlphaFamily
+from .base import SOFTENING_SPLIT
 from .linalg import Factorization
 from .parameters import SchemeParameter
 
@@ -53,6 +54,8 @@ class _OperatorSplitting(ArrayIntegrator):
 
     stability_limit: float = math.inf
     needs_initial_stiffness: ClassVar[bool] = True
+    accuracy_order: ClassVar[int] = 2
+    softening_note: ClassVar[str] = SOFTENING_SPLIT
 
     _alpha_m: float
     _alpha_f: float
@@ -132,8 +135,9 @@ class AlphaOS(_OperatorSplitting):
     name: ClassVar[str] = 'alpha_os'
     numerical_damping_parameter: ClassVar[str | None] = 'alpha'
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = (
-        SchemeParameter('alpha', -0.05, -1.0 / 3.0, 0.0, description=(
-            'HHT alpha in [-1/3, 0] (OpenSees AlphaOS: 1 + alpha); 0: no dissipation')),
+        SchemeParameter('alpha', -0.05, (
+            'HHT alpha in [-1/3, 0] (OpenSees AlphaOS: 1 + alpha); 0: no dissipation'),
+            low=-1.0 / 3.0, high=0.0),
     )
 
     def _apply_parameters(self, parameters: Mapping[str, Any]) -> None:
