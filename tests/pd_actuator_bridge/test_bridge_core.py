@@ -14,9 +14,9 @@ import yaml
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
+    ActuatorMeasurement,
     BridgeConfigError,
     BridgeError,
-    BridgeReply,
     DriverContext,
     DriverError,
     DriverParameter,
@@ -35,7 +35,8 @@ from pd_actuator_bridge.core import (
     register_driver,
 )
 from pd_actuator_bridge.core.drivers import registry
-from pd_common.protocol import FeedbackStatus
+from pd_common.protocol import Feedback, FeedbackStatus
+from pd_common.registry import ParameterError
 from support.loopback import LoopbackDriver
 
 NAN = math.nan
@@ -103,7 +104,7 @@ class AsyncDriver(ActuatorDriver):
 
     def answer(self, step: int, displacement: list[float], force: list[float]) -> None:
         self._position = list(displacement)
-        self._emit(step, displacement, force)
+        self._emit(ActuatorMeasurement(step, displacement, force))
 
 
 class FailingDriver(LoopbackDriver):
@@ -370,7 +371,8 @@ def test_feedback_length_checked_against_n_dof() -> None:
 def test_loopback_driver_answers_synchronously_and_records() -> None:
     driver = LoopbackDriver(linear_spring(2000.0), 2, [0.01, 0.0])
     received = []
-    driver.set_measurement_callback(lambda *args: received.append(args))
+    driver.set_measurement_callback(
+        lambda m: received.append((m.step, list(m.displacement), list(m.force))))
     assert driver.position() == [0.01, 0.0]
     with pytest.raises(DriverError, match='before open'):
         driver.command(0, [0.0, 0.0])
@@ -396,12 +398,12 @@ def test_loopback_driver_wraps_model_errors() -> None:
 
 def test_ok_step_returns_measurement() -> None:
     bridge, driver = make_bridge(stiffness=4000.0)
-    published: list[BridgeReply] = []
+    published: list[Feedback] = []
     bridge.set_reply_callback(published.append)
     reply = bridge.handle_command('t1', 0, [0.0])
-    assert reply == BridgeReply('t1', 0, (0.0,), (0.0,), FeedbackStatus.OK, '')
+    assert reply == Feedback('t1', 0, (0.0,), (0.0,), FeedbackStatus.OK, '')
     reply = bridge.handle_command('t1', 1, np.array([0.0625]))
-    assert reply == BridgeReply('t1', 1, (0.0625,), (250.0,), FeedbackStatus.OK, '')
+    assert reply == Feedback('t1', 1, (0.0625,), (250.0,), FeedbackStatus.OK, '')
     assert bridge.state == 'ready'
     assert driver.commands == [(0, (0.0,)), (1, (0.0625,))]
     assert bridge.commands_received == 2
@@ -447,7 +449,7 @@ def test_new_test_id_starts_fresh_but_keeps_position() -> None:
     assert bridge.ignored_commands == 0
     # Same step number as the last answered one, but under another test id: it moves.
     reply = bridge.handle_command('t2', 0, [0.1])
-    assert reply == BridgeReply('t2', 0, (0.1,), (100.0,), FeedbackStatus.OK, '')
+    assert reply == Feedback('t2', 0, (0.1,), (100.0,), FeedbackStatus.OK, '')
     assert len(driver.commands) == 5
     reply = bridge.handle_command('t2', 1, [-0.05])
     assert reply is not None and reply.status is FeedbackStatus.LIMIT
@@ -462,8 +464,8 @@ def test_non_finite_command_never_reaches_driver(bad: float) -> None:
     assert reply is not None
     assert reply.status is FeedbackStatus.FAULT
     assert reply.message == f'non-finite target displacement for DOF 1 (bottom): {bad}'
-    assert reply.displacement == (0.0, 0.05)
-    assert reply.force == (0.0, 50.0)
+    assert reply.measured_displacement == (0.0, 0.05)
+    assert reply.restoring_force == (0.0, 50.0)
     assert driver.commands == [(0, (0.0, 0.05))]
     assert driver.hold_count == 1
     assert bridge.state == 'holding'
@@ -476,14 +478,14 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
     bridge.handle_command('t1', 1, [0.1])
     reply = bridge.handle_command('t1', 2, [0.3])
     expected_reason = 'DOF 0 (top): target displacement 0.3 m exceeds max_displacement 0.25 m'
-    assert reply == BridgeReply('t1', 2, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason)
+    assert reply == Feedback('t1', 2, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason)
     assert bridge.state == 'holding'
     assert bridge.hold_reason == expected_reason
     assert bridge.hold_status is FeedbackStatus.LIMIT
     # Safe commands, repeats and new tests do not move while holding.
     for test_id, step, x in [('t1', 2, [0.15]), ('t1', 3, [0.1]), ('t2', 0, [0.1])]:
         held = bridge.handle_command(test_id, step, x)
-        assert held == BridgeReply(
+        assert held == Feedback(
             test_id, step, (0.1,), (200.0,), FeedbackStatus.LIMIT, expected_reason
         )
     assert len(driver.commands) == 2
@@ -497,7 +499,7 @@ def test_limit_holds_and_the_hold_is_latched_until_reset() -> None:
     # The rejected step is evaluated afresh after the reset; older steps stay stale.
     assert bridge.handle_command('t1', 1, [0.1]) is None
     reply = bridge.handle_command('t1', 2, [0.15])
-    assert reply == BridgeReply('t1', 2, (0.15,), (300.0,), FeedbackStatus.OK, '')
+    assert reply == Feedback('t1', 2, (0.15,), (300.0,), FeedbackStatus.OK, '')
     assert len(driver.commands) == 3
 
 
@@ -515,8 +517,8 @@ def test_force_limit_on_feedback_triggers_hold() -> None:
     reply = bridge.handle_command('t1', 1, [0.125])
     assert reply is not None
     assert reply.status is FeedbackStatus.LIMIT
-    assert reply.displacement == (0.125,)
-    assert reply.force == (1250.0,)
+    assert reply.measured_displacement == (0.125,)
+    assert reply.restoring_force == (1250.0,)
     assert reply.message == 'DOF 0 (top): measured force 1250 N exceeds max_force 1000 N'
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
@@ -539,7 +541,7 @@ def test_non_finite_feedback_is_a_fault_and_keeps_last_good_values() -> None:
     assert reply is not None
     assert reply.status is FeedbackStatus.FAULT
     assert reply.message == 'non-finite measured force for DOF 0 (top): nan'
-    assert reply.force == (50.0,)
+    assert reply.restoring_force == (50.0,)
     assert bridge.state == 'holding'
 
 
@@ -550,7 +552,7 @@ def test_driver_failure_is_a_fault_hold() -> None:
     assert reply is not None
     assert reply.status is FeedbackStatus.FAULT
     assert reply.message == 'driver command() failed at step 0: DriverError: controller offline'
-    assert math.isnan(reply.force[0])  # no measurement yet
+    assert math.isnan(reply.restoring_force[0])  # no measurement yet
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
 
@@ -567,7 +569,7 @@ def test_model_failure_in_loopback_is_a_fault_hold() -> None:
 def test_async_driver_in_flight_bookkeeping() -> None:
     driver = AsyncDriver()
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
-    published: list[BridgeReply] = []
+    published: list[Feedback] = []
     bridge.set_reply_callback(published.append)
 
     assert bridge.handle_command('t1', 0, [0.05]) is None
@@ -584,7 +586,7 @@ def test_async_driver_in_flight_bookkeeping() -> None:
     driver.answer(7, [0.05], [1.0])
     assert published == [] and bridge.ignored_measurements == 1
     driver.answer(0, [0.05], [12.5])
-    assert published == [BridgeReply('t1', 0, (0.05,), (12.5,), FeedbackStatus.OK, '')]
+    assert published == [Feedback('t1', 0, (0.05,), (12.5,), FeedbackStatus.OK, '')]
     assert bridge.state == 'ready'
     # Now a repeat of step 0 is answered from the last reply.
     assert bridge.handle_command('t1', 0, [0.05]) is published[0]
@@ -592,7 +594,7 @@ def test_async_driver_in_flight_bookkeeping() -> None:
     # A timeout detected by the node layer holds and answers the step in flight.
     assert bridge.handle_command('t1', 1, [0.06]) is None
     reply = bridge.handle_fault('no measurement for step 1 within 2 s')
-    assert reply == BridgeReply(
+    assert reply == Feedback(
         't1', 1, (0.05,), (12.5,), FeedbackStatus.FAULT, 'no measurement for step 1 within 2 s'
     )
     assert bridge.state == 'holding'
@@ -606,7 +608,7 @@ def test_async_force_limit_holds() -> None:
     driver = AsyncDriver()
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
     bridge.handle_command('t1', 0, [0.05])
-    reply = bridge.handle_measurement(0, [0.05], [-1500.0])
+    reply = bridge.handle_measurement(ActuatorMeasurement(0, (0.05,), (-1500.0,)))
     assert reply is not None and reply.status is FeedbackStatus.LIMIT
     assert bridge.state == 'holding'
     assert driver.hold_count == 1
@@ -616,8 +618,8 @@ def test_hold_before_any_measurement_reports_nan_force() -> None:
     bridge, driver = make_bridge()
     reply = bridge.handle_command('t1', 0, [1.0])
     assert reply is not None and reply.status is FeedbackStatus.LIMIT
-    assert reply.displacement == (0.0,)
-    assert math.isnan(reply.force[0])
+    assert reply.measured_displacement == (0.0,)
+    assert math.isnan(reply.restoring_force[0])
     assert driver.commands == []
 
 
@@ -755,10 +757,10 @@ def test_broken_driver_faults_and_reports_last_measurement() -> None:
     driver = BrokenDriver()
     bridge = ActuatorBridge(driver, LIMITS, ['top'])
     bridge.handle_command('t1', 0, [0.05])
-    bridge.handle_measurement(0, [0.05], [10.0])
+    bridge.handle_measurement(ActuatorMeasurement(0, (0.05,), (10.0,)))
     driver.broken = True
     reply = bridge.handle_command('t1', 1, [0.06])
-    assert reply == BridgeReply(
+    assert reply == Feedback(
         't1', 1, (0.05,), (10.0,), FeedbackStatus.FAULT,
         'driver position() failed: DriverError: encoder lost; '
         'driver hold() failed: DriverError: valve stuck',
@@ -792,8 +794,8 @@ def test_bridge_accepts_step_iteration_keys() -> None:
                                                  max_force=1.0e4), ['u'])
     first = bridge.handle_command('t', (2, 0), [0.01])
     second = bridge.handle_command('t', (2, 1), [0.02])
-    assert first is not None and first.step == (2, 0) and first.status is FeedbackStatus.OK
-    assert second is not None and second.force == (20.0,)
+    assert first is not None and first.key == (2, 0) and first.status is FeedbackStatus.OK
+    assert second is not None and second.restoring_force == (20.0,)
     assert bridge.handle_command('t', (2, 1), [0.09]) is second  # repeat: no motion
     assert bridge.handle_command('t', (2, 0), [0.03]) is None  # stale iteration: ignored
     assert [target for _, target in driver.commands] == [(0.01,), (0.02,)]
@@ -808,7 +810,7 @@ BUILT_IN = ('daqmx', 'emulator', 'generic_tcp', 'opensees_adapter')
 @pytest.fixture
 def scratch_registry(monkeypatch: pytest.MonkeyPatch) -> None:
     """A copy of the registry for the test, so that its registrations do not leak."""
-    monkeypatch.setattr(registry, '_REGISTRY', dict(registry._REGISTRY))
+    monkeypatch.setattr(registry, 'DRIVERS', registry.DRIVERS.copy())
 
 
 def loopback_spec(name: str = 'loopback', **parameters: object) -> DriverSpec:
@@ -866,12 +868,15 @@ def test_a_shared_parameter_has_one_default(scratch_registry: None) -> None:
 
 
 def test_spec_and_parameter_fields_are_checked() -> None:
-    with pytest.raises(BridgeConfigError, match='name must match'):
+    # A parameter's declaration is checked by the one parameter type of every plug-in kind.
+    with pytest.raises(ParameterError, match='name must match'):
         DriverParameter('Port', 1, 'a port')
-    with pytest.raises(BridgeConfigError, match='parameter port: default must be a bool'):
+    with pytest.raises(ParameterError, match='parameter port: default must be a bool'):
         DriverParameter('port', [1], 'a port')  # type: ignore[arg-type]
-    with pytest.raises(BridgeConfigError, match='description must be a non-empty string'):
+    with pytest.raises(ParameterError, match='description must be a non-empty string'):
         DriverParameter('port', 1, '')
+    with pytest.raises(BridgeConfigError, match='driver x: parameter port needs a default'):
+        DriverSpec('x', LoopbackDriver, (DriverParameter('port', None, 'a port'),))
     with pytest.raises(BridgeConfigError, match='driver x: factory must be callable'):
         DriverSpec('x', None)  # type: ignore[arg-type]
     with pytest.raises(BridgeConfigError, match='driver x: parameter port is declared twice'):

@@ -20,14 +20,14 @@ from hypothesis import strategies as st
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
+    ActuatorMeasurement,
     BridgeConfigError,
-    BridgeReply,
     SafetyLimits,
     check_command,
     check_tracking,
     saturate_command,
 )
-from pd_common.protocol import FeedbackStatus
+from pd_common.protocol import Feedback, FeedbackStatus
 from support.loopback import LoopbackDriver
 
 NAN = math.nan
@@ -152,7 +152,8 @@ class RecordingDriver(ActuatorDriver):
     def _move(self, step: Any, values: tuple[float, ...], error: float, scale: float) -> None:
         measured = [x + error for x in values]
         self._position = measured
-        self._emit(step, measured, [scale * self._stiffness * x for x in measured])
+        self._emit(ActuatorMeasurement(
+            step, tuple(measured), tuple(scale * self._stiffness * x for x in measured)))
 
     def hold(self) -> None:
         self.hold_count += 1
@@ -292,12 +293,12 @@ def test_reset_disarms_the_watchdog_until_the_next_command() -> None:
 def test_watchdog_answers_the_step_in_flight() -> None:
     driver = RecordingDriver(1, 1000.0, synchronous=False)
     bridge = ActuatorBridge(driver, WATCHDOG_LIMITS, ['top'], clock=Clock())
-    published: list[BridgeReply] = []
+    published: list[Feedback] = []
     bridge.set_reply_callback(published.append)
     assert bridge.handle_command('t', (3, 0), [0.01], now=0.0) is None
     assert bridge.state == 'busy'
     reply = bridge.check_watchdog(1.0)
-    assert reply is not None and reply.step == (3, 0) and reply.status is FeedbackStatus.FAULT
+    assert reply is not None and reply.key == (3, 0) and reply.status is FeedbackStatus.FAULT
     assert bridge.last_reply == reply  # recorded as the answer of the step in flight
     driver.deliver(0.0, 1.0)  # the late measurement is ignored
     assert published == [] and bridge.ignored_measurements == 1
@@ -351,7 +352,7 @@ def test_plausibility_just_inside_tolerance_answers_ok() -> None:
     driver.error = TOLERANCE
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['top'], clock=Clock())
     reply = bridge.handle_command('t', 0, [0.0])
-    assert reply == BridgeReply('t', 0, (TOLERANCE,), (1000.0 * TOLERANCE,), FeedbackStatus.OK, '')
+    assert reply == Feedback('t', 0, (TOLERANCE,), (1000.0 * TOLERANCE,), FeedbackStatus.OK, '')
     assert bridge.state == 'ready'
 
 
@@ -363,7 +364,7 @@ def test_plausibility_just_outside_tolerance_holds() -> None:
     assert reply is not None and reply.status is FeedbackStatus.FAULT
     assert reply.message.startswith('DOF 0 (a): tracking error ')
     assert 'exceeds tracking_tolerance' in reply.message
-    assert reply.displacement == (driver.error,) * 3  # the measured (true) state
+    assert reply.measured_displacement == (driver.error,) * 3  # the measured (true) state
     assert bridge.state == 'holding' and driver.hold_count == 1
     assert bridge.handle_command('t', 1, [0.0, 0.0, 0.0]).status is FeedbackStatus.FAULT
     assert len(driver.sent) == 1
@@ -373,9 +374,11 @@ def test_plausibility_async_measurement() -> None:
     driver = RecordingDriver(1, 1000.0, synchronous=False)
     bridge = ActuatorBridge(driver, TRACKING_LIMITS, ['top'], clock=Clock())
     bridge.handle_command('t', 0, [0.0625])
-    assert bridge.handle_measurement(0, [0.0625 - TOLERANCE], [1.0]).status is FeedbackStatus.OK
+    first = bridge.handle_measurement(ActuatorMeasurement(0, (0.0625 - TOLERANCE,), (1.0,)))
+    assert first.status is FeedbackStatus.OK
     bridge.handle_command('t', 1, [0.0625])
-    reply = bridge.handle_measurement(1, [just_above(0.0625 + TOLERANCE)], [1.0])
+    reply = bridge.handle_measurement(
+        ActuatorMeasurement(1, (just_above(0.0625 + TOLERANCE),), (1.0,)))
     assert (reply is not None and reply.status is FeedbackStatus.FAULT
             and 'tracking error' in reply.message)
 
@@ -397,7 +400,7 @@ def test_saturate_clips_absolute_displacement() -> None:
     bridge, driver = make_bridge(on_limit='saturate', stiffness=2000.0,
                                  initial_position=[0.1875])
     reply = bridge.handle_command('t', 0, [0.3])
-    assert reply == BridgeReply(
+    assert reply == Feedback(
         't', 0, (0.25,), (500.0,), FeedbackStatus.LIMIT,
         'saturated: DOF 0 (top): target 0.3 m clipped to 0.25 m (max_displacement 0.25 m)',
     )
@@ -442,12 +445,12 @@ def test_saturate_only_touches_the_offending_dofs() -> None:
     assert reply.message == (
         'saturated: DOF 1 (mid): target 0.5 m clipped to 0.125 m (max_increment 0.125 m from 0 m)'
     )
-    assert reply.displacement == (0.0625, 0.125, -0.03)
+    assert reply.measured_displacement == (0.0625, 0.125, -0.03)
 
 
 def test_saturate_exactly_at_a_limit_is_not_a_saturation() -> None:
     bridge, _driver = make_bridge(on_limit='saturate')
-    assert bridge.handle_command('t', 0, [0.125]) == BridgeReply(
+    assert bridge.handle_command('t', 0, [0.125]) == Feedback(
         't', 0, (0.125,), (125.0,), FeedbackStatus.OK, ''
     )
     assert bridge.saturations == 0
@@ -547,7 +550,7 @@ def test_emergency_stop_while_holding_overrides_the_hold() -> None:
 def test_emergency_stop_answers_the_step_in_flight() -> None:
     driver = RecordingDriver(1, 1000.0, synchronous=False)
     bridge = ActuatorBridge(driver, LIMITS, ['top'], clock=Clock())
-    published: list[BridgeReply] = []
+    published: list[Feedback] = []
     bridge.set_reply_callback(published.append)
     bridge.handle_command('t', 0, [0.05])
     reply = bridge.emergency_stop('pressure drop')
@@ -825,7 +828,7 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
     clock = Clock(1000.0)
     bridge = ActuatorBridge(driver, limits, ['a', 'b', 'c'][:n_dof], on_limit=on_limit,
                             clock=clock)
-    published: list[BridgeReply] = []
+    published: list[Feedback] = []
     bridge.set_reply_callback(published.append)
     model = Model()
     errors = tracking_errors(limits)
@@ -837,7 +840,7 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
         dt = time_step(time_selector, fraction, limits)
         n_sent = len(driver.sent)
         published.clear()
-        returned: BridgeReply | None = None
+        returned: Feedback | None = None
         requested: Any = None
         was_holding = model.holding
         if kind == 'cmd':
@@ -906,7 +909,8 @@ def run_stream(scenario: dict, on_limit: str) -> dict[str, int]:
         for reply in replies:
             assert reply.status in (FeedbackStatus.OK, FeedbackStatus.LIMIT, FeedbackStatus.FAULT)
             assert '\n' not in reply.message
-            assert len(reply.displacement) == n_dof and len(reply.force) == n_dof
+            assert len(reply.measured_displacement) == n_dof
+            assert len(reply.restoring_force) == n_dof
             if reply.message.startswith('saturated: '):
                 assert on_limit == 'saturate' and reply.status is FeedbackStatus.LIMIT
                 stats['saturated'] += 1

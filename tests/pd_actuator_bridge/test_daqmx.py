@@ -249,7 +249,8 @@ def test_command_settles_then_reads_averages_and_converts_feedback() -> None:
     rig = FakeRig(feedback=lambda rig, n: [list(s) for s in samples])
     driver, _ = opened(rig=rig)
     received: list[tuple[int, list[float], list[float]]] = []
-    driver.set_measurement_callback(lambda step, d, f: received.append((step, d, f)))
+    driver.set_measurement_callback(
+        lambda m: received.append((m.step, list(m.displacement), list(m.force))))
     rig.events.clear()
     driver.command(7, [0.011])
     assert rig.events == [('command', 'write'), ('sleep', SETTLE), ('feedback', 'read')]
@@ -675,8 +676,8 @@ def test_driver_under_the_bridge_completes_steps() -> None:
     reply1 = bridge.handle_command('t', 1, [0.01])
     assert reply0 is not None and reply0.status is FeedbackStatus.OK
     assert reply1 is not None and reply1.status is FeedbackStatus.OK
-    assert reply1.displacement == pytest.approx((0.01,))
-    assert reply1.force == pytest.approx((500.0,))
+    assert reply1.measured_displacement == pytest.approx((0.01,))
+    assert reply1.restoring_force == pytest.approx((500.0,))
     assert rig.task('command').writes == [pytest.approx(0.0), pytest.approx(1.0)]
 
 

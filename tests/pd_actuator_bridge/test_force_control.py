@@ -18,8 +18,8 @@ import pytest
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
+    ActuatorMeasurement,
     BridgeConfigError,
-    BridgeReply,
     DaqmxDriver,
     DriverError,
     EmulatorDriver,
@@ -30,7 +30,7 @@ from pd_actuator_bridge.core import (
     force_substep_key,
 )
 from pd_actuator_bridge.core.drivers.base import SUBSTEP_STRIDE
-from pd_common.protocol import FeedbackStatus, StepKey
+from pd_common.protocol import Feedback, FeedbackStatus, StepKey
 from pd_common.specimen import BilinearKinematic, ColumnSpecimen, SpecimenServer
 from support.loopback import LoopbackDriver
 
@@ -79,7 +79,7 @@ class ForceDriver(ActuatorDriver):
         self.plain.append((step, tuple(target)))
         self.x = [float(v) for v in target]
         self.f = [K * v for v in self.x]
-        self._emit(step, list(self.x), list(self.f))
+        self._emit(ActuatorMeasurement(step, tuple(self.x), tuple(self.f)))
 
     def command_force(self, step: StepId, target: Sequence[float],
                       control_mode: Sequence[int], target_force: Sequence[float]) -> None:
@@ -96,12 +96,12 @@ class ForceDriver(ActuatorDriver):
         if self.asynchronous:
             self.pending = step
         else:
-            self._emit(step, list(self.x), list(self.f))
+            self._emit(ActuatorMeasurement(step, tuple(self.x), tuple(self.f)))
 
     def answer(self) -> None:
         step, self.pending = self.pending, None
         assert step is not None
-        self._emit(step, list(self.x), list(self.f))
+        self._emit(ActuatorMeasurement(step, tuple(self.x), tuple(self.f)))
 
     def hold(self) -> None:
         self.hold_count += 1
@@ -116,7 +116,7 @@ def bridge_with(driver: ActuatorDriver, lim: SafetyLimits | None = None) -> Actu
 
 
 def mixed(bridge: ActuatorBridge, step: StepId, x: float, force: float,
-          test_id: str = 't') -> BridgeReply | None:
+          test_id: str = 't') -> Feedback | None:
     """Horizontal displacement-controlled at ``x``, vertical force-controlled at ``force``."""
     return bridge.handle_command(test_id, step, (x, 0.0),
                                  control_mode=(D, F), target_force=(0.0, force))
@@ -170,8 +170,8 @@ def test_the_force_controlled_dofs_target_displacement_is_not_imposed_nor_limite
     ((D, F), (0.0,), '2 control modes and 1 target forces for 2 DOF'),
     ((), (0.0, 1.0), '2 target forces without control modes'),
     ((D, 2), (0.0, 1.0), 'DOF 1 (vertical): unknown control mode 2'),
-    ((D, F), (0.0, math.nan), 'non-finite target force for DOF 1 (vertical)'),
-    ((D, F), (0.0, math.inf), 'non-finite target force for DOF 1 (vertical)'),
+    ((D, F), (0.0, math.nan), 'DOF 1 (vertical): target force nan is not finite'),
+    ((D, F), (0.0, math.inf), 'DOF 1 (vertical): target force inf is not finite'),
 ])
 def test_inconsistent_modes_or_forces_are_a_one_line_fault_and_nothing_moves(
         modes: tuple[int, ...], forces: tuple[float, ...], words: str) -> None:
@@ -207,9 +207,9 @@ def test_a_force_ramp_goes_in_ceil_p_over_inc_substeps_each_within_inc_the_last_
     assert all(sub[2] == (D, F) and sub[1][0] == 0.01 and sub[3][0] == 0.0 for sub in driver.sub)
     assert driver.plain == []
     # answered once, for the integrator's step, with the last sub-step's measurement
-    assert reply.step == (3, 1)
-    assert reply.displacement == (0.01, load / K)
-    assert reply.force == (0.01 * K, load)
+    assert reply.key == (3, 1)
+    assert reply.measured_displacement == (0.01, load / K)
+    assert reply.restoring_force == (0.01 * K, load)
     assert bridge.held_force == (0.0, load) and bridge.state == 'ready'
     assert bridge.force_substeps == n
 
@@ -243,14 +243,14 @@ def test_two_force_controlled_dofs_each_follow_their_own_ramp() -> None:
 def test_an_asynchronous_driver_gets_each_substep_only_after_the_previous_one_answered() -> None:
     driver = ForceDriver(asynchronous=True)
     bridge = bridge_with(driver)
-    replies: list[BridgeReply] = []
+    replies: list[Feedback] = []
     bridge.set_reply_callback(replies.append)
     assert mixed(bridge, 1, 0.01, 9000.0) is None
     for k in range(1, 4):
         assert len(driver.sub) == k and bridge.state == 'busy' and replies == []
         assert bridge.in_flight == ('t', 1)
         # a stale measurement (an earlier sub-step, or the integrator's step) is ignored
-        bridge.handle_measurement(1, [0.0, 0.0], [0.0, 0.0])
+        bridge.handle_measurement(ActuatorMeasurement(1, (0.0, 0.0), (0.0, 0.0)))
         driver.answer()
     assert [sub[3][1] for sub in driver.sub] == [3000.0, 6000.0, 9000.0]
     assert len(replies) == 1 and replies[0].status is OK and replies[0].step == 1
@@ -297,7 +297,7 @@ def test_the_stroke_change_counts_from_where_the_step_began() -> None:
     for step, load in enumerate((1000.0, 2000.0), start=1):
         reply = mixed(bridge, step, 0.0, load)
         assert reply is not None and reply.status is OK, reply
-    assert reply.displacement[1] == pytest.approx(0.16)
+    assert reply.measured_displacement[1] == pytest.approx(0.16)
     reply = mixed(bridge, 3, 0.0, 3000.0)  # 0.24 m: fine; a 4th would be 0.32 > 0.25
     assert reply is not None and reply.status is OK
     reply = mixed(bridge, 4, 0.0, 4000.0)
@@ -377,7 +377,7 @@ def test_ramp_down_takes_the_force_to_zero_in_substeps_continuing_the_numbering(
 def test_ramp_down_with_an_asynchronous_driver_continues_as_answers_arrive() -> None:
     driver = ForceDriver(asynchronous=True)
     bridge = bridge_with(driver)
-    replies: list[BridgeReply] = []
+    replies: list[Feedback] = []
     bridge.set_reply_callback(replies.append)
     mixed(bridge, 1, 0.0, 6000.0)
     driver.answer()
@@ -431,7 +431,7 @@ def spring(x: list[float]) -> list[float]:
     return [1000.0 * v for v in x]
 
 
-def plain_run(**kwargs: object) -> tuple[list[BridgeReply | None], list[object], int]:
+def plain_run(**kwargs: object) -> tuple[list[Feedback | None], list[object], int]:
     driver = LoopbackDriver(spring, 2)
     driver.open()
     bridge = ActuatorBridge(driver, SafetyLimits(max_displacement=0.25, max_increment=0.125,
@@ -448,7 +448,7 @@ def test_a_displacement_only_command_behaves_exactly_as_before() -> None:
     # max_increment but |f| = 200 N > max_force 100 N holds
     replies, commands, holds = before
     assert [r.status if r else None for r in replies] == [OK, OK, OK, OK, LIMIT]
-    assert replies[1] is not None and replies[1].force == (50.0, -50.0)
+    assert replies[1] is not None and replies[1].restoring_force == (50.0, -50.0)
     assert len(commands) == 5 and holds == 1
     assert plain_run(control_mode=(), target_force=()) == before
     assert plain_run(control_mode=(D, D), target_force=(0.0, 0.0)) == before
@@ -524,8 +524,9 @@ class SpecimenDriver(ActuatorDriver):
 
     def _answer(self, step: StepId, answer: object) -> None:
         assert answer is not None and answer.status is OK, answer  # type: ignore[attr-defined]
-        self._emit(step, list(answer.measured_displacement),  # type: ignore[attr-defined]
-                   list(answer.restoring_force))  # type: ignore[attr-defined]
+        self._emit(ActuatorMeasurement(
+            step, tuple(answer.measured_displacement),  # type: ignore[attr-defined]
+            tuple(answer.restoring_force)))  # type: ignore[attr-defined]
 
     def hold(self) -> None:
         pass
@@ -563,9 +564,9 @@ def test_the_specimen_sees_the_bridges_substeps_as_its_own_ramps_states_bit_for_
                                       target_force=(0.0, load))
         assert reply is not None and reply.status is OK, reply
         assert expected is not None
-        assert reply.step == key
-        assert reply.displacement == expected.measured_displacement  # bit for bit
-        assert reply.force == expected.restoring_force
+        assert reply.key == key
+        assert reply.measured_displacement == expected.measured_displacement  # bit for bit
+        assert reply.restoring_force == expected.restoring_force
     assert through_bridge.specimen.commits == direct.specimen.commits  # every state
     assert len(direct.specimen.commits) == 10 + 1 + 3 + 1 + 3
     assert through_bridge.ramp_substeps == 0  # each bridge sub-step was one state

@@ -388,8 +388,8 @@ def test_driver_through_the_bridge_completes_steps(elastic_server) -> None:
         reply = bridge.handle_command('t1', step, target)
         assert reply is not None and reply.status is FeedbackStatus.OK, reply
         assert reply.step == step
-        assert reply.displacement == pytest.approx(target)
-        assert reply.force == pytest.approx([1000.0 * target[0], 3000.0 * target[1]])
+        assert reply.measured_displacement == pytest.approx(target)
+        assert reply.restoring_force == pytest.approx([1000.0 * target[0], 3000.0 * target[1]])
     # A repeated step is answered from the bridge's memory without moving.
     assert bridge.handle_command('t1', 3, targets[3]).status is FeedbackStatus.OK
     assert server.steps == len(targets)
@@ -419,7 +419,8 @@ def test_dead_controller_makes_the_bridge_hold(elastic_server, mode) -> None:
     assert f'{HOST}:{server.port}' in reply.message
     assert re.search(r'(closed|reset) the connection', reply.message), reply.message
     assert driver.hold_count == 1
-    assert reply.displacement == pytest.approx([0.001 * (n_ok - 1)])  # last measured position
+    # the last measured position
+    assert reply.measured_displacement == pytest.approx([0.001 * (n_ok - 1)])
     assert driver.fault and not driver.is_open
     # Later commands are answered with the latched hold, still without exceptions.
     later = bridge.handle_command('t1', n_ok + 1, [0.0])

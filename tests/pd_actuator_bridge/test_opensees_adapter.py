@@ -185,7 +185,8 @@ def test_wire_layout_and_callback_against_a_fake_adapter(fake_adapter) -> None:
     fake = fake_adapter(spring([1000.0, 3000.0]))
     driver = driver_for(fake.port, n_dof=2)
     measured: list[tuple[int, list[float], list[float]]] = []
-    driver.set_measurement_callback(lambda s, x, f: measured.append((s, x, f)))
+    driver.set_measurement_callback(
+        lambda m: measured.append((m.step, list(m.displacement), list(m.force))))
     driver.open()
     assert driver.position() == [0.0, 0.0] and driver.last_force == [0.0, 0.0]
     driver.command(7, [0.01, -0.002])
@@ -264,7 +265,7 @@ def test_malformed_replies_raise_one_line_errors(fake_adapter, reply, close_afte
     driver = driver_for(fake.port, timeout=0.5)
     driver.open()
     measured: list[object] = []
-    driver.set_measurement_callback(lambda *a: measured.append(a))
+    driver.set_measurement_callback(measured.append)
     with pytest.raises(OpenSeesAdapterError, match=rf'^OpenSees adapter {HOST}:{fake.port}: '
                        + pattern) as info:
         driver.command(1, [0.01])
@@ -404,7 +405,8 @@ def test_real_adapter_matches_elastic_perfectly_plastic(site) -> None:
                    '--yield-force', repr(yield_force), '--penalty', repr(penalty))
     driver = OpenSeesAdapterDriver(HOST, process.port, 1, timeout=5.0, connect_timeout=20.0)
     measured: list[tuple[int, list[float], list[float]]] = []
-    driver.set_measurement_callback(lambda s, x, f: measured.append((s, x, f)))
+    driver.set_measurement_callback(
+        lambda m: measured.append((m.step, list(m.displacement), list(m.force))))
     driver.open()
     assert driver.position() == [0.0] and driver.last_force == [0.0]
     history = cyclic_history(yield_force / stiffness)
@@ -455,9 +457,9 @@ def test_real_adapter_through_the_bridge(site) -> None:
         reply = bridge.handle_command('t1', step, [target])
         assert reply is not None and reply.status is FeedbackStatus.OK, reply
         # The node lags the command by f/penalty (penalty 1e6 K): 1e-6 of the target.
-        assert reply.displacement == pytest.approx([target], rel=2e-6, abs=1e-12)
-        assert reply.force == pytest.approx([stiffness * reply.displacement[0]], rel=1e-9,
-                                            abs=1e-9)
+        assert reply.measured_displacement == pytest.approx([target], rel=2e-6, abs=1e-12)
+        assert reply.restoring_force == pytest.approx(
+            [stiffness * reply.measured_displacement[0]], rel=1e-9, abs=1e-9)
     driver.close()
     status, _, err = process.finish()
     assert status == 0, err

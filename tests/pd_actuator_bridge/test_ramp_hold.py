@@ -204,8 +204,8 @@ def test_emulator_driver_completes_steps_through_the_bridge() -> None:
         reply = bridge.handle_command('t1', step, [target])
         assert reply is not None and reply.status is FeedbackStatus.OK, reply
         assert reply.step == step
-        assert reply.displacement[0] == pytest.approx(target, abs=1.0e-5)
-        assert reply.force[0] == pytest.approx(K_COLUMN * target, abs=K_COLUMN * 1.0e-5)
+        assert reply.measured_displacement[0] == pytest.approx(target, abs=1.0e-5)
+        assert reply.restoring_force[0] == pytest.approx(K_COLUMN * target, abs=K_COLUMN * 1.0e-5)
         assert driver.last_execution is recorded[-1][1]
         assert driver.last_execution.target[0] == target
     assert [step for step, _ in recorded] == list(range(len(targets)))

@@ -75,8 +75,9 @@ def test_the_bridge_answers_with_the_floats_of_the_site_server() -> None:
         reply = bridge.handle_command('run-1', StepKey(step, 0), [target])
         assert expected is not None and reply is not None
         assert reply.status is FeedbackStatus.OK, reply.message
-        assert reply.displacement == expected.measured_displacement  # exactly the same floats
-        assert reply.force == expected.restoring_force
+        # exactly the same floats
+        assert reply.measured_displacement == expected.measured_displacement
+        assert reply.restoring_force == expected.restoring_force
         assert driver.position() == list(expected.measured_displacement)
         assert driver.last_force == list(expected.restoring_force)
     assert driver.server.steps_served == 599
@@ -84,7 +85,7 @@ def test_the_bridge_answers_with_the_floats_of_the_site_server() -> None:
     # A repeated command: the bridge's last answer, the actuator does not move.
     again = bridge.handle_command('run-1', StepKey(599, 0), [values[-1]])
     assert again is not None
-    assert list(again.displacement) == driver.position() == list(reference.position)
+    assert list(again.measured_displacement) == driver.position() == list(reference.position)
     assert driver.server.steps_served == 599
 
 
@@ -95,7 +96,7 @@ def test_plain_int_steps_are_iteration_zero() -> None:
         expected = reference.handle('t', step, [target])
         reply = bridge.handle_command('run', step, [target])
         assert reply is not None and expected is not None
-        assert reply.displacement == expected.measured_displacement
+        assert reply.measured_displacement == expected.measured_displacement
 
 
 def test_limits_act_on_the_measured_position() -> None:
@@ -181,7 +182,7 @@ def test_the_registry_builds_it_from_the_test_file(tmp_path: Path) -> None:
         expected = reference.handle('t', step, [target])
         reply = bridge.handle_command('t', StepKey(step, 0), [target])
         assert reply is not None and expected is not None
-        assert reply.force == expected.restoring_force
+        assert reply.restoring_force == expected.restoring_force
 
 
 @pytest.mark.parametrize(('parameters', 'n_dof', 'message'), [
@@ -232,7 +233,7 @@ def test_realtime_clock_answers_every_step_from_the_ticking_thread(tmp_path: Pat
         if answer is None:
             assert arrived.wait(10.0), f'step {step} not answered'
             answer = replies[-1]
-        assert answer.step == StepKey(step, 0) and answer.status is FeedbackStatus.OK
+        assert answer.key == StepKey(step, 0) and answer.status is FeedbackStatus.OK
     driver.close()
     assert not driver.loop.running
     statistics = driver.report()
@@ -259,6 +260,6 @@ def test_realtime_capacity_fault_holds_the_bridge_through_on_fault() -> None:
     driver.close()
     reply = faults[0]
     assert reply is not None and reply.status is FeedbackStatus.FAULT
-    assert reply.step == StepKey(1, 0) and 'capacity' in reply.message
+    assert reply.key == StepKey(1, 0) and 'capacity' in reply.message
     assert bridge.state == 'holding'
     assert driver.loop is not None and not driver.loop.running

@@ -23,11 +23,13 @@ import yaml
 from pd_actuator_bridge.core import (
     ActuatorBridge,
     ActuatorDriver,
+    ActuatorMeasurement,
     DriverError,
     SafetyLimits,
     StepId,
     force_substep_key,
 )
+from pd_common.config import read_yaml_file
 from pd_common.errors import BridgeConfigError
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StepKey
 from pd_common.protocol import TestState as State
@@ -39,7 +41,7 @@ from pd_integrator.core.run.definition import TestDefinition as Definition
 from pd_integrator.core.run.dispatch import StepDispatcher
 from pd_integrator.core.run.runner import RunResult, run_offline, site_servers
 from pd_integrator.core.run.session import TestSession as Session
-from pd_integrator.core.run.test_file import load_test_file
+from pd_integrator.core.run.test_file import from_dict, load_test_file
 
 CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 RECORD = CONFIG.parent / 'data' / 'ground_motions' / 'elcentro_1940_ns_chopra.csv'
@@ -83,7 +85,8 @@ class SpecimenDriver(ActuatorDriver):
         if answer is None or answer.status is not FeedbackStatus.OK:
             raise DriverError(f'specimen: {answer}')
         self._position = [float(x) for x in answer.measured_displacement]
-        self._emit(step, list(self._position), [float(f) for f in answer.restoring_force])
+        self._emit(ActuatorMeasurement(step, tuple(self._position),
+                                       tuple(float(f) for f in answer.restoring_force)))
 
     def hold(self) -> None:
         pass
@@ -117,11 +120,7 @@ def bridge_core_run(definition: Definition, limits: dict[str, SafetyLimits],
             command.target_displacement, control_mode=command.control_mode,
             target_force=command.target_force)
         assert reply is not None
-        step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
-        dispatcher.on_feedback(site, Feedback(
-            test_id=reply.test_id, step=step, iteration=iteration,
-            measured_displacement=reply.displacement, restoring_force=reply.force,
-            status=reply.status, message=reply.message))
+        dispatcher.on_feedback(site, reply)  # the bridge answers in the protocol's Feedback
     return session, bridges
 
 
@@ -312,7 +311,11 @@ def test_site_limits_are_the_bridge_file_then_the_sites_mapping(tmp_path: Path) 
     assert off.limits.tracking_tolerance == 0.01
     raw = yaml.safe_load((tmp_path / 'collapse.yaml').read_text(encoding='utf-8'))
     raw['sites']['lab']['bridge']['max_increment'] = -1.0
-    bad = load_test_file(_write(tmp_path / 'bad.yaml', raw))
+    # (the typed schema refuses the file when it is loaded; the limits' own check stays)
+    with pytest.raises(ConfigError, match=r'^bad\.yaml: sites\.lab\.bridge\.max_increment: '
+                                          r'must be > 0, got -1\.0$'):
+        load_test_file(_write(tmp_path / 'bad.yaml', raw))
+    bad = from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
     with pytest.raises(BridgeConfigError, match=r'^bad\.yaml: sites\.lab\.bridge: max_increment '):
         site_limits(bad)
     with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameters'):

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from pd_actuator_bridge.core import ActuatorDriver, BridgeConfigError, DriverError, StepId
+from pd_actuator_bridge.core import (
+    ActuatorDriver,
+    ActuatorMeasurement,
+    BridgeConfigError,
+    DriverError,
+    StepId,
+)
 
 
 class LoopbackDriver(ActuatorDriver):
@@ -92,7 +98,7 @@ class LoopbackDriver(ActuatorDriver):
             msg = (f'LoopbackDriver: restoring_force failed at step {step}: '
                    f'{type(exc).__name__}: {exc}')
             raise DriverError(msg) from exc
-        self._emit(step, list(self._position), force)
+        self._emit(ActuatorMeasurement(step, tuple(self._position), tuple(force)))
 
     def hold(self) -> None:
         """Hold position (a loopback actuator is always at rest between commands)."""

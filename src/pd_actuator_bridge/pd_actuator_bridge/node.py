@@ -64,7 +64,11 @@ Drivers (parameter ``driver``): any name registered in
 ``driver_spec(name)`` gives each one's description and parameters, which the node declares after
 its own. :mod:`pd_actuator_bridge.core.drivers` registers the pure drivers (one module each),
 :mod:`pd_actuator_bridge.sim_servo` the ``sim_servo`` driver; ``docs/actuator_bridge.md``
-explains how to connect each.
+explains how to connect each. The node names no driver class: it drives each one through the
+neutral hooks of :class:`~pd_actuator_bridge.core.ActuatorDriver` (``ready``, ``poll``,
+``set_test_id``, ``repeat``, ``waiting_since``, ``last_force``, ``carried_force``,
+``refusals``) and publishes the core's :class:`pd_common.protocol.Feedback` as it is, with the
+test id untagged and the epoch and state origin stamped.
 """
 
 from __future__ import annotations
@@ -134,12 +138,12 @@ from pd_common.ros import (
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Control as ControlMessage
 
+from . import sim_servo  # noqa: F401 - importing it registers the sim_servo driver
 from .core import (
     ActuatorBridge,
     ActuatorDriver,
     BridgeConfigError,
     BridgeError,
-    BridgeReply,
     DriverContext,
     SafetyLimits,
     driver_names,
@@ -148,7 +152,6 @@ from .core import (
     make_driver,
 )
 from .core.limits import LIMIT_PARAMETERS, limits_from_parameters
-from .sim_servo import SimServoDriver
 
 Item = TypeVar('Item')
 SUCCESS = TransitionCallbackReturn.SUCCESS
@@ -340,10 +343,9 @@ class ActuatorBridgeNode(LifecycleNode):
         if not self._transition('activate'):
             return FAILURE
         driver = self.driver
-        if isinstance(driver, SimServoDriver) and not driver.ready():
+        if driver is not None and not driver.ready():
             # Active, but no session is offered (so nothing can move) until it is.
-            self.get_logger().info('active; waiting for the specimen node on '
-                                   f'{self.resolve_topic_name("specimen/step_command")}')
+            self.get_logger().info(f'active; waiting for {driver.waiting_for()}')
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         self._command_sub = self.create_subscription(StepCommand, 'step_command',
                                                      self._on_command, STEP_QOS)
@@ -447,8 +449,8 @@ class ActuatorBridgeNode(LifecycleNode):
              'on_limit': str(value('on_limit').value)}, sort_keys=True)
         self.record.append({'what': 'configured', 'driver': driver_name,
                             'limits': _limits_in_force(self.limits)})
-        if isinstance(self.driver, SimServoDriver) and not self.driver.ready():
-            text = 'configured: position read from the specimen node once it answers'
+        if not self.driver.ready():
+            text = f'configured: position read from {self.driver.waiting_for()} once it answers'
         else:
             text = f'configured: position [{_positions(self.driver.position())}] m'
         self.get_logger().info(text)
@@ -469,7 +471,7 @@ class ActuatorBridgeNode(LifecycleNode):
             return
         self.receiver.epoch = driver.state_epoch or self.epoch
         self.receiver.origin = driver.state_origin
-        force = getattr(driver, 'last_force', None)
+        force = driver.last_force
         position = driver.position()
         self.receiver.set_state(position, force if force is not None else [0.0] * len(position))
 
@@ -524,9 +526,8 @@ class ActuatorBridgeNode(LifecycleNode):
                   'bridge/control': dict(self._control_gate.refused)}
         if self._malformed:
             counts['malformed'] = {Refusal.MALFORMED.value: self._malformed}
-        driver_refused = getattr(self.driver, 'refused', None)
-        if isinstance(driver_refused, dict):
-            counts['specimen/step_feedback'] = driver_refused
+        if self.driver is not None:
+            counts.update(self.driver.refusals())
         return {source: count for source, count in counts.items() if count}
 
     def _refused(self, reason: Any, signature: Signature, source: str) -> None:
@@ -547,22 +548,21 @@ class ActuatorBridgeNode(LifecycleNode):
     def _on_refused_start(self, reason: Any, signature: Signature) -> None:
         self._refused(reason, signature, 'session/start')
 
-    def _publish_reply(self, reply: BridgeReply) -> None:
+    def _publish_reply(self, reply: Feedback) -> None:
+        """Publish the bridge's answer (test id untagged, the specimen state's epoch and
+        origin stamped), signed."""
         if self._feedback_pub is None:
             return
-        step, iteration = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
         driver = self.driver
-        feedback = Feedback(
-            test_id=untag(reply.test_id), step=step, iteration=iteration,
-            measured_displacement=reply.displacement, restoring_force=reply.force,
-            status=reply.status, message=reply.message,
+        feedback = dataclasses.replace(
+            reply, test_id=untag(reply.test_id),
             epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
             state_origin=driver.state_origin if driver is not None else self.receiver.origin)
         self._feedback_pub.publish(feedback_message(
             feedback, message=self._feedback,
             signature=self.receiver.sign(feedback, self._request)))
         if reply.status is FeedbackStatus.OK:
-            self.receiver.set_state(reply.displacement, reply.force)
+            self.receiver.set_state(reply.measured_displacement, reply.restoring_force)
             # The state behind the bridge (a restarted specimen node's epoch) for its offer.
             self.receiver.epoch, self.receiver.origin = feedback.epoch, feedback.state_origin
         if reply.status is FeedbackStatus.OK and self._monitor_pub is not None:
@@ -577,10 +577,10 @@ class ActuatorBridgeNode(LifecycleNode):
         elif reply.status is not FeedbackStatus.OK:
             self.publish_status(TestStatus.STATE_HOLDING, reply.message)
 
-    def _publish_monitor(self, reply: BridgeReply) -> None:
+    def _publish_monitor(self, reply: Feedback) -> None:
         """Add an answered step to the tracking monitor and publish its error and indicator."""
         target = self._target
-        key = reply.step if isinstance(reply.step, tuple) else (reply.step, 0)
+        key = reply.key
         if target is None or (target[0], target[1]) != (reply.test_id, key):
             return
         if self._monitored == (reply.test_id, key):
@@ -590,7 +590,7 @@ class ActuatorBridgeNode(LifecycleNode):
             self._monitor = TrackingMonitor(n, keep_history=False)  # a new test: a new indicator
             self._monitor_key = (reply.test_id, n)
         try:
-            sample = self._monitor.update(target[2], reply.displacement)
+            sample = self._monitor.update(target[2], reply.measured_displacement)
         except ValueError:
             return  # a malformed measurement: the bridge's own checks report it
         self._monitored = (reply.test_id, key)
@@ -638,15 +638,15 @@ class ActuatorBridgeNode(LifecycleNode):
         run = self._runs.tag(message.test_id, key, signature.session)
         self._target = (run, key, tuple(message.target_displacement.tolist()))
         was_holding = bridge.state == 'holding'
-        if isinstance(self.driver, SimServoDriver):
-            self.driver.move_test_id = run  # its moves are keyed like the command
+        driver = self.driver
+        if driver is not None:
+            driver.set_test_id(run)  # a forwarding driver keys its moves like the command
         reply = bridge.handle_command(
             run, key, tuple(message.target_displacement.tolist()),
             control_mode=tuple(int(mode) for mode in message.control_mode),
             target_force=tuple(float(force) for force in message.target_force))
-        if (reply is None and isinstance(self.driver, SimServoDriver)
-                and bridge.in_flight == (run, key)):
-            self.driver.repeat()  # a re-sent command: ask the specimen again, no new motion
+        if reply is None and driver is not None and bridge.in_flight == (run, key):
+            driver.repeat()  # a re-sent command: ask the controller again, no new motion
         if reply is not None:
             self._publish_reply(reply)
             if reply.status is not FeedbackStatus.OK and not was_holding:
@@ -664,17 +664,15 @@ class ActuatorBridgeNode(LifecycleNode):
         """Offer a session once an active bridge's driver is ready; hold if the driver did not
         answer in time, or if the command watchdog expired."""
         bridge, driver = self.bridge, self.driver
-        if bridge is None:
+        if bridge is None or driver is None:
             return
         self._check_ramp_down(bridge)
-        if isinstance(driver, SimServoDriver) and not self._accept_when_ready:
-            driver.maintain()  # a restarted specimen node: re-open the session with it
-        if self._accept_when_ready and (not isinstance(driver, SimServoDriver)
-                                        or driver.ready()):
+        if not self._accept_when_ready:
+            driver.poll()  # e.g. a restarted specimen node: re-open the session with it
+        if self._accept_when_ready and driver.ready():
             self._accept_when_ready = False
             self._offer_state()
-            measured = driver.offered_force if isinstance(driver, SimServoDriver) else getattr(
-                driver, 'last_force', None)
+            measured = driver.carried_force
             if (measured is not None and bridge.adopt_held_force(measured)
                     and any(force != 0.0 for force in bridge.held_force)):
                 self.get_logger().info(
@@ -684,8 +682,9 @@ class ActuatorBridgeNode(LifecycleNode):
                                    'm (measured; every limit starts from it)')
             self.receiver.set_accepting(True)  # a new challenge: motion needs a signed start
         timeout = float(self.get_parameter('driver_timeout').value)
-        if (isinstance(driver, SimServoDriver) and driver.in_flight and bridge.state == 'busy'
-                and time.monotonic() - driver.sent_at > timeout):
+        sent_at = driver.waiting_since()
+        if (sent_at is not None and bridge.state == 'busy'
+                and time.monotonic() - sent_at > timeout):
             self._on_driver_fault(f'actuator did not reach step {self._step} within '
                                   f'{timeout} s')
         if self._command_sub is not None:
@@ -858,7 +857,7 @@ def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
     if not node.trigger('configure'):
         return
     driver = node.driver
-    while rclpy.ok() and isinstance(driver, SimServoDriver) and not driver.ready():
+    while rclpy.ok() and driver is not None and not driver.ready():
         executor.spin_once(timeout_sec=0.05)
     node.trigger('activate')
 

@@ -3,9 +3,12 @@
 A shell-side driver (it needs ``rclpy``): each move goes out as a ``StepCommand`` on
 ``<specimen_namespace>/step_command`` and the specimen node's ``StepFeedback`` on
 ``<specimen_namespace>/step_feedback`` is the measurement. Importing this module registers it
-(:data:`SIM_SERVO`); the node imports it. The node also enforces ``driver_timeout`` on the move
-in flight, re-sends the move for a re-sent command (:meth:`SimServoDriver.repeat`) and waits for
-:meth:`SimServoDriver.ready` before activating.
+(:data:`SIM_SERVO`); the node imports it. It is an asynchronous driver and fills the node's
+neutral hooks (:class:`~pd_actuator_bridge.core.ActuatorDriver`): the node keys its moves by
+the command's run tag (:meth:`SimServoDriver.set_test_id`), enforces ``driver_timeout`` on the
+move in flight (:meth:`SimServoDriver.waiting_since`), re-sends the move for a re-sent command
+(:meth:`SimServoDriver.repeat`), keeps the session open (:meth:`SimServoDriver.poll`) and waits
+for :meth:`SimServoDriver.ready` before offering a session.
 
 With a key, the driver opens a signed session with the specimen node (as the integrator does
 with the bridge), signs every move (a re-sent move gets a new signature) and takes only the
@@ -48,6 +51,7 @@ from pd_msgs.msg import StepCommand, StepFeedback
 
 from .core import (
     ActuatorDriver,
+    ActuatorMeasurement,
     BridgeConfigError,
     DriverContext,
     DriverError,
@@ -62,14 +66,13 @@ class SimServoDriver(ActuatorDriver):
     """A simulated servo actuator: forwards each move to a specimen node over ROS 2.
 
     Each move goes out as a ``StepCommand`` keyed like the command it executes (the test id the
-    bridge was sent, :attr:`move_test_id`, and its ``(step, iteration)``), in the driver's own
+    bridge was sent, :meth:`set_test_id`, and its ``(step, iteration)``), in the driver's own
     signed session (``bridge-<pid>``). So the specimen's repeat handling applies: :meth:`repeat`
     re-sends the move in flight and the specimen answers it without moving, and a *restarted*
     bridge that forwards a re-sent command the specimen already executed gets the specimen's
     answer to it, not a second motion (nor a second noise draw).
 
     Attributes:
-        sent_at: ``time.monotonic()`` of the last (re-)sent move.
         on_fault: Receives the message of a specimen fault (the bridge then holds).
     """
 
@@ -81,6 +84,7 @@ class SimServoDriver(ActuatorDriver):
         self._specimen_epoch: str | None = None
         self._specimen_origin = StateOrigin.FRESH
         self._node = node
+        self._namespace = namespace
         self._n_dof = n_dof
         self._session = f'bridge-{os.getpid()}'
         self._publisher = node.create_publisher(StepCommand, f'{namespace}/step_command',
@@ -90,10 +94,10 @@ class SimServoDriver(ActuatorDriver):
         self._position = [0.0] * n_dof
         self._offered_force: list[float] | None = None
         self._in_flight: tuple[Any, tuple[str, int, int]] | None = None  # (step, move key)
-        self.move_test_id = ''
+        self._move_test_id = ''
         self._move: Command | None = None
         self._message = StepCommand()
-        self.sent_at = 0.0
+        self._sent_at = 0.0
         self.on_fault: Callable[[str], None] | None = None
 
     driver_name = 'sim_servo'
@@ -129,13 +133,18 @@ class SimServoDriver(ActuatorDriver):
             self._positioned = True
         return self.connected() and sender.opened
 
+    def waiting_for(self) -> str:
+        """The specimen node, on its step command topic."""
+        topic = self._node.resolve_topic_name(f'{self._namespace}/step_command')
+        return f'the specimen node on {topic}'
+
     @property
-    def offered_force(self) -> list[float] | None:
+    def carried_force(self) -> list[float] | None:
         """The force per DOF the specimen node offered with its position (what it carries now;
         ``None`` before its offer): a restarted bridge holds it (the load a column carries)."""
         return None if self._offered_force is None else list(self._offered_force)
 
-    def maintain(self) -> None:
+    def poll(self) -> None:
         """Keep the session with the specimen node open (called by the bridge's loop).
 
         A specimen node that restarted offers a new challenge: the session is re-opened and
@@ -156,17 +165,21 @@ class SimServoDriver(ActuatorDriver):
         """The specimen node's epoch (from its offer and its answers)."""
         return self._specimen_epoch
 
-    @property
-    def refused(self) -> dict[str, int]:
-        """The specimen's answers and offers refused by authentication, by reason."""
+    def refusals(self) -> dict[str, dict[str, int]]:
+        """The specimen's answers and offers refused by authentication, by reason (source
+        ``specimen/step_feedback``)."""
         counts = Counter(self._sender.reply_gate.refused)
         counts.update(self._sender.offer_gate.refused)
-        return dict(counts)
+        return {'specimen/step_feedback': dict(counts)}
 
-    @property
-    def in_flight(self) -> bool:
-        """Whether a move is waiting for the specimen's answer."""
-        return self._in_flight is not None
+    def set_test_id(self, test_id: str) -> None:
+        """Key the moves that follow by ``test_id`` (the command's run tag), as the command."""
+        self._move_test_id = test_id
+
+    def waiting_since(self) -> float | None:
+        """``time.monotonic()`` of the last (re-)sent move while it waits for the specimen's
+        answer; ``None`` when no move is in flight."""
+        return self._sent_at if self._in_flight is not None else None
 
     def command(self, step: Any, target: Sequence[float]) -> None:
         """Forward a checked move to the specimen, keyed like the command it executes."""
@@ -196,7 +209,7 @@ class SimServoDriver(ActuatorDriver):
               control_mode: tuple[int, ...] = (), target_force: tuple[float, ...] = ()
               ) -> None:
         """Send a move keyed ``(test id, number, iteration)``, reported for ``step``."""
-        test_id = self.move_test_id or self._session
+        test_id = self._move_test_id or self._session
         self._move = Command(test_id=test_id, step=number, test_time=0.0,
                              dof_names=tuple(f'dof{i}' for i in range(self._n_dof)),
                              target_displacement=tuple(float(value) for value in target),
@@ -208,7 +221,7 @@ class SimServoDriver(ActuatorDriver):
     def repeat(self) -> None:
         """Re-send the move in flight, signed anew (the specimen answers it without moving)."""
         if self._move is not None and self._in_flight is not None:
-            self.sent_at = time.monotonic()
+            self._sent_at = time.monotonic()
             self._publisher.publish(command_message(self._move, message=self._message,
                                                     signature=self._sender.sign(self._move)))
 
@@ -248,7 +261,8 @@ class SimServoDriver(ActuatorDriver):
                 self.on_fault(f'specimen fault at step {step}: {message.message}')
             return
         self._position = list(message.measured_displacement)
-        self._emit(step, list(message.measured_displacement), list(message.restoring_force))
+        self._emit(ActuatorMeasurement(step, tuple(message.measured_displacement),
+                                       tuple(message.restoring_force)))
 
 
 def make_sim_servo_driver(context: DriverContext) -> SimServoDriver:

@@ -1,15 +1,19 @@
 """Pure core of the actuator bridge: safety limits, actuator drivers and the bridge state machine.
 
 Pure Python (no ``rclpy``): the node shell wires it to the step command and feedback topics.
+The bridge (:mod:`.bridge`) answers in the protocol's :class:`pd_common.protocol.Feedback`; its
+force ramps are in :mod:`.force_control`; drivers report
+:class:`~.drivers.base.ActuatorMeasurement` records.
 The drivers, one module per controller family, and their registry are in :mod:`.drivers`;
 importing this package registers the built-in ones.
 """
 
 from __future__ import annotations
 
-from .bridge import ActuatorBridge, BridgeReply
+from .bridge import ActuatorBridge
 from .drivers.base import (
     ActuatorDriver,
+    ActuatorMeasurement,
     MeasurementCallback,
     RemoteDriver,
     StepId,
@@ -42,6 +46,7 @@ from .drivers.registry import (
 from .drivers.transfer_system import TransferSystemDriver
 from .error_models import ErroneousStep, ErrorInjector, ErrorModel, apply_error_model
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
+from .force_control import MAX_FORCE_SUBSTEPS, ForceControl, ForceRamp
 from .limits import (
     LimitViolation,
     SafetyLimits,
@@ -53,11 +58,12 @@ from .limits import (
 )
 
 __all__ = [
+    'MAX_FORCE_SUBSTEPS',
     'ActuatorBridge',
     'ActuatorDriver',
+    'ActuatorMeasurement',
     'BridgeConfigError',
     'BridgeError',
-    'BridgeReply',
     'DaqResponse',
     'DaqmxChannelConfig',
     'DaqmxConfig',
@@ -71,6 +77,8 @@ __all__ = [
     'ErroneousStep',
     'ErrorInjector',
     'ErrorModel',
+    'ForceControl',
+    'ForceRamp',
     'GenericTCPClient',
     'GenericTCPDriver',
     'GenericTCPError',

@@ -43,49 +43,47 @@ Mixed control (``docs/force_control.md``): a command may give each DOF a control
 target force (:meth:`handle_command`'s ``control_mode`` and ``target_force``, as in
 :class:`pd_common.protocol.Command`). Inconsistent modes or forces are a FAULT (nothing moves),
 and so is force control with a driver that does not support it
-(:meth:`~.drivers.base.ActuatorDriver.force_control_problem`). Before anything moves:
-the displacement limits above on the displacement-controlled DOFs (from the measured
-position) and |target_force| <= max_force on the force-controlled ones (LIMIT). The force of
-each force-controlled DOF then goes from the force it holds (its last commanded force, 0 at
-the start) to the target through
-:func:`pd_common.experimental.force_ramp.force_ramp` sub-steps of at most
-``max_force_increment`` (each DOF along its own ramp; one that arrives earlier holds its
-target; the displacement-controlled DOFs at their targets from the first sub-step), each sent
-to the driver (:meth:`~.drivers.base.ActuatorDriver.command_force`) and answered before the
-next. After each sub-step: the measurement checks above (max_force on every DOF; tracking on
-the displacement-controlled ones) and, on every DOF, the measured stroke within
-max_displacement and its change since the step began within max_increment
-(:func:`~.limits.check_strokes`): a force-controlled actuator running away holds the test
-with a LIMIT naming it, and no further sub-step is sent. The step is answered with the last
-sub-step's measurement. :meth:`ramp_down` (lifecycle deactivation) ramps the force-controlled
-DOFs down to 0 N through the same sub-steps and checks. A mixed command is never saturated
-(``on_limit='saturate'`` clips displacement-only commands); a command whose modes are all
-displacement is served exactly as a plain one.
+(:meth:`~.drivers.base.ActuatorDriver.force_control_problem`). Before anything moves: the
+displacement limits above on the displacement-controlled DOFs (from the measured position) and
+|target_force| <= max_force on the force-controlled ones (LIMIT). The force then goes to its
+target through the checked sub-steps of a force ramp (:mod:`.force_control`, which keeps the
+held forces and plans the ramps; the bridge sends each sub-step and holds on a violation). The
+step is answered with the last sub-step's measurement. :meth:`ramp_down` (lifecycle
+deactivation) ramps the force-controlled DOFs down to 0 N through the same sub-steps and
+checks. A mixed command is never saturated (``on_limit='saturate'`` clips displacement-only
+commands); a command whose modes are all displacement is served exactly as a plain one.
 
 Steps are compared by equality and order only, so a step may be an ``int`` or a totally
 ordered key such as ``(step, iteration)`` (the node uses that for implicit schemes). A key that
 cannot be ordered against the test's last step (e.g. an ``int`` after tuples) is foreign: it is
 ignored and counted like a stale step.
 
-Step bookkeeping (per test id; a new test id starts fresh but the actuator keeps its position):
-a repeated step returns the last reply without moving, a duplicate of the step in flight returns
-``None``, and a step older than the last answered one is ignored and counted.
+Step bookkeeping (per test id; a new test id starts fresh but the actuator keeps its position),
+the receiver's rule of :func:`pd_common.protocol.arrival`: a repeated step returns the last
+answer without moving, a duplicate of the step in flight returns ``None``, and a step older than
+the last answered one is ignored and counted.
+
+The bridge answers in the protocol's own record, :class:`pd_common.protocol.Feedback`: the
+``test_id`` as given to :meth:`~ActuatorBridge.handle_command`, the step split into ``step`` and
+``iteration`` (an ``int`` step: iteration 0), the measured (or, when holding, current)
+displacement, the measured (or last measured; NaN before the first) force, the status and the
+one-line reason (``'saturated: ...'`` for a step executed with a clipped target). ``epoch`` and
+``state_origin`` keep their defaults: the node shell stamps its own. The driver reports
+measurements as :class:`~.drivers.base.ActuatorMeasurement`.
 """
 
 from __future__ import annotations
 
 import math
-import operator
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
-from pd_common.experimental.force_ramp import force_ramp
-from pd_common.protocol import ControlMode, FeedbackStatus
+from pd_common.protocol import Arrival, Feedback, FeedbackStatus, arrival
 
-from .drivers.base import ActuatorDriver, StepId
+from .drivers.base import ActuatorDriver, ActuatorMeasurement, StepId
 from .errors import BridgeConfigError
+from .force_control import ForceControl
 from .limits import (
     KIND_FAULT,
     KIND_LIMIT,
@@ -94,12 +92,9 @@ from .limits import (
     check_command,
     check_control,
     check_feedback,
-    check_strokes,
-    check_target_force,
     check_tracking,
     saturate_command,
 )
-from .limits import dof_label as _dof_label
 from .limits import format_value as _fmt
 
 STATUS_OK = FeedbackStatus.OK
@@ -116,63 +111,7 @@ ON_LIMIT_OPTIONS = (ON_LIMIT_HOLD, ON_LIMIT_SATURATE)
 
 SATURATED_PREFIX = 'saturated: '
 
-#: Most sub-steps of one force ramp (a command's, or a ramp-down's): a command's sub-steps and
-#: its ramp-down's are numbered together below ``2 * MAX_FORCE_SUBSTEPS`` (=
-#: :data:`~.drivers.base.SUBSTEP_STRIDE`, what :func:`~.drivers.base.force_substep_key`
-#: carries).
-MAX_FORCE_SUBSTEPS = 32768
-
-ReplyCallback = Callable[['BridgeReply'], None]
-
-
-@dataclass(frozen=True)
-class BridgeReply:
-    """The bridge's answer to one step command (published as the step feedback).
-
-    Attributes:
-        test_id: Test id of the command answered.
-        step: Step (number or ``(step, iteration)`` key) of the command answered.
-        displacement: Measured (or, when holding, current) displacement per DOF, m.
-        force: Measured (or, when holding, last measured) force per DOF, N; NaN before the
-            first measurement.
-        status: ``OK``, ``LIMIT`` or ``FAULT`` (:class:`pd_common.protocol.FeedbackStatus`).
-        message: Empty for ``'ok'``, else the one-line reason; it starts with ``'saturated: '``
-            for a step executed with a clipped target (``on_limit='saturate'``).
-    """
-
-    test_id: str
-    step: StepId
-    displacement: tuple[float, ...]
-    force: tuple[float, ...]
-    status: FeedbackStatus
-    message: str
-
-
-@dataclass
-class _ForceRamp:
-    """The sub-steps of a mixed command (or a ramp-down) being executed."""
-
-    test_id: str
-    step: StepId | None  # the integrator's step answered at the end; None: a ramp-down
-    key: tuple[int, ...]  # the driver's sub-step ids are (*key, first + index)
-    first: int
-    modes: tuple[int, ...]
-    force_controlled: tuple[bool, ...]
-    targets: tuple[float, ...]  # the displacement-controlled DOFs' targets
-    forces: list[tuple[float, ...]]  # per sub-step, the force targets
-    start: tuple[float, ...]  # the strokes when the step began
-    index: int = 0
-
-    @property
-    def current_id(self) -> tuple[int, ...]:
-        """The driver's id of the sub-step in flight."""
-        return (*self.key, self.first + self.index)
-
-    @property
-    def where(self) -> str:
-        """`` at force ramp sub-step i of n`` (or of the ramp-down) for messages."""
-        what = 'force ramp-down' if self.step is None else 'force ramp'
-        return f' at {what} sub-step {self.index + 1} of {len(self.forces)}'
+ReplyCallback = Callable[[Feedback], None]
 
 
 class ActuatorBridge:
@@ -263,7 +202,7 @@ class ActuatorBridge:
         # Step bookkeeping.
         self._last_test_id: str | None = None
         self._last_step: StepId | None = None
-        self._last_reply: BridgeReply | None = None
+        self._last_reply: Feedback | None = None
         self._in_flight: tuple[str, StepId] | None = None
         self._commanded: tuple[float, ...] | None = None  # target sent for the step in flight
         self._saturation_note = ''  # what was clipped for the step in flight
@@ -274,7 +213,7 @@ class ActuatorBridge:
         self._last_command_time = math.nan
         # Capture of a synchronous driver's answer during driver.command().
         self._capturing = False
-        self._captured: BridgeReply | None = None
+        self._captured: Feedback | None = None
         # Counters.
         self._commands_received = 0
         self._ignored_commands = 0
@@ -284,14 +223,9 @@ class ActuatorBridge:
         self._saturations = 0
         self._watchdog_trips = 0
         self._emergency_stops = 0
-        # Force control.
-        self._held_force: tuple[float, ...] = (0.0,) * n_dof  # last commanded force per DOF
-        self._force_modes: tuple[bool, ...] = (False,) * n_dof  # of the last command executed
-        self._ramp: _ForceRamp | None = None  # sub-steps in execution
+        # Force control (the held forces and the ramp in execution).
+        self._force_control = ForceControl(limits, self._dof_names)
         self._substep_done = False  # a synchronous driver answered the sub-step just sent
-        self._next_substep: tuple[str, tuple[int, ...], int] | None = None  # after the last ramp
-        self._ramp_down_note = ''
-        self._force_substeps = 0
 
         driver.set_measurement_callback(self._on_driver_measurement)
 
@@ -328,7 +262,7 @@ class ActuatorBridge:
         return self._in_flight
 
     @property
-    def last_reply(self) -> BridgeReply | None:
+    def last_reply(self) -> Feedback | None:
         """The reply a repeat of the last answered step would return, or ``None``."""
         return self._last_reply
 
@@ -391,7 +325,7 @@ class ActuatorBridge:
     def held_force(self) -> tuple[float, ...]:
         """Per DOF the force last commanded to it under force control, N (0 at the start, or
         the measured force a restarted bridge adopted: :meth:`adopt_held_force`)."""
-        return self._held_force
+        return self._force_control.held_force
 
     def adopt_held_force(self, measured: Sequence[float]) -> bool:
         """Take the actuators' measured forces as the forces they hold, before this bridge has
@@ -399,32 +333,28 @@ class ActuatorBridge:
         column's axial load), never from 0 N back up. ``False`` (nothing changed) once a force
         was commanded, or for a measurement of the wrong size or with a non-finite value.
         """
-        values = [float(value) for value in measured]
-        if (self._force_substeps or len(values) != len(self._held_force)
-                or not all(math.isfinite(value) for value in values)):
-            return False
-        self._held_force = tuple(values)
-        return True
+        with self._lock:
+            return self._force_control.adopt(measured)
 
     @property
     def force_controlled(self) -> tuple[bool, ...]:
         """Per DOF whether the last command executed force-controlled it."""
-        return self._force_modes
+        return self._force_control.force_controlled
 
     @property
     def force_substeps(self) -> int:
         """Number of force sub-steps sent to the driver (commands and ramp-downs)."""
-        return self._force_substeps
+        return self._force_control.substeps
 
     @property
     def ramping_down(self) -> bool:
         """Whether a :meth:`ramp_down` is still executing (an asynchronous driver)."""
-        return self._ramp is not None and self._ramp.step is None
+        return self._force_control.ramping_down
 
     @property
     def ramp_down_note(self) -> str:
         """One line on the last :meth:`ramp_down`: what it did, or why it stopped."""
-        return self._ramp_down_note
+        return self._force_control.ramp_down_note
 
     # ------------------------------------------------------------------ public API
 
@@ -436,7 +366,7 @@ class ActuatorBridge:
     def handle_command(
         self, test_id: str, step: StepId, target: Sequence[float], now: float | None = None,
         *, control_mode: Sequence[int] = (), target_force: Sequence[float] = (),
-    ) -> BridgeReply | None:
+    ) -> Feedback | None:
         """Handle one step command from the integrator.
 
         Args:
@@ -477,13 +407,14 @@ class ActuatorBridge:
                 else:
                     self._ignored_commands += 1
                 return None
-            if self._ramp is not None:  # ramping down (deactivation): nothing else moves
+            if self._force_control.ramp is not None:  # ramping down: nothing else moves
                 self._ignored_commands += 1
                 return None
-            if same_test and self._last_reply is not None and step == self._last_step:
+            order = arrival(step, self._last_step) if same_test else Arrival.NEW
+            if order is Arrival.REPEAT and self._last_reply is not None:
                 self._repeated_steps += 1
                 return self._last_reply
-            if same_test and self._last_step is not None and _older(step, self._last_step):
+            if order is Arrival.STALE:
                 self._ignored_commands += 1
                 return None
             # A new test id has no step history: nothing is a repeat or stale. Its first answer
@@ -498,7 +429,7 @@ class ActuatorBridge:
                 return self._start_mixed(test_id, step, target, force_controlled, forces)
 
             current = self._measured_position(test_id, step)
-            if isinstance(current, BridgeReply):
+            if isinstance(current, Feedback):
                 return current
             violation = self._command_violation(target, current)
             note = ''
@@ -521,7 +452,7 @@ class ActuatorBridge:
 
             self._commanded = tuple(checked)
             self._saturation_note = note
-            self._force_modes = (False,) * self._n_dof
+            self._force_control.plain_command()
             self._in_flight = (test_id, step)
             self._state = STATE_BUSY
             self._capturing = True
@@ -545,37 +476,30 @@ class ActuatorBridge:
             captured, self._captured = self._captured, None
             return captured
 
-    def handle_measurement(
-        self, step: StepId, displacement: Sequence[float], force: Sequence[float]
-    ) -> BridgeReply | None:
+    def handle_measurement(self, measurement: ActuatorMeasurement) -> Feedback | None:
         """Handle a measurement reported by the driver (normally through its callback).
 
         Args:
-            step: Step the measurement answers.
-            displacement: Measured displacement per DOF, m.
-            force: Measured force per DOF, N.
+            measurement: The step it answers, the measured displacement (m) and force (N)
+                per DOF.
 
         Returns:
             The reply for the step in flight (``'ok'``, or ``'limit'``/``'fault'`` after which
             the bridge holds), or ``None`` if the measurement is not for the step in flight.
         """
+        step, displacement = measurement.step, measurement.displacement
         with self._lock:
-            if self._ramp is not None:
-                if step != self._ramp.current_id:
+            ramp = self._force_control.ramp
+            if ramp is not None:
+                if step != ramp.current_id:
                     self._ignored_measurements += 1
                     return None
-                return self._ramp_measurement(displacement, force)
+                return self._ramp_measurement(measurement)
             if self._in_flight is None or self._in_flight[1] != step:
                 self._ignored_measurements += 1
                 return None
             test_id = self._in_flight[0]
-            violation = check_feedback(
-                displacement, force, self._limits, self._dof_names, n_dof=self._n_dof
-            )
-            if violation is None or violation.kind == KIND_LIMIT:
-                # Finite and well formed: it is the actuator's true state.
-                self._displacement = tuple(float(x) for x in displacement)
-                self._force = tuple(float(f) for f in force)
+            violation = self._check_and_store(measurement)
             if violation is None and self._commanded is not None:
                 violation = check_tracking(
                     displacement, self._commanded, self._limits, self._dof_names
@@ -596,15 +520,14 @@ class ActuatorBridge:
                     status, message = STATUS_OK, ''
                 # No violation: the measurement was stored as the displacement above.
                 assert self._displacement is not None
-                reply = BridgeReply(
-                    test_id, step, self._displacement, self._force, status, message
-                )
-                self._record(reply)
+                reply = _feedback(test_id, step, self._displacement, self._force, status,
+                                  message)
+                self._record(reply, step)
             if self._capturing:
                 self._captured = reply
             return reply
 
-    def handle_fault(self, message: str) -> BridgeReply | None:
+    def handle_fault(self, message: str) -> Feedback | None:
         """Hold because of a fault detected outside the core (e.g. a driver timeout).
 
         Args:
@@ -622,7 +545,7 @@ class ActuatorBridge:
             self._enter_hold('', -1, STATUS_FAULT, message, record=False)
             return None
 
-    def check_watchdog(self, now: float | None = None) -> BridgeReply | None:
+    def check_watchdog(self, now: float | None = None) -> Feedback | None:
         """Hold if no command arrived for longer than ``watchdog_timeout`` while armed.
 
         The watchdog is armed by the first command received while not holding and disarmed by
@@ -643,7 +566,7 @@ class ActuatorBridge:
                 return None
             return self._check_watchdog_locked(self._time(now))
 
-    def emergency_stop(self, reason: str = '') -> BridgeReply | None:
+    def emergency_stop(self, reason: str = '') -> Feedback | None:
         """Hold at once from any state and latch the emergency stop.
 
         The driver is told to hold even if the bridge was already holding (the hold reason then
@@ -706,7 +629,7 @@ class ActuatorBridge:
             self._saturation_note = ''
             self._last_reply = None
             self._watchdog_armed = False
-            self._ramp = None
+            self._force_control.cancel()
             return True
 
     def ramp_down(self) -> str:
@@ -725,21 +648,18 @@ class ActuatorBridge:
             One line saying what is ramped down (or why not); empty if no force is held.
         """
         with self._lock:
-            controlled = self._force_modes
-            loaded = [dof for dof in range(self._n_dof)
-                      if controlled[dof] and self._held_force[dof] != 0.0]
-            if not loaded:
+            force_control = self._force_control
+            held = force_control.loaded()
+            if not held:
                 return ''
-            held = ', '.join(f'{_dof_label(dof, self._dof_names)} at '
-                             f'{_fmt(self._held_force[dof])} N' for dof in loaded)
             if self._state == STATE_HOLDING:
                 note = (f'force not ramped down (holding: {self._hold_reason}): {held} '
                         'kept; reset the hold, then deactivate again to ramp down')
-                self._ramp_down_note = note
+                force_control.ramp_down_note = note
                 return note
             if self._state != STATE_READY or self._in_flight is not None:
                 note = f'force not ramped down (a step is in flight): {held} kept'
-                self._ramp_down_note = note
+                force_control.ramp_down_note = note
                 return note
             try:
                 current = tuple(float(x) for x in self._driver.position())
@@ -755,53 +675,17 @@ class ActuatorBridge:
                 self._enter_hold('', -1, STATUS_FAULT, f'force ramp-down: {problem}',
                                  record=False)
                 note = f'force not ramped down ({problem}): {held} kept; holding'
-                self._ramp_down_note = note
+                force_control.ramp_down_note = note
                 return note
-            zeros = tuple(0.0 if on else force
-                          for on, force in zip(controlled, self._held_force))
-            forces = self._force_plan(controlled, zeros)
-            if len(forces) > MAX_FORCE_SUBSTEPS:
-                note = (f'force not ramped down (it needs {len(forces)} sub-steps, more than '
-                        f'{MAX_FORCE_SUBSTEPS}): {held} kept')
-                self._ramp_down_note = note
-                return note
-            test_id, key, first = self._next_substep or (self._last_test_id or '', (0,), 0)
-            self._ramp = _ForceRamp(
-                test_id=test_id, step=None, key=key, first=first,
-                modes=tuple(int(ControlMode.FORCE if on else ControlMode.DISPLACEMENT)
-                            for on in controlled),
-                force_controlled=controlled, targets=current, forces=forces, start=current)
-            self._next_substep = (test_id, key, first + len(forces))
-            self._ramp_down_note = (f'ramping force down to 0 N in {len(forces)} sub-steps '
-                                    f'(max_force_increment '
-                                    f'{_fmt(self._limits.max_force_increment)} N): {held}')
-            note = self._ramp_down_note
-            self._state = STATE_BUSY
-            self._run_ramp()
+            note = force_control.start_ramp_down(current, self._last_test_id or '')
+            if force_control.ramp is not None:
+                self._state = STATE_BUSY
+                self._run_ramp()
             return note
 
     # ------------------------------------------------------------------ force control
 
-    def _force_plan(self, force_controlled: tuple[bool, ...], forces: Sequence[float]
-                    ) -> list[tuple[float, ...]]:
-        """Per sub-step the force targets (0 on the displacement-controlled DOFs).
-
-        Each force-controlled DOF follows ``force_ramp(held, target, max_force_increment)``; one
-        that arrives earlier holds its target; at least one sub-step.
-        """
-        increment = self._limits.max_force_increment
-        ramps = {dof: force_ramp(self._held_force[dof], float(forces[dof]), increment)
-                 for dof in range(self._n_dof) if force_controlled[dof]}
-        count = max([1, *(len(ramp) for ramp in ramps.values())])
-        plan = []
-        for sub in range(count):
-            values = [0.0] * self._n_dof
-            for dof, ramp in ramps.items():
-                values[dof] = ramp[min(sub, len(ramp) - 1)] if ramp else float(forces[dof])
-            plan.append(tuple(values))
-        return plan
-
-    def _measured_position(self, test_id: str, step: StepId) -> list[float] | BridgeReply:
+    def _measured_position(self, test_id: str, step: StepId) -> list[float] | Feedback:
         """The driver's measured position, or the hold reply if reading it failed."""
         try:
             return [float(x) for x in self._driver.position()]
@@ -826,7 +710,7 @@ class ActuatorBridge:
 
     def _start_mixed(self, test_id: str, step: StepId, target: Sequence[float],
                      force_controlled: tuple[bool, ...], forces: tuple[float, ...]
-                     ) -> BridgeReply | None:
+                     ) -> Feedback | None:
         """Check a mixed command before anything moves, then run its force ramp."""
         problem = self._driver.force_control_problem()
         if problem is not None:
@@ -834,59 +718,30 @@ class ActuatorBridge:
             return self._enter_hold(test_id, step, STATUS_FAULT, f'driver {name}: {problem}',
                                     record=True)
         current = self._measured_position(test_id, step)
-        if isinstance(current, BridgeReply):
+        if isinstance(current, Feedback):
             return current
         violation = self._command_violation(
             target, current, tuple(not flag for flag in force_controlled))
         if violation is None:
-            violation = check_target_force(forces, force_controlled, self._limits,
-                                           self._dof_names)
-        plan: list[tuple[float, ...]] = []
-        if violation is None:
-            plan = self._force_plan(force_controlled, forces)
-            if len(plan) > MAX_FORCE_SUBSTEPS:
-                violation = LimitViolation(
-                    KIND_LIMIT, 0,
-                    f'force ramp needs {len(plan)} sub-steps, more than {MAX_FORCE_SUBSTEPS} '
-                    f'(max_force_increment {_fmt(self._limits.max_force_increment)} N); '
-                    'nothing moved')
+            violation = self._force_control.start_step(test_id, step, target, force_controlled,
+                                                       forces, current)
         if violation is not None:
             return self._enter_hold(test_id, step, violation.kind, violation.message,
                                     record=True)
-        key = tuple(int(x) for x in step) if isinstance(step, tuple) else (int(step),)
-        targets = tuple(float(x) for x in target)
-        self._ramp = _ForceRamp(
-            test_id=test_id, step=step, key=key, first=0,
-            modes=tuple(int(ControlMode.FORCE if flag else ControlMode.DISPLACEMENT)
-                        for flag in force_controlled),
-            force_controlled=force_controlled, targets=targets, forces=plan,
-            start=tuple(current))
-        self._next_substep = (test_id, key, len(plan))
-        self._force_modes = force_controlled
-        self._commanded = targets
+        self._commanded = tuple(float(x) for x in target)
         self._in_flight = (test_id, step)
         self._state = STATE_BUSY
         return self._run_ramp()
 
-    def _run_ramp(self) -> BridgeReply | None:
+    def _run_ramp(self) -> Feedback | None:
         """Send sub-steps of the ramp in execution while the driver answers synchronously.
 
         Returns:
             The step's reply (its last sub-step answered, or a hold); ``None`` while an
             asynchronous driver has a sub-step in flight, or for a ramp-down.
         """
-        while self._ramp is not None:
-            ramp = self._ramp
-            forces = ramp.forces[ramp.index]
-            measured = self._displacement if self._displacement is not None else ramp.start
-            if len(measured) != self._n_dof:  # pragma: no cover - checked when stored
-                measured = ramp.start
-            targets = [measured[dof] if ramp.force_controlled[dof] else ramp.targets[dof]
-                       for dof in range(self._n_dof)]
-            self._held_force = tuple(
-                forces[dof] if ramp.force_controlled[dof] else self._held_force[dof]
-                for dof in range(self._n_dof))
-            self._force_substeps += 1
+        while self._force_control.ramp is not None:
+            ramp, targets, forces = self._force_control.next_substep(self._displacement)
             self._capturing = True
             self._captured = None
             self._substep_done = False
@@ -902,62 +757,44 @@ class ActuatorBridge:
                     STATUS_FAULT, f'driver command_force() failed{where}: {_describe(exc)}')
             finally:
                 self._capturing = False
-            if self._substep_done and self._ramp is ramp:
+            if self._substep_done and self._force_control.ramp is ramp:
                 self._substep_done = False
                 continue  # answered synchronously: the next sub-step
             captured, self._captured = self._captured, None
             return captured
         return None
 
-    def _ramp_measurement(self, displacement: Sequence[float], force: Sequence[float]
-                          ) -> BridgeReply | None:
+    def _ramp_measurement(self, measurement: ActuatorMeasurement) -> Feedback | None:
         """A sub-step answered: check it, then the next sub-step or the step's reply."""
-        ramp = self._ramp
+        force_control = self._force_control
+        ramp = force_control.ramp
         assert ramp is not None
-        violation = check_feedback(
-            displacement, force, self._limits, self._dof_names, n_dof=self._n_dof
-        )
-        if violation is None or violation.kind == KIND_LIMIT:
-            self._displacement = tuple(float(x) for x in displacement)
-            self._force = tuple(float(f) for f in force)
-        if violation is None:
-            violation = check_tracking(
-                displacement, ramp.targets, self._limits, self._dof_names,
-                displacement_controlled=tuple(not flag for flag in ramp.force_controlled))
-        if violation is not None:
-            violation = LimitViolation(violation.kind, violation.dof,
-                                       f'{violation.message}{ramp.where}')
-        elif self._displacement is not None:  # stored above: finite and well formed
-            violation = check_strokes(self._displacement, ramp.start, ramp.force_controlled,
-                                      self._limits, self._dof_names, ramp.where)
+        violation = force_control.substep_violation(
+            self._check_and_store(measurement), measurement.displacement, self._displacement)
         if violation is not None:
             reply = self._ramp_hold(violation.kind, violation.message)
         else:
-            ramp.index += 1
-            if ramp.index < len(ramp.forces):
+            if force_control.advance():
                 if self._capturing:
                     self._substep_done = True  # _run_ramp sends the next one
                     return None
                 return self._run_ramp()  # an asynchronous driver: send the next one now
-            self._ramp = None
             self._in_flight = None
             self._commanded = None
             self._state = STATE_READY
             if ramp.step is None:
-                self._ramp_down_note = (f'ramped force down to 0 N in {len(ramp.forces)} '
-                                        'sub-steps')
                 return None
             assert self._displacement is not None
-            reply = BridgeReply(ramp.test_id, ramp.step, self._displacement, self._force,
-                                STATUS_OK, '')
-            self._record(reply)
+            reply = _feedback(ramp.test_id, ramp.step, self._displacement, self._force,
+                              STATUS_OK, '')
+            self._record(reply, ramp.step)
         if self._capturing:
             self._captured = reply
         return reply
 
-    def _ramp_hold(self, status: FeedbackStatus, message: str) -> BridgeReply | None:
+    def _ramp_hold(self, status: FeedbackStatus, message: str) -> Feedback | None:
         """Hold in the middle of a ramp: the step's reply (``None`` for a ramp-down)."""
-        ramp = self._ramp
+        ramp = self._force_control.ramp
         assert ramp is not None
         if ramp.step is None:
             self._enter_hold(ramp.test_id, -1, status, message, record=False)
@@ -966,11 +803,9 @@ class ActuatorBridge:
 
     # ------------------------------------------------------------------ internals
 
-    def _on_driver_measurement(
-        self, step: StepId, displacement: list[float], force: list[float]
-    ) -> None:
+    def _on_driver_measurement(self, measurement: ActuatorMeasurement) -> None:
         with self._lock:
-            reply = self.handle_measurement(step, displacement, force)
+            reply = self.handle_measurement(measurement)
             capturing = self._capturing
             callback = self._reply_callback
         if reply is not None and not capturing and callback is not None:
@@ -983,7 +818,7 @@ class ActuatorBridge:
         except Exception:  # noqa: BLE001 - a broken clock must trip the watchdog, not crash
             return math.nan
 
-    def _check_watchdog_locked(self, now: float) -> BridgeReply | None:
+    def _check_watchdog_locked(self, now: float) -> Feedback | None:
         """Trip the watchdog if armed and expired (the caller holds the lock, not holding)."""
         timeout = self._limits.watchdog_timeout
         if timeout is None or not self._watchdog_armed:
@@ -1004,7 +839,7 @@ class ActuatorBridge:
         self._watchdog_trips += 1
         return self._hold_now(STATUS_FAULT, message)
 
-    def _hold_now(self, status: FeedbackStatus, message: str) -> BridgeReply | None:
+    def _hold_now(self, status: FeedbackStatus, message: str) -> Feedback | None:
         """Hold because of an event outside a command; reply for the step in flight or last."""
         if self._in_flight is not None:
             test_id, step = self._in_flight
@@ -1017,38 +852,49 @@ class ActuatorBridge:
 
     def _enter_hold(
         self, test_id: str, step: StepId, status: FeedbackStatus, message: str, record: bool
-    ) -> BridgeReply:
+    ) -> Feedback:
         """Hold the actuator, latch the hold and return the reply for ``(test_id, step)``."""
         try:
             self._driver.hold()
         except Exception as exc:  # noqa: BLE001 - still latch the hold
             message = f'{message}; driver hold() failed: {_describe(exc)}'
         self._violations += 1
-        if self._ramp is not None and self._ramp.step is None:
-            self._ramp_down_note = f'force ramp-down stopped: {message}'
+        self._force_control.stop(message)
         self._state = STATE_HOLDING
         self._hold_status = status
         self._hold_reason = message
         self._in_flight = None
         self._commanded = None
         self._saturation_note = ''
-        self._ramp = None
         reply = self._reply(test_id, step, status, message)
         if record:
-            self._record(reply)
+            self._record(reply, step)
         return reply
 
-    def _record(self, reply: BridgeReply) -> None:
+    def _record(self, reply: Feedback, step: StepId) -> None:
+        """Keep ``reply`` as the answer to ``step`` (what a repeat of it gets)."""
         self._last_test_id = reply.test_id
-        self._last_step = reply.step
+        self._last_step = step
         self._last_reply = reply
 
     def _reply(
         self, test_id: str, step: StepId, status: FeedbackStatus, message: str
-    ) -> BridgeReply:
-        return BridgeReply(
+    ) -> Feedback:
+        return _feedback(
             test_id, step, self._current_displacement(), self._force, status, message
         )
+
+    def _check_and_store(self, measurement: ActuatorMeasurement) -> LimitViolation | None:
+        """Check a measurement (:func:`~.limits.check_feedback`) and, if it is finite and well
+        formed (no violation or a LIMIT), keep it: it is the actuator's true state."""
+        displacement, force = measurement.displacement, measurement.force
+        violation = check_feedback(
+            displacement, force, self._limits, self._dof_names, n_dof=self._n_dof
+        )
+        if violation is None or violation.kind == KIND_LIMIT:
+            self._displacement = tuple(float(x) for x in displacement)
+            self._force = tuple(float(f) for f in force)
+        return violation
 
     def _current_displacement(self) -> tuple[float, ...]:
         """The driver's position if readable and sane, else the last measured displacement."""
@@ -1063,13 +909,16 @@ class ActuatorBridge:
         return (math.nan,) * self._n_dof
 
 
-def _older(step: StepId, last_step: StepId) -> bool:
-    """Whether ``step`` is older than ``last_step``; a key that cannot be ordered is foreign."""
-    try:
-        # operator.lt is ``<``; an int against a tuple raises TypeError (a foreign key).
-        return bool(operator.lt(step, last_step))
-    except (TypeError, ValueError):
-        return True
+def _feedback(test_id: str, step: StepId, displacement: tuple[float, ...],
+              force: tuple[float, ...], status: FeedbackStatus, message: str) -> Feedback:
+    """The protocol's answer for ``step`` (an ``int``: iteration 0; else ``(step,
+    iteration)``)."""
+    if isinstance(step, tuple):
+        number = int(step[0]) if step else 0
+        iteration = int(step[1]) if len(step) > 1 else 0
+    else:
+        number, iteration = int(step), 0
+    return Feedback(test_id, number, displacement, force, status, message, iteration)
 
 
 def _describe(exc: BaseException) -> str:

@@ -23,11 +23,11 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from fractions import Fraction
-from numbers import Integral, Real
+from numbers import Real
 from typing import Any
 
 from ..errors import BridgeConfigError
-from ..protocol import ControlMode, FeedbackStatus
+from ..protocol import ControlMode, FeedbackStatus, control_problem, dof_label
 
 __all__ = [
     'KIND_FAULT',
@@ -53,7 +53,6 @@ __all__ = [
 
 KIND_LIMIT = FeedbackStatus.LIMIT
 KIND_FAULT = FeedbackStatus.FAULT
-_MODES = frozenset(int(mode) for mode in ControlMode)
 
 _REQUIRED = ('max_displacement', 'max_increment', 'max_force')
 _OPTIONAL = ('max_velocity', 'step_duration', 'tracking_tolerance', 'watchdog_timeout')
@@ -483,8 +482,8 @@ def check_control(
     n_dof: int,
     dof_names: Sequence[str] | None = None,
 ) -> tuple[tuple[bool, ...], tuple[float, ...], LimitViolation | None]:
-    """Check a command's control modes and target forces for consistency (like
-    :meth:`pd_common.protocol.Command.control_error`).
+    """Check a command's control modes and target forces for consistency: the protocol's
+    :func:`pd_common.protocol.control_problem` on values taken as they come from the wire.
 
     Modes must be empty (every DOF displacement-controlled; then no forces either) or one
     :class:`~pd_common.protocol.ControlMode` per DOF, with one finite target force per DOF.
@@ -507,29 +506,17 @@ def check_control(
                 KIND_FAULT, 0, f'{what} must be a sequence, got {type(values).__name__}')
     modes = list(control_mode)
     raw_forces = list(target_force)
-    if not modes:
-        if raw_forces:
-            return (), (), LimitViolation(
-                KIND_FAULT, 0, f'{len(raw_forces)} target forces without control modes')
-        return (False,) * n_dof, (0.0,) * n_dof, None
-    if len(modes) != n_dof or len(raw_forces) != n_dof:
-        return (), (), LimitViolation(
-            KIND_FAULT, min(len(modes), len(raw_forces), n_dof),
-            f'{len(modes)} control modes and {len(raw_forces)} target forces for {n_dof} DOF')
-    flags: list[bool] = []
-    for dof, mode in enumerate(modes):
-        if isinstance(mode, bool) or not isinstance(mode, Integral) or int(mode) not in _MODES:
-            return (), (), LimitViolation(
-                KIND_FAULT, dof, f'{_dof_label(dof, dof_names)}: unknown control mode {mode!r} '
-                f'(0 displacement, 1 force)')
-        flags.append(int(mode) == ControlMode.FORCE)
     forces, problem = _as_floats(raw_forces, 'target force')
+    # The protocol's rule (one home); forces that are not numbers are reported after it.
+    rule = control_problem(modes, forces if problem is None else [0.0] * len(raw_forces),
+                           n_dof, dof_names)
+    if rule is not None:
+        return (), (), LimitViolation(KIND_FAULT, rule[0], rule[1])
     if problem is not None:
         return (), (), LimitViolation(KIND_FAULT, 0, problem)
-    violation = _non_finite(forces, 'target force', dof_names)
-    if violation is not None:
-        return (), (), violation
-    return tuple(flags), tuple(forces), None
+    if not modes:
+        return (False,) * n_dof, (0.0,) * n_dof, None
+    return tuple(int(mode) == ControlMode.FORCE for mode in modes), tuple(forces), None
 
 
 def check_target_force(
@@ -784,13 +771,6 @@ def _non_finite(
                 KIND_FAULT, dof, f'non-finite {what} for {_dof_label(dof, dof_names)}: {value}'
             )
     return None
-
-
-def dof_label(dof: int, dof_names: Sequence[str] | None) -> str:
-    """``'DOF 0 (top)'`` (or ``'DOF 0'`` without a name): how the messages name a DOF."""
-    if dof_names is not None and 0 <= dof < len(dof_names):
-        return f'DOF {dof} ({dof_names[dof]})'
-    return f'DOF {dof}'
 
 
 def format_value(value: float, limit: float | None = None) -> str:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .answers import KeyedAnswers, RunTags, untag
+from .answers import Arrival, KeyedAnswers, RunTags, arrival, untag
 from .bounds import MAX_REASON, MalformedMessageError, clip_reason
 from .controls import (
     ACKNOWLEDGED,
@@ -42,6 +42,8 @@ from .messages import (
     Status,
     StepKey,
     TestState,
+    control_problem,
+    dof_label,
 )
 from .signature import MAC_BYTES, Signature
 from .topics import (
@@ -67,6 +69,7 @@ __all__ = [
     'TEST_CONTROLS',
     'Acknowledgement',
     'Acknowledgements',
+    'Arrival',
     'Command',
     'Control',
     'ControlMode',
@@ -84,9 +87,12 @@ __all__ = [
     'StepKey',
     'TestState',
     'acknowledgement',
+    'arrival',
     'clip_reason',
     'command_from_message',
     'control_from_message',
+    'control_problem',
+    'dof_label',
     'feedback_from_message',
     'find_acknowledgement',
     'offer_from_message',

@@ -3,17 +3,54 @@
 A receiver that moves something (a simulated specimen, a continuous actuator) answers each new
 ``(step, iteration)`` of a test by moving; the command answered last, again (a re-sent
 command), gets the same answer without moving; an older one of the same test is ignored
-(``None``). A new test id starts fresh bookkeeping.
+(``None``). A new test id starts fresh bookkeeping. :func:`arrival` is that rule, the one
+home of it: :class:`KeyedAnswers` applies it, and so does the actuator bridge (which answers
+later, through its driver).
 """
 
 from __future__ import annotations
 
 import abc
+import enum
+import operator
 from collections.abc import Sequence
 
 from .messages import Feedback, StepKey
 
-__all__ = ['RUN_SEPARATOR', 'KeyedAnswers', 'RunTags', 'untag']
+__all__ = ['RUN_SEPARATOR', 'Arrival', 'KeyedAnswers', 'RunTags', 'arrival', 'untag']
+
+
+class Arrival(enum.Enum):
+    """How a keyed command stands to the command of the same test answered last."""
+
+    NEW = 'new'  #: a later key (or the first command of a test): move
+    REPEAT = 'repeat'  #: the key answered last, again (a re-sent command): the same answer
+    STALE = 'stale'  #: an older key (or one that cannot be ordered against it): ignored
+
+
+def arrival(key: int | tuple[int, ...], last_key: int | tuple[int, ...] | None) -> Arrival:
+    """The repeat / ignore rule of a step receiver, keys compared by equality and order only.
+
+    Args:
+        key: The command's key: ``(step, iteration)`` (a :class:`~.messages.StepKey`), or any
+            totally ordered key (the actuator bridge also takes an ``int``).
+        last_key: The key of the same test's command answered last; ``None``: none (a new
+            test id starts fresh).
+
+    Returns:
+        ``REPEAT`` for the same key, ``STALE`` for an older one or a foreign one (a key that
+        cannot be ordered against it, e.g. an ``int`` after tuples), else ``NEW``.
+    """
+    if last_key is None:
+        return Arrival.NEW
+    if key == last_key:
+        return Arrival.REPEAT
+    try:
+        # operator.lt is ``<``; an int against a tuple raises TypeError (a foreign key).
+        older = bool(operator.lt(key, last_key))
+    except (TypeError, ValueError):
+        return Arrival.STALE
+    return Arrival.STALE if older else Arrival.NEW
 
 
 class KeyedAnswers(abc.ABC):
@@ -45,11 +82,11 @@ class KeyedAnswers(abc.ABC):
         """
         last = self._last
         if last is not None and last.test_id == test_id:
-            key, last_key = (step, iteration), (last.step, last.iteration)
-            if key == last_key:
+            order = arrival(StepKey(step, iteration), last.key)
+            if order is Arrival.REPEAT:
                 self.repeated += 1
                 return last
-            if key < last_key:
+            if order is Arrival.STALE:
                 self.ignored += 1
                 return None
         answer = self._move(test_id, step, iteration, target, control_mode, target_force)

@@ -9,14 +9,17 @@ writes the same bag.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import NamedTuple
+from numbers import Integral
+from typing import Any, NamedTuple
 
 from ..types import FloatArray
 
 __all__ = ['Command', 'Control', 'ControlMode', 'Feedback', 'FeedbackStatus', 'Offer',
-           'SessionStart', 'StateOrigin', 'Status', 'StepKey', 'TestState']
+           'SessionStart', 'StateOrigin', 'Status', 'StepKey', 'TestState', 'control_problem',
+           'dof_label']
 
 
 class FeedbackStatus(IntEnum):
@@ -123,24 +126,54 @@ class Command:
         """Why the modes and forces are inconsistent with the DOFs (``None``: they are not).
 
         Modes must be empty or one known :class:`ControlMode` per DOF, and forces one finite
-        value per DOF when modes are given (none otherwise).
+        value per DOF when modes are given (none otherwise): :func:`control_problem`.
         """
-        n = len(self.target_displacement)
-        if not self.control_mode:
-            if self.target_force:
-                return f'{len(self.target_force)} target forces without control modes'
-            return None
-        if len(self.control_mode) != n or len(self.target_force) != n:
-            return (f'{len(self.control_mode)} control modes and {len(self.target_force)} '
-                    f'target forces for {n} DOFs')
-        known = {int(mode) for mode in ControlMode}
-        for i, mode in enumerate(self.control_mode):
-            if int(mode) not in known:
-                return f'DOF {i}: unknown control mode {mode}'
-        for i, force in enumerate(self.target_force):
-            if not math.isfinite(force):
-                return f'DOF {i}: target force {force} is not finite'
+        problem = control_problem(self.control_mode, self.target_force,
+                                  len(self.target_displacement))
+        return None if problem is None else problem[1]
+
+
+def dof_label(dof: int, dof_names: Sequence[str] | None) -> str:
+    """``'DOF 0 (top)'`` (or ``'DOF 0'`` without a name): how the messages name a DOF."""
+    if dof_names is not None and 0 <= dof < len(dof_names):
+        return f'DOF {dof} ({dof_names[dof]})'
+    return f'DOF {dof}'
+
+
+def control_problem(control_mode: Sequence[Any], target_force: Sequence[float], n_dof: int,
+                    dof_names: Sequence[str] | None = None) -> tuple[int, str] | None:
+    """The control-mode check of a command, the one home of it: every receiver applies it.
+
+    Modes must be empty (every DOF displacement-controlled; then no forces either) or one
+    known :class:`ControlMode` per DOF (an integer, not a ``bool``), with one finite target
+    force per DOF.
+
+    Args:
+        control_mode: Per DOF 0 (displacement) or 1 (force), or empty.
+        target_force: Per DOF the force a force-controlled DOF holds, N, or empty.
+        n_dof: Number of DOF.
+        dof_names: Optional DOF names used in messages (:func:`dof_label`).
+
+    Returns:
+        ``None`` if they are consistent, else ``(dof, one-line reason)``.
+    """
+    modes, forces = list(control_mode), list(target_force)
+    if not modes:
+        if forces:
+            return 0, f'{len(forces)} target forces without control modes'
         return None
+    if len(modes) != n_dof or len(forces) != n_dof:
+        return (min(len(modes), len(forces), n_dof),
+                f'{len(modes)} control modes and {len(forces)} target forces for {n_dof} DOFs')
+    known = {int(mode) for mode in ControlMode}
+    for dof, mode in enumerate(modes):
+        if isinstance(mode, bool) or not isinstance(mode, Integral) or int(mode) not in known:
+            return dof, (f'{dof_label(dof, dof_names)}: unknown control mode {mode!r} '
+                         '(0 displacement, 1 force)')
+    for dof, force in enumerate(forces):
+        if not math.isfinite(force):
+            return dof, f'{dof_label(dof, dof_names)}: target force {force} is not finite'
+    return None
 
 
 @dataclass(frozen=True)

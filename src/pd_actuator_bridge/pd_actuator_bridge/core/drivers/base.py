@@ -1,8 +1,13 @@
 """The actuator driver interface: one driver per controller family (OpenFresco's expControl).
 
-A driver moves the actuator and reports what it measured. It is asynchronous-friendly: a real
-controller (or the simulated servo) answers later through the measurement callback, while a
-synchronous driver calls the callback before :meth:`ActuatorDriver.command` returns.
+A driver moves the actuator and reports what it measured, one :class:`ActuatorMeasurement`
+per step (OpenFresco's ``getDaqResponse``). It is asynchronous-friendly: a real controller (or
+the simulated servo) answers later through the measurement callback, while a synchronous
+driver calls the callback before :meth:`ActuatorDriver.command` returns.
+
+The node shell drives every driver through the same neutral hooks (:meth:`~ActuatorDriver.ready`,
+:meth:`~ActuatorDriver.poll`, :meth:`~ActuatorDriver.waiting_since`, ...), whose defaults
+suit a synchronous driver; it never names a driver class.
 
 Drivers perform no safety checks of their own: the :class:`~..bridge.ActuatorBridge` calls
 :meth:`ActuatorDriver.command` only with targets that passed its limits. A new driver is one
@@ -15,6 +20,7 @@ from __future__ import annotations
 import abc
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TypeAlias
 
 from pd_common.protocol import StateOrigin
@@ -25,8 +31,30 @@ StepId: TypeAlias = int | tuple[int, ...]
 """A step as the bridge and the drivers see it: an ``int`` or a key such as
 :class:`pd_common.protocol.StepKey` ``(step, iteration)``, compared by equality and order only."""
 
-MeasurementCallback = Callable[[StepId, list[float], list[float]], None]
-"""``cb(step, displacement, force)``: displacement in m and force in N, one value per DOF."""
+
+
+@dataclass(frozen=True)
+class ActuatorMeasurement:
+    """What a driver measured for one step: OpenFresco's ``getDaqResponse`` (the DAQ side).
+
+    The values are the driver's as read (the bridge checks them: a malformed or non-finite
+    value is a FAULT there, not here).
+
+    Attributes:
+        step: The step (or force sub-step) the measurement answers.
+        displacement: Measured displacement per DOF, m.
+        force: Measured force per DOF, N.
+        time: The controller's time of the reading, s, if it reports one (``None``: not known).
+    """
+
+    step: StepId
+    displacement: tuple[float, ...]
+    force: tuple[float, ...]
+    time: float | None = None
+
+
+MeasurementCallback = Callable[[ActuatorMeasurement], None]
+"""``cb(measurement)``: receives every :class:`ActuatorMeasurement` a driver reports."""
 
 
 class ActuatorDriver(abc.ABC):
@@ -47,6 +75,13 @@ class ActuatorDriver(abc.ABC):
       driver whose :meth:`force_control_problem` is ``None`` takes it; the others refuse
       force control (the bridge answers such a command with a one-line FAULT, nothing moves).
       See ``docs/force_control.md``.
+
+    The hooks of the node shell, with defaults that suit a synchronous driver (one answering
+    inside :meth:`command`): :meth:`ready` (``True``), :meth:`waiting_for`, :meth:`poll`
+    (nothing), :meth:`set_test_id` (ignored), :meth:`repeat` (nothing),
+    :meth:`waiting_since` (``None``), :attr:`last_force` (``None``), :attr:`carried_force`
+    (:attr:`last_force`) and :meth:`refusals` (none). An asynchronous driver overrides the
+    ones it needs.
     """
 
     #: The registered name of the driver (``driver`` parameter), for messages ('': the
@@ -76,6 +111,58 @@ class ActuatorDriver(abc.ABC):
 
     def open(self) -> None:
         """Connect to the controller (OpenFresco ``setup``). The default does nothing."""
+
+    # -- hooks of the node shell (defaults: a synchronous driver) ------------------------------
+
+    def ready(self) -> bool:
+        """Whether the driver can take commands now (the node offers a session only then).
+
+        Called by the node's loop until it is ``True``; it may do the work of getting ready
+        (open a session with a remote side). The default: ``True``.
+        """
+        return True
+
+    def waiting_for(self) -> str:
+        """What :meth:`ready` waits for, for the log (e.g. ``'the specimen node on ...'``)."""
+        return 'the driver'
+
+    def poll(self) -> None:
+        """Keep the driver's connection alive; called by the node's loop while the bridge is
+        configured (about every 50 ms). The default does nothing."""
+
+    def set_test_id(self, test_id: str) -> None:
+        """Take the (run-tagged) test id of the commands that follow, before the bridge sees
+        them; a driver that forwards moves to a keyed receiver keys them by it. The default
+        ignores it."""
+
+    def repeat(self) -> None:
+        """The step in flight was commanded again (a re-sent command): ask the controller
+        again, without a new motion. The default does nothing (nothing is in flight between
+        calls of a synchronous driver)."""
+
+    def waiting_since(self) -> float | None:
+        """``time.monotonic()`` when the move in flight was last sent, or ``None`` if no move
+        waits for its measurement (the default). The node holds when it is older than the
+        ``driver_timeout`` parameter."""
+        return None
+
+    @property
+    def last_force(self) -> list[float] | None:
+        """Force per DOF of the last measurement, N; ``None`` (the default) if the driver does
+        not know it: the node then offers 0 N."""
+        return None
+
+    @property
+    def carried_force(self) -> list[float] | None:
+        """The force per DOF the actuators carry when the driver becomes ready, N (``None``:
+        not known): a restarted bridge ramps force from it, never from 0 N. The default:
+        :attr:`last_force`."""
+        return self.last_force
+
+    def refusals(self) -> dict[str, dict[str, int]]:
+        """Messages the driver refused by authentication, by source and reason (none by
+        default)."""
+        return {}
 
     def close(self) -> None:
         """Disconnect from the controller. The default does nothing."""
@@ -139,10 +226,10 @@ class ActuatorDriver(abc.ABC):
         """Set (or clear with ``None``) the function that receives each measurement."""
         self._measurement_callback = callback
 
-    def _emit(self, step: StepId, displacement: list[float], force: list[float]) -> None:
+    def _emit(self, measurement: ActuatorMeasurement) -> None:
         """Deliver a measurement to the callback, if one is set."""
         if self._measurement_callback is not None:
-            self._measurement_callback(step, displacement, force)
+            self._measurement_callback(measurement)
 
 
 #: Specimen-side iterations per integrator iteration in :func:`force_substep_key`.
@@ -268,7 +355,7 @@ class RemoteDriver(ActuatorDriver):
             self.fault = str(exc)
             raise
         self._store(displacement, force)
-        self._emit(step, list(self._position), list(self._force))
+        self._emit(ActuatorMeasurement(step, tuple(self._position), tuple(self._force)))
 
     def hold(self) -> None:
         """Hold: send nothing, so the remote side keeps its last command."""

@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import BridgeConfigError, DriverError
-from .base import ActuatorDriver, StepId
+from .base import ActuatorDriver, ActuatorMeasurement, StepId
 from .daqmx_config import DaqmxConfig
 from .registry import (
     DriverContext,
@@ -283,7 +283,7 @@ class DaqmxDriver(ActuatorDriver):
         if self.config.settle_time > 0.0:
             self._sleep(self.config.settle_time)
         displacement, force = self.measure()
-        self._emit(step, displacement, force)
+        self._emit(ActuatorMeasurement(step, tuple(displacement), tuple(force)))
 
     def command_voltages(self, target: Sequence[float]) -> tuple[float, ...]:
         """Convert a target displacement per DOF (m) to command voltages (V), checking them.

@@ -17,7 +17,7 @@ from pd_common.specimen import load_specimen_section, specimen_from_config
 
 from ..error_models import ErrorModel
 from ..errors import BridgeConfigError, DriverError
-from .base import ActuatorDriver
+from .base import ActuatorDriver, ActuatorMeasurement
 from .emulator import ServoHydraulicEmulator
 from .emulator_parameters import EmulatorParameters
 from .ramp_hold import RampHoldExecutor, RampHoldParameters, SettleTimeoutError, StepExecution
@@ -122,7 +122,9 @@ class EmulatorDriver(ActuatorDriver):
             self._record(step, exc.execution)
             raise
         self._record(step, execution)
-        self._emit(step, execution.displacement.tolist(), execution.force.tolist())
+        self._emit(ActuatorMeasurement(
+            step, tuple(execution.displacement.tolist()), tuple(execution.force.tolist()),
+            float(execution.time[-1]) if len(execution.time) else None))
 
     def hold(self) -> None:
         """Hold the actuator where it is (the next ramp starts from the measured position)."""

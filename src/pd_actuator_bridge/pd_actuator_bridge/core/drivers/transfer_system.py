@@ -40,12 +40,12 @@ import yaml
 
 from pd_common.config import read_yaml_file
 from pd_common.errors import RthsError
-from pd_common.protocol import FeedbackStatus, StateOrigin
+from pd_common.protocol import Feedback, FeedbackStatus, StateOrigin
 from pd_common.rths import ContinuousMeasurement, ContinuousSiteServer, continuous_from_config
 from pd_common.rths.realtime import RealtimeLoop
 
 from ..errors import BridgeConfigError, DriverError
-from .base import ActuatorDriver, StepId
+from .base import ActuatorDriver, ActuatorMeasurement, StepId
 from .registry import (
     DriverContext,
     DriverParameter,
@@ -73,6 +73,12 @@ def _key(step: StepId) -> tuple[int, int]:
         iteration = int(step[1]) if len(step) > 1 else 0
         return number, iteration
     return int(step), 0
+
+
+def _measurement(step: StepId, answer: Feedback) -> ActuatorMeasurement:
+    """The measurement of the server's answer, reported for the bridge's ``step``."""
+    return ActuatorMeasurement(step, tuple(answer.measured_displacement),
+                               tuple(answer.restoring_force))
 
 
 class TransferSystemDriver(ActuatorDriver):
@@ -197,7 +203,7 @@ class TransferSystemDriver(ActuatorDriver):
         if answer.status is FeedbackStatus.FAULT:
             msg = f'transfer_system: {answer.message}'
             raise DriverError(msg)
-        self._emit(step, list(answer.measured_displacement), list(answer.restoring_force))
+        self._emit(_measurement(step, answer))
 
     # -- real time -----------------------------------------------------------------------------
     def _command_realtime(self, step: StepId, target: Sequence[float]) -> None:
@@ -224,7 +230,7 @@ class TransferSystemDriver(ActuatorDriver):
             if answer.status is FeedbackStatus.FAULT:
                 msg = f'transfer_system: {answer.message}'
                 raise DriverError(msg)
-            self._emit(step, list(answer.measured_displacement), list(answer.restoring_force))
+            self._emit(_measurement(step, answer))
             return
         with self._lock:
             if self._pending is not None:
@@ -262,7 +268,8 @@ class TransferSystemDriver(ActuatorDriver):
         last = bool(self.n_steps) and measurement.step >= self.n_steps
         if last and self.loop is not None:
             self.loop.stop(wait=False)  # the test's last step: the actuator holds there
-        self._emit(step, [measurement.displacement], [measurement.force])
+        self._emit(ActuatorMeasurement(step, (measurement.displacement,), (measurement.force,),
+                                       measurement.time))
         if last:
             self._write_report()
 
