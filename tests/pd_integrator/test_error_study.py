@@ -23,6 +23,7 @@ import yaml
 
 from pd_actuator_bridge.core.error_models import ErrorInjector, ErrorModel
 from pd_actuator_bridge.core.errors import BridgeConfigError
+from pd_common.config import read_yaml_file
 from pd_common.experimental import ErrorModel as SimulatedErrors
 from pd_common.experimental import error_model as errors_model
 from pd_common.experimental import tracking_error, tracking_indicator
@@ -36,6 +37,7 @@ from pd_common.specimen import (
 )
 from pd_common.specimen.server import SpecimenServer, server_from_config
 from pd_integrator import study_errors
+from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.run.outputs import read_response_csv
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 from pd_integrator.core.run.test_file import load_test_file
@@ -191,9 +193,15 @@ def test_both_error_models_refuse_the_same_values(values: dict[str, Any], name: 
 
 def test_bad_errors_section_is_refused_before_anything_is_written(tmp_path: Path) -> None:
     test_file = write_test(tmp_path, 'bad', errors={'undershoot': 0.05})
+    # (refused when the file is loaded, by the typed schema: pd_common.config.schema)
+    with pytest.raises(ConfigError,
+                       match=r'^bad\.yaml: specimen\.errors\.undershoot: unknown key$'):
+        run_offline(load_test_file(test_file), tmp_path / 'run')
+    raw = read_yaml_file(test_file)  # the simulator's own check says the same
     with pytest.raises(SpecimenConfigError,
                        match=r"bad\.yaml: specimen\.errors: unknown key 'undershoot'"):
-        run_offline(load_test_file(test_file), tmp_path / 'run')
+        server_from_config(raw['specimen'], base_dir=tmp_path, source='bad.yaml',
+                           dof_names=['top'])
     assert not (tmp_path / 'run').exists()
     with pytest.raises(SpecimenConfigError, match='must be a mapping'):
         SimulatedErrors.from_mapping([0.05], 'bad.yaml')

@@ -1,7 +1,10 @@
-"""Reading configuration files (one YAML loader for every package) and the files a user names
-(regular files only, bounded, UTF-8)."""
+"""Reading configuration files (one YAML loader for every package), the files a user names
+(regular files only, bounded, UTF-8), and the typed schema of the test file and the bridge's
+parameter file (:mod:`.schema`)."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
 
 from .files import (
     MAX_TEXT_BYTES,
@@ -23,7 +26,33 @@ from .loader import (
     yaml_problem,
 )
 
-__all__ = ['MAX_DEPTH', 'MAX_TEXT_BYTES', 'InputFileError', 'YAMLAliasError', 'YAMLDepthError',
-           'YAMLDuplicateKeyError', 'YAMLError', 'describe_size', 'existing_path',
-           'load_yaml', 'open_regular_file', 'read_bytes', 'read_text', 'read_yaml_file',
-           'yaml_problem']
+if TYPE_CHECKING:
+    from .schema import (
+        BridgeParameterFile,
+        TestFileModel,
+        json_schema,
+        validate_bridge_parameters,
+        validate_test_file,
+    )
+    from .schema_base import SchemaError
+
+__all__ = ['MAX_DEPTH', 'MAX_TEXT_BYTES', 'BridgeParameterFile', 'InputFileError', 'SchemaError',
+           'TestFileModel', 'YAMLAliasError', 'YAMLDepthError', 'YAMLDuplicateKeyError',
+           'YAMLError', 'describe_size', 'existing_path', 'json_schema', 'load_yaml',
+           'open_regular_file', 'read_bytes', 'read_text', 'read_yaml_file',
+           'validate_bridge_parameters', 'validate_test_file', 'yaml_problem']
+
+#: The names of the typed schema (:mod:`.schema`), imported on first use: building its models
+#: takes a third of a second, which a process that reads no test file need not pay.
+_SCHEMA_NAMES = ('BridgeParameterFile', 'SchemaError', 'TestFileModel', 'json_schema',
+                 'validate_bridge_parameters', 'validate_test_file')
+
+
+def __getattr__(name: str) -> Any:
+    """The names of :mod:`.schema`, imported when first asked for."""
+    if name in _SCHEMA_NAMES:
+        from . import schema  # noqa: PLC0415 (on first use: see _SCHEMA_NAMES)
+
+        return getattr(schema, name)
+    msg = f'module {__name__!r} has no attribute {name!r}'
+    raise AttributeError(msg)

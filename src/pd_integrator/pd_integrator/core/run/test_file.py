@@ -22,8 +22,16 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pd_common.config import MAX_TEXT_BYTES, describe_size, load_yaml, read_text, yaml_problem
-from pd_common.specimen import SpecimenError, specimen_from_config
+from pd_common.config import (
+    MAX_TEXT_BYTES,
+    SchemaError,
+    describe_size,
+    load_yaml,
+    read_text,
+    validate_test_file,
+    yaml_problem,
+)
+from pd_common.specimen import HYSTERESIS_MODELS, SpecimenError, specimen_from_config
 
 from ..dynamics.ground_motion import GroundMotion
 from ..dynamics.record_readers import read_ground_motion
@@ -171,7 +179,18 @@ def load_test_file(path: str | Path, overrides: Mapping[str, Any] | None = None
         raise ConfigError(msg) from err
     if raw is None:
         raw = {}
-    return from_dict(raw, source=source, base_dir=path.resolve().parent, overrides=overrides)
+    definition = from_dict(raw, source=source, base_dir=path.resolve().parent,
+                           overrides=overrides)
+    # The typed schema (pd_common.config.schema) after the checks above, whose messages stay
+    # (they know the DOF count, matrices and records): it refuses what they let through, e.g.
+    # a bad simulated specimen, which the integrator alone would not read.
+    try:
+        validate_test_file(apply_overrides(raw, overrides, source) if overrides else raw, source,
+                           hysteresis_models=tuple(HYSTERESIS_MODELS),
+                           broken_models=HYSTERESIS_MODELS.broken)
+    except SchemaError as err:
+        raise ConfigError(str(err)) from None
+    return definition
 
 
 def from_json(text: str, *, source: str = 'bag') -> TestDefinition:

@@ -1,0 +1,119 @@
+"""One typed schema for the test file and the bridge's parameter file (pydantic v2).
+
+:func:`validate_test_file` and :func:`validate_bridge_parameters` check parsed YAML against
+the models (:class:`~.schema_test_file.TestFileModel`,
+:class:`~.schema_bridge.BridgeParameterFile`) and return them typed, or raise a
+:class:`~.schema_base.SchemaError` of one line naming the file and the dotted path::
+
+    test.yaml: specimen.elements.0.yield_force: must be > 0, got -1
+
+The JSON Schema of both files is generated from the models (:func:`json_schema`) and shipped
+in ``src/pd_common/schema/`` (installed in ``share/pd_common/schema/``), so that YAML editors
+validate and complete test files (``# yaml-language-server: $schema=<path>``); the reference
+page ``docs/reference/test-file.md`` is generated from it (:mod:`.schema_markdown`).
+
+Command line: ``./pd schema`` (:mod:`.schema_cli`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Collection, Mapping
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from .schema_base import SchemaError, one_line
+from .schema_bridge import BridgeParameterFile, BridgeParameters, SiteBridgeParameters
+from .schema_specimen import SpecimenSection
+from .schema_test_file import SiteSettings, TestFileModel
+
+__all__ = ['BRIDGE_SCHEMA_FILE', 'JSON_SCHEMA_DIALECT', 'TEST_FILE_SCHEMA_FILE',
+           'BridgeParameterFile', 'BridgeParameters', 'SchemaError', 'SiteBridgeParameters',
+           'SiteSettings', 'SpecimenSection', 'TestFileModel', 'json_schema',
+           'json_schema_text', 'validate_bridge_parameters', 'validate_test_file']
+
+#: The JSON Schema dialect of the generated schemas.
+JSON_SCHEMA_DIALECT = 'https://json-schema.org/draft/2020-12/schema'
+#: The file names of the shipped schemas (in ``src/pd_common/schema/``).
+TEST_FILE_SCHEMA_FILE = 'test_file.schema.json'
+BRIDGE_SCHEMA_FILE = 'bridge_parameters.schema.json'
+
+#: The titles of the two schemas.
+_TITLES = {False: 'Pseudo-dynamic test file', True: 'Actuator bridge parameter file'}
+
+
+def validate_test_file(data: Any, source: str, *,
+                       hysteresis_models: Collection[str] | None = None,
+                       broken_models: Mapping[str, str] | None = None) -> TestFileModel:
+    """The test file ``data`` (parsed YAML) as a typed :class:`TestFileModel`.
+
+    Args:
+        data: the parsed file (``None``, an empty file, is an empty mapping).
+        source: the file's name for the message.
+        hysteresis_models: the registered hysteresis models, built-ins and plug-ins
+            (``pd_common.specimen.HYSTERESIS_MODELS``): a specimen's ``model`` must be one of
+            them (``None``: any registry name is taken; the specimen's builder checks it).
+        broken_models: plug-in models that did not load, with the reason (in the message).
+
+    Raises:
+        SchemaError: one line, ``<source>: <dotted.path>: <what is wrong>, got <value>``.
+
+    """
+    data = {} if data is None else data
+    if not isinstance(data, dict):
+        msg = f'a test file must be a mapping of sections, got {type(data).__name__}'
+        raise SchemaError(source, '', msg)
+    context = None if hysteresis_models is None else {
+        'hysteresis_models': tuple(hysteresis_models),
+        'hysteresis_broken': dict(broken_models or {})}
+    try:
+        return TestFileModel.model_validate(data, context=context)
+    except ValidationError as err:
+        raise one_line(err, data, source) from None
+
+
+def validate_bridge_parameters(data: Any, source: str) -> BridgeParameterFile:
+    """A bridge's ROS parameter file ``data`` (parsed YAML) as a :class:`BridgeParameterFile`.
+
+    Raises:
+        SchemaError: one line naming ``source`` and the dotted path
+            (``bridge.yaml: /**.ros__parameters.max_force: must be > 0, got -1``).
+
+    """
+    data = {} if data is None else data
+    try:
+        return BridgeParameterFile.model_validate(data)
+    except ValidationError as err:
+        raise one_line(err, data, source) from None
+
+
+def json_schema(*, bridge: bool = False) -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of a test file, or of the bridge's parameter file."""
+    model: type[BaseModel] = BridgeParameterFile if bridge else TestFileModel
+    schema = model.model_json_schema(mode='validation')
+    schema['title'] = _TITLES[bridge]
+    return {'$schema': JSON_SCHEMA_DIALECT, **_markdown_code(schema)}
+
+
+def _markdown_code(schema: Any) -> Any:
+    """``schema`` as editors read it: Markdown code, closed mappings.
+
+    The docstrings' reStructuredText code (````x````) is written as Markdown's (```x```), as
+    editors show descriptions, and the mappings whose keys follow a pattern are closed to other
+    keys (as the models are).
+    """
+    if isinstance(schema, dict):
+        done = {key: value.replace('``', '`') if key == 'description' and isinstance(value, str)
+                else _markdown_code(value) for key, value in schema.items()}
+        if 'patternProperties' in done and 'additionalProperties' not in done:
+            done['additionalProperties'] = False
+        return done
+    if isinstance(schema, list):
+        return [_markdown_code(item) for item in schema]
+    return schema
+
+
+def json_schema_text(*, bridge: bool = False) -> str:
+    """:func:`json_schema` as the shipped file's text (indented, ending with a newline)."""
+    return json.dumps(json_schema(bridge=bridge), indent=2, ensure_ascii=False) + '\n'

@@ -1,0 +1,69 @@
+"""``./pd schema``: the JSON Schema of a test file or of the bridge's parameter file.
+
+Or the reference page of every key, on stdout; ``--write DIR`` regenerates the shipped
+schemas.
+
+    ./pd schema [--bridge] [--markdown]
+    ./pd schema --write src/pd_common/schema             # after a change of the models
+    ./pd schema --markdown > docs/reference/test-file.md  # the reference page
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from .schema import BRIDGE_SCHEMA_FILE, TEST_FILE_SCHEMA_FILE, json_schema, json_schema_text
+from .schema_markdown import markdown_reference
+
+__all__ = ['main']
+
+
+def _write(folder: Path) -> list[Path]:
+    """Write both schemas into ``folder``; the files written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for bridge, name in ((False, TEST_FILE_SCHEMA_FILE), (True, BRIDGE_SCHEMA_FILE)):
+        path = folder / name
+        path.write_text(json_schema_text(bridge=bridge), encoding='utf-8')
+        written.append(path)
+    return written
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``./pd schema``: print the JSON Schema of a test file.
+
+    Or of the bridge's parameter file, or their reference page in Markdown; ``--write DIR``
+    regenerates the shipped files.
+
+    Args:
+        argv: the command line (default: ``sys.argv[1:]``).
+
+    Returns:
+        The exit code.
+    """
+    parser = argparse.ArgumentParser(
+        prog='pd schema', description='The JSON Schema of a test file (for YAML editors) or of '
+        "the bridge's parameter file, or the reference page of every key.")
+    parser.add_argument('--bridge', action='store_true',
+                        help="the bridge's ROS parameter file instead of a test file")
+    parser.add_argument('--markdown', action='store_true',
+                        help='the reference page (Markdown) of every key instead')
+    parser.add_argument('--write', metavar='DIR', type=Path,
+                        help='write both JSON Schemas into DIR (src/pd_common/schema)')
+    args = parser.parse_args(argv)
+    if args.write is not None:
+        for path in _write(args.write):
+            sys.stdout.write(f"{path}\n")
+        return 0
+    if args.markdown:
+        sys.stdout.write(markdown_reference(json_schema(bridge=args.bridge), bridge=args.bridge))
+    else:
+        sys.stdout.write(json_schema_text(bridge=args.bridge))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
