@@ -27,5 +27,10 @@ setup(
             'control = pd_bringup.control:main',
             'fault_proxy = pd_bringup.fault_proxy:main',
         ],
+        'pd.commands': [
+            'run = pd_bringup.commands:RUN',
+            'control = pd_bringup.commands:CONTROL',
+            'keygen = pd_bringup.commands:KEYGEN',
+        ],
     },
 )

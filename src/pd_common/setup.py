@@ -12,9 +12,17 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
+        # The JSON Schemas of a test file and of the bridge's parameter file (for YAML
+        # editors); regenerate with `./pd schema --write src/pd_common/schema`.
+        ('share/' + PACKAGE + '/schema', ['schema/test_file.schema.json',
+                                          'schema/bridge_parameters.schema.json']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
+    entry_points={
+        'console_scripts': ['schema = pd_common.config.schema_cli:main'],
+        'pd.commands': ['schema = pd_common.commands:SCHEMA'],
+    },
     maintainer='Pseudo-dynamic testing maintainers',
     maintainer_email='maintainers@pseudodynamic.dev',
     description='Shared pure library of the pseudo-dynamic test: step protocol types, specimen '

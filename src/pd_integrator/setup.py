@@ -38,5 +38,16 @@ setup(
             'console = pd_integrator.console:main',
             'rths_benchmark = pd_integrator.rths_benchmark:main',
         ],
+        'pd.commands': [
+            'offline = pd_integrator.commands:OFFLINE',
+            'replay = pd_integrator.commands:REPLAY',
+            'recover = pd_integrator.commands:RECOVER',
+            'console = pd_integrator.commands:CONSOLE',
+            'pretest = pd_integrator.commands:PRETEST',
+            'analyze = pd_integrator.commands:ANALYZE',
+            'study_ch5 = pd_integrator.commands:STUDY_CH5',
+            'study_errors = pd_integrator.commands:STUDY_ERRORS',
+            'rths_benchmark = pd_integrator.commands:RTHS_BENCHMARK',
+        ],
     },
 )

@@ -11,6 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -61,6 +62,9 @@ def test_the_contracts_hold_on_the_source_tree(source_copy: Path) -> None:
      "The integrator's core is layered"),
     ('pd_common/pd_common/errors.py', 'import pd_common.specimen.backbone',
      'No import cycles'),
+    ('pd_common/pd_common/jsonl.py', 'import rclpy', 'Pure cores import no ROS'),
+    ('pd_common/pd_common/auth/__init__.py', 'import pd_common.ros', 'Pure cores import no ROS'),
+    ('pd_common/pd_common/cli.py', 'import std_msgs.msg', 'Pure cores import no ROS'),
 ])
 def test_a_forbidden_import_breaks_its_contract(source_copy: Path, module: str, line: str,
                                                 contract: str) -> None:
@@ -71,3 +75,15 @@ def test_a_forbidden_import_breaks_its_contract(source_copy: Path, module: str, 
     assert result.returncode != 0
     broken = [text for text in result.stdout.splitlines() if text.endswith('BROKEN')]
     assert any(text.startswith(contract) for text in broken), result.stdout
+
+
+def test_every_part_of_pd_common_but_ros_is_a_pure_core() -> None:
+    """A new module of pd_common is not left out of the pure-core contract."""
+    config = tomllib.loads((REPO / 'pyproject.toml').read_text(encoding='utf-8'))
+    pure = next(contract for contract in config['tool']['importlinter']['contracts']
+                if contract['name'].startswith('Pure cores import no ROS'))
+    root = REPO / 'src' / 'pd_common' / 'pd_common'
+    parts = {f'pd_common.{path.stem}' for path in root.iterdir()
+             if (path.suffix == '.py' and path.stem != '__init__')
+             or (path.is_dir() and (path / '__init__.py').is_file())}
+    assert parts - set(pure['source_modules']) == {'pd_common.ros'}
