@@ -396,7 +396,7 @@ class Registry(Mapping[str, T], Generic[T]):
 
         Raises:
             The registry's error: ``unknown <kind> '<name>' (known: a, b, c)``, one line; it
-            names a plug-in of that name that did not load, and why.
+                names a plug-in of that name that did not load, and why.
         """
         self.discover()
         try:
