@@ -8,6 +8,7 @@ Mirrors :mod:`pd_common.specimen.config` (the builder of the models) and
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Literal, Self
 
 from pydantic import (
@@ -165,6 +166,9 @@ class BoucWenModel(ConfigModel):
     """Most iterations of the implicit update."""
 
 
+#: A registry name (of a plug-in's model).
+_NAME = re.compile(r'^[a-z][a-z0-9_]*$')
+
 #: The models of this package (the others are plug-ins' ``pd.hysteresis`` entry points).
 BUILT_IN_MODELS = ('elastic', 'epp', 'bilinear', 'pushover', 'bouc_wen')
 
@@ -174,7 +178,7 @@ class PluginModel(ConfigModel):
     (``pd_common.specimen.HYSTERESIS_MODELS``) when the specimen is built."""
 
     model_config = ConfigDict(extra='allow')
-    model: Annotated[str, Field(pattern=r'^[a-z][a-z0-9_]*$')]
+    model: Annotated[str, Field(json_schema_extra={'pattern': _NAME.pattern})]
     """The model's registry name (its entry point's name)."""
 
     @field_validator('model')
@@ -184,6 +188,9 @@ class PluginModel(ConfigModel):
         ``hysteresis_models`` of :func:`~pd_common.config.schema.validate_test_file`)."""
         context = info.context or {}
         known = context.get('hysteresis_models')
+        if known is None and not _NAME.fullmatch(value):
+            msg = f'must match {_NAME.pattern}'
+            raise ValueError(msg)
         if known is not None and value not in known:
             msg = 'must be one of ' + ', '.join(repr(name) for name in known)
             broken = context.get('hysteresis_broken', {}).get(value)
