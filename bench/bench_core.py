@@ -111,9 +111,9 @@ def core_loop(test: Any) -> tuple[float, int, float]:
     import numpy as np
 
     from pd_common.protocol import Command, TestState
-    from pd_integrator.core.run.dispatch import StepDispatcher
+    from pd_integrator.core.run.loop.dispatch import StepDispatcher
+    from pd_integrator.core.run.loop.session import TestSession
     from pd_integrator.core.run.runner import serve_queue, site_servers
-    from pd_integrator.core.run.session import TestSession
 
     servers = site_servers(test)
     session = TestSession(test)

@@ -271,9 +271,9 @@ def check_record(run: Any, steps: int) -> tuple[bool, str]:
 def step_loop(definition: Any, recorder_factory: Callable[[], Any] | None
               ) -> tuple[float, int, int]:
     """The step loop of ``run_offline`` with a recorder (or none): seconds, steps, fsyncs."""
-    from pd_integrator.core.run.dispatch import StepDispatcher
+    from pd_integrator.core.run.loop.dispatch import StepDispatcher
+    from pd_integrator.core.run.loop.session import TestSession
     from pd_integrator.core.run.runner import serve_queue, site_servers
-    from pd_integrator.core.run.session import TestSession
 
     servers = site_servers(definition)
     session = TestSession(definition)
@@ -307,8 +307,8 @@ def _remove(path: Path) -> None:
 
 def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
     """Section 1: µs/step without and with the journal, fsync per step, the conversion."""
-    from pd_integrator.core.run.bag import BagRecorder
-    from pd_integrator.core.run.journal import Journal, journal_to_bag
+    from pd_integrator.core.run.record.bag import BagRecorder
+    from pd_integrator.core.run.record.journal import Journal, journal_to_bag
     from pd_integrator.core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
@@ -496,7 +496,7 @@ def bench_soak(table: Table, steps: int, work: Path) -> tuple[Figures, Path | No
 
     Returns the figures and the soak's run folder (None: it failed).
     """
-    from pd_integrator.core.run.journal import read_journal
+    from pd_integrator.core.run.record.journal import read_journal
     from pd_integrator.core.run.runner import load_run
 
     section = '2 soak'
@@ -937,7 +937,7 @@ def run_soak(test: Path, out: Path, domain_id: int, timeout: float) -> SoakRun:
 def check_bag(bag: Path, steps: int) -> tuple[bool, str, float]:
     """Whether ``read_bag`` reads it and it holds a command and a feedback for every step."""
     from pd_common.protocol import Command, Feedback
-    from pd_integrator.core.run.bag import read_bag
+    from pd_integrator.core.run.record.bag import read_bag
 
     start = time.perf_counter()
     try:
@@ -968,7 +968,7 @@ def _quantiles(samples: list[Sample]) -> list[Sample]:
 
 def bench_graph_soak(table: Table, steps: int, domain_id: int, work: Path) -> Figures:
     """Section 4: the graph soak, its memory, rate, bag and replay."""
-    from pd_integrator.core.run.journal import journal_to_bag
+    from pd_integrator.core.run.record.journal import journal_to_bag
     from pd_integrator.core.run.runner import rebuild_outputs
 
     section = '4 graph soak'

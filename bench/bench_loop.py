@@ -271,8 +271,8 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> float:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS;
     returns run_offline's loop time per step [s]."""
     from pd_common.specimen import SpecimenServer, specimen_from_config
+    from pd_integrator.core.run.loop.session import TestSession
     from pd_integrator.core.run.runner import run_offline
-    from pd_integrator.core.run.session import TestSession
     from pd_integrator.core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
@@ -330,7 +330,7 @@ def protocol_work_us(offline_us: float) -> tuple[float, str]:
 def _round_trips_from_bag(bag: Path) -> list[float]:
     """Round trips [s]: accepted feedback log time minus its step's last command log time."""
     from pd_common.protocol import Command, FeedbackStatus
-    from pd_integrator.core.run.bag import read_bag
+    from pd_integrator.core.run.record.bag import read_bag
 
     samples: list[float] = []
     pending: tuple[str, int, int] | None = None  # test_id, step, t_ns of its last send
@@ -666,7 +666,7 @@ def session_loop(definition: Any) -> tuple[float, int]:
     """
     from pd_common.protocol import TestState
     from pd_common.specimen import SpecimenServer, specimen_from_config
-    from pd_integrator.core.run.session import TestSession
+    from pd_integrator.core.run.loop.session import TestSession
 
     specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
                                     source=definition.source, dof_names=definition.dof_names)

@@ -59,9 +59,9 @@ from pd_common.rths.realtime import RealtimeLoop, RealtimeStatistics
 from pd_integrator.core.dynamics.record_readers import read_ground_motion
 from pd_integrator.core.rths.native_loop import SITE, native_test_file, run_native_loop
 from pd_integrator.core.rths.problem import benchmark_case
-from pd_integrator.core.run.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.session import TestSession
 from pd_integrator.core.run.runner import site_servers
-from pd_integrator.core.run.session import TestSession
 from pd_integrator.core.run.test_file import from_dict
 
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (

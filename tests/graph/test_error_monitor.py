@@ -15,7 +15,7 @@ import pytest
 import yaml
 from graph_support import REPO, Processes, executable
 
-from pd_integrator.core.run.outputs import read_response_csv
+from pd_integrator.core.run.record.outputs import read_response_csv
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import load_test_file
 

@@ -17,9 +17,9 @@ import pytest
 
 from pd_bringup.launcher import parse_args, plan_new_run, plan_resumed_run
 from pd_bringup.plan import LaunchError, LaunchPlan
-from pd_integrator.core.run.journal import JOURNAL_FILE, Journal
+from pd_integrator.core.run.loop.session import TestSession as Session
+from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal
 from pd_integrator.core.run.runner import DEFINITION_JSON
-from pd_integrator.core.run.session import TestSession as Session
 
 CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 DEFAULT = CONFIG / 'default_test.yaml'

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import yaml
 
-from pd_integrator.core.run.energy import energy_balance
-from pd_integrator.core.run.history import ResponseHistory
+from pd_integrator.core.run.record.energy import energy_balance
+from pd_integrator.core.run.record.history import ResponseHistory
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import load_test_file
 

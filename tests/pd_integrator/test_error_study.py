@@ -38,7 +38,7 @@ from pd_common.specimen import (
 from pd_common.specimen.server import SpecimenServer, server_from_config
 from pd_integrator import study_errors
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.run.outputs import read_response_csv
+from pd_integrator.core.run.record.outputs import read_response_csv
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 from pd_integrator.core.run.test_file import load_test_file
 

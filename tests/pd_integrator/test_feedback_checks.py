@@ -18,11 +18,11 @@ import pytest
 from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.run.dispatch import StepDispatcher
-from pd_integrator.core.run.journal import JOURNAL_FILE, Journal
-from pd_integrator.core.run.protocol import StepProtocol, Verdict
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.protocol import StepProtocol, Verdict
+from pd_integrator.core.run.loop.session import TestSession as Session  # not a test class
+from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal
 from pd_integrator.core.run.runner import load_run, replay_run
-from pd_integrator.core.run.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
 
 REPO = Path(__file__).resolve().parents[2]

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from pd_integrator.core.run.figure_worker import FigureWorker
-from pd_integrator.core.run.outputs import FIGURES, tracking_history
+from pd_integrator.core.run.record.figure_worker import FigureWorker
+from pd_integrator.core.run.record.outputs import FIGURES, tracking_history
 from pd_integrator.core.run.runner import RunResult, finish_outputs, run_offline
 from pd_integrator.core.run.test_file import from_dict
 
@@ -97,7 +97,7 @@ def test_worker_never_asked_exits_without_drawing(tmp_path: Path) -> None:
 
 
 def test_worker_exits_when_its_parent_is_killed() -> None:
-    script = ('import time; from pd_integrator.core.run.figure_worker import FigureWorker; '
+    script = ('import time; from pd_integrator.core.run.record.figure_worker import FigureWorker; '
               'worker = FigureWorker.start(); print(worker.pid, flush=True); time.sleep(120)')
     parent = subprocess.Popen([sys.executable, '-c', script], stdout=subprocess.PIPE, text=True)
     try:

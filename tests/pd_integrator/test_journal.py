@@ -27,10 +27,11 @@ from pd_common.protocol import (
 )
 from pd_common.protocol import TestState as State
 from pd_integrator.core.errors import BagError
-from pd_integrator.core.run import journal as journal_module
-from pd_integrator.core.run.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, read_bag
-from pd_integrator.core.run.dispatch import StepDispatcher
-from pd_integrator.core.run.journal import (
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.session import TestSession as Session  # not a test class
+from pd_integrator.core.run.record import journal as journal_module
+from pd_integrator.core.run.record.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, read_bag
+from pd_integrator.core.run.record.journal import (
     JOURNAL_FILE,
     Journal,
     journal_to_bag,
@@ -45,7 +46,6 @@ from pd_integrator.core.run.runner import (
     serve_queue,
     site_servers,
 )
-from pd_integrator.core.run.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.test_file import load_test_file
 
 REPO = Path(__file__).resolve().parents[2]

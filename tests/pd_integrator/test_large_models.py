@@ -25,9 +25,9 @@ from pd_common.protocol import Command
 from pd_integrator.core.dynamics import structure as structure_module
 from pd_integrator.core.dynamics.structure import modal_analysis, omega_max
 from pd_integrator.core.model.damping import rayleigh_damping
-from pd_integrator.core.run.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.runner import serve_queue, site_servers
-from pd_integrator.core.run.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.test_file import from_dict
 from pd_integrator.core.schemes import linalg as scheme_linalg
 from pd_integrator.core.schemes import newmark_explicit as newmark_module

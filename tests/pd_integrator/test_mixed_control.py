@@ -25,8 +25,8 @@ import pytest
 
 from pd_common.protocol import Command, ControlMode, Feedback
 from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.run.coordinator import SiteCoordinator
-from pd_integrator.core.run.outputs import read_response_csv
+from pd_integrator.core.run.loop.coordinator import SiteCoordinator
+from pd_integrator.core.run.record.outputs import read_response_csv
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 from pd_integrator.core.run.test_file import from_dict
 
@@ -81,7 +81,7 @@ def definition_of(raw: dict[str, Any], tmp_path: Path):
 
 
 # -- parsing -----------------------------------------------------------------------------------
-WHERE = r'^col\.yaml: structure\.elements\[0\] \(column\)'
+WHERE = r'^col\.yaml: structure\.elements\.0'
 
 
 @pytest.mark.parametrize(('change', 'pattern'), [
@@ -96,16 +96,16 @@ WHERE = r'^col\.yaml: structure\.elements\[0\] \(column\)'
     (lambda e: e.update(control={'vertical': {'mode': 'force'}}),
      r'\.control\.vertical\.force: is required for force control'),
     (lambda e: e.update(control={'vertical': {'mode': 'force', 'force': 'heavy'}}),
-     r'\.control\.vertical\.force: must be a number \[N\] or a table'),
+     r'\.control\.vertical\.force: must be a force \[N\] or a table'),
     (lambda e: e.update(control={'vertical': {'mode': 'force',
                                               'force': [[0.0, 0.0], [0.0, 1.0]]}}),
      r'\.control\.vertical\.force\[1\]: times must increase, got 0 s after 0 s$'),
     (lambda e: e.update(control={'vertical': {'mode': 'force', 'force': [[0.0, math.inf]]}}),
-     r'\.control\.vertical\.force\[0\]: must be a pair \[t, F\] of finite numbers'),
+     r'\.control\.vertical\.force: must be a force \[N\] or a table .*got \[\[0\.0, Infinity'),
     (lambda e: e['control'].update(horizontal={'mode': 'displacement', 'force': 1.0}),
      r'\.control\.horizontal\.force: unknown parameter for displacement control$'),
     (lambda e: e.update(control=[1, 2]),
-     r'\.control: must map actuator names to'),
+     r'\.control: must be a mapping, got \[1, 2\]'),
     (lambda e: e.update(dofs=[None, None]),
      r'\.dofs: needs at least one structure DOF'),
     (lambda e: e.update(dofs=['w', None]),

@@ -17,7 +17,7 @@ from rosbags.highlevel import AnyReader
 from pd_common.protocol import Command, Feedback
 from pd_common.protocol import TestState as State
 from pd_integrator.core.errors import BagError, ConfigError, StabilityError
-from pd_integrator.core.run.bag import (
+from pd_integrator.core.run.record.bag import (
     TOPIC_COMMAND,
     TOPIC_DEFINITION,
     TOPIC_FEEDBACK,

@@ -38,9 +38,9 @@ from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.pretest import build_plan, execute, read_bridge_limits
 from pd_integrator.core.run.bridge_limits import SiteLimits, default_bridge_file, site_limits
 from pd_integrator.core.run.definition import TestDefinition as Definition
-from pd_integrator.core.run.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.runner import RunResult, run_offline, site_servers
-from pd_integrator.core.run.session import TestSession as Session
 from pd_integrator.core.run.test_file import from_dict, load_test_file
 
 CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'

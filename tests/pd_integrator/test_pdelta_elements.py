@@ -42,7 +42,7 @@ from pd_integrator.core.model.elements import (
     beam_column_2d_stiffness,
     static_condensation,
 )
-from pd_integrator.core.run import session as session_module
+from pd_integrator.core.run.loop import session as session_module
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import from_dict
 from support.opensees_material import opensees_available

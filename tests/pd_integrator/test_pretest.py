@@ -34,8 +34,8 @@ from pd_integrator.core.pretest import (
     response_spectrum,
 )
 from pd_integrator.core.pretest.execute import batches
-from pd_integrator.core.run.history import ResponseHistory
-from pd_integrator.core.run.session import TestSession as Session
+from pd_integrator.core.run.loop.session import TestSession as Session
+from pd_integrator.core.run.record.history import ResponseHistory
 from pd_integrator.core.run.test_file import from_dict
 from pd_integrator.core.verification import nigam_jennings
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pd_integrator.core.run.progress import ProgressMeter
+from pd_integrator.core.run.loop.progress import ProgressMeter
 
 
 class _Clock:

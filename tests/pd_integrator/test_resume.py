@@ -26,11 +26,12 @@ from pd_common.protocol import (
 from pd_common.protocol import TestState as State
 from pd_common.specimen import SpecimenServer
 from pd_integrator.core.errors import BagError, ConfigError, PdIntegratorError
-from pd_integrator.core.run.bag import TOPIC_STATUS, RecordedRun, site_of
-from pd_integrator.core.run.dispatch import StepDispatcher
-from pd_integrator.core.run.epochs import EpochChange, EpochGuard
-from pd_integrator.core.run.journal import JOURNAL_FILE, Journal, journal_to_bag
-from pd_integrator.core.run.protocol import Verdict
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.epochs import EpochChange, EpochGuard
+from pd_integrator.core.run.loop.protocol import Verdict
+from pd_integrator.core.run.loop.session import TestSession as Session  # not a test class
+from pd_integrator.core.run.record.bag import TOPIC_STATUS, RecordedRun, site_of
+from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal, journal_to_bag
 from pd_integrator.core.run.resume import (
     RESUMABLE,
     SiteState,
@@ -49,7 +50,6 @@ from pd_integrator.core.run.runner import (
     serve_queue,
     site_servers,
 )
-from pd_integrator.core.run.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.test_file import load_test_file
 
 REPO = Path(__file__).resolve().parents[2]

@@ -14,8 +14,8 @@ from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
 from pd_common.specimen import SpecimenServer, specimen_from_config
 from pd_integrator.core.errors import ProtocolError, StabilityError
-from pd_integrator.core.run.protocol import StepProtocol, TimeoutAction, Verdict
-from pd_integrator.core.run.session import TestSession as Session
+from pd_integrator.core.run.loop.protocol import StepProtocol, TimeoutAction, Verdict
+from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.test_file import from_dict, load_test_file
 
 if TYPE_CHECKING:

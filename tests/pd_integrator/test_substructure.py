@@ -19,11 +19,11 @@ from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.model.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
-from pd_integrator.core.run.coordinator import SiteCoordinator
-from pd_integrator.core.run.dispatch import StepDispatcher
-from pd_integrator.core.run.protocol import Verdict
+from pd_integrator.core.run.loop.coordinator import SiteCoordinator
+from pd_integrator.core.run.loop.dispatch import StepDispatcher
+from pd_integrator.core.run.loop.protocol import Verdict
+from pd_integrator.core.run.loop.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.runner import replay_bag, run_offline
-from pd_integrator.core.run.session import TestSession as Session  # not a test class
 from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
 from pd_integrator.core.schemes import linalg as scheme_linalg
 from pd_integrator.core.verification import modal_superposition

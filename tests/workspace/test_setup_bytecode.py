@@ -23,7 +23,7 @@ def test_every_package_module_has_its_bytecode() -> None:
 
 
 def test_the_compiled_module_is_the_one_loaded() -> None:
-    code = ('import pd_integrator.core.run.session as m, importlib.util, pathlib\n'
+    code = ('import pd_integrator.core.run.loop.session as m, importlib.util, pathlib\n'
             'print(m.__spec__.cached)\n'
             'print(pathlib.Path(importlib.util.cache_from_source(m.__file__)).resolve())\n')
     cached, expected = subprocess.run([sys.executable, '-c', code], capture_output=True,

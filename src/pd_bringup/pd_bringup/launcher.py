@@ -56,10 +56,10 @@ from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_common.units import format_quantity
 from pd_integrator.core.errors import PdIntegratorError
 from pd_integrator.core.run.definition import TestDefinition
-from pd_integrator.core.run.journal import JOURNAL_FILE
+from pd_integrator.core.run.loop.session import TestSession
+from pd_integrator.core.run.record.journal import JOURNAL_FILE
 from pd_integrator.core.run.resume import load_resumable
 from pd_integrator.core.run.runner import BAG_DIRECTORY, default_run_directory
-from pd_integrator.core.run.session import TestSession
 from pd_integrator.core.run.test_file import load_test_file
 
 from .operator import Operator

@@ -87,11 +87,13 @@ from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatu
 from pd_msgs.msg import Control as ControlMessage
 
 from .core.errors import PdIntegratorError
-from .core.run.bag import RecordedRun
-from .core.run.dispatch import StepDispatcher
-from .core.run.figure_worker import FigureWorker
-from .core.run.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
-from .core.run.progress import ProgressMeter
+from .core.run.loop.dispatch import StepDispatcher
+from .core.run.loop.progress import ProgressMeter
+from .core.run.loop.session import TestSession
+from .core.run.loop.steering import Steering
+from .core.run.record.bag import RecordedRun
+from .core.run.record.figure_worker import FigureWorker
+from .core.run.record.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
 from .core.run.resume import (
     ResumeAction,
     SiteState,
@@ -108,8 +110,6 @@ from .core.run.runner import (
     prepare_run_directory,
     restore_dispatcher,
 )
-from .core.run.session import TestSession
-from .core.run.steering import Steering
 from .core.run.test_file import PARAMETER_PATHS, load_test_file
 
 Item = TypeVar('Item')

@@ -15,7 +15,7 @@ from pd_common.resources import ResourceError, share_file
 
 from .core.errors import PdIntegratorError
 from .core.run.bridge_limits import limits_report, site_limits
-from .core.run.journal import JOURNAL_FILE, RecordWriteError
+from .core.run.record.journal import JOURNAL_FILE, RecordWriteError
 from .core.run.runner import default_run_directory, run_offline
 from .core.run.test_file import load_test_file
 

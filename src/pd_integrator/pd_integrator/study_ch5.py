@@ -60,7 +60,7 @@ from .study_ch5_records import (
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from .core.run.history import ResponseHistory
+    from .core.run.record.history import ResponseHistory
 
 __all__ = [
     'PROG',

@@ -17,7 +17,7 @@ import numpy as np
 from .core.plotting import pyplot
 
 if TYPE_CHECKING:
-    from .core.run.history import ResponseHistory
+    from .core.run.record.history import ResponseHistory
     from .study_ch5_records import RecordResult
 
 __all__ = [

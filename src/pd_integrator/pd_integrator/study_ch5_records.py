@@ -23,12 +23,12 @@ from pd_common.specimen import specimen_from_config
 
 from .core.errors import ConfigError, PdIntegratorError
 from .core.run.definition import TestDefinition
-from .core.run.session import TestSession
+from .core.run.loop.session import TestSession
 from .core.run.test_file import from_dict
 from .core.schemes import SCHEMES
 
 if TYPE_CHECKING:
-    from .core.run.history import ResponseHistory
+    from .core.run.record.history import ResponseHistory
 
 __all__ = [
     'MAX_PGA_G',

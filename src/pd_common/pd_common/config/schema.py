@@ -19,19 +19,20 @@ from __future__ import annotations
 
 import json
 from collections.abc import Collection, Mapping
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from .schema_base import SchemaError, one_line
 from .schema_bridge import BridgeParameterFile, BridgeParameters, SiteBridgeParameters
 from .schema_specimen import SpecimenSection
-from .schema_test_file import SiteSettings, TestFileModel
+from .schema_test_file import Element, SiteSettings, TestFileModel
 
 __all__ = ['BRIDGE_SCHEMA_FILE', 'JSON_SCHEMA_DIALECT', 'TEST_FILE_SCHEMA_FILE',
            'BridgeParameterFile', 'BridgeParameters', 'SchemaError', 'SiteBridgeParameters',
            'SiteSettings', 'SpecimenSection', 'TestFileModel', 'json_schema',
-           'json_schema_text', 'validate_bridge_parameters', 'validate_test_file']
+           'json_schema_text', 'validate_bridge_parameters', 'validate_elements',
+           'validate_test_file']
 
 #: The JSON Schema dialect of the generated schemas.
 JSON_SCHEMA_DIALECT = 'https://json-schema.org/draft/2020-12/schema'
@@ -71,6 +72,31 @@ def validate_test_file(data: Any, source: str, *,
         return TestFileModel.model_validate(data, context=context)
     except ValidationError as err:
         raise one_line(err, data, source) from None
+
+
+#: ``structure.elements`` alone (:func:`validate_elements`).
+_ELEMENTS: TypeAdapter[list[Element]] = TypeAdapter(
+    Annotated[list[Element], Field(min_length=1)])
+#: Where ``structure.elements`` is in a test file.
+_ELEMENTS_PATH = 'structure.elements'
+
+
+def validate_elements(data: Any, source: str) -> list[Element]:
+    """A test file's ``structure.elements`` (parsed YAML) as typed elements.
+
+    For the readers that build the structure before the whole file is validated; the
+    elements' hysteresis models are any registry name here (their builder checks it).
+
+    Raises:
+        SchemaError: one line, ``<source>: structure.elements.<i>.<key>: <what is wrong>``.
+
+    """
+    try:
+        return _ELEMENTS.validate_python(data, strict=True)
+    except ValidationError as err:
+        refusal = one_line(err, data, source)
+        path = f'{_ELEMENTS_PATH}.{refusal.path}' if refusal.path else _ELEMENTS_PATH
+        raise SchemaError(source, path, refusal.problem) from None
 
 
 def validate_bridge_parameters(data: Any, source: str) -> BridgeParameterFile:

@@ -10,7 +10,7 @@ from pd_common.config import existing_path
 from pd_common.protocol import Command, Feedback
 
 from ..errors import BagError
-from ..run.outputs import ENERGY_CSV, read_response_csv
+from ..run.record.outputs import ENERGY_CSV, read_response_csv
 from ..run.runner import BAG_DIRECTORY, load_run
 from .model import ConsoleModel
 

@@ -10,7 +10,7 @@ A :class:`StructuralModel` splits the restoring force of the structure into
   served by an actuator bridge or a specimen simulator), through an experimental setup.
 
 The step protocol across sites (one command per site, answers gathered) is
-:class:`~pd_integrator.core.run.coordinator.SiteCoordinator`.
+:class:`~pd_integrator.core.run.loop.coordinator.SiteCoordinator`.
 """
 
 from __future__ import annotations

@@ -38,9 +38,9 @@ from pd_common.protocol import Command, TestState
 from pd_common.rths import ContinuousSiteServer, PhysicalSpecimen
 
 from ..errors import ConfigError
-from ..run.dispatch import StepDispatcher
+from ..run.loop.dispatch import StepDispatcher
+from ..run.loop.session import TestSession
 from ..run.runner import serve_queue, site_servers
-from ..run.session import TestSession
 from ..run.test_file import from_dict
 from .problem import BenchmarkCase, numerical_substructure, padding_needed
 

@@ -1,22 +1,21 @@
-"""Running a test: its definition, the step protocol, the session, the bag and the outputs.
+"""Running a test, split by concern: the test, the step loop, the record.
 
-* :mod:`.definition` — the test file's schema and :class:`TestDefinition`;
-* :mod:`.protocol` — which feedback advances a step, re-sends and holds;
-* :mod:`.session` — :class:`TestSession`, one test step by step (owns commit, revert, hold);
-* :mod:`.coordinator` — the step protocol across the sites of a substructured test;
-* :mod:`.dispatch` — the one step loop of the node and the ROS-free runner;
-* :mod:`.history`, :mod:`.energy`, :mod:`.outputs` — the committed response and the run
-  folder's CSV files, summary and figures;
-* :mod:`.bag` — the rosbag2 record; :mod:`.runner` — ROS-free runs and replays;
-  :mod:`.progress` — progress lines.
+* :mod:`.definition`, :mod:`.test_file`, :mod:`.collapse` — the test file,
+  :class:`TestDefinition` and its collapse rule;
+* :mod:`.loop` — the step loop: the step protocol, :class:`TestSession` (trial, commit,
+  revert, hold), the coordinator of the sites, the dispatcher, epochs, steering;
+* :mod:`.record` — the record: the journal, the bag, the committed response, the energy
+  balance, the run folder's files and figures (it never imports the loop);
+* :mod:`.runner` — ROS-free runs, replays and recovery; :mod:`.resume` — continuing a stopped
+  run (the checks and the policy); :mod:`.bridge_limits` — a site's bridge limits offline.
 """
 
 from __future__ import annotations
 
 from .definition import TestDefinition
-from .history import ResponseHistory
-from .protocol import StepProtocol, Verdict
-from .session import TestSession
+from .loop.protocol import StepProtocol, Verdict
+from .loop.session import TestSession
+from .record.history import ResponseHistory
 from .test_file import PARAMETER_PATHS, from_dict, from_json, load_test_file
 
 __all__ = [

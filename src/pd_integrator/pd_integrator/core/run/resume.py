@@ -34,10 +34,10 @@ from pd_common.config import read_text
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StateOrigin, TestState
 
 from ..errors import ConfigError
-from .bag import TOPIC_STATUS, RecordedRun, site_of
 from .definition import TestDefinition
-from .epochs import EpochGuard
-from .journal import JOURNAL_FILE, MAX_LINE_BYTES
+from .loop.epochs import EpochGuard
+from .record.bag import TOPIC_STATUS, RecordedRun, site_of
+from .record.journal import JOURNAL_FILE, MAX_LINE_BYTES
 from .runner import DEFINITION_JSON, load_run
 from .test_file import from_json
 

@@ -35,24 +35,24 @@ from pd_common.specimen import (
 )
 
 from ..errors import BagError, ConfigError
-from .actuators import ActuatorHistory, actuator_history, write_actuator_outputs
-from .bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
 from .bridge_limits import BridgeGate, SiteLimits, limits_summary
 from .definition import TestDefinition
-from .dispatch import StepDispatcher, refuse_fresh_state
-from .energy import energy_balance
-from .epochs import EpochGuard
-from .journal import JOURNAL_FILE, Journal, journal_to_bag, read_journal
-from .outputs import (
+from .loop.dispatch import StepDispatcher, refuse_fresh_state
+from .loop.epochs import EpochGuard
+from .loop.progress import ProgressMeter
+from .loop.session import TestSession
+from .record.actuators import ActuatorHistory, actuator_history, write_actuator_outputs
+from .record.bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
+from .record.energy import energy_balance
+from .record.journal import JOURNAL_FILE, Journal, journal_to_bag, read_journal
+from .record.outputs import (
     draw_run_figures,
     summarize,
     tracking_history,
     write_run_outputs,
     write_summary,
 )
-from .progress import ProgressMeter
-from .session import TestSession
-from .signatures import check_signatures
+from .record.signatures import check_signatures
 from .test_file import from_json
 
 #: What answers a site's commands in this process: a simulated specimen or a continuous
@@ -64,7 +64,7 @@ if TYPE_CHECKING:
 
     from pd_common.auth import Key
 
-    from .figure_worker import FigureWorker
+    from .record.figure_worker import FigureWorker
 
 BAG_DIRECTORY = 'bag'
 DEFINITION_JSON = 'test_definition.json'

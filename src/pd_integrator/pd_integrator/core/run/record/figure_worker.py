@@ -14,7 +14,8 @@ parent ended, normally or killed) makes it exit without drawing. A child that ca
 dies or times out leaves the drawing to the caller (:meth:`FigureWorker.wait` returns
 ``None`` and :attr:`FigureWorker.error` says why).
 
-Run as ``python -m pd_integrator.core.run.figure_worker`` by :meth:`FigureWorker.start` only.
+Run as ``python -m pd_integrator.core.run.record.figure_worker`` by
+:meth:`FigureWorker.start` only.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
 NICENESS = 10
 #: Most seconds :meth:`FigureWorker.wait` waits for the figures (a long MDOF test's included).
 WAIT_TIMEOUT_S = 600.0
-_MODULE = 'pd_integrator.core.run.figure_worker'
+_MODULE = 'pd_integrator.core.run.record.figure_worker'
 
 
 class FigureWorker:

@@ -33,11 +33,11 @@ import numpy as np
 
 from pd_common.protocol import DEFAULT_SITE, Command, Feedback, FeedbackStatus
 
-from ..errors import ProtocolError
+from ...errors import ProtocolError
 from .protocol import StepProtocol, Verdict
 
 if TYPE_CHECKING:
-    from ..model.substructure import StructuralModel
+    from ...model.substructure import StructuralModel
 
 __all__ = ['SiteCoordinator']
 

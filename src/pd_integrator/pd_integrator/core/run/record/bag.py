@@ -53,7 +53,7 @@ from pd_common.protocol import (
     status_from_message,
 )
 
-from ..errors import BagError
+from ...errors import BagError
 
 _UNSIGNED = Signature()
 

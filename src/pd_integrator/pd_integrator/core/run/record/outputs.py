@@ -24,7 +24,7 @@ import numpy as np
 
 from pd_common.experimental import tracking_error, tracking_indicator
 
-from ..plotting import pyplot
+from ...plotting import pyplot
 
 if TYPE_CHECKING:
     from .energy import EnergyHistory

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import TYPE_CHECKING
 
-from ..errors import ProtocolError
+from ...errors import ProtocolError
 
 if TYPE_CHECKING:
     from pd_common.protocol import Command, Feedback

@@ -31,11 +31,11 @@ import numpy as np
 from pd_common.experimental.setups import PlanarActuators, RigidLinkTwoActuators
 from pd_common.protocol import Command, ControlMode, Feedback, FeedbackStatus
 
-from ..plotting import pyplot
+from ...plotting import pyplot
 from .outputs import write_columns_csv
 
 if TYPE_CHECKING:
-    from ..model.substructure import ExperimentalElement, StructuralModel
+    from ...model.substructure import ExperimentalElement, StructuralModel
     from .bag import RecordedRun
     from .history import ResponseHistory
 

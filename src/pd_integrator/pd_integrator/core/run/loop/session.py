@@ -19,16 +19,16 @@ import numpy as np
 from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
 from pd_common.types import FloatArray
 
-from ..dynamics.stability import StabilityReport, check_stability, require_stable
-from ..errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
-from ..schemes import SchemeParameterError, make_integrator
-from .collapse import Collapse, CollapseMonitor
-from .history import ResponseHistory
+from ...dynamics.stability import StabilityReport, check_stability, require_stable
+from ...errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
+from ...schemes import SchemeParameterError, make_integrator
+from ..collapse import Collapse, CollapseMonitor
+from ..record.history import ResponseHistory
 from .protocol import StepProtocol, TimeoutAction, Verdict
 
 if TYPE_CHECKING:
-    from ..schemes import Integrator
-    from .definition import TestDefinition
+    from ...schemes import Integrator
+    from ..definition import TestDefinition
 
 PROBE_SUFFIX = ':probe'
 

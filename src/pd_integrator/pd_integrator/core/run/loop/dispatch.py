@@ -29,13 +29,13 @@ from pd_common.protocol import (
     site_topic_name,
 )
 
-from .bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
+from ..record.bag import TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK
 from .coordinator import SiteCoordinator
 from .epochs import EpochGuard
 from .protocol import Verdict
 
 if TYPE_CHECKING:
-    from .journal import RunRecorder
+    from ..record.journal import RunRecorder
     from .session import TestSession
 
 __all__ = ['SendFunction', 'StepDispatcher', 'refuse_fresh_state']

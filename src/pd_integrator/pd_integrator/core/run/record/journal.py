@@ -54,7 +54,7 @@ from pd_common.protocol import (
     TestState,
 )
 
-from ..errors import BagError
+from ...errors import BagError
 from .bag import (
     MSG_TRAJECTORY,
     TOPIC_COMMAND,
