@@ -50,7 +50,7 @@ def test_the_contracts_hold_on_the_source_tree(source_copy: Path) -> None:
      'Pure cores import no ROS'),
     ('pd_common/pd_common/specimen/backbone.py', 'import pd_common.ros',
      'Pure cores import no ROS'),
-    ('pd_actuator_bridge/pd_actuator_bridge/core/limits.py', 'import pd_msgs.msg',
+    ('pd_actuator_bridge/pd_actuator_bridge/core/force_control.py', 'import pd_msgs.msg',
      'Pure cores import no ROS'),
     ('pd_actuator_bridge/pd_actuator_bridge/node.py', 'import pd_specimen_sim.node',
      'Node packages are peers'),

@@ -98,6 +98,7 @@ from pd_common.auth import (
     merge_refusals,
 )
 from pd_common.experimental import TrackingMonitor
+from pd_common.experimental.limits import LIMIT_PARAMETERS, limits_from_parameters
 from pd_common.jsonl import EventFile
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
@@ -151,7 +152,6 @@ from .core import (
     driver_spec,
     make_driver,
 )
-from .core.limits import LIMIT_PARAMETERS, limits_from_parameters
 
 Item = TypeVar('Item')
 SUCCESS = TransitionCallbackReturn.SUCCESS

@@ -10,6 +10,16 @@ importing this package registers the built-in ones.
 
 from __future__ import annotations
 
+from pd_common.experimental.limits import (
+    LimitViolation,
+    SafetyLimits,
+    Saturation,
+    check_command,
+    check_feedback,
+    check_tracking,
+    saturate_command,
+)
+
 from .bridge import ActuatorBridge
 from .drivers.base import (
     ActuatorDriver,
@@ -47,15 +57,6 @@ from .drivers.transfer_system import TransferSystemDriver
 from .error_models import ErroneousStep, ErrorInjector, ErrorModel, apply_error_model
 from .errors import BridgeConfigError, BridgeError, DriverError, LimitError
 from .force_control import MAX_FORCE_SUBSTEPS, ForceControl, ForceRamp
-from .limits import (
-    LimitViolation,
-    SafetyLimits,
-    Saturation,
-    check_command,
-    check_feedback,
-    check_tracking,
-    saturate_command,
-)
 
 __all__ = [
     'MAX_FORCE_SUBSTEPS',

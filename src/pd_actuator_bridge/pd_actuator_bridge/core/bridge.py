@@ -79,12 +79,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 
-from pd_common.protocol import Arrival, Feedback, FeedbackStatus, arrival
-
-from .drivers.base import ActuatorDriver, ActuatorMeasurement, StepId
-from .errors import BridgeConfigError
-from .force_control import ForceControl
-from .limits import (
+from pd_common.experimental.limits import (
     KIND_FAULT,
     KIND_LIMIT,
     LimitViolation,
@@ -95,7 +90,12 @@ from .limits import (
     check_tracking,
     saturate_command,
 )
-from .limits import format_value as _fmt
+from pd_common.experimental.limits import format_value as _fmt
+from pd_common.protocol import Arrival, Feedback, FeedbackStatus, arrival
+
+from .drivers.base import ActuatorDriver, ActuatorMeasurement, StepId
+from .errors import BridgeConfigError
+from .force_control import ForceControl
 
 STATUS_OK = FeedbackStatus.OK
 STATUS_LIMIT = FeedbackStatus.LIMIT

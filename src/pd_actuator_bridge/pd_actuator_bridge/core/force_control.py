@@ -27,10 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pd_common.experimental.force_ramp import force_ramp
-from pd_common.protocol import ControlMode
-
-from .drivers.base import StepId
-from .limits import (
+from pd_common.experimental.limits import (
     KIND_LIMIT,
     LimitViolation,
     SafetyLimits,
@@ -38,8 +35,11 @@ from .limits import (
     check_target_force,
     check_tracking,
 )
-from .limits import dof_label as _dof_label
-from .limits import format_value as _fmt
+from pd_common.experimental.limits import dof_label as _dof_label
+from pd_common.experimental.limits import format_value as _fmt
+from pd_common.protocol import ControlMode
+
+from .drivers.base import StepId
 
 __all__ = ['MAX_FORCE_SUBSTEPS', 'ForceControl', 'ForceRamp']
 

@@ -4,8 +4,7 @@ The limits are the bridge's own: they are enforced whatever the integrator sends
 at a limit is allowed; anything beyond it is rejected. There is deliberately no tolerance.
 
 One implementation, two users: the actuator bridge enforces them
-(``pd_actuator_bridge.core.bridge``, which re-exports this module as
-``pd_actuator_bridge.core.limits``), and the ROS-free rehearsals apply the same checks to the
+(``pd_actuator_bridge.core.bridge``), and the ROS-free rehearsals apply the same checks to the
 same floats (``./pd offline`` holds where the bridge would; ``./pd pretest`` predicts the step).
 :func:`bridge_parameters` and :func:`limits_from_parameters` read the limits from the bridge's
 ROS parameters (a parameter file's ``ros__parameters``, 0 = off for the optional ones) exactly

@@ -2,8 +2,7 @@
 the step at which the bridge would hold each of them.
 
 The limits are those the bridge enforces, checked by the bridge's own functions
-(:mod:`pd_common.experimental.limits`, which the bridge re-exports as
-``pd_actuator_bridge.core.limits``): ``|x_target| <= max_displacement``, ``|x_target −
+(:mod:`pd_common.experimental.limits`): ``|x_target| <= max_displacement``, ``|x_target −
 x_current| <= max_increment``, ``|x_target − x_current| / step_duration <= max_velocity`` (only
 with both set) on each command, from the position last measured, then ``|f_measured| <=
 max_force`` on its measurement; a value exactly at a limit passes. They come from the bridge's
