@@ -15,7 +15,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+from support.paths import REPO
+
 README_MAX_LINES = 250
 # A repository path as the pages write it: `src/pd_integrator/config/default_test.yaml`.
 REPOSITORY_PATH = re.compile(r'(?<![\w/.-])((?:src|tests|bench|scripts|docs)/[\w./-]*\w)')

@@ -19,10 +19,11 @@ from typing import Any
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'scripts'))
+from support.paths import REPO as REPO  # (re-exported: the graph tests import it from here)
+
+sys.path.insert(0, str(REPO / 'scripts'))
 import clean_shm
 
-REPO = Path(__file__).resolve().parents[2]
 DOMAINS = itertools.count()
 
 

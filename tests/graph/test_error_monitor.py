@@ -18,10 +18,10 @@ from graph_support import REPO, Processes, executable
 from pd_integrator.core.run.record.outputs import read_response_csv
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST
 
 pytestmark = pytest.mark.graph
 
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')
 RUN_TIMEOUT = 120.0

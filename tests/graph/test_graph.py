@@ -29,10 +29,10 @@ from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_integrator.core.run.record.bag import read_bag
 from pd_integrator.core.run.runner import rebuild_outputs, run_offline
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST
 
 pytestmark = pytest.mark.graph
 
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')
 RUN_TIMEOUT = 120.0

@@ -18,8 +18,8 @@ from pd_actuator_bridge.core import ActuatorBridge, BridgeConfigError, DriverErr
 from pd_actuator_bridge.core.drivers.daqmx import DaqmxDriver
 from pd_actuator_bridge.core.drivers.daqmx_config import DaqmxChannelConfig, DaqmxConfig
 from pd_common.protocol import FeedbackStatus
+from support.paths import REPO
 
-REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / 'src' / 'pd_actuator_bridge' / 'config' / 'daqmx_example.yaml'
 
 N_SAMPLES = 4

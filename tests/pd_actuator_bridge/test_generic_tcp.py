@@ -16,7 +16,6 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import pytest
 
@@ -51,12 +50,12 @@ from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
 )
 from pd_actuator_bridge.core.drivers.ramp_hold import RampHoldExecutor
 from pd_common.protocol import FeedbackStatus
+from support.paths import REPO
 
 pytestmark = pytest.mark.timeout(30)
 
 HOST = '127.0.0.1'
 TIMEOUT = 2.0
-REPO = Path(__file__).resolve().parents[2]
 LIMITS = SafetyLimits(max_displacement=0.1, max_increment=0.05, max_force=1.0e6)
 
 

@@ -21,7 +21,6 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,12 +42,12 @@ from pd_actuator_bridge.core.drivers.opensees_adapter import (
 )
 from pd_common.protocol import FeedbackStatus
 from pd_common.specimen.hysteresis import ElasticPerfectlyPlastic
+from support.paths import REPO
 
 pytestmark = pytest.mark.timeout(60)
 
 HOST = '127.0.0.1'
 TIMEOUT = 2.0
-REPO = Path(__file__).resolve().parents[2]
 VECTOR_BYTES = 8 * DEFAULT_DATA_SIZE
 
 

@@ -17,8 +17,8 @@ from pd_bringup.plan import (
     site_commands,
 )
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 DEFAULT = CONFIG / 'default_test.yaml'
 SITES = CONFIG / 'three_story_two_sites.yaml'
 PLAN = 'drop=0.1,duplicate=0.1,delay=0.1,reorder=0.1,seed=3'

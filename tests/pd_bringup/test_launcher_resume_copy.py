@@ -20,8 +20,8 @@ from pd_bringup.plan import LaunchError, LaunchPlan
 from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal
 from pd_integrator.core.run.runner import DEFINITION_JSON
+from support.paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 DEFAULT = CONFIG / 'default_test.yaml'
 SITES = CONFIG / 'three_story_two_sites.yaml'
 FAULTS = 'drop=0.1,seed=3'

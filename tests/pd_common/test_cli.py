@@ -11,9 +11,8 @@ from pathlib import Path
 import pytest
 
 from pd_common.cli import COMMANDS, WORKSPACE_COMMANDS, CliCommand, executable, help_text
+from support.paths import INSTALL, REPO
 
-REPO = Path(__file__).resolve().parents[2]
-INSTALL = REPO / 'ros2_ws' / 'install'
 #: Every command ./pd had when its help was written by hand (none may go missing).
 EARLIER = ('run', 'test', 'lint', 'offline', 'replay', 'analyze', 'study_ch5', 'study_errors',
            'pretest', 'rths_benchmark', 'keygen', 'control', 'console', 'bench', 'setup',

@@ -26,9 +26,8 @@ from pd_common.config import (
 from pd_common.config.schema import BRIDGE_SCHEMA_FILE, TEST_FILE_SCHEMA_FILE, json_schema_text
 from pd_common.config.schema_markdown import markdown_reference
 from pd_common.specimen import HYSTERESIS_MODELS
+from support.paths import CONFIG, REPO
 
-REPO = Path(__file__).resolve().parents[2]
-CONFIG = REPO / 'src' / 'pd_integrator' / 'config'
 SCHEMA_DIR = REPO / 'src' / 'pd_common' / 'schema'
 REFERENCE_PAGE = REPO / 'docs' / 'reference' / 'test-file.md'
 BRIDGE_FILE = REPO / 'src' / 'pd_actuator_bridge' / 'config' / 'bridge.yaml'

@@ -24,9 +24,8 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
-INSTALL = REPO / 'ros2_ws' / 'install'
+from support.paths import DEFAULT_TEST, INSTALL
+
 #: The modules of the entry points (when the workspace is not installed).
 MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline',
            'pretest': 'pd_integrator.pretest', 'replay': 'pd_integrator.replay',

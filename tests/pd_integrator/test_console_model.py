@@ -24,9 +24,8 @@ from pd_integrator.core.console import (
 )
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST, REPO
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')
 

@@ -12,8 +12,8 @@ from pd_integrator.core.run.record.energy import energy_balance
 from pd_integrator.core.run.record.history import ResponseHistory
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import REPO
 
-REPO = Path(__file__).resolve().parents[2]
 RECORD = REPO / 'src/pd_integrator/data/ground_motions/elcentro_1940_ns_chopra.csv'
 
 

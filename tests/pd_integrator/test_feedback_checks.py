@@ -24,9 +24,8 @@ from pd_integrator.core.run.loop.session import TestSession as Session  # not a 
 from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal
 from pd_integrator.core.run.runner import load_run, replay_run
 from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
+from support.paths import REPO, TWO_SITES
 
-REPO = Path(__file__).resolve().parents[2]
-TWO_SITES = REPO / 'src' / 'pd_integrator' / 'config' / 'three_story_two_sites.yaml'
 M = 2543.4
 K = 312559.0
 C = 2819.5

@@ -18,8 +18,8 @@ from pd_integrator.core.dynamics.record_readers import (
     read_two_column,
 )
 from pd_integrator.core.errors import GroundMotionError, PdIntegratorError
+from support.paths import REPO
 
-REPO = Path(__file__).resolve().parents[2]
 ELCENTRO_NAME = 'elcentro_1940_ns_chopra.csv'
 ELCENTRO_CANDIDATES = (
     REPO / 'data' / 'ground_motions' / ELCENTRO_NAME,

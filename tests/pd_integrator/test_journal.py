@@ -47,9 +47,8 @@ from pd_integrator.core.run.runner import (
     site_servers,
 )
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 DURATION = 3.0  # 300 steps: the specimen yields at step 180 (its state matters)
 STEPS = 300
 

@@ -27,9 +27,8 @@ from pd_integrator.core.run.record.bag import (
 )
 from pd_integrator.core.run.runner import rebuild_outputs, replay_bag, run_offline
 from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
+from support.paths import DEFAULT_TEST, REPO
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 ELCENTRO = Path('/work/main/src/pd_integrator/data/ground_motions/elcentro_1940_ns_chopra.csv')
 if not ELCENTRO.is_file():  # a checkout somewhere else
     ELCENTRO = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / ELCENTRO.name

@@ -42,8 +42,8 @@ from pd_integrator.core.run.loop.dispatch import StepDispatcher
 from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.runner import RunResult, run_offline, site_servers
 from pd_integrator.core.run.test_file import from_dict, load_test_file
+from support.paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 RECORD = CONFIG.parent / 'data' / 'ground_motions' / 'elcentro_1940_ns_chopra.csv'
 
 

@@ -38,8 +38,8 @@ from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.record.history import ResponseHistory
 from pd_integrator.core.run.test_file import from_dict
 from pd_integrator.core.verification import nigam_jennings
+from support.paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 DEFAULT = CONFIG / 'default_test.yaml'
 RECORD = CONFIG.parent / 'data' / 'ground_motions' / 'elcentro_1940_ns_chopra.csv'
 DURATION = 12.0  # s of El Centro: the strong motion, yielding both ways

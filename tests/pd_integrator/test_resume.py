@@ -51,9 +51,8 @@ from pd_integrator.core.run.runner import (
     site_servers,
 )
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import CONFIG
 
-REPO = Path(__file__).resolve().parents[2]
-CONFIG = REPO / 'src' / 'pd_integrator' / 'config'
 DEFAULT_TEST = CONFIG / 'default_test.yaml'
 TWO_SITES = CONFIG / 'three_story_two_sites.yaml'
 STRUCTURE = '/pd/structure/'

@@ -14,9 +14,8 @@ import pytest
 from pd_common.config import read_yaml_file
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.run.test_file import load_test_file
+from support.paths import CONFIG, REPO
 
-REPO = Path(__file__).resolve().parents[2]
-CONFIG = REPO / 'src' / 'pd_integrator' / 'config'
 OFFLINE = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / 'offline'
 
 #: Broken copies of the default test: (old text, new text, expected line after the file name).

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -17,12 +16,11 @@ from pd_integrator.core.errors import ProtocolError, StabilityError
 from pd_integrator.core.run.loop.protocol import StepProtocol, TimeoutAction, Verdict
 from pd_integrator.core.run.loop.session import TestSession as Session
 from pd_integrator.core.run.test_file import from_dict, load_test_file
+from support.paths import DEFAULT_TEST
 
 if TYPE_CHECKING:
     from pd_integrator.core.run.definition import TestDefinition
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 
 M = 2543.4
 K = 312559.0

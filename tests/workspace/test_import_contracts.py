@@ -16,7 +16,8 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from support.paths import REPO
+
 PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
 
 

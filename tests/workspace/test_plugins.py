@@ -25,9 +25,9 @@ from pathlib import Path
 import pytest
 import yaml
 
+from support.paths import REPO
 from support.plugin_package import install_example_plugin
 
-REPO = Path(__file__).resolve().parents[2]
 PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
 GROUND_MOTION = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / \
     'elcentro_1940_ns_chopra.csv'
