@@ -38,6 +38,7 @@ from pd_actuator_bridge.core.drivers import registry
 from pd_common.protocol import Feedback, FeedbackStatus
 from pd_common.registry import ParameterError
 from support.loopback import LoopbackDriver
+from support.sections import INLINE_GROUND_MOTION
 
 NAN = math.nan
 INF = math.inf
@@ -923,7 +924,8 @@ def test_the_factory_gets_the_resolved_parameters(scratch_registry: None) -> Non
 def test_emulator_factory_builds_the_driver_on_the_test_files_specimen(tmp_path: Path) -> None:
     test_file = tmp_path / 'test.yaml'
     test_file.write_text(yaml.safe_dump({
-        'structure': {'dof_names': ['top']},
+        'test': {'dt': 0.01}, 'ground_motion': INLINE_GROUND_MOTION,
+        'structure': {'dof_names': ['top'], 'mass': 1000.0, 'initial_stiffness': 312559.0},
         'specimen': {'elements': [{'model': 'elastic', 'stiffness': 312559.0}]},
     }), encoding='utf-8')
     config = tmp_path / 'driver.yaml'

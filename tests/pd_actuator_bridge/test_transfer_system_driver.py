@@ -33,6 +33,7 @@ from pd_common.rths import (
     ContinuousSiteServer,
     continuous_from_config,
 )
+from support.sections import INLINE_GROUND_MOTION, ONE_DOF_STRUCTURE
 
 DT = 1.0 / 1024.0
 SECTION: dict[str, Any] = {
@@ -164,6 +165,7 @@ def test_force_control_is_refused() -> None:
 
 def write_test_file(path: Path, **section: Any) -> Path:
     raw = {'test': {'id': 't', 'dt': DT, 'duration': 100 * DT},
+           'structure': ONE_DOF_STRUCTURE, 'ground_motion': INLINE_GROUND_MOTION,
            'sites': {'lab1': {'transfer_system': {**SECTION, **section},
                               'bridge': {'driver': 'transfer_system'}}}}
     path.write_text(yaml.safe_dump(raw), encoding='utf-8')

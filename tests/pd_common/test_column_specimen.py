@@ -28,6 +28,7 @@ from pd_common.specimen import (
     model_from_config,
     specimen_from_config,
 )
+from support.sections import INLINE_GROUND_MOTION, ONE_DOF_STRUCTURE
 
 K = 1.0e6          # lateral stiffness [N/m]
 KA = 1.0e9         # axial stiffness [N/m]
@@ -268,8 +269,10 @@ def test_specimen_from_config_sends_a_column_to_the_server() -> None:
 
 def test_a_sites_column_error_names_the_site(tmp_path: Path) -> None:
     path = tmp_path / 'column.yaml'
-    path.write_text(yaml.safe_dump({'sites': {'lab': {'specimen': {
-        'column': {**COLUMN, 'height': 0.0}}}}}), encoding='utf-8')
+    path.write_text(yaml.safe_dump({
+        'test': {'dt': 0.01}, 'structure': ONE_DOF_STRUCTURE,
+        'ground_motion': INLINE_GROUND_MOTION, 'sites': {'lab': {'specimen': {
+            'column': {**COLUMN, 'height': 0.0}}}}}), encoding='utf-8')
     with pytest.raises(SpecimenError) as error:
         load_site_server(path, 'lab')
     assert str(error.value).startswith('column.yaml: sites.lab.specimen.column.height: must be')

@@ -102,8 +102,8 @@ def test_the_specimen_section_reader_reports_the_bomb_on_one_line(tmp_path: Path
     assert time.perf_counter() - start < 10.0  # (expanded or read: minutes, or never)
     message = str(info.value)
     assert '\n' not in message
-    assert str(path) in message
-    assert 'line 2: b[0]: YAML aliases (*a) are not allowed in test files' in message
+    assert message.startswith('bomb.yaml: line 2: b[0]: YAML aliases (*a) are not allowed in '
+                              'test files')  # (as the integrator says it: one reader)
 
 
 # -- nesting ------------------------------------------------------------------------------------

@@ -132,7 +132,8 @@ BROKEN = {
     'bridge limit': (_set('sites', 'lab1', 'bridge', 'max_force', value=0),
                      'sites.lab1.bridge.max_force: must be > 0, got 0'),
     'site name': (_set('sites', 'lab-2', value={}),
-                  "sites.lab-2: must match ^[A-Za-z][A-Za-z0-9_]{0,63}$, got 'lab-2'"),
+                  ('sites.lab-2: must be a name of letters, digits and _ starting with a '
+                   "letter, got 'lab-2'")),
     'damping ratio': (_set('structure', 'damping', value={'ratio': 1.0}),
                       'structure.damping.ratio: must be < 1, got 1.0'),
     'direction': (_set('ground_motion', 'direction', value=2),

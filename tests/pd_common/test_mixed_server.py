@@ -29,6 +29,7 @@ from pd_common.specimen import (
     load_site_server,
     server_from_config,
 )
+from support.sections import INLINE_GROUND_MOTION
 
 K, KA, L = 1.0e6, 1.0e9, 3.0
 P = 24950.0                  # the thesis's gravity load [N]
@@ -283,7 +284,8 @@ def column_test_file(folder: Path, **changes: Any) -> Path:
                'specimen': {'column': {'height': L, 'axial_stiffness': KA, 'lateral': {
                    'model': 'elastic', 'stiffness': K}}},
                'bridge': {'max_force': 6.0e4, 'max_force_increment': INCREMENT,
-                          **changes.pop('bridge', {})}}}}
+                          **changes.pop('bridge', {})}}},
+           'ground_motion': INLINE_GROUND_MOTION}
     path = folder / 'column.yaml'
     path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
     return path
@@ -312,11 +314,11 @@ def test_load_site_server_takes_the_setup_and_ramp_of_the_site(tmp_path: Path) -
 @pytest.mark.parametrize(('changes', 'message'), [
     ({'element': {'setup': {'type': 'column', 'horizontal_length': -1.0,
                             'vertical_length': 2.0}}},
-     'column.yaml: structure.elements[0].setup.horizontal_length: must be a positive'),
+     'column.yaml: structure.elements.0.setup.horizontal_length: must be > 0, got -1.0'),
     ({'element': {'dofs': ['u']}},
      'column.yaml: structure.elements[0].setup: a column setup needs an element with 2 DOFs'),
     ({'bridge': {'max_force_increment': -5.0}},
-     'column.yaml: sites.lab.bridge.max_force_increment: must be a number >= 0 [N], got -5.0'),
+     'column.yaml: sites.lab.bridge.max_force_increment: must be >= 0, got -5.0'),
     ({'element': {'dofs': ['u', None, None], 'actuators': ['w', 'e', 'h'], 'setup': {
         'type': 'planar_3', 'offset': 0.5, 'vertical_length': 2.0, 'horizontal_length': 1.5}}},
      'column.yaml: sites.lab.specimen: the setup has 3 basic DOFs but the specimen 2'),

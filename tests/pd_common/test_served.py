@@ -25,6 +25,7 @@ from pd_common.specimen import (
     restore_served,
     specimen_fingerprint,
 )
+from support.sections import INLINE_GROUND_MOTION, ONE_DOF_STRUCTURE
 
 REPO = Path(__file__).resolve().parents[2]
 TWO_SITES = REPO / 'src' / 'pd_integrator' / 'config' / 'three_story_two_sites.yaml'
@@ -47,7 +48,7 @@ def write_test_file(folder: Path, specimen: dict[str, Any], name: str = 'test.ya
     raw = {'test': {'id': TEST_ID, 'dt': 0.01},
            'structure': {'dof_names': ['top'], 'mass': 2543.4,
                          'damping': {'ratio': 0.05}, 'initial_stiffness': K},
-           'specimen': specimen}
+           'ground_motion': INLINE_GROUND_MOTION, 'specimen': specimen}
     path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
     return path
 
@@ -160,8 +161,10 @@ def test_load_site_server_of_the_test_and_of_a_site(tmp_path: Path) -> None:
 
 def test_load_site_server_names_the_site_in_its_errors(tmp_path: Path) -> None:
     path = tmp_path / 'sites.yaml'
-    path.write_text(yaml.safe_dump({'sites': {'lab1': {'specimen': {
-        'elements': [{'model': 'elastic'}]}}}}), encoding='utf-8')
+    path.write_text(yaml.safe_dump({
+        'test': {'dt': 0.01}, 'structure': ONE_DOF_STRUCTURE,
+        'ground_motion': INLINE_GROUND_MOTION, 'sites': {'lab1': {'specimen': {
+            'elements': [{'model': 'elastic'}]}}}}), encoding='utf-8')
     with pytest.raises(SpecimenError) as error:
         load_site_server(path, 'lab1')
     assert str(error.value).startswith('sites.yaml: sites.lab1.specimen')
@@ -396,7 +399,8 @@ def write_column_file(folder: Path, vertical_length: float = 2.0) -> Path:
                'specimen': {'column': {'height': 3.0, 'axial_stiffness': 1.0e9, 'lateral': {
                    'model': 'bilinear', 'stiffness': 1.0e6, 'yield_force': 1.5e4,
                    'hardening_ratio': -0.02}}},
-               'bridge': {'max_force_increment': 2500.0}}}}
+               'bridge': {'max_force_increment': 2500.0}}},
+           'ground_motion': INLINE_GROUND_MOTION}
     path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
     return path
 

@@ -14,8 +14,8 @@ from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.run.collapse import CollapseMonitor, CollapseSettings
 from pd_integrator.core.run.runner import run_offline
 from pd_integrator.core.run.test_file import from_dict, load_test_file
+from support.paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
 K = 1000.0
 
 
@@ -103,10 +103,11 @@ def test_an_elastic_test_with_a_collapse_section_does_not_collapse(tmp_path: Pat
     ({'action': 'stop'}, r'collapse\.drift: is required'),
     ({'drift': -0.1}, r'collapse\.drift: must be a positive number'),
     ({'drift': [0.1, 0.2]}, r'collapse\.drift: must be .* list of 1'),
-    ({'drift': 0.1, 'action': 'run'}, r'collapse\.action: must be one of stop, hold, continue'),
+    ({'drift': 0.1, 'action': 'run'},
+     r"collapse\.action: must be one of 'stop', 'hold', 'continue', got 'run'"),
     ({'drift': 0.1, 'tangent_ratio': 0.1}, r'collapse\.tangent_ratio: must be <= 0'),
-    ({'drift': 0.1, 'window': 0}, r'collapse\.window: must be an integer >= 1'),
-    ({'drift': 0.1, 'drfit': 1}, r"collapse\.drfit: unknown parameter"),
+    ({'drift': 0.1, 'window': 0}, r'collapse\.window: must be >= 1, got 0'),
+    ({'drift': 0.1, 'drfit': 1}, r"collapse\.drfit: unknown key"),
 ])
 def test_bad_collapse_sections(section: dict[str, Any], message: str) -> None:
     raw = collapse_test('stop')

@@ -12,12 +12,11 @@ import yaml
 
 from pd_integrator.core.errors import ConfigError
 from pd_integrator.core.run.test_file import from_dict, from_json, load_test_file
+from support.paths import DEFAULT_TEST, REPO
 
 if TYPE_CHECKING:
     from pd_integrator.core.run.definition import TestDefinition
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_TEST = REPO / 'src' / 'pd_integrator' / 'config' / 'default_test.yaml'
 ELCENTRO = Path('/work/main/src/pd_integrator/data/ground_motions/elcentro_1940_ns_chopra.csv')
 if not ELCENTRO.is_file():  # a checkout somewhere else
     ELCENTRO = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / ELCENTRO.name
@@ -182,18 +181,18 @@ def test_unknown_section(tmp_path: Path) -> None:
 def test_unknown_key_in_a_section(tmp_path: Path) -> None:
     raw = base_raw()
     raw['test']['dtt'] = 0.02
-    assert_config_error(write_yaml(tmp_path, raw), r'^case\.yaml: test\.dtt: unknown parameter')
+    assert_config_error(write_yaml(tmp_path, raw), r'^case\.yaml: test\.dtt: unknown key')
     raw = base_raw()
     raw['protocol']['retries'] = 4
     assert_config_error(write_yaml(tmp_path, raw),
-                        r'^case\.yaml: protocol\.retries: unknown parameter')
+                        r'^case\.yaml: protocol\.retries: unknown key')
 
 
 @pytest.mark.parametrize(('value', 'pattern'), [
-    (-0.01, r'^case\.yaml: test\.dt: must be a positive finite number, got -0\.01'),
-    (0.0, r'^case\.yaml: test\.dt: must be a positive finite number'),
-    (float('nan'), r'^case\.yaml: test\.dt: must be a positive finite number, got nan'),
-    (float('inf'), r'^case\.yaml: test\.dt: must be a positive finite number'),
+    (-0.01, r'^case\.yaml: test\.dt: must be > 0, got -0\.01'),
+    (0.0, r'^case\.yaml: test\.dt: must be > 0, got 0\.0'),
+    (float('nan'), r'^case\.yaml: test\.dt: must be a finite number, got nan'),
+    (float('inf'), r'^case\.yaml: test\.dt: must be a finite number, got inf'),
     ('0.01s', r"^case\.yaml: test\.dt: must be a number, got '0\.01s'"),
     (True, r'^case\.yaml: test\.dt: must be a number'),
 ])

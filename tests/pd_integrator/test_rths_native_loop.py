@@ -180,7 +180,7 @@ def test_linear_element_and_a_damping_matrix_with_elements() -> None:
     asymmetric = _file(1.0 / 1024.0)
     matrix = asymmetric['structure']['elements'][0]['stiffness']
     matrix[0][1] += 1.0
-    with pytest.raises(ConfigError, match=r'\(numerical\)\.stiffness: must be symmetric'):
+    with pytest.raises(ConfigError, match=r'elements\.0\.stiffness: must be symmetric'):
         from_dict(asymmetric)
     twice = _file(1.0 / 1024.0)
     twice['structure']['elements'][0]['dofs'] = ['x1', 'x1', 'x3']

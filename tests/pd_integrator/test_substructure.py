@@ -292,13 +292,13 @@ def test_setup_config_errors() -> None:
 
 @pytest.mark.parametrize(('change', 'pattern'), [
     (lambda raw: raw['structure']['elements'][0].update(type='truss'),
-     r"elements\[0\]\.type: must be one of"),
+     r"elements\.0\.type: must be one of"),
     (lambda raw: raw['structure']['elements'][0].update(site='lab-1'),
-     r'\(story1\)\.site: must be a name of letters'),
+     r'elements\.0\.site: must be a name of letters'),
     (lambda raw: raw['structure']['elements'][0].pop('initial_stiffness'),
-     r'\(story1\)\.initial_stiffness: is required'),
+     r'elements\.0\.initial_stiffness: is required'),
     (lambda raw: raw['structure']['elements'][1].update(dofs=['u1', 'u9']),
-     r"\(story2\)\.dofs: 'u9' is not a DOF name"),
+     r"elements\.1\.dofs: 'u9' is not a DOF name"),
     (lambda raw: raw['structure'].update(mass=[0.0, 2.0e4, 1.5e4]),
      r'structure\.mass: DOF u1 is massless but connected'),
     (lambda raw: raw['structure'].update(initial_stiffness=1.0e6),
@@ -307,7 +307,7 @@ def test_setup_config_errors() -> None:
                                                                'ratios': [0.05, 0.05]}}),
      r'structure\.damping: modes: \[1, 4\] asked, the structure has 3 modes'),
     (lambda raw: raw.update(ground_motion=[smooth_record()]),
-     r'ground_motion\[0\]\.influence: is required'),
+     r'ground_motion\.0\.influence: is required'),
     (lambda raw: raw['sites'].update(lab_1={}),
      r'sites\.lab_1: no experimental element is at this site \(sites: lab1\)'),
 ])

@@ -49,7 +49,7 @@ import yaml
 from rclpy.signals import SignalHandlerOptions
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
-from pd_common.config import load_yaml, read_yaml_file
+from pd_common.config import TestFile, load_yaml
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.ros import events_executor, exit_process
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
@@ -60,7 +60,7 @@ from pd_integrator.core.run.loop.session import TestSession
 from pd_integrator.core.run.record.journal import JOURNAL_FILE
 from pd_integrator.core.run.resume import load_resumable
 from pd_integrator.core.run.runner import BAG_DIRECTORY, default_run_directory
-from pd_integrator.core.run.test_file import load_test_file
+from pd_integrator.core.run.test_file import read_definition
 
 from .operator import Operator
 from .plan import (
@@ -195,8 +195,11 @@ def check_run_folder(out: Path) -> None:
         raise LaunchError(msg)
 
 
-def check_specimens(plan: LaunchPlan, test_file: Path) -> dict[str, SpecimenServer]:
-    """Build every simulated specimen as its simulator will (a bad section is one line now,
+def check_specimens(plan: LaunchPlan, test_file: Path | TestFile
+                    ) -> dict[str, SpecimenServer]:
+    """Build every simulated specimen as its simulator will, before anything starts.
+
+    Build every simulated specimen as its simulator will (a bad section is one line now,
     before anything starts); the specimens per site.
 
     Raises:
@@ -222,7 +225,8 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     """
     test_file = Path(args.test_file) if args.test_file else _default_test()
     overrides = parse_overrides(args.param)
-    definition = load_test_file(test_file, overrides)  # fail early, before any process
+    # Read once, fail early, before any process:
+    definition, document = read_definition(test_file, overrides)
     if not definition.needs_probe:
         TestSession(definition)  # refuses an unstable test (omega*dt above the limit)
     out = Path(args.out) if args.out else default_run_directory('runs', definition.test_id)
@@ -236,7 +240,7 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     children, physical = site_commands(
         definition, test_file.resolve(), args.site,
         Path(args.bridge_params) if args.bridge_params else None, out)
-    rig = load_rig(read_yaml_file(test_file) or {}, test_file,
+    rig = load_rig(document.data, test_file,
                    Path(args.rig) if args.rig else None)
     key_file = resolve_key(args, rig, definition.test_id)
     for child in children:
@@ -247,7 +251,7 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
                       site_mode=args.site, physical=physical, key_file=key_file,
                       environment=rig.environment({}), children=children,
                       integrator=with_key(integrator, key_file), figures=not args.no_figures)
-    servers = check_specimens(plan, test_file)
+    servers = check_specimens(plan, document)
     if definition.needs_probe:
         check_probe(plan, definition, test_file, servers)
     return plan, definition, rig
@@ -255,9 +259,10 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
 
 def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path,
                 servers: dict[str, SpecimenServer]) -> None:
-    """A probed stiffness is known only after the probe has moved the specimen: check the
-    stability limit now with the simulated specimen's own initial stiffness, or say how far
-    the probe moves a physical one.
+    """A probed stiffness is known only after the probe has moved the specimen.
+
+    Check the stability limit now with the simulated specimen's own initial stiffness, or say how
+    far the probe moves a physical one.
 
     Raises:
         LaunchError: the simulated specimen's stiffness makes the test unstable.
@@ -464,8 +469,10 @@ class _InterruptedError(Exception):
 
 def _on_hangup(log_file: Path) -> Any:
     """The SIGHUP handler: the terminal is gone (closed, an SSH link dropped), the test is not.
-    run_test's output goes on in ``log_file`` (the nodes it started are in sessions of their
-    own: the hang-up does not reach them)."""
+
+    run_test's output goes on in ``log_file`` (the nodes it started are in sessions of their own:
+    the hang-up does not reach them).
+    """
     def handler(number: int, frame: Any) -> None:
         try:
             descriptor = os.open(log_file, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
@@ -518,9 +525,11 @@ class _OperatorNode:
 
 
 def process_main() -> NoReturn:
-    """The console entry point (``./pd run``, ``ros2 run pd_bringup run_test``): :func:`main`,
-    then the process ends at once (:func:`pd_common.ros.exit_process`): every child is reaped
-    and the launcher's node shut down by then."""
+    """The console entry point (``./pd run``, ``ros2 run pd_bringup run_test``).
+
+    :func:`main`, then the process ends at once (:func:`pd_common.ros.exit_process`): every child
+    is reaped and the launcher's node shut down by then.
+    """
     exit_process(main)
 
 

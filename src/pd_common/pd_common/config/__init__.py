@@ -1,6 +1,9 @@
-"""Reading configuration files (one YAML loader for every package), the files a user names
+"""Configuration files: their loader, the files a user names, and the typed schemas.
+
+Reading configuration files (one YAML loader for every package), the files a user names
 (regular files only, bounded, UTF-8), and the typed schema of the test file and the bridge's
-parameter file (:mod:`.schema`)."""
+parameter file (:mod:`.schema`).
+"""
 
 from __future__ import annotations
 
@@ -32,20 +35,27 @@ if TYPE_CHECKING:
         TestFileModel,
         json_schema,
         validate_bridge_parameters,
+        validate_elements,
+        validate_section,
         validate_test_file,
     )
     from .schema_base import SchemaError
+    from .test_file import TestFile, read_test_data, read_test_file
 
 __all__ = ['MAX_DEPTH', 'MAX_TEXT_BYTES', 'BridgeParameterFile', 'InputFileError', 'SchemaError',
-           'TestFileModel', 'YAMLAliasError', 'YAMLDepthError', 'YAMLDuplicateKeyError',
-           'YAMLError', 'describe_size', 'existing_path', 'json_schema', 'load_yaml',
-           'open_regular_file', 'read_bytes', 'read_text', 'read_yaml_file',
-           'validate_bridge_parameters', 'validate_test_file', 'yaml_problem']
+           'TestFile', 'TestFileModel', 'YAMLAliasError', 'YAMLDepthError',
+           'YAMLDuplicateKeyError', 'YAMLError', 'describe_size', 'existing_path', 'json_schema',
+           'load_yaml', 'open_regular_file', 'read_bytes', 'read_test_data', 'read_test_file',
+           'read_text', 'read_yaml_file', 'validate_bridge_parameters', 'validate_elements',
+           'validate_section', 'validate_test_file', 'yaml_problem']
 
 #: The names of the typed schema (:mod:`.schema`), imported on first use: building its models
 #: takes a third of a second, which a process that reads no test file need not pay.
 _SCHEMA_NAMES = ('BridgeParameterFile', 'SchemaError', 'TestFileModel', 'json_schema',
-                 'validate_bridge_parameters', 'validate_test_file')
+                 'validate_bridge_parameters', 'validate_elements', 'validate_section',
+                 'validate_test_file')
+#: The names of :mod:`.test_file` (reading a test file once per process), imported likewise.
+_TEST_FILE_NAMES = ('TestFile', 'read_test_data', 'read_test_file')
 
 
 def __getattr__(name: str) -> Any:
@@ -54,5 +64,9 @@ def __getattr__(name: str) -> Any:
         from . import schema  # noqa: PLC0415 (on first use: see _SCHEMA_NAMES)
 
         return getattr(schema, name)
+    if name in _TEST_FILE_NAMES:
+        from . import test_file  # noqa: PLC0415 (on first use: see _SCHEMA_NAMES)
+
+        return getattr(test_file, name)
     msg = f'module {__name__!r} has no attribute {name!r}'
     raise AttributeError(msg)

@@ -46,6 +46,7 @@ class InputFileError(OSError):
         super().__init__(errno.EINVAL, reason, os.fspath(path))
 
     def __str__(self) -> str:
+        """The file name and the reason, on one line."""
         return f'{self.filename}: {self.strerror}'
 
 
@@ -76,8 +77,9 @@ def existing_path(path: str | os.PathLike[str]) -> Path:
 
 
 def open_regular_file(path: str | os.PathLike[str]) -> BinaryIO:
-    """Open ``path`` for reading in binary mode if it is a regular file (symbolic links
-    followed), without blocking on a FIFO.
+    """Open ``path`` for reading in binary mode if it is a regular file (symbolic links followed).
+
+    Without blocking on a FIFO.
 
     Raises:
         InputFileError: it is a directory, a FIFO, a device or a socket.

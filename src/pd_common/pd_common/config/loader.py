@@ -45,8 +45,9 @@ class _OneLineError(yaml.MarkedYAMLError):
 
 
 class YAMLDepthError(_OneLineError):
-    """Collections nested deeper than :data:`MAX_DEPTH` levels: refused before the composer
-    recurses any deeper.
+    """Collections nested deeper than :data:`MAX_DEPTH` levels.
+
+    Refused before the composer recurses any deeper.
 
     ``str()`` is e.g. ``line 1: nesting deeper than 64 levels``.
     """
@@ -92,8 +93,10 @@ class YAMLAliasError(_OneLineError):
 
 
 class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e5`` as a number (YAML 1.2) and refusing aliases,
-    deep nesting and repeated keys."""
+    """PyYAML's safe loader, reading ``1e5`` as a number (YAML 1.2) and refusing aliases.
+
+    Deep nesting and repeated keys.
+    """
 
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
@@ -153,8 +156,11 @@ _Loader.add_implicit_resolver(
 
 
 def yaml_problem(err: yaml.YAMLError) -> str:
-    """A YAML error on one line: ``line N: <problem>`` (PyYAML's own messages span several
-    lines, with the text around the mark)."""
+    """A YAML error on one line.
+
+    ``line N: <problem>`` (PyYAML's own messages span several lines, with the text around the
+    mark).
+    """
     mark = getattr(err, 'problem_mark', None)
     where = f'line {mark.line + 1}: ' if isinstance(mark, Mark) else ''
     return f'{where}{getattr(err, "problem", None) or "invalid YAML"}'
@@ -174,8 +180,10 @@ def load_yaml(text: str) -> Any:
 
 
 def read_yaml_file(path: str | Path, *, what: str = 'a YAML file') -> Any:
-    """Read and parse a YAML file with :func:`load_yaml`: a regular file of at most
-    :data:`~pd_common.config.files.MAX_TEXT_BYTES`, UTF-8 (see :mod:`.files`).
+    """Read and parse a YAML file with :func:`load_yaml`.
+
+    A regular file of at most :data:`~pd_common.config.files.MAX_TEXT_BYTES`, UTF-8 (see
+    :mod:`.files`).
 
     Args:
         path: the file.

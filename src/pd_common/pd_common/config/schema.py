@@ -26,13 +26,22 @@ from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 from .schema_base import SchemaError, one_line
 from .schema_bridge import BridgeParameterFile, BridgeParameters, SiteBridgeParameters
 from .schema_specimen import SpecimenSection
-from .schema_test_file import Element, SiteSettings, TestFileModel
+from .schema_test_file import (
+    CollapseSection,
+    DampingSection,
+    Element,
+    ProbeSection,
+    ProtocolSection,
+    SiteSettings,
+    TestFileModel,
+    TestSection,
+)
 
 __all__ = ['BRIDGE_SCHEMA_FILE', 'JSON_SCHEMA_DIALECT', 'TEST_FILE_SCHEMA_FILE',
            'BridgeParameterFile', 'BridgeParameters', 'SchemaError', 'SiteBridgeParameters',
            'SiteSettings', 'SpecimenSection', 'TestFileModel', 'json_schema',
            'json_schema_text', 'validate_bridge_parameters', 'validate_elements',
-           'validate_test_file']
+           'validate_section', 'validate_test_file']
 
 #: The JSON Schema dialect of the generated schemas.
 JSON_SCHEMA_DIALECT = 'https://json-schema.org/draft/2020-12/schema'
@@ -74,29 +83,43 @@ def validate_test_file(data: Any, source: str, *,
         raise one_line(err, data, source) from None
 
 
-#: ``structure.elements`` alone (:func:`validate_elements`).
-_ELEMENTS: TypeAdapter[list[Element]] = TypeAdapter(
-    Annotated[list[Element], Field(min_length=1)])
-#: Where ``structure.elements`` is in a test file.
-_ELEMENTS_PATH = 'structure.elements'
+#: The parts of a test file a reader may validate alone (:func:`validate_section`), by path.
+_SECTIONS: dict[str, TypeAdapter[Any]] = {
+    'structure.elements': TypeAdapter(Annotated[list[Element], Field(min_length=1)]),
+    'test': TypeAdapter(TestSection),
+    'protocol': TypeAdapter(ProtocolSection),
+    'probe': TypeAdapter(ProbeSection),
+    'collapse': TypeAdapter(CollapseSection),
+    'structure.damping': TypeAdapter(DampingSection),
+    'ground_motion': TypeAdapter(TestFileModel.model_fields['ground_motion'].rebuild_annotation()),
+}
 
 
-def validate_elements(data: Any, source: str) -> list[Element]:
-    """A test file's ``structure.elements`` (parsed YAML) as typed elements.
+def validate_section(path: str, data: Any, source: str) -> Any:
+    """One part of a test file (parsed YAML), at the dotted ``path``, as its typed model.
 
-    For the readers that build the structure before the whole file is validated; the
-    elements' hysteresis models are any registry name here (their builder checks it).
+    For the readers that build a part before the whole file is validated: the sections
+    ``test``, ``protocol``, ``probe``, ``collapse``, ``ground_motion``, ``structure.damping``
+    (a mapping) and
+    ``structure.elements`` (whose hysteresis models are any registry name here: their builder
+    checks it).
 
     Raises:
-        SchemaError: one line, ``<source>: structure.elements.<i>.<key>: <what is wrong>``.
+        SchemaError: one line, ``<source>: <path>.<key>: <what is wrong>, got <value>``.
 
     """
     try:
-        return _ELEMENTS.validate_python(data, strict=True)
+        return _SECTIONS[path].validate_python(data, strict=True)
     except ValidationError as err:
         refusal = one_line(err, data, source)
-        path = f'{_ELEMENTS_PATH}.{refusal.path}' if refusal.path else _ELEMENTS_PATH
-        raise SchemaError(source, path, refusal.problem) from None
+        where = f'{path}.{refusal.path}' if refusal.path else path
+        raise SchemaError(source, where, refusal.problem) from None
+
+
+def validate_elements(data: Any, source: str) -> list[Element]:
+    """A test file's ``structure.elements`` as typed elements (:func:`validate_section`)."""
+    elements: list[Element] = validate_section('structure.elements', data, source)
+    return elements
 
 
 def validate_bridge_parameters(data: Any, source: str) -> BridgeParameterFile:

@@ -135,6 +135,19 @@ FloatMatrix = Annotated[
                                by_shape('number', list='list')]], Tag('list')],
     by_shape('number', list='list')]
 
+#: What a string matching a pattern of the schemas is, in words, for messages (a pattern not
+#: here is named as it is).
+_PATTERN_WORDS = {
+    r'^[A-Za-z0-9_.\-]{1,64}$': '1-64 letters, digits, "_", "-" or "."',
+    r'^[A-Za-z][A-Za-z0-9_]{0,63}$': 'a name of letters, digits and _ starting with a letter',
+}
+
+
+def _pattern_problem(pattern: str) -> str:
+    words = _PATTERN_WORDS.get(pattern)
+    return f'must match {pattern}' if words is None else f'must be {words}'
+
+
 #: The messages of pydantic's error types, in the words of the project's parsers.
 _MESSAGES: dict[str, Callable[[Mapping[str, Any]], str]] = {
     'greater_than': lambda ctx: f'must be > {ctx["gt"]:g}',
@@ -155,7 +168,7 @@ _MESSAGES: dict[str, Callable[[Mapping[str, Any]], str]] = {
     'model_attributes_type': lambda _: 'must be a mapping',
     'literal_error': lambda ctx: f'must be one of {str(ctx["expected"]).replace(" or ", ", ")}',
     'string_too_short': lambda ctx: f'must have at least {ctx["min_length"]} character(s)',
-    'string_pattern_mismatch': lambda ctx: f'must match {ctx["pattern"]}',
+    'string_pattern_mismatch': lambda ctx: _pattern_problem(ctx['pattern']),
     'too_short': lambda ctx: f'must have at least {ctx["min_length"]} item(s)',
     'too_long': lambda ctx: f'must have at most {ctx["max_length"]} item(s)',
 }

@@ -174,8 +174,11 @@ BUILT_IN_MODELS = ('elastic', 'epp', 'bilinear', 'pushover', 'bouc_wen')
 
 
 class PluginModel(ConfigModel):
-    """A plug-in package's hysteresis model: its keys are checked by its own declarations
-    (``pd_common.specimen.HYSTERESIS_MODELS``) when the specimen is built."""
+    """A plug-in package's hysteresis model.
+
+    Its keys are checked by its own declarations (``pd_common.specimen.HYSTERESIS_MODELS``) when
+    the specimen is built.
+    """
 
     model_config = ConfigDict(extra='allow')
     model: Annotated[str, Field(json_schema_extra={'pattern': _NAME.pattern})]
@@ -184,8 +187,11 @@ class PluginModel(ConfigModel):
     @field_validator('model')
     @classmethod
     def _registered(cls, value: str, info: ValidationInfo) -> str:
-        """A name the registry knows, when the caller gives the registered names (the
-        ``hysteresis_models`` of :func:`~pd_common.config.schema.validate_test_file`)."""
+        """A name the registry knows.
+
+        When the caller gives the registered names (the ``hysteresis_models`` of
+        :func:`~pd_common.config.schema.validate_test_file`).
+        """
         context = info.context or {}
         known = context.get('hysteresis_models')
         if known is None and not _NAME.fullmatch(value):

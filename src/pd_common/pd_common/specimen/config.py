@@ -54,7 +54,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..config.loader import YAMLError, read_yaml_file, yaml_problem
+from ..config.schema_base import SchemaError
+from ..config.test_file import TestFile, read_test_file
 from ..errors import SpecimenConfigError, SpecimenError
 from ..registry import Parameter
 from .backbone import (
@@ -361,8 +362,10 @@ def specimen_from_config(section: Mapping[str, Any], *, base_dir: Path, source: 
 
 def model_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str,
                       dof_names: Sequence[str]) -> Specimen | ColumnSpecimen:
-    """The model of a ``specimen:`` section: a :class:`ColumnSpecimen` (``column:``) or a
-    :class:`Specimen` (``elements:``, see :func:`specimen_from_config`).
+    """The model of a ``specimen:`` section.
+
+    A :class:`ColumnSpecimen` (``column:``) or a :class:`Specimen` (``elements:``, see
+    :func:`specimen_from_config`).
 
     A column's basic DOFs are ``u, v`` whatever ``dof_names`` (the DOFs served are the site's
     actuators: the specimen server checks their count against its setup).
@@ -390,38 +393,47 @@ def model_from_config(section: Mapping[str, Any], *, base_dir: Path, source: str
         raise ctx.error(path, str(exc).removeprefix('column: ')) from None
 
 
-def load_specimen_section(path: str | Path, site: str = ''
+def read_specimen_test_file(path: str | Path) -> TestFile:
+    """The test file ``path`` read once and validated by the typed schema.
+
+    With the registered hysteresis models (:data:`~.models.HYSTERESIS_MODELS`).
+
+    Raises:
+        SpecimenConfigError: it cannot be read or is refused (one line naming the file).
+    """
+    try:
+        return read_test_file(path, hysteresis_models=tuple(HYSTERESIS_MODELS),
+                              broken_models=HYSTERESIS_MODELS.broken)
+    except SchemaError as err:
+        raise SpecimenConfigError(str(err)) from None
+
+
+def load_specimen_section(path: str | Path | TestFile, site: str = ''
                           ) -> tuple[dict[str, Any], list[str] | None]:
     """The specimen section (of the test, or of ``site``) of a test file and its DOF names.
+
+    Args:
+        path: the test file, or the test file read already (:func:`read_specimen_test_file`).
+        site: a site of a substructured test ('' for the test's ``specimen`` section).
 
     The DOF names are ``None`` for a site (they are the site's actuators: the caller knows).
 
     Raises:
         SpecimenError: the file cannot be read or has no such section.
     """
-    path = Path(path)
-    try:
-        raw = read_yaml_file(path, what='a test file') or {}
-    except OSError as err:  # (also a FIFO, a device, too large, not UTF-8: one line)
-        msg = f'{path}: cannot read the test file ({err.strerror or type(err).__name__})'
-        raise SpecimenError(msg) from err
-    except YAMLError as err:
-        msg = f'{path}: cannot read the test file ({yaml_problem(err)})'
-        raise SpecimenError(msg) from err
-    if not isinstance(raw, dict):
-        msg = f'{path.name}: a test file must be a mapping of sections'
-        raise SpecimenError(msg)
+    test = path if isinstance(path, TestFile) else read_specimen_test_file(path)
+    raw = test.data
     if site:
         sites = raw.get('sites')
         settings = sites.get(site) if isinstance(sites, dict) else None
         section = settings.get('specimen') if isinstance(settings, dict) else None
         if not isinstance(section, dict):
-            msg = (f'{path.name}: sites.{site}.specimen: section is required for the '
+            msg = (f'{test.source}: sites.{site}.specimen: section is required for the '
                    f'simulated specimen of site {site!r}')
             raise SpecimenError(msg)
         return section, None
     if not isinstance(raw.get('specimen'), dict):
-        msg = f'{path.name}: specimen: section is required for the simulated specimen'
+        msg = f'{test.source}: specimen: section is required for the simulated specimen'
         raise SpecimenError(msg)
     structure = raw.get('structure') or {}
     names = structure.get('dof_names') if isinstance(structure, dict) else None

@@ -78,14 +78,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config.loader import YAMLError, read_yaml_file
+from ..config.test_file import TestFile
 from ..errors import SetupError, SpecimenConfigError, SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..experimental.force_ramp import force_ramp
 from ..experimental.setups import ExperimentalSetup, OneToOneSetup, setup_from_config
 from ..protocol.answers import KeyedAnswers
 from ..protocol.messages import Command, Feedback, FeedbackStatus
-from .config import COLUMN_KEY, load_specimen_section, model_from_config
+from .config import (
+    COLUMN_KEY,
+    load_specimen_section,
+    model_from_config,
+    read_specimen_test_file,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -261,13 +266,13 @@ def _max_force_increment(bridge: Any, key: str) -> float:
     return float(value)
 
 
-def load_site_server(test_file: str | Path, site: str = '',
+def load_site_server(test_file: str | Path | TestFile, site: str = '',
                      dof_names: Sequence[str] | None = None
                      ) -> tuple[SpecimenServer, dict[str, Any], list[str]]:
     """The simulated specimen of a test file (or of one of its sites), as the simulator runs it.
 
     Args:
-        test_file: the YAML test file.
+        test_file: the YAML test file, or the file read already (``read_test_file``).
         site: a site of a substructured test ('' for the test's ``specimen`` section).
         dof_names: the specimen's DOF names (default: ``structure.dof_names``; for a site its
             experimental element's ``actuators``, else ``a1, a2, ...``).
@@ -279,14 +284,11 @@ def load_site_server(test_file: str | Path, site: str = '',
     Raises:
         SpecimenError: one line naming the file and the key.
     """
-    section, names = load_specimen_section(test_file, site)
-    path = Path(test_file)
-    try:
-        raw = read_yaml_file(path) or {}
-    except (OSError, YAMLError) as err:  # read once already: only a file changed meanwhile
-        msg = f'{path}: cannot read the test file ({err})'
-        raise SpecimenError(msg) from err
-    geometry = site_geometry(raw if isinstance(raw, Mapping) else {}, site, path.name)
+    test = (test_file if isinstance(test_file, TestFile)
+            else read_specimen_test_file(test_file))
+    section, names = load_specimen_section(test, site)
+    path = test.path
+    geometry = site_geometry(test.data, site, path.name)
     if dof_names:
         names = list(dof_names)
     elif names is None:
@@ -425,8 +427,11 @@ class SpecimenServer(KeyedAnswers):
 
     @property
     def geometry(self) -> dict[str, Any] | None:
-        """The setup and force ramp, as data (``None``: one-to-one, no ramp): part of the
-        specimen's fingerprint (:func:`~pd_common.specimen.served.specimen_fingerprint`)."""
+        """The setup and force ramp, as data (``None``: one-to-one, no ramp).
+
+        Part of the specimen's fingerprint
+        (:func:`~pd_common.specimen.served.specimen_fingerprint`).
+        """
         if self.setup is None and self.max_force_increment == 0.0:
             return None
         setup = None if self.setup is None else {

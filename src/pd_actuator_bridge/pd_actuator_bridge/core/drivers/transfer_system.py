@@ -32,17 +32,16 @@ from __future__ import annotations
 import json
 import math
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from pd_common.config import read_yaml_file
+from pd_common.config import SchemaError, read_test_file
 from pd_common.errors import RthsError
 from pd_common.protocol import Feedback, FeedbackStatus, StateOrigin
 from pd_common.rths import ContinuousMeasurement, ContinuousSiteServer, continuous_from_config
 from pd_common.rths.realtime import RealtimeLoop
+from pd_common.specimen import HYSTERESIS_MODELS
 
 from ..errors import BridgeConfigError, DriverError
 from .base import ActuatorDriver, ActuatorMeasurement, StepId
@@ -138,8 +137,10 @@ class TransferSystemDriver(ActuatorDriver):
 
     @property
     def state_origin(self) -> StateOrigin:
-        """``FRESH``: the actuator lives in the bridge's process (a restarted bridge has a new
-        one, at rest)."""
+        """``FRESH``: the actuator lives in the bridge's process.
+
+        A restarted bridge has a new one, at rest.
+        """
         return StateOrigin.FRESH
 
     def force_control_problem(self) -> str | None:
@@ -303,7 +304,9 @@ class TransferSystemDriver(ActuatorDriver):
 
 
 def read_transfer_system(test_file: str, site: str) -> tuple[ContinuousSiteServer, int]:
-    """The site server of ``sites.<site>.transfer_system`` of ``test_file`` and the test's
+    """The site server of a site's transfer system and the test's number of steps.
+
+    The site server of ``sites.<site>.transfer_system`` of ``test_file`` and the test's
     number of integration steps (as the ROS-free runner builds it: ``test.dt`` the
     integration step).
 
@@ -317,29 +320,23 @@ def read_transfer_system(test_file: str, site: str) -> tuple[ContinuousSiteServe
     if not site:
         msg = 'parameter site: the transfer_system driver needs the site of the test file'
         raise BridgeConfigError(msg)
-    source = Path(test_file).name
     try:
-        raw = read_yaml_file(test_file) or {}
-    except (OSError, yaml.YAMLError) as err:
-        msg = f'{test_file}: cannot read ({err})'
-        raise BridgeConfigError(msg) from None
-    test = raw.get('test') if isinstance(raw, Mapping) else None
-    dt = test.get('dt') if isinstance(test, Mapping) else None
-    if isinstance(dt, bool) or not isinstance(dt, int | float) or not dt > 0.0:
-        msg = f'{source}: test.dt: must be a positive number [s], got {dt!r}'
-        raise BridgeConfigError(msg)
-    sites = raw.get('sites') if isinstance(raw, Mapping) else None
-    settings = sites.get(site) if isinstance(sites, Mapping) else None
-    where = f'{source}: sites.{site}.transfer_system'
-    if not isinstance(settings, Mapping) or 'transfer_system' not in settings:
+        test = read_test_file(test_file, hysteresis_models=tuple(HYSTERESIS_MODELS),
+                              broken_models=HYSTERESIS_MODELS.broken)
+    except SchemaError as err:  # (cannot be read, not YAML, refused: one line)
+        raise BridgeConfigError(str(err)) from None
+    sites = test.model.sites or {}
+    settings = sites.get(site)
+    where = f'{test.source}: sites.{site}.transfer_system'
+    if settings is None or settings.transfer_system is None:
         msg = f'{where}: missing (the transfer_system driver runs that section)'
         raise BridgeConfigError(msg)
-    duration = test.get('duration') if isinstance(test, Mapping) else None
-    n_steps = (round(float(duration) / float(dt)) if isinstance(duration, int | float)
-               and not isinstance(duration, bool) and math.isfinite(duration) else 0)
+    dt = test.model.test.dt
+    duration = test.model.test.duration
+    n_steps = 0 if duration is None else round(duration / dt)
     try:
-        config = continuous_from_config(settings['transfer_system'], where)
-        return ContinuousSiteServer(config, float(dt)), max(n_steps, 0)
+        config = continuous_from_config(test.data['sites'][site]['transfer_system'], where)
+        return ContinuousSiteServer(config, dt), n_steps
     except RthsError as err:
         text = str(err)
         msg = text if text.startswith(where) else f'{where}: {text}'

@@ -16,13 +16,13 @@ the measurement. An element needs exactly one force-controlled actuator per ``nu
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from pd_common.config.schema_test_file import ControlSpec
 from pd_common.protocol import ControlMode
 
 from ..errors import ConfigError
@@ -73,82 +73,65 @@ class ActuatorControl:
 DISPLACEMENT_CONTROL = ActuatorControl()
 
 
-def _finite(value: Any) -> bool:
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(float(value)))
+def _force_table(value: float | list[list[float]], where: str
+                 ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """A constant force, or a table ``[[t, F], ...]``, as ``(times, forces)``.
 
-
-def _force_table(value: Any, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    if _finite(value):
-        return (0.0,), (float(value),)
-    shape = 'a number [N] or a table [[t, F], ...] (s, N) with increasing times'
-    if not isinstance(value, Sequence) or isinstance(value, str) or not value:
-        msg = f'{where}: must be {shape}, got {value!r}'
+    The table's numbers are finite by the schema; its times must increase.
+    """
+    if isinstance(value, float):
+        return (0.0,), (value,)
+    if not value:
+        msg = (f'{where}: must be a number [N] or a table [[t, F], ...] (s, N) with increasing '
+               f'times, got {value!r}')
         raise ConfigError(msg)
     times: list[float] = []
     forces: list[float] = []
     for index, row in enumerate(value):
-        if (not isinstance(row, Sequence) or isinstance(row, str) or len(row) != 2
-                or not all(_finite(item) for item in row)):
-            msg = f'{where}[{index}]: must be a pair [t, F] of finite numbers (s, N), got {row!r}'
+        if len(row) != 2:
+            msg = f'{where}.{index}: must be a pair [t, F] (s, N), got {row!r}'
             raise ConfigError(msg)
-        if times and float(row[0]) <= times[-1]:
-            msg = (f'{where}[{index}]: times must increase, got {float(row[0]):g} s after '
-                   f'{times[-1]:g} s')
+        if times and row[0] <= times[-1]:
+            msg = f'{where}.{index}: times must increase, got {row[0]:g} s after {times[-1]:g} s'
             raise ConfigError(msg)
-        times.append(float(row[0]))
-        forces.append(float(row[1]))
+        times.append(row[0])
+        forces.append(row[1])
     return tuple(times), tuple(forces)
 
 
-def parse_control(raw: Any, actuators: Sequence[str], where: str) -> tuple[ActuatorControl, ...]:
+def parse_control(control: Mapping[str, ControlSpec | None] | None, actuators: Sequence[str],
+                  where: str) -> tuple[ActuatorControl, ...]:
     """One :class:`ActuatorControl` per actuator of ``actuators`` (missing: displacement).
 
     Args:
-        raw: the element's ``control`` value (``None``: every actuator displacement-controlled).
+        control: the element's ``control`` (typed by the schema; ``None``: every actuator
+            displacement-controlled).
         actuators: the element's actuator names, in order.
-        where: the parameter path for messages (``file: structure.elements[0] (x).control``).
+        where: the parameter path for messages (``file: structure.elements.0.control``).
 
     Raises:
         ConfigError: one line naming ``where`` and the key.
     """
-    if raw is None:
+    if control is None:
         return (DISPLACEMENT_CONTROL,) * len(actuators)
-    if not isinstance(raw, Mapping):
-        msg = (f'{where}: must map actuator names to {{mode: displacement}} or {{mode: force, '
-               f'force: F}}, got {raw!r}')
-        raise ConfigError(msg)
-    unknown = sorted(str(name) for name in raw if name not in actuators)
+    unknown = sorted(name for name in control if name not in actuators)
     if unknown:
         msg = (f'{where}.{unknown[0]}: not an actuator of this element (actuators: '
                f'{", ".join(actuators)})')
         raise ConfigError(msg)
     controls = []
     for name in actuators:
-        spec = raw.get(name)
+        spec = control.get(name)
         here = f'{where}.{name}'
-        if spec is None:
+        if spec is None or spec.mode == 'displacement':
+            if spec is not None and 'force' in spec.model_fields_set:
+                msg = f'{here}.force: unknown parameter for displacement control'
+                raise ConfigError(msg)
             controls.append(DISPLACEMENT_CONTROL)
             continue
-        if not isinstance(spec, Mapping):
-            msg = (f'{here}: must be {{mode: displacement}} or {{mode: force, force: F}}, '
-                   f'got {spec!r}')
-            raise ConfigError(msg)
-        mode = spec.get('mode', 'displacement')
-        if mode not in CONTROL_MODES:
-            msg = f'{here}.mode: must be one of {", ".join(CONTROL_MODES)}, got {mode!r}'
-            raise ConfigError(msg)
-        allowed = {'mode', 'force'} if mode == 'force' else {'mode'}
-        extra = sorted(str(key) for key in set(spec) - allowed)
-        if extra:
-            msg = f'{here}.{extra[0]}: unknown parameter for {mode} control'
-            raise ConfigError(msg)
-        if mode == 'displacement':
-            controls.append(DISPLACEMENT_CONTROL)
-            continue
-        if 'force' not in spec:
+        if spec.force is None:
             msg = f'{here}.force: is required for force control (N, or a table [[t, F], ...])'
             raise ConfigError(msg)
-        times, forces = _force_table(spec['force'], f'{here}.force')
+        times, forces = _force_table(spec.force, f'{here}.force')
         controls.append(ActuatorControl(ControlMode.FORCE, times, forces))
     return tuple(controls)

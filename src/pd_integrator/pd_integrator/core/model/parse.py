@@ -51,21 +51,27 @@ under its axial loads (one-line ConfigError).
 
 from __future__ import annotations
 
-import math
-import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pd_common.config.schema_test_file import (
+    BeamColumnElement,
+    Element,
+    LinearElement,
+    NonlinearSpringElement,
+    SpringElement,
+)
+from pd_common.config.schema_test_file import ExperimentalElement as ExperimentalSpec
 from pd_common.specimen import SpecimenError, hysteresis_from_config
 
 from ..errors import ConfigError
 from ..matrices import as_matrix
 from .control import parse_control
 from .elements import (
-    BEAM_COLUMN_GEOMETRIES,
     PDeltaHysteresis,
     assemble,
     beam_column_2d_stiffness,
@@ -76,25 +82,10 @@ from .elements import (
 from .setups import OneToOneSetup, setup_from_config
 from .substructure import ExperimentalElement, NonlinearSpring, StructuralModel
 
-__all__ = ['ELEMENT_TYPES', 'SITE_NAME', 'ParsedModel', 'parse_elements']
-
-ELEMENT_TYPES = ('spring', 'story', 'beam_column', 'linear', 'nonlinear_spring',
-                 'experimental')
-#: Site names become ROS namespaces: letters, digits and underscores, starting with a letter.
-SITE_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
+__all__ = ['ParsedModel', 'parse_elements']
 
 #: ``(DOF indices, element matrix)`` pairs of the linear elements (``None``: the ground).
 Parts = list[tuple[list[int | None], np.ndarray]]
-
-_KEYS: dict[str, tuple[set[str], set[str]]] = {
-    'spring': ({'dofs', 'stiffness'}, {'pdelta'}),
-    'story': ({'dofs', 'stiffness'}, {'pdelta'}),
-    'beam_column': ({'dofs', 'coordinates', 'E', 'A', 'I'}, {'geometry', 'axial_load'}),
-    'linear': ({'dofs', 'stiffness'}, set()),
-    'nonlinear_spring': ({'dofs', 'model'}, {'pdelta'}),
-    'experimental': ({'dofs', 'site', 'initial_stiffness'},
-                     {'relative_to', 'setup', 'actuators', 'control'}),
-}
 
 
 class ParsedModel:
@@ -112,51 +103,54 @@ class ParsedModel:
         self.mass = mass
 
 
-def _number(value: Any, where: str, *, positive: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-            float(value)) or (positive and float(value) <= 0.0):
-        kind = 'a positive finite number' if positive else 'a finite number'
-        msg = f'{where}: must be {kind}, got {value!r}'
-        raise ConfigError(msg)
-    return float(value)
+@dataclass(frozen=True)
+class _Spring:
+    """A nonlinear spring, its DOFs resolved (``[i, j]``, ``i`` ``None``: the ground)."""
+
+    element: NonlinearSpringElement
+    name: str
+    dofs: list[int | None]
+    path: str
 
 
-def _pdelta(raw: Any, where: str) -> tuple[float, float] | None:
-    """``(P, L)`` of an element's ``pdelta: {axial_load: P, height: L}`` (``None``: absent)."""
-    if raw is None:
-        return None
-    if not isinstance(raw, Mapping):
-        msg = f'{where}: must be a mapping {{axial_load: P, height: L}} (N, m), got {raw!r}'
-        raise ConfigError(msg)
-    unknown = sorted(str(key) for key in set(raw) - {'axial_load', 'height'})
-    if unknown:
-        msg = f'{where}.{unknown[0]}: unknown parameter (pdelta has axial_load and height)'
-        raise ConfigError(msg)
-    for key in ('axial_load', 'height'):
-        if key not in raw:
-            msg = f'{where}.{key}: is required'
-            raise ConfigError(msg)
-    return (_number(raw['axial_load'], f'{where}.axial_load'),
-            _number(raw['height'], f'{where}.height'))
+@dataclass(frozen=True)
+class _Experimental:
+    """An experimental element, its basic DOFs and ``relative_to`` resolved."""
+
+    element: ExperimentalSpec
+    name: str
+    dofs: list[int | None]
+    relative: list[int | None]
+    path: str
 
 
-def _beam_geometry(raw: Mapping[str, Any], path: str) -> tuple[str, float]:
-    """A beam-column's ``geometry`` and ``axial_load`` (``linear`` and 0 by default)."""
-    geometry = raw.get('geometry', 'linear')
-    if geometry not in BEAM_COLUMN_GEOMETRIES:
-        msg = (f'{path}.geometry: must be one of {", ".join(BEAM_COLUMN_GEOMETRIES)}, got '
-               f'{geometry!r}')
-        raise ConfigError(msg)
-    if geometry == 'linear':
-        if 'axial_load' in raw:
-            msg = (f'{path}.axial_load: needs geometry pdelta or pdelta_consistent (a linear '
-                   'beam-column ignores the axial load)')
-            raise ConfigError(msg)
-        return geometry, 0.0
-    if 'axial_load' not in raw:
-        msg = f'{path}.axial_load: is required with geometry {geometry} (N, compression positive)'
-        raise ConfigError(msg)
-    return geometry, _number(raw['axial_load'], f'{path}.axial_load', positive=False)
+@dataclass
+class _Parts:
+    """What the elements contribute, in their order."""
+
+    names: list[str]
+    linear: Parts = field(default_factory=list)
+    #: The P-Δ parts of the linear elements (already in ``linear``), for the stability check.
+    geometric: Parts = field(default_factory=list)
+    springs: list[_Spring] = field(default_factory=list)
+    experimental: list[_Experimental] = field(default_factory=list)
+    #: The DOFs a nonlinear or experimental element touches (none may be massless).
+    nonlinear_dofs: set[int] = field(default_factory=set)
+
+    def dofs(self, value: Sequence[str | None], path: str, *, nulls: bool = True
+             ) -> list[int | None]:
+        """DOF names (``null``: the ground or a free DOF if ``nulls``) as indices."""
+        out: list[int | None] = []
+        for item in value:
+            if item is None and nulls:
+                out.append(None)
+            elif item is not None and item in self.names:
+                out.append(self.names.index(item))
+            else:
+                allowed = 'a DOF name or null' if nulls else 'a DOF name'
+                msg = f'{path}: {item!r} is not {allowed} (DOFs: {", ".join(self.names)})'
+                raise ConfigError(msg)
+        return out
 
 
 def _condensed(stiffness: np.ndarray, structural: list[int], free: list[int], where: str
@@ -177,265 +171,255 @@ def _condensed(stiffness: np.ndarray, structural: list[int], free: list[int], wh
     return condensed
 
 
-def parse_elements(raw_elements: Any, *, dof_names: Sequence[str], mass: np.ndarray,
-                   source: str, base_dir: Path) -> ParsedModel:
-    """Build the structural model of ``structure.elements``.
+def _grounded(dofs: list[int | None]) -> list[int | None]:
+    """A spring's ``[j]`` as ``[null, j]`` (to the ground)."""
+    return [None, *dofs] if len(dofs) == 1 else dofs
 
-    Raises:
-        ConfigError: one line naming ``source`` and the element parameter.
-    """
-    where = f'{source}: structure.elements'
-    if not isinstance(raw_elements, list) or not raw_elements:
-        msg = f'{where}: must be a non-empty list of elements'
+
+def _spring(parts: _Parts, element: SpringElement, name: str, path: str) -> None:
+    dofs = _grounded(parts.dofs(element.dofs, f'{path}.dofs'))
+    matrix = spring_stiffness(element.stiffness, name=name)
+    if element.pdelta is not None:
+        geometric = pdelta_stiffness(element.pdelta.axial_load, element.pdelta.height,
+                                     name=name)
+        matrix = matrix + geometric
+        parts.geometric.append((dofs, geometric))
+    parts.linear.append((dofs, matrix))
+
+
+def _beam_column(parts: _Parts, element: BeamColumnElement, name: str, path: str) -> None:
+    dofs = parts.dofs(element.dofs, f'{path}.dofs')
+    geometry = element.geometry
+    if geometry == 'linear' and element.axial_load is not None:
+        msg = (f'{path}.axial_load: needs geometry pdelta or pdelta_consistent (a linear '
+               'beam-column ignores the axial load)')
         raise ConfigError(msg)
-    names = list(dof_names)
-    index = {name: i for i, name in enumerate(names)}
-    n_all = len(names)
-    linear: list[tuple[list[int | None], np.ndarray]] = []
-    springs: list[tuple[list[int | None], Any, str, str]] = []
-    spring_pdelta: list[tuple[float, float] | None] = []
-    # The P-Δ parts of the linear elements (already in ``linear``), for the stability message.
-    geometric_parts: list[tuple[list[int | None], np.ndarray]] = []
-    experimental: list[dict[str, Any]] = []
-    touched_nonlinear: set[int] = set()
+    if geometry != 'linear' and element.axial_load is None:
+        msg = f'{path}.axial_load: is required with geometry {geometry} (N, compression positive)'
+        raise ConfigError(msg)
+    (xi, yi), (xj, yj) = element.coordinates
+    properties = (element.E, element.A, element.I)
+    try:
+        matrix = beam_column_2d_stiffness((xi, yi), (xj, yj), *properties, name=name,
+                                          geometry=geometry,
+                                          axial_load=element.axial_load or 0.0)
+        if geometry != 'linear':
+            parts.geometric.append((dofs, matrix - beam_column_2d_stiffness(
+                (xi, yi), (xj, yj), *properties, name=name)))
+    except ConfigError as err:
+        msg = f'{path}: {err}'
+        raise ConfigError(msg) from None
+    parts.linear.append((dofs, matrix))
+
+
+def _linear(parts: _Parts, element: LinearElement, path: str) -> None:
+    if len(element.dofs) > len(parts.names) or len(set(element.dofs)) != len(element.dofs):
+        msg = f'{path}.dofs: must name each DOF once, got {element.dofs!r}'
+        raise ConfigError(msg)
+    dofs = parts.dofs(element.dofs, f'{path}.dofs', nulls=False)
+    try:
+        matrix = as_matrix(element.stiffness, len(dofs), 'stiffness')
+    except ConfigError as err:
+        msg = f'{path}.{err}'
+        raise ConfigError(msg) from None
+    if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
+        msg = f'{path}.stiffness: must be symmetric'
+        raise ConfigError(msg)
+    parts.linear.append((dofs, matrix))
+
+
+def _nonlinear_spring(parts: _Parts, element: NonlinearSpringElement, name: str, path: str
+                      ) -> None:
+    dofs = _grounded(parts.dofs(element.dofs, f'{path}.dofs'))
+    if dofs[1] is None:  # [i, null]: deformation -x_i; keep the convention x_j - x_i
+        msg = f'{path}.dofs: the second DOF must not be null'
+        raise ConfigError(msg)
+    parts.nonlinear_dofs.update(i for i in dofs if i is not None)
+    parts.springs.append(_Spring(element, name, dofs, path))
+
+
+def _experimental(parts: _Parts, element: ExperimentalSpec, name: str, path: str) -> None:
+    nulls = None in element.dofs
+    if not nulls and len(element.dofs) > len(parts.names):
+        msg = (f'{path}.dofs: must be a list of 1 to {len(parts.names)} DOF names, got '
+               f'{element.dofs!r}')
+        raise ConfigError(msg)
+    dofs = parts.dofs(element.dofs, f'{path}.dofs', nulls=nulls)
+    if all(d is None for d in dofs):
+        msg = (f'{path}.dofs: needs at least one structure DOF (null entries are free basic '
+               f'DOFs held by force-controlled actuators), got {element.dofs!r}')
+        raise ConfigError(msg)
+    relative: list[int | None] = [None] * len(dofs)
+    if element.relative_to is not None:
+        if len(element.relative_to) != len(dofs):
+            msg = (f'{path}.relative_to: must be a list of {len(dofs)} DOF names, got '
+                   f'{element.relative_to!r}')
+            raise ConfigError(msg)
+        relative = parts.dofs(element.relative_to, f'{path}.relative_to')
+    for k, (d, r) in enumerate(zip(dofs, relative)):
+        if d is None and r is not None:
+            msg = (f'{path}.relative_to: entry {k + 1} must be null: the basic DOF is free '
+                   '(dofs entry null)')
+            raise ConfigError(msg)
+    parts.nonlinear_dofs.update(i for i in (*dofs, *relative) if i is not None)
+    parts.experimental.append(_Experimental(element, name, dofs, relative, path))
+
+
+def _collect(elements: Sequence[Element], names: list[str], where: str) -> _Parts:
+    """Each element's DOFs resolved and its linear matrix built, in order."""
+    parts = _Parts(names)
     element_names: set[str] = set()
-    for number, raw in enumerate(raw_elements):
-        path = f'{where}[{number}]'
-        if not isinstance(raw, Mapping):
-            msg = f'{path}: must be a mapping with a type, got {raw!r}'
-            raise ConfigError(msg)
-        kind = raw.get('type')
-        if kind not in _KEYS:
-            msg = f'{path}.type: must be one of {", ".join(ELEMENT_TYPES)}, got {kind!r}'
-            raise ConfigError(msg)
-        name = raw.get('name', f'{kind}{number + 1}')
-        if not isinstance(name, str) or not name or name in element_names:
-            msg = f'{path}.name: must be a unique non-empty string, got {name!r}'
+    for number, element in enumerate(elements):
+        path = f'{where}.{number}'
+        name = element.name if element.name is not None else f'{element.type}{number + 1}'
+        if name in element_names:
+            msg = f'{path}.name: must be unique, got {name!r}'
             raise ConfigError(msg)
         element_names.add(name)
-        path = f'{where}[{number}] ({name})'
-        required, optional = _KEYS[kind]
-        unknown = sorted(set(raw) - required - optional - {'type', 'name'})
-        if unknown:
-            msg = f'{path}.{unknown[0]}: unknown parameter for a {kind} element'
-            raise ConfigError(msg)
-        missing = sorted(required - set(raw))
-        if missing:
-            msg = f'{path}.{missing[0]}: is required for a {kind} element'
-            raise ConfigError(msg)
-
-        def dof_list(key: str, size: int | tuple[int, ...], *, nulls: bool = True,
-                     _raw: Mapping[str, Any] = raw, _path: str = path) -> list[int | None]:
-            value = _raw.get(key)
-            sizes = (size,) if isinstance(size, int) else size
-            if not isinstance(value, list) or len(value) not in sizes:
-                msg = (f'{_path}.{key}: must be a list of {" or ".join(map(str, sizes))} DOF '
-                       f'names, got {value!r}')
-                raise ConfigError(msg)
-            out: list[int | None] = []
-            for item in value:
-                if item is None and nulls:
-                    out.append(None)
-                elif isinstance(item, str) and item in index:
-                    out.append(index[item])
-                else:
-                    allowed = 'a DOF name or null' if nulls else 'a DOF name'
-                    msg = (f'{_path}.{key}: {item!r} is not {allowed} (DOFs: '
-                           f'{", ".join(names)})')
-                    raise ConfigError(msg)
-            return out
-
-        if kind in ('spring', 'story'):
-            dofs = dof_list('dofs', (1, 2))
-            if len(dofs) == 1:
-                dofs = [None, *dofs]
-            matrix = spring_stiffness(_number(raw['stiffness'], f'{path}.stiffness'), name=name)
-            pdelta = _pdelta(raw.get('pdelta'), f'{path}.pdelta')
-            if pdelta is not None:
-                geometric = pdelta_stiffness(*pdelta, name=name)
-                matrix = matrix + geometric
-                geometric_parts.append((dofs, geometric))
-            linear.append((dofs, matrix))
-        elif kind == 'beam_column':
-            dofs = dof_list('dofs', 6)
-            coords = raw['coordinates']
-            if (not isinstance(coords, list) or len(coords) != 2 or not all(
-                    isinstance(c, list) and len(c) == 2 for c in coords)):
-                msg = f'{path}.coordinates: must be [[x_i, y_i], [x_j, y_j]] in m, got {coords!r}'
-                raise ConfigError(msg)
-            xi = (_number(coords[0][0], f'{path}.coordinates', positive=False),
-                  _number(coords[0][1], f'{path}.coordinates', positive=False))
-            xj = (_number(coords[1][0], f'{path}.coordinates', positive=False),
-                  _number(coords[1][1], f'{path}.coordinates', positive=False))
-            geometry, axial_load = _beam_geometry(raw, path)
-            properties = (_number(raw['E'], f'{path}.E'), _number(raw['A'], f'{path}.A'),
-                          _number(raw['I'], f'{path}.I'))
-            try:
-                matrix = beam_column_2d_stiffness(xi, xj, *properties, name=name,
-                                                  geometry=geometry, axial_load=axial_load)
-                if geometry != 'linear':
-                    geometric_parts.append((dofs, matrix - beam_column_2d_stiffness(
-                        xi, xj, *properties, name=name)))
-            except ConfigError as err:
-                msg = f'{path}: {err}'
-                raise ConfigError(msg) from None
-            linear.append((dofs, matrix))
-        elif kind == 'linear':
-            value = raw.get('dofs')
-            dofs = dof_list('dofs', tuple(range(1, n_all + 1)), nulls=False)
-            if len(set(dofs)) != len(dofs):
-                msg = f'{path}.dofs: must name each DOF once, got {value!r}'
-                raise ConfigError(msg)
-            try:
-                matrix = as_matrix(raw['stiffness'], len(dofs), 'stiffness')
-            except ConfigError as err:
-                msg = f'{path}.{err}'
-                raise ConfigError(msg) from None
-            if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
-                msg = f'{path}.stiffness: must be symmetric'
-                raise ConfigError(msg)
-            linear.append((dofs, matrix))
-        elif kind == 'nonlinear_spring':
-            dofs = dof_list('dofs', (1, 2))
-            if len(dofs) == 1:
-                dofs = [None, *dofs]
-            touched_nonlinear.update(i for i in dofs if i is not None)
-            springs.append((dofs, raw['model'], name, f'{path}.model'))
-            spring_pdelta.append(_pdelta(raw.get('pdelta'), f'{path}.pdelta'))
+        if isinstance(element, SpringElement):
+            _spring(parts, element, name, path)
+        elif isinstance(element, BeamColumnElement):
+            _beam_column(parts, element, name, path)
+        elif isinstance(element, LinearElement):
+            _linear(parts, element, path)
+        elif isinstance(element, NonlinearSpringElement):
+            _nonlinear_spring(parts, element, name, path)
         else:
-            value = raw.get('dofs')
-            nulls = isinstance(value, list) and None in value
-            dofs = dof_list('dofs', len(value) if isinstance(value, list) and nulls
-                            else tuple(range(1, n_all + 1)), nulls=nulls)
-            if all(d is None for d in dofs):
-                msg = (f'{path}.dofs: needs at least one structure DOF (null entries are free '
-                       f'basic DOFs held by force-controlled actuators), got {value!r}')
-                raise ConfigError(msg)
-            relative = (dof_list('relative_to', len(dofs)) if raw.get('relative_to') is not None
-                        else [None] * len(dofs))
-            for k, (d, r) in enumerate(zip(dofs, relative)):
-                if d is None and r is not None:
-                    msg = (f'{path}.relative_to: entry {k + 1} must be null: the basic DOF is '
-                           'free (dofs entry null)')
-                    raise ConfigError(msg)
-            site = raw['site']
-            if not isinstance(site, str) or not SITE_NAME.match(site):
-                msg = (f'{path}.site: must be a name of letters, digits and _ starting with a '
-                       f'letter (it becomes the namespace /pd/<site>), got {site!r}')
-                raise ConfigError(msg)
-            touched_nonlinear.update(i for i in dofs if i is not None)
-            touched_nonlinear.update(i for i in relative if i is not None)
-            experimental.append({'name': name, 'site': site, 'dofs': dofs, 'relative': relative,
-                                 'raw': raw, 'path': path})
+            _experimental(parts, element, name, path)
+    return parts
 
-    # Massless DOFs are condensed out (the mass must be diagonal for that).
+
+def _massless(mass: np.ndarray, parts: _Parts, source: str) -> tuple[list[int], list[int]]:
+    """``(massless, retained)`` DOF indices: the massless ones are condensed out (the mass
+    must be diagonal for that, and no nonlinear or experimental element may touch them)."""
+    names = parts.names
     diagonal = np.diag(mass)
-    massless = [i for i in range(n_all) if diagonal[i] == 0.0]
+    massless = [i for i in range(len(names)) if diagonal[i] == 0.0]
     if massless and not np.array_equal(mass, np.diag(diagonal)):
         msg = f'{source}: structure.mass: must be diagonal when some DOFs are massless'
         raise ConfigError(msg)
-    bad = sorted(set(massless) & touched_nonlinear)
+    bad = sorted(set(massless) & parts.nonlinear_dofs)
     if bad:
         msg = (f'{source}: structure.mass: DOF {names[bad[0]]} is massless but connected to a '
                'nonlinear or experimental element (only linear elements may touch massless '
                'DOFs, which are condensed out)')
         raise ConfigError(msg)
-    retained = [i for i in range(n_all) if i not in set(massless)]
+    retained = [i for i in range(len(names)) if i not in set(massless)]
     if not retained:
         msg = f'{source}: structure.mass: every DOF is massless'
         raise ConfigError(msg)
+    return massless, retained
+
+
+def _spring_object(spring: _Spring, position: dict[int, int], *, source: str,
+                   base_dir: Path) -> NonlinearSpring:
+    i, j = spring.dofs
+    assert j is not None
+    raw = spring.element.model.model_dump(exclude_unset=True)
     try:
-        linear_retained = _linear_retained(n_all, linear, massless, source)
+        hysteresis = hysteresis_from_config(raw, path=f'{spring.path.split(": ", 1)[-1]}.model',
+                                            base_dir=base_dir, source=source)
+    except SpecimenError as err:
+        raise ConfigError(str(err)) from None
+    pdelta = spring.element.pdelta
+    if pdelta is not None:
+        hysteresis = PDeltaHysteresis(hysteresis, pdelta.axial_load, pdelta.height,
+                                      name=spring.name)
+    return NonlinearSpring(dofs=np.array([position[j]]),
+                           relative=np.array([-1 if i is None else position[i]]),
+                           name=spring.name, model=hysteresis)
+
+
+def _actuator_names(item: _Experimental, n_actuators: int, one_to_one: bool, names: list[str]
+                    ) -> list[str]:
+    """The element's actuator names: given, or from its DOFs (one-to-one) or its name."""
+    if item.element.actuators is not None:
+        return list(item.element.actuators)
+    if one_to_one:
+        return [f'{item.name}.a{k + 1}' if d is None
+                else names[d] if r is None else f'{names[d]}-{names[r]}'
+                for k, (d, r) in enumerate(zip(item.dofs, item.relative))]
+    return [f'{item.name}.a{k + 1}' for k in range(n_actuators)]
+
+
+def _experimental_object(item: _Experimental, position: dict[int, int], names: list[str],
+                         seen: dict[str, set[str]]) -> ExperimentalElement:
+    element, path = item.element, item.path
+    n_basic = len(item.dofs)
+    setup_raw = None if element.setup is None else element.setup.model_dump(exclude_unset=True)
+    setup = setup_from_config(setup_raw, n_basic, f'{path}.setup')
+    actuators = _actuator_names(item, setup.n_actuators, isinstance(setup, OneToOneSetup),
+                                names)
+    if len(actuators) != setup.n_actuators:
+        msg = (f'{path}.actuators: must be a list of {setup.n_actuators} actuator names, '
+               f'got {actuators!r}')
+        raise ConfigError(msg)
+    at_site = seen.setdefault(element.site, set())
+    if at_site & set(actuators) or len(set(actuators)) != len(actuators):
+        msg = f'{path}.actuators: actuator names must be unique within site {element.site}'
+        raise ConfigError(msg)
+    at_site.update(actuators)
+    control = parse_control(element.control, actuators, f'{path}.control')
+    free = [k for k, d in enumerate(item.dofs) if d is None]
+    forced = [a for a, c in zip(actuators, control) if c.force_controlled]
+    if len(forced) != len(free):
+        msg = (f'{path}.control: {len(forced)} force-controlled actuator'
+               f'{"" if len(forced) == 1 else "s"} for {len(free)} free basic DOF'
+               f'{"" if len(free) == 1 else "s"} (null entries of dofs): each null entry '
+               'needs one actuator {mode: force, force: F} and a force-controlled '
+               'actuator needs one')
+        raise ConfigError(msg)
+    try:
+        stiffness = as_matrix(element.initial_stiffness, n_basic, 'initial_stiffness')
+    except ConfigError as err:
+        msg = f'{path}.{err}'
+        raise ConfigError(msg) from None
+    structural = [k for k, d in enumerate(item.dofs) if d is not None]
+    condensed = _condensed(stiffness, structural, free, f'{path}.initial_stiffness')
+    return ExperimentalElement(
+        dofs=np.array([position[d] for d in item.dofs if d is not None], dtype=int),
+        relative=np.array([-1 if r is None else position[r]
+                           for d, r in zip(item.dofs, item.relative) if d is not None],
+                          dtype=int),
+        name=item.name, site=element.site, setup=setup, actuator_names=tuple(actuators),
+        initial_stiffness=condensed,
+        basic_index=np.array(structural, dtype=np.intp) if free else None,
+        control=control if forced else (), basic_stiffness=stiffness if free else None)
+
+
+def parse_elements(elements: Sequence[Element], *, dof_names: Sequence[str], mass: np.ndarray,
+                   source: str, base_dir: Path) -> ParsedModel:
+    """Build the structural model of ``structure.elements`` (typed by the schema:
+    ``pd_common.config.validate_elements``).
+
+    Raises:
+        ConfigError: one line naming ``source`` and the element's dotted path
+            (``test.yaml: structure.elements.0.dofs: 'u9' is not a DOF name or null ...``).
+    """
+    names = list(dof_names)
+    parts = _collect(elements, names, f'{source}: structure.elements')
+    massless, retained = _massless(mass, parts, source)
+    n_all = len(names)
+    try:
+        linear_retained = _linear_retained(n_all, parts.linear, massless, source)
     except ConfigError:
-        if geometric_parts:  # a massless DOF that P-Δ left without stiffness
-            _check_stable(n_all, linear, geometric_parts, None, retained, names, source,
+        if parts.geometric:  # a massless DOF that P-Δ left without stiffness
+            _check_stable(n_all, parts.linear, parts.geometric, None, retained, names, source,
                           only=massless)
         raise
     position = {full: i for i, full in enumerate(retained)}
-
-    def remap(indices: list[int | None]) -> tuple[np.ndarray, np.ndarray]:
-        return (np.array([position[i] for i in indices if i is not None], dtype=int),
-                np.array([-1 if i is None else position[i] for i in indices], dtype=int))
-
-    spring_objects = []
-    for (dofs, model_raw, name, path), pdelta in zip(springs, spring_pdelta):
-        i, j = dofs
-        assert j is not None or i is not None
-        if j is None:  # [i, null]: deformation -x_i; keep the convention x_j - x_i
-            msg = f'{path.removesuffix(".model")}.dofs: the second DOF must not be null'
-            raise ConfigError(msg)
-        try:
-            hysteresis = hysteresis_from_config(model_raw, path=path.split(': ', 1)[-1],
-                                                base_dir=base_dir, source=source)
-        except SpecimenError as err:
-            raise ConfigError(str(err)) from None
-        if pdelta is not None:
-            hysteresis = PDeltaHysteresis(hysteresis, *pdelta, name=name)
-        spring_objects.append(NonlinearSpring(
-            dofs=np.array([position[j]]),
-            relative=np.array([-1 if i is None else position[i]]), name=name,
-            model=hysteresis))
-
-    experimental_objects = []
-    actuator_names_seen: dict[str, set[str]] = {}
-    for item in experimental:
-        raw = item['raw']
-        path = item['path']
-        n_basic = len(item['dofs'])
-        setup = setup_from_config(raw.get('setup'), n_basic, f'{path}.setup')
-        actuators = raw.get('actuators')
-        if actuators is None:
-            if isinstance(setup, OneToOneSetup):
-                actuators = [f'{item["name"]}.a{k + 1}' if d is None
-                             else names[d] if r is None else f'{names[d]}-{names[r]}'
-                             for k, (d, r) in enumerate(zip(item['dofs'], item['relative']))]
-            else:
-                actuators = [f'{item["name"]}.a{k + 1}' for k in range(setup.n_actuators)]
-        if (not isinstance(actuators, list) or len(actuators) != setup.n_actuators
-                or not all(isinstance(a, str) and a for a in actuators)):
-            msg = (f'{path}.actuators: must be a list of {setup.n_actuators} actuator names, '
-                   f'got {actuators!r}')
-            raise ConfigError(msg)
-        seen = actuator_names_seen.setdefault(item['site'], set())
-        clash = sorted(seen & set(actuators))
-        if clash or len(set(actuators)) != len(actuators):
-            msg = f'{path}.actuators: actuator names must be unique within site {item["site"]}'
-            raise ConfigError(msg)
-        seen.update(actuators)
-        control = parse_control(raw.get('control'), actuators, f'{path}.control')
-        free = [k for k, d in enumerate(item['dofs']) if d is None]
-        forced = [a for a, c in zip(actuators, control) if c.force_controlled]
-        if len(forced) != len(free):
-            msg = (f'{path}.control: {len(forced)} force-controlled actuator'
-                   f'{"" if len(forced) == 1 else "s"} for {len(free)} free basic DOF'
-                   f'{"" if len(free) == 1 else "s"} (null entries of dofs): each null entry '
-                   'needs one actuator {mode: force, force: F} and a force-controlled '
-                   'actuator needs one')
-            raise ConfigError(msg)
-        try:
-            stiffness = as_matrix(raw['initial_stiffness'], n_basic, 'initial_stiffness')
-        except ConfigError as err:
-            msg = f'{path}.{err}'
-            raise ConfigError(msg) from None
-        structural = [k for k, d in enumerate(item['dofs']) if d is not None]
-        condensed = _condensed(stiffness, structural, free, f'{path}.initial_stiffness')
-        dofs_r, _ = remap([d for d in item['dofs'] if d is not None])
-        _, relative_r = remap([r for d, r in zip(item['dofs'], item['relative'])
-                               if d is not None])
-        experimental_objects.append(ExperimentalElement(
-            dofs=dofs_r, relative=relative_r, name=item['name'], site=item['site'],
-            setup=setup, actuator_names=tuple(actuators), initial_stiffness=condensed,
-            basic_index=np.array(structural, dtype=np.intp) if free else None,
-            control=control if forced else (),
-            basic_stiffness=stiffness if free else None))
-
+    springs = [_spring_object(spring, position, source=source, base_dir=base_dir)
+               for spring in parts.springs]
+    seen: dict[str, set[str]] = {}
+    experimental = [_experimental_object(item, position, names, seen)
+                    for item in parts.experimental]
     model = StructuralModel(
         dof_names=tuple(names[i] for i in retained), linear_stiffness=linear_retained,
-        springs=spring_objects, experimental=experimental_objects,
+        springs=springs, experimental=experimental,
         condensed_names=tuple(names[i] for i in massless))
     mass_retained = mass[np.ix_(retained, retained)]
-    if geometric_parts or any(p is not None for p in spring_pdelta):
-        _check_stable(n_all, linear, geometric_parts, model, retained, names, source)
+    if parts.geometric or any(spring.element.pdelta is not None for spring in parts.springs):
+        _check_stable(n_all, parts.linear, parts.geometric, model, retained, names, source)
     return ParsedModel(model, retained, mass_retained)
 
 

@@ -43,7 +43,7 @@ def setup_from_config(raw: Any, n_basic: int, where: str) -> ExperimentalSetup:
     """Build a setup from a test file's ``setup`` mapping (``None``: one-to-one).
 
     Raises:
-        ConfigError: one line naming ``where`` (e.g. ``test.yaml: structure.elements[0].setup``).
+        ConfigError: one line naming ``where`` (e.g. ``test.yaml: structure.elements.0.setup``).
     """
     try:
         return _shared.setup_from_config(raw, n_basic, where)

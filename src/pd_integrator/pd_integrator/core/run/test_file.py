@@ -6,7 +6,7 @@ ignored by the integrator, so a physical specimen needs no change here), and ``s
 substructured test. See ``config/default_test.yaml`` for a documented example.
 
 Every error is a :class:`ConfigError` whose one-line message names the file and the parameter,
-e.g. ``default_test.yaml: test.dt: must be a positive finite number, got -0.01``.
+e.g. ``default_test.yaml: test.dt: must be > 0, got -0.01``.
 """
 
 from __future__ import annotations
@@ -14,23 +14,21 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from pd_common.config import (
-    MAX_TEXT_BYTES,
     SchemaError,
+    TestFile,
     describe_size,
-    load_yaml,
-    read_text,
+    read_test_data,
+    validate_section,
     validate_test_file,
-    yaml_problem,
 )
+from pd_common.config.schema_test_file import GroundMotionSection
 from pd_common.specimen import HYSTERESIS_MODELS, SpecimenError, specimen_from_config
 
 from ..dynamics.ground_motion import GroundMotion
@@ -41,7 +39,7 @@ from ..matrices import as_float_array, as_matrix, first_boolean
 from ..model.parse import parse_elements
 from ..schemes import SCHEMES
 from ..schemes.linalg import large_diagonal
-from .collapse import COLLAPSE_ACTIONS, CollapseSettings
+from .collapse import CollapseSettings
 from .definition import (
     GroundComponent,
     ProbeSettings,
@@ -50,7 +48,7 @@ from .definition import (
 )
 
 __all__ = ['MAX_STEPS', 'PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'from_dict',
-           'from_json', 'load_test_file', 'steps_refusal']
+           'from_json', 'load_test_file', 'read_definition', 'steps_refusal']
 
 #: The sections of a test file (``rig`` is read by ``run_test`` only: the rig's ROS domain and
 #: discovery; the integrator does not need it).
@@ -77,8 +75,6 @@ PARAMETER_PATHS: dict[str, tuple[str, str]] = {
     'max_retries': ('protocol', 'max_retries'),
     'tracking_tolerance': ('protocol', 'tracking_tolerance'),
 }
-
-_TEST_ID = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
 
 #: The most integration steps a test may have (its history is held in memory: five arrays per
 #: DOF, the loads and the ground motion, per step: 5e7 steps of one DOF take 3 GB).
@@ -112,41 +108,6 @@ class _Reader:
         self.used.add(key)
         return self.raw.get(key, default)
 
-    def number(self, key: str, default: float | None = None, *, positive: bool = False,
-               required: bool = False) -> float | None:
-        """A finite float (``positive``: > 0)."""
-        value = self.get(key, default)
-        if value is None:
-            if required:
-                raise self.error(key, 'is required')
-            return None
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(key, f'must be a number, got {value!r}')
-        value = float(value)
-        if not math.isfinite(value) or (positive and value <= 0.0):
-            kind = 'a positive finite number' if positive else 'a finite number'
-            raise self.error(key, f'must be {kind}, got {value!r}')
-        return value
-
-    def integer(self, key: str, default: int, *, minimum: int = 0) -> int:
-        """An integer ≥ ``minimum``."""
-        value = self.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.error(key, f'must be an integer >= {minimum}, got {value!r}')
-        return value
-
-    def string(self, key: str, default: str | None = None, *,
-               choices: tuple[str, ...] | None = None) -> str | None:
-        """A string (optionally one of ``choices``)."""
-        value = self.get(key, default)
-        if value is None:
-            return None
-        if not isinstance(value, str):
-            raise self.error(key, f'must be a string, got {value!r}')
-        if choices is not None and value not in choices:
-            raise self.error(key, f'must be one of {", ".join(choices)}, got {value!r}')
-        return value
-
     def finish(self) -> None:
         """Reject keys that were never read (typos must not pass silently)."""
         unknown = sorted(set(self.raw) - self.used)
@@ -165,32 +126,43 @@ def load_test_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     Raises:
         ConfigError: the file is missing, not YAML, or a parameter is invalid.
     """
+    return read_definition(path, overrides)[0]
+
+
+def read_definition(path: str | Path, overrides: Mapping[str, Any] | None = None
+                    ) -> tuple[TestDefinition, TestFile]:
+    """The test definition of a YAML test file and the file read and typed.
+
+    For the other readers of the same process (the launcher's specimens and rig): the file is read
+    once.
+
+    Args:
+        path: the YAML test file.
+        overrides: node parameters (names of :data:`PARAMETER_PATHS`) that replace file values
+            (in the definition and the typed file).
+
+    Raises:
+        ConfigError: the file is missing, not YAML, or a parameter is invalid.
+    """
     path = Path(path)
     source = path.name
     try:
-        text = read_text(path, limit=MAX_TEXT_BYTES, what='a test file')
-    except OSError as err:  # (also not a regular file, too large, not UTF-8: InputFileError)
-        msg = f'{path}: cannot read the test file ({err.strerror or type(err).__name__})'
-        raise ConfigError(msg) from None
-    try:
-        raw = load_yaml(text)
-    except yaml.YAMLError as err:
-        msg = f'{source}: {yaml_problem(err)}'
-        raise ConfigError(msg) from err
-    if raw is None:
-        raw = {}
+        raw = read_test_data(path)
+    except SchemaError as err:  # (cannot be read, not YAML, not a mapping: one line)
+        raise ConfigError(str(err)) from None
     definition = from_dict(raw, source=source, base_dir=path.resolve().parent,
                            overrides=overrides)
-    # The typed schema (pd_common.config.schema) after the checks above, whose messages stay
-    # (they know the DOF count, matrices and records): it refuses what they let through, e.g.
-    # a bad simulated specimen, which the integrator alone would not read.
+    # The whole file against the typed schema (pd_common.config.schema), after the sections
+    # from_dict reads (typed by the same schema where no DOF count is needed; the structure's
+    # matrices and the records checked by hand): it refuses what the integrator does not read,
+    # e.g. a bad simulated specimen, with the line every other reader of the file gives.
+    data = apply_overrides(raw, overrides, source) if overrides else raw
     try:
-        validate_test_file(apply_overrides(raw, overrides, source) if overrides else raw, source,
-                           hysteresis_models=tuple(HYSTERESIS_MODELS),
-                           broken_models=HYSTERESIS_MODELS.broken)
+        model = validate_test_file(data, source, hysteresis_models=tuple(HYSTERESIS_MODELS),
+                                   broken_models=HYSTERESIS_MODELS.broken)
     except SchemaError as err:
         raise ConfigError(str(err)) from None
-    return definition
+    return definition, TestFile(path=path, model=model, data=data)
 
 
 def from_json(text: str, *, source: str = 'bag') -> TestDefinition:
@@ -254,26 +226,13 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         msg = f'{source}: {unknown[0]}: unknown section (expected {", ".join(SECTIONS)})'
         raise ConfigError(msg)
 
-    test = _Reader(raw.get('test', {}), 'test', source)
-    test_id = test.string('id', 'pd-test')
-    assert test_id is not None
-    if not _TEST_ID.match(test_id):
-        error = test.error('id', f'must be 1-64 letters, digits, "_", "-" or ".", got {test_id!r}')
-        raise error
-    scheme = test.string('scheme', 'newmark_explicit', choices=tuple(sorted(SCHEMES)))
-    assert scheme is not None
-    scheme_parameters = test.get('scheme_parameters', {}) or {}
-    if not isinstance(scheme_parameters, dict) or not all(
-            isinstance(key, str) and (isinstance(value, bool) or (
-                isinstance(value, (int, float)) and math.isfinite(value)))
-            for key, value in scheme_parameters.items()):
-        error = test.error('scheme_parameters', 'must map parameter names to finite numbers '
-                           f'or true/false, got {scheme_parameters!r}')
-        raise error
-    dt = test.number('dt', positive=True, required=True)
-    assert dt is not None
-    duration = test.number('duration', positive=True)
-    test.finish()
+    test = _section('test', raw.get('test', {}), source)
+    test_id, scheme, dt, duration = test.id, test.scheme, test.dt, test.duration
+    if scheme not in SCHEMES:
+        msg = (f'{source}: test.scheme: must be one of {", ".join(sorted(SCHEMES))}, got '
+               f'{scheme!r}')
+        raise ConfigError(msg)
+    scheme_parameters = test.scheme_parameters or {}
 
     structure = _Reader(raw.get('structure', {}), 'structure', source)
     structure_raw = raw.get('structure', {})
@@ -292,7 +251,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
                                     "follows from them and the experimental elements' "
                                     'initial_stiffness)')
             raise error
-        parsed = parse_elements(elements_raw, dof_names=dof_names, mass=mass, source=source,
+        elements = _section('structure.elements', elements_raw, source)
+        parsed = parse_elements(elements, dof_names=dof_names, mass=mass, source=source,
                                 base_dir=base_dir)
         model = parsed.model
         retained = parsed.retained
@@ -318,30 +278,26 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     if duration is not None:
         refusal = steps_refusal(duration / dt, n)
         if refusal is not None:
-            error = test.error('duration', f'{duration:g} s at dt {dt:g} s is {refusal}')
-            raise error
+            msg = f'{source}: test.duration: {duration:g} s at dt {dt:g} s is {refusal}'
+            raise ConfigError(msg)
 
     components, record_steps = _ground_components(
         raw.get('ground_motion'), source, base_dir, dof_names=dof_names, retained=retained,
         default_influence=influence_full, influence_given=influence_given, dt=dt)
     n_steps = record_steps if duration is None else math.floor(duration / dt + 1e-9)
     if n_steps < 1:
-        error = test.error('dt', f'is longer than the test ({components[0].motion.duration} s)')
-        raise error
+        msg = (f'{source}: test.dt: is longer than the test '
+               f'({components[0].motion.duration} s)')
+        raise ConfigError(msg)
     components = tuple(_padded(component, n_steps) for component in components)
     first = components[0]
-    proto = _Reader(raw.get('protocol', {}), 'protocol', source)
+    proto = _section('protocol', raw.get('protocol', {}), source)
     protocol = ProtocolSettings(
-        feedback_timeout=proto.number('feedback_timeout', 2.0, positive=True) or 2.0,
-        max_retries=proto.integer('max_retries', 3),
-        start_timeout=proto.number('start_timeout', 30.0, positive=True) or 30.0,
-        tracking_tolerance=_non_negative(proto, 'tracking_tolerance', 0.005),
-    )
-    proto.finish()
-    probe_reader = _Reader(raw.get('probe', {}), 'probe', source)
-    probe = ProbeSettings(amplitude=probe_reader.number('amplitude', 1.0e-3, positive=True)
-                          or 1.0e-3)
-    probe_reader.finish()
+        feedback_timeout=proto.feedback_timeout or 2.0, max_retries=proto.max_retries,
+        start_timeout=proto.start_timeout or 30.0,
+        tracking_tolerance=proto.tracking_tolerance)
+    probe = ProbeSettings(
+        amplitude=_section('probe', raw.get('probe', {}), source).amplitude or 1.0e-3)
 
     specimen = raw.get('specimen')
     if specimen is not None and not isinstance(specimen, dict):
@@ -390,27 +346,27 @@ def _collapse(raw: Any, source: str, dof_names: tuple[str, ...]) -> CollapseSett
     """The ``collapse`` section (see :mod:`.collapse`), or ``None`` if absent."""
     if raw is None:
         return None
-    reader = _Reader(raw, 'collapse', source)
-    drift_raw = reader.get('drift')
-    if drift_raw is None:
-        error = reader.error('drift', 'is required (m: one value, or one per DOF)')
-        raise error
-    values = drift_raw if isinstance(drift_raw, list) else [drift_raw]
-    if len(values) not in (1, len(dof_names)) or not all(
-            _is_number(v) and math.isfinite(v) and v > 0.0 for v in values):
-        error = reader.error('drift', f'must be a positive number or a list of '
-                                      f'{len(dof_names)} positive numbers (one per DOF), got '
-                                      f'{drift_raw!r}')
-        raise error
+    section = _section('collapse', raw, source)
+    values = section.drift if isinstance(section.drift, list) else [section.drift]
+    if len(values) not in (1, len(dof_names)):
+        msg = (f'{source}: collapse.drift: must be a positive number or a list of '
+               f'{len(dof_names)} positive numbers (one per DOF), got {raw["drift"]!r}')
+        raise ConfigError(msg)
     drift = tuple(float(v) for v in values) * (len(dof_names) if len(values) == 1 else 1)
-    action = reader.string('action', 'stop', choices=COLLAPSE_ACTIONS) or 'stop'
-    window = reader.integer('window', 5, minimum=1)
-    ratio = reader.number('tangent_ratio', 0.0) or 0.0
-    if ratio > 0.0:
-        error = reader.error('tangent_ratio', f'must be <= 0 (a negative tangent), got {ratio!r}')
-        raise error
-    reader.finish()
-    return CollapseSettings(drift=drift, action=action, window=window, tangent_ratio=ratio)
+    return CollapseSettings(drift=drift, action=section.action or 'stop', window=section.window,
+                            tangent_ratio=section.tangent_ratio or 0.0)
+
+
+def _section(path: str, raw: Any, source: str) -> Any:
+    """A part of the test file typed by the schema (``pd_common.config.validate_section``).
+
+    Raises:
+        ConfigError: one line naming ``source`` and the dotted path.
+    """
+    try:
+        return validate_section(path, raw, source)
+    except SchemaError as err:
+        raise ConfigError(str(err)) from None
 
 
 #: Keys of a hysteresis mapping that name files (pushover backbones).
@@ -573,61 +529,39 @@ def _damping(reader: _Reader, n: int
              ) -> tuple[np.ndarray | None, float | None, dict[str, Any] | None]:
     """``(coefficient matrix, ratio, rayleigh/modal spec)``: exactly one is set."""
     raw = reader.get('damping', {'ratio': 0.0})
-    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+    if _is_number(raw):
         raw = {'ratio': raw}
+    section = _section('structure.damping', raw, reader.source)
     damping = _Reader(raw, f'{reader.path}.damping', reader.source)
-    ratio = damping.number('ratio')
-    coefficient = damping.get('coefficient')
-    rayleigh = damping.get('rayleigh')
-    modal = damping.get('modal')
-    damping.finish()
-    given = [key for key, value in (('ratio', ratio), ('coefficient', coefficient),
-                                    ('rayleigh', rayleigh), ('modal', modal))
-             if value is not None]
-    if len(given) != 1:
-        error = reader.error('damping', 'give exactly one of ratio, coefficient, rayleigh or '
-                             f'modal, got {", ".join(given) or "none"}')
-        raise error
-    if ratio is not None:
-        if not 0.0 <= ratio < 1.0:
-            error = damping.error('ratio', f'must be in [0, 1), got {ratio!r}')
-            raise error
-        return None, ratio, None
-    if rayleigh is not None:
-        spec = _Reader(rayleigh, f'{reader.path}.damping.rayleigh', reader.source)
-        modes = spec.get('modes', [1, 2])
-        ratios = spec.get('ratios')
-        spec.finish()
-        if (not isinstance(modes, list) or len(modes) != 2 or not all(
-                isinstance(m, int) and not isinstance(m, bool) and m >= 1 for m in modes)
-                or modes[0] == modes[1]):
-            error = spec.error('modes',
-                               f'must be two distinct mode numbers (1-based), got {modes!r}')
-            raise error
-        ratios = _ratios(spec, 'ratios', ratios, 2)
-        return None, None, {'rayleigh': {'modes': list(modes), 'ratios': ratios}}
-    if modal is not None:
-        return None, None, {'modal': _ratios(damping, 'modal', modal, None)}
-    matrix = _matrix(damping, 'coefficient', n, value=coefficient)
+    if section.ratio is not None:
+        return None, section.ratio, None
+    if section.rayleigh is not None:
+        spec = _Reader(raw['rayleigh'], f'{reader.path}.damping.rayleigh', reader.source)
+        ratios = _ratios(spec, 'ratios', section.rayleigh.ratios, 2)
+        return None, None, {'rayleigh': {'modes': list(section.rayleigh.modes),
+                                         'ratios': ratios}}
+    if section.modal is not None:
+        return None, None, {'modal': _ratios(damping, 'modal', section.modal, None)}
+    matrix = _matrix(damping, 'coefficient', n, value=raw['coefficient'])
     return matrix, None, None
 
 
-def _ratios(reader: _Reader, key: str, value: Any, count: int | None) -> list[float]:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = [value] * (count or 1)
-    if (not isinstance(value, list) or not value or (count is not None and len(value) != count)
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                       and math.isfinite(v) and 0.0 <= v < 1.0 for v in value)):
+def _ratios(reader: _Reader, key: str, value: float | list[float], count: int | None
+            ) -> list[float]:
+    """Damping ratios (each in [0, 1) by the schema): ``count`` of them, or one for all."""
+    values = [value] * (count or 1) if isinstance(value, float) else value
+    if not values or (count is not None and len(values) != count):
         size = f'{count} ' if count else ''
         raise reader.error(key, f'must be a list of {size}damping ratios in [0, 1), got {value!r}')
-    return [float(v) for v in value]
+    return [float(v) for v in values]
 
 
 def steps_refusal(steps: float, n_dof: int) -> str | None:
-    """Why ``steps`` integration steps of ``n_dof`` DOFs are too many for a test, as the end of
-    a message (``1e+11 steps; at most 5e+07``), or ``None`` when they fit (at most
-    :data:`MAX_STEPS`, and a history within :data:`MEMORY_FRACTION` of this machine's
-    memory)."""
+    """Why ``steps`` integration steps of ``n_dof`` DOFs are too many for a test.
+
+    As the end of a message (``1e+11 steps; at most 5e+07``), or ``None`` when they fit (at most
+    :data:`MAX_STEPS`, and a history within :data:`MEMORY_FRACTION` of this machine's memory).
+    """
     if not steps <= MAX_STEPS:  # (an infinite count too)
         return f'{steps:.4g} steps; at most {MAX_STEPS:.0e}'
     need = (steps + 1.0) * (6 * n_dof + 2) * 8.0  # history, loads and ground motion [bytes]
@@ -655,30 +589,19 @@ def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tupl
     if raw is None:
         msg = f'{source}: ground_motion: section is required'
         raise ConfigError(msg)
+    section = _section('ground_motion', raw, source)
     n = len(dof_names)
-    items: list[tuple[str, Any, Any, str]]
-    if isinstance(raw, list):
-        if not 1 <= len(raw) <= 3:
-            msg = f'{source}: ground_motion: give 1 to 3 components, got {len(raw)}'
-            raise ConfigError(msg)
+    items: list[tuple[str, list[float] | None, GroundMotionSection, str]]
+    if isinstance(section, list):
         if influence_given:
             msg = (f'{source}: structure.influence: with several ground motion components give '
                    'each component its own influence')
             raise ConfigError(msg)
-        items = []
-        for k, item in enumerate(raw):
-            path = f'ground_motion[{k}]'
-            if not isinstance(item, dict):
-                msg = f'{source}: {path}: must be a mapping, got {type(item).__name__}'
-                raise ConfigError(msg)
-            item = dict(item)
-            if 'influence' not in item:
-                msg = f'{source}: {path}.influence: is required (one value per DOF)'
-                raise ConfigError(msg)
-            name = item.pop('name', f'component{k + 1}')
-            items.append((str(name), item.pop('influence'), item, path))
+        items = [(f'component{k + 1}' if item.name is None else str(item.name),
+                  item.influence, item, f'ground_motion.{k}')
+                 for k, item in enumerate(section)]
     else:
-        items = [('ground', None, raw, 'ground_motion')]
+        items = [('ground', None, section, 'ground_motion')]
     components = []
     for name, influence_raw, item, path in items:
         motion, info = _ground_motion(item, source, base_dir, path)
@@ -702,13 +625,6 @@ def _ground_components(raw: Any, source: str, base_dir: Path, *, dof_names: tupl
     return tuple(components), record_steps
 
 
-def _non_negative(reader: _Reader, key: str, default: float) -> float:
-    value = reader.number(key, default)
-    if value is None or value < 0.0:
-        raise reader.error(key, f'must be 0 (off) or a positive number, got {value!r}')
-    return value
-
-
 def _padded(component: GroundComponent, n_steps: int) -> GroundComponent:
     """The component with its resampled record cut or zero-padded to ``n_steps + 1`` values."""
     acceleration = np.zeros(n_steps + 1)
@@ -720,59 +636,36 @@ def _padded(component: GroundComponent, n_steps: int) -> GroundComponent:
                            influence_raw=component.influence_raw, info=component.info)
 
 
-def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_motion'
-                   ) -> tuple[GroundMotion, dict[str, Any]]:
-    reader = _Reader(raw, where, source)
-    scale = reader.number('scale', 1.0)
-    assert scale is not None
-    direction = reader.number('direction', 1.0)
-    if direction not in (1.0, -1.0):
-        error = reader.error('direction', f'must be 1 or -1, got {direction!r}')
-        raise error
-    assert direction is not None
-    units = reader.string('units', 'g')
-    g = reader.number('g', 9.81, positive=True)
-    inline = reader.get('inline')
-    record = reader.get('record')
-    file = reader.string('file')
-    fmt = reader.string('format', 'auto')
-    record_dt = reader.number('dt', positive=True)
-    reader.finish()
-    if (inline is None) == (file is None):
-        error = reader.error('file', 'give exactly one of file or inline')
-        raise error
+def _ground_motion(section: GroundMotionSection, source: str, base_dir: Path,
+                   where: str = 'ground_motion') -> tuple[GroundMotion, dict[str, Any]]:
+    """One record of ``ground_motion`` (typed by the schema), read, scaled and directed."""
+    scale, direction, units, g = section.scale, section.direction, section.units, section.g
     try:
-        if inline is not None:
-            inline_reader = _Reader(inline, f'{where}.inline', source)
-            dt = inline_reader.number('dt', positive=True, required=True)
-            values = inline_reader.get('acceleration')
-            inline_reader.finish()
-            factor = 1.0 if units in ('m/s2', 'm/s^2') else (g or 9.81)
+        if section.inline is not None:
             if units not in ('m/s2', 'm/s^2', 'g'):
-                error = reader.error('units', f"must be 'g' or 'm/s2', got {units!r}")
-                raise error
-            if first_boolean(values) is not None or isinstance(values, (str, bytes)):
-                error = inline_reader.error('acceleration', 'must be a list of numbers')
-                raise error
+                msg = f"{source}: {where}.units: must be 'g' or 'm/s2', got {units!r}"
+                raise ConfigError(msg)
+            factor = 1.0 if units in ('m/s2', 'm/s^2') else (g or 9.81)
             with np.errstate(over='ignore', invalid='ignore'):  # refused below, not warned
-                acceleration = np.asarray(values, dtype=float) * factor
-            motion = GroundMotion(dt=dt or 0.0, acceleration=acceleration, source='inline')
-            _check_scale(reader, scale, motion)
+                acceleration = np.asarray(section.inline.acceleration, dtype=float) * factor
+            motion = GroundMotion(dt=section.inline.dt, acceleration=acceleration,
+                                  source='inline')
+            _check_scale(f'{source}: {where}', scale, motion)
             motion = motion.scaled(scale * direction)
-            info = dict(record) if isinstance(record, dict) else {
+            info = dict(section.record) if section.record is not None else {
                 'file': 'inline', 'scale': scale, 'direction': direction}
         else:
-            assert file is not None
-            path = Path(file)
+            assert section.file is not None  # (the schema: file or inline)
+            path = Path(section.file)
             if not path.is_absolute():
                 path = base_dir / path
             with np.errstate(over='ignore', invalid='ignore'):  # refused, not warned
-                motion = read_ground_motion(path, format=fmt or 'auto', units=units or 'g',
-                                            dt=record_dt, g=g or 9.81)
-            info = {'file': path.name, 'format': fmt, 'units': units, 'g': g,
+                motion = read_ground_motion(path, format=section.format or 'auto',
+                                            units=units or 'g', dt=section.dt, g=g or 9.81)
+            info = {'file': path.name, 'format': section.format, 'units': units, 'g': g,
                     'scale': scale, 'direction': direction, 'record_dt': motion.dt,
                     'record_samples': motion.n_samples}
-            _check_scale(reader, scale, motion)
+            _check_scale(f'{source}: {where}', scale, motion)
             motion = motion.scaled(scale * direction)
     except ConfigError:  # (a ValueError) names its key already
         raise
@@ -785,10 +678,11 @@ def _ground_motion(raw: Any, source: str, base_dir: Path, where: str = 'ground_m
     return motion, info
 
 
-def _check_scale(reader: _Reader, scale: float, motion: GroundMotion) -> None:
+def _check_scale(where: str, scale: float, motion: GroundMotion) -> None:
     """Refuse a ``scale`` that takes the record's peak beyond the largest float."""
     peak = motion.pga
     if not math.isfinite(scale * peak):
-        error = reader.error('scale', f"{scale:g} × the record's peak {peak:.4g} m/s2 is "
-                                      'beyond the largest number')
-        raise error
+        msg = (f"{where}.scale: {scale:g} × the record's peak {peak:.4g} m/s2 is beyond the "
+               'largest number')
+        raise ConfigError(msg)
+
