@@ -161,8 +161,10 @@ ESTOP_LOG_INTERVAL_S = 10.0
 
 
 def default_record_file(node_name: str) -> Path:
-    """Where a bridge started without ``record_file`` keeps its record: per ROS domain and
-    node, under ``$XDG_STATE_HOME/pd/bridges`` (``~/.local/state``)."""
+    """Where a bridge started without ``record_file`` keeps its record.
+
+    Per ROS domain and node, under ``$XDG_STATE_HOME/pd/bridges`` (``~/.local/state``).
+    """
     base = os.environ.get('XDG_STATE_HOME') or str(Path.home() / '.local' / 'state')
     domain = os.environ.get('ROS_DOMAIN_ID', '0') or '0'
     name = node_name.strip('/').replace('/', '.') or 'pd_actuator_bridge'
@@ -315,8 +317,10 @@ class ActuatorBridgeNode(LifecycleNode):
         return False
 
     def trigger(self, name: str) -> bool:
-        """Run lifecycle transition ``name`` as the node itself (autostart, a signed control);
-        whether it succeeded."""
+        """Run lifecycle transition ``name`` as the node itself (autostart, a signed control).
+
+        Whether it succeeded.
+        """
         self._transition_allowed = True
         try:
             result = getattr(self, f'trigger_{name}')()
@@ -365,8 +369,10 @@ class ActuatorBridgeNode(LifecycleNode):
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Ramp force-controlled actuators down to 0 N, hold position and stop answering
-        the integrator."""
+        """Ramp force-controlled actuators down to 0 N.
+
+        Hold position and stop answering the integrator.
+        """
         if not self._transition('deactivate'):
             return FAILURE
         note = self.bridge.ramp_down() if self.bridge is not None else ''
@@ -549,8 +555,11 @@ class ActuatorBridgeNode(LifecycleNode):
         self._refused(reason, signature, 'session/start')
 
     def _publish_reply(self, reply: Feedback) -> None:
-        """Publish the bridge's answer (test id untagged, the specimen state's epoch and
-        origin stamped), signed."""
+        """Publish the bridge's answer, stamped and signed.
+
+        Publish the bridge's answer (test id untagged, the specimen state's epoch and
+        origin stamped), signed.
+        """
         if self._feedback_pub is None:
             return
         driver = self.driver
@@ -661,8 +670,10 @@ class ActuatorBridgeNode(LifecycleNode):
             self._publish_reply(reply)
 
     def check_driver(self) -> None:
-        """Offer a session once an active bridge's driver is ready; hold if the driver did not
-        answer in time, or if the command watchdog expired."""
+        """Offer a session once an active bridge's driver is ready.
+
+        Hold if the driver did not answer in time, or if the command watchdog expired.
+        """
         bridge, driver = self.bridge, self.driver
         if bridge is None or driver is None:
             return
@@ -694,9 +705,12 @@ class ActuatorBridgeNode(LifecycleNode):
                 self._publish_reply(reply)
 
     def emergency_stop(self, reason: str) -> None:
-        """Hold at once, from any state; latched (and on disk) until a signed
-        ``reset_emergency_stop``. Anyone may stop: the reason is cut to 256 characters, and a
-        stop that arrives while one is latched is counted, not logged or recorded."""
+        """Hold at once, from any state.
+
+        Latched (and on disk) until a signed ``reset_emergency_stop``. Anyone may stop: the reason
+        is cut to 256 characters, and a stop that arrives while one is latched is counted, not
+        logged or recorded.
+        """
         self._hold_driver()  # first: nothing about the record may delay the stop
         reason = clip_reason(reason) or 'no reason given'
         event = self.holds.emergency_stop(reason)

@@ -140,8 +140,11 @@ class SimServoDriver(ActuatorDriver):
 
     @property
     def carried_force(self) -> list[float] | None:
-        """The force per DOF the specimen node offered with its position (what it carries now;
-        ``None`` before its offer): a restarted bridge holds it (the load a column carries)."""
+        """The force per DOF the specimen node offered with its position.
+
+        What it carries now; ``None`` before its offer: a restarted bridge holds it (the load a
+        column carries).
+        """
         return None if self._offered_force is None else list(self._offered_force)
 
     def poll(self) -> None:
@@ -166,8 +169,10 @@ class SimServoDriver(ActuatorDriver):
         return self._specimen_epoch
 
     def refusals(self) -> dict[str, dict[str, int]]:
-        """The specimen's answers and offers refused by authentication, by reason (source
-        ``specimen/step_feedback``)."""
+        """The specimen's answers and offers refused by authentication.
+
+        By reason (source ``specimen/step_feedback``).
+        """
         counts = Counter(self._sender.reply_gate.refused)
         counts.update(self._sender.offer_gate.refused)
         return {'specimen/step_feedback': dict(counts)}
@@ -177,8 +182,11 @@ class SimServoDriver(ActuatorDriver):
         self._move_test_id = test_id
 
     def waiting_since(self) -> float | None:
-        """``time.monotonic()`` of the last (re-)sent move while it waits for the specimen's
-        answer; ``None`` when no move is in flight."""
+        """``time.monotonic()`` of the last (re-)sent move still waiting for its answer.
+
+        ``time.monotonic()`` of the last (re-)sent move while it waits for the specimen's
+        answer; ``None`` when no move is in flight.
+        """
         return self._sent_at if self._in_flight is not None else None
 
     def command(self, step: Any, target: Sequence[float]) -> None:
@@ -189,8 +197,9 @@ class SimServoDriver(ActuatorDriver):
 
     def command_force(self, step: Any, target: Sequence[float],
                       control_mode: Sequence[int], target_force: Sequence[float]) -> None:
-        """Forward one force sub-step ``step = (*key, s)``, keyed
-        :func:`~pd_actuator_bridge.core.drivers.base.force_substep_key` for the specimen
+        """Forward one force sub-step ``step = (*key, s)``.
+
+        Keyed :func:`~pd_actuator_bridge.core.drivers.base.force_substep_key` for the specimen
         (``(step, iteration * SUBSTEP_STRIDE + s)``, see the module docstring).
 
         Raises:

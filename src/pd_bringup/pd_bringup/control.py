@@ -76,8 +76,11 @@ def _key_path(args: argparse.Namespace) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: 0 when the receiver confirmed the control, 1 if it refused it or did not
-    confirm it, 2 on bad input."""
+    """Entry point of ``./pd control``; returns the exit status.
+
+    Entry point: 0 when the receiver confirmed the control, 1 if it refused it or did not
+    confirm it, 2 on bad input.
+    """
     args = parse_args(argv)
     command = args.command.strip().lower()
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')

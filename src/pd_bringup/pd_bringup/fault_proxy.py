@@ -179,8 +179,10 @@ class FaultProxyNode(Node):
                                   'fates of the last one)' if self.starts > 1 else ''))
 
     def _restore(self) -> None:
-        """A restarted proxy (its report file is there, of the same plan and namespaces):
-        continue its counters, and its fates where they stopped."""
+        """A restarted proxy (its report file is there, of the same plan and namespaces).
+
+        Continue its counters, and its fates where they stopped.
+        """
         if self.report_file is None or not self.report_file.is_file():
             return
         try:

@@ -85,6 +85,7 @@ class FaultPlan:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        """Check every probability and their sum."""
         for name in _ITEMS:
             problem = _problem(name, getattr(self, name))
             if problem:

@@ -27,8 +27,11 @@ __all__ = ['Operator', 'SeenOffer', 'control_topics']
 
 
 def control_topics(bridge_site: str | None) -> tuple[str, str]:
-    """The control topic and the status topic of the integrator (``None``) or of the bridge
-    of ``bridge_site`` ('' = the default site)."""
+    """The control and status topics of the integrator or of a site's bridge.
+
+    The control topic and the status topic of the integrator (``None``) or of the bridge
+    of ``bridge_site`` ('' = the default site).
+    """
     if bridge_site is None:
         return site_topic_name('', 'test_control'), site_topic_name('', 'test_status')
     return (site_topic_name(bridge_site, 'bridge/control'),
@@ -68,9 +71,11 @@ class Operator:
 
     def send(self, command: str, *, bridge_site: str | None = None, reason: str = ''
              ) -> Sent | None:
-        """Send one control to the integrator (or to the bridge of ``bridge_site``); ``None``
-        when its receiver is not known or not listening. Its acknowledgement is awaited by
-        :meth:`check` (sent again if it does not come)."""
+        """Send one control to the integrator (or to the bridge of ``bridge_site``).
+
+        ``None`` when its receiver is not known or not listening. Its acknowledgement is awaited by
+        :meth:`check` (sent again if it does not come).
+        """
         topic, status_topic = control_topics(bridge_site)
         sent = self.controls.send(command, topic, status_topic, reason)
         if sent is not None:
@@ -79,8 +84,11 @@ class Operator:
 
     def check(self, resend_after: float = 1.0, attempts: int = 5
               ) -> list[tuple[Sent, Acknowledgement | None]]:
-        """The controls whose fate is known now: acknowledged, or given up after
-        ``attempts`` sends; the others are sent again after ``resend_after`` s of silence."""
+        """The controls whose fate is known now.
+
+        Acknowledged, or given up after ``attempts`` sends; the others are sent again after
+        ``resend_after`` s of silence.
+        """
         done: list[tuple[Sent, Acknowledgement | None]] = []
         waiting: list[Sent] = []
         now = time.monotonic()

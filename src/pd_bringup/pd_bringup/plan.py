@@ -79,9 +79,11 @@ class Child:
 
     @property
     def restorable(self) -> bool:
-        """Whether restarting it gives back the same state (else the test holds for the
-        operator): the integrator (journal), a simulator (state file), a bridge (its state is
-        the actuator's, read back when it configures). An OpenSees site restarts fresh."""
+        """Whether restarting it gives back the same state (else the test holds for the operator).
+
+        The integrator (journal), a simulator (state file), a bridge (its state is the actuator's,
+        read back when it configures). An OpenSees site restarts fresh.
+        """
         return self.kind in ('integrator', 'bridge', 'proxy') or bool(self.state_file)
 
 
@@ -142,9 +144,10 @@ class LaunchPlan:
 
     @classmethod
     def load(cls, run_dir: Path) -> LaunchPlan:
-        """The plan of a run folder, for that folder: ``out`` is ``run_dir``, and every path of
-        the plan that pointed into the folder the run started in (a moved or copied folder)
-        points into ``run_dir`` (:meth:`rebased`).
+        """The plan of a run folder, for that folder.
+
+        ``out`` is ``run_dir``, and every path of the plan that pointed into the folder the run
+        started in (a moved or copied folder) points into ``run_dir`` (:meth:`rebased`).
 
         Raises:
             LaunchError: no readable ``launch.json`` there.
@@ -178,19 +181,23 @@ class LaunchPlan:
         return plan.rebased(run_dir)
 
     def started_in(self) -> str | None:
-        """The absolute run folder the plan's paths were made in (the integrator's
-        ``output_dir``), or ``None`` if the plan does not say."""
+        """The absolute run folder the plan's paths were made in (the integrator's ``output_dir``).
+
+        Or ``None`` if the plan does not say.
+        """
         for item in self.integrator:
             if item.startswith('output_dir:='):
                 return item.removeprefix('output_dir:=')
         return str(self.out) if self.out.is_absolute() else None
 
     def rebased(self, run_dir: Path) -> LaunchPlan:
-        """This plan for the folder ``run_dir``: ``out`` is ``run_dir``, and every path in a
-        command line, state file or report that was in the folder the run started in is in
-        ``run_dir`` now (the integrator's journal and output folder, simulators' state files,
-        bridges' records and real-time reports, fault proxies' reports). Paths elsewhere (the
-        test file, the key, executables) are kept."""
+        """This plan for the folder ``run_dir``.
+
+        ``out`` is ``run_dir``, and every path in a command line, state file or report that was in
+        the folder the run started in is in ``run_dir`` now (the integrator's journal and output
+        folder, simulators' state files, bridges' records and real-time reports, fault proxies'
+        reports). Paths elsewhere (the test file, the key, executables) are kept.
+        """
         old = self.started_in()
         new = str(run_dir.resolve())
         plan = replace(self, out=run_dir)
@@ -205,8 +212,11 @@ class LaunchPlan:
 
     def integrator_command(self, *, resume: bool, note: str = '',
                            confirm: bool = False, held: bool = False) -> list[str]:
-        """The integrator's command line: a new run, or continuing this folder's run (held:
-        it moves nothing before a person's signed resume)."""
+        """The integrator's command line.
+
+        A new run, or continuing this folder's run (held: it moves nothing before a person's signed
+        resume).
+        """
         if not resume:
             return list(self.integrator)
         command: list[str] = []
@@ -230,8 +240,11 @@ class LaunchPlan:
 
 
 def _rebase(item: str, old: str, new: str) -> str:
-    """``item`` (a path, or a ``name:=path`` parameter) with the folder ``old`` replaced by
-    ``new``; anything else unchanged."""
+    """``item`` with the folder ``old`` replaced by ``new``.
+
+    ``item`` (a path, or a ``name:=path`` parameter) with the folder ``old`` replaced by
+    ``new``; anything else unchanged.
+    """
     name, sep, value = item.partition(':=')
     if not sep:
         name, value = '', item
@@ -259,10 +272,12 @@ def _check_types(plan: LaunchPlan) -> None:
 
 
 def discovery_profile(env: dict[str, str]) -> dict[str, str]:
-    """The environment that gives the test's processes the shipped Fast DDS profile
-    (``config/fastdds_discovery.xml``: announcements every 100 ms for the first 5 s, so
-    processes started together meet at once): ``{}`` when the environment selects a profile
-    file already, the rmw is not Fast DDS, or the profile is not installed."""
+    """The environment that gives the test's processes the shipped Fast DDS profile.
+
+    ``config/fastdds_discovery.xml``: announcements every 100 ms for the first 5 s, so processes
+    started together meet at once: ``{}`` when the environment selects a profile file already, the
+    rmw is not Fast DDS, or the profile is not installed.
+    """
     if any(env.get(name) for name in DDS_PROFILE_VARIABLES):
         return {}
     if not env.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp').startswith('rmw_fastrtps'):
@@ -303,8 +318,10 @@ def bridge_record_file(out: Path, site: str) -> str:
 
 def site_commands(definition: TestDefinition, test_file: Path, mode: str,
                   bridge_params: Path | None, out: Path) -> tuple[list[Child], bool]:
-    """The processes of the specimen side: per site a simulator (and its bridge); whether a
-    physical specimen is driven."""
+    """The processes of the specimen side: per site a simulator (and its bridge).
+
+    Whether a physical specimen is driven.
+    """
     if mode == 'none':
         return [], True
     params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
@@ -462,8 +479,10 @@ def insert_fault_proxies(children: list[Child], faults: str, out: Path) -> list[
 
 
 def attach_fault_reports(plan: LaunchPlan) -> dict[str, Any] | None:
-    """Add the fault proxies' counters to the run's ``summary.json`` (``faults``); the block
-    (``None``: no proxy, or none wrote its report)."""
+    """Add the fault proxies' counters to the run's ``summary.json`` (``faults``).
+
+    The block (``None``: no proxy, or none wrote its report).
+    """
     files = {child.name: Path(child.state_file) for child in plan.children
              if child.kind == 'proxy' and child.state_file}
     if not files:
@@ -481,7 +500,9 @@ def realtime_report_name(site: str) -> str:
 
 
 def attach_realtime_reports(plan: LaunchPlan) -> dict[str, Any] | None:
-    """Add the continuous sites' wall-clock statistics (their bridges' ``rths-<site>.json``)
+    """Add the continuous sites' wall-clock statistics to the run's ``summary.json``.
+
+    Add the continuous sites' wall-clock statistics (their bridges' ``rths-<site>.json``)
     to the run's ``summary.json`` as ``realtime`` (per site); the block (``None``: no report:
     no site ran on the wall clock).
 

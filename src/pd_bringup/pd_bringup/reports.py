@@ -17,8 +17,11 @@ __all__ = ['add_to_summary', 'read_reports']
 
 
 def read_reports(report_files: Mapping[str, Path]) -> dict[str, Mapping[str, Any]]:
-    """Per name, its report file's JSON object; a file not written is left out, one that
-    cannot be read (or is not an object) is ``{'error': ...}``."""
+    """Per name, its report file's JSON object.
+
+    A file not written is left out, one that cannot be read (or is not an object) is ``{'error':
+    ...}``.
+    """
     reports: dict[str, Mapping[str, Any]] = {}
     for name, path in report_files.items():
         try:
@@ -33,8 +36,9 @@ def read_reports(report_files: Mapping[str, Path]) -> dict[str, Mapping[str, Any
 
 
 def add_to_summary(summary_file: Path, key: str, block: Any) -> None:
-    """Set ``key`` of ``summary.json`` to ``block`` (left alone when the summary does not
-    exist), through a partial file and an atomic rename.
+    """Set ``key`` of ``summary.json`` to ``block`` (left alone when the summary does not exist).
+
+    Through a partial file and an atomic rename.
 
     Raises:
         OSError, ValueError: The summary cannot be read or written.

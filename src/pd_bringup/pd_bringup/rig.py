@@ -144,8 +144,10 @@ def state_key_dir() -> Path:
 
 
 def test_key_path(test_id: str) -> Path:
-    """A new key file for one simulated test (created, owner-only); the old ones pruned
-    (:func:`prune_test_keys`)."""
+    """A new key file for one simulated test (created, owner-only).
+
+    The old ones pruned (:func:`prune_test_keys`).
+    """
     stamp = datetime.now(tz=UTC).strftime('%Y%m%d-%H%M%S-%f')
     path = state_key_dir() / f'{test_id}-{stamp}.key'
     generate_key(path)
@@ -155,9 +157,11 @@ def test_key_path(test_id: str) -> Path:
 
 def prune_test_keys(directory: Path, *, days: float = TEST_KEY_DAYS,
                     kept: int = TEST_KEYS_KEPT, now: float | None = None) -> list[Path]:
-    """Remove the per-test keys in ``directory`` older than ``days`` (by their modification
-    time), except the newest ``kept``; the files removed (a file that cannot be removed is
-    left). Only ``*.key`` files are considered; the rig's key lives elsewhere."""
+    """Remove the per-test keys in ``directory`` older than ``days`` (by their modification time).
+
+    Except the newest ``kept``; the files removed (a file that cannot be removed is left). Only
+    ``*.key`` files are considered; the rig's key lives elsewhere.
+    """
     limit = (datetime.now(tz=UTC).timestamp() if now is None else now) - days * 86400.0
     keys = []
     for path in directory.glob('*.key'):

@@ -88,8 +88,10 @@ class _Process(Protocol):
 
 
 def _start_ticks(pid: int) -> int | None:
-    """The start time of process ``pid`` in clock ticks since boot (``None``: no such
-    process): with the pid, it names one process (pids are reused, start times are not)."""
+    """The start time of process ``pid`` in clock ticks since boot (``None``: no such process).
+
+    With the pid, it names one process (pids are reused, start times are not).
+    """
     try:
         text = Path(f'/proc/{pid}/stat').read_text(encoding='ascii', errors='replace')
     except OSError:
@@ -104,8 +106,11 @@ def _start_ticks(pid: int) -> int | None:
 
 
 class _Adopted:
-    """A process a previous launcher started and left running (a bridge holding its
-    actuator under ``hold``): watched by its pid and start time, stopped by signals."""
+    """A process a previous launcher started and left running.
+
+    A bridge holding its actuator under ``hold``: watched by its pid and start time, stopped by
+    signals.
+    """
 
     def __init__(self, pid: int, ticks: int) -> None:
         self.pid = pid
@@ -128,8 +133,10 @@ class _Adopted:
 
 
 def recorded_processes(run_dir: Path) -> dict[str, Any]:
-    """The run folder's ``processes.json`` (``{}`` if there is none, or it is unreadable):
-    ``policy`` (the child-exit policy) and ``processes`` (name: pid, start ticks, command)."""
+    """The run folder's ``processes.json`` (``{}`` if there is none, or it is unreadable).
+
+    ``policy`` (the child-exit policy) and ``processes`` (name: pid, start ticks, command).
+    """
     try:  # (a regular file of bounded size only: a FIFO there must not hang a resume)
         data = json.loads(read_text(run_dir / PROCESSES_FILE, limit=1 << 20))
     except (OSError, ValueError, RecursionError):
@@ -219,8 +226,10 @@ class Supervisor:
 
     # -- processes --------------------------------------------------------------------------
     def _spawn(self, command: list[str], *, outlive: bool = False) -> subprocess.Popen[bytes]:
-        """Start ``command`` in a session of its own; it dies with the launcher unless
-        ``outlive`` (the specimen side under ``hold``)."""
+        """Start ``command`` in a session of its own.
+
+        It dies with the launcher unless ``outlive`` (the specimen side under ``hold``).
+        """
         return subprocess.Popen(command, start_new_session=True, env=self.env,
                                 preexec_fn=None if outlive else _die_with_parent(os.getpid()))
 
@@ -230,8 +239,10 @@ class Supervisor:
         return self.policy == 'hold'
 
     def start(self, *, resume: bool, note: str = '', confirm: bool = False) -> None:
-        """Start the specimen side (adopting what a previous launcher left running), then the
-        integrator (a new run, or continuing)."""
+        """Start the specimen side (adopting what a previous launcher left running).
+
+        Then the integrator (a new run, or continuing).
+        """
         adopted = self._adoptable() if resume else {}
         for child in self.plan.children:
             process = adopted.get(child.name)
@@ -245,8 +256,10 @@ class Supervisor:
         self._start_integrator(resume=resume, note=note, confirm=confirm)
 
     def _adoptable(self) -> dict[str, _Process]:
-        """The specimen-side processes a previous launcher left running (by the run folder's
-        ``processes.json``: same pid, start time and command line)."""
+        """The specimen-side processes a previous launcher left running.
+
+        By the run folder's ``processes.json``: same pid, start time and command line.
+        """
         recorded = recorded_processes(self.plan.out).get('processes')
         found: dict[str, _Process] = {}
         commands = {child.name: child.command for child in self.plan.children}
@@ -282,22 +295,29 @@ class Supervisor:
                                    spawned_at=spawned_at)
 
     def stop(self) -> None:
-        """Stop everything: the integrator first (it writes the outputs), then the rest (the
-        explicit shutdown: the bridges go last)."""
+        """Stop everything: the integrator first (it writes the outputs).
+
+        Then the rest (the explicit shutdown: the bridges go last).
+        """
         if self.integrator is not None:
             _stop([self.integrator], self._log)
         self.stop_children()
 
     def stop_children(self) -> None:
-        """Stop the specimen side's processes: the bridges last (SIGTERM to each group, then
-        the waits): a bridge holds its actuator until the very end."""
+        """Stop the specimen side's processes.
+
+        The bridges last (SIGTERM to each group, then the waits): a bridge holds its actuator until
+        the very end.
+        """
         ordered = list(reversed(self.children))
         _stop([item for item in ordered if item.child.kind != 'bridge'], self._log)
         _stop([item for item in ordered if item.child.kind == 'bridge'], self._log)
 
     def _summary_written(self, integrator: _Running) -> bool:
-        """Whether this integrator process has written its run's ``summary.json`` (complete:
-        it parses; written after the process started, so not an earlier run's)."""
+        """Whether this integrator process has written its run's ``summary.json``.
+
+        Complete: it parses; written after the process started, so not an earlier run's.
+        """
         path = self.plan.out / 'summary.json'
         try:
             if path.stat().st_mtime < integrator.spawned_at:
@@ -361,8 +381,10 @@ class Supervisor:
             self._spin(0.5)
 
     def _revive_integrator(self, integrator: _Running, code: int) -> bool:
-        """The integrator died: continue it from its journal (``restart``), or restore it
-        held (``hold``: nothing moves before a person's resume)."""
+        """The integrator died: continue it from its journal (``restart``).
+
+        Or restore it held (``hold``: nothing moves before a person's resume).
+        """
         what = f'pd_integrator died ({_describe_exit(code)})'
         if self.policy == 'abort' or integrator.restarts >= self.max_restarts:
             self._log(f'run_test: {what}; the record is intact up to its last committed step: '
@@ -433,8 +455,11 @@ class Supervisor:
         return ''
 
     def _advance_restart(self, restart: _Restart) -> None:
-        """Once the restarted process is up: leave the holds it made at the bridges, and
-        continue the test, unless a person holds it."""
+        """Leave the holds of a restarted process once it is up and continue the test.
+
+        Once the restarted process is up: leave the holds it made at the bridges, and
+        continue the test, unless a person holds it.
+        """
         operator = self.operator
         assert operator is not None
         item = restart.running
@@ -477,8 +502,10 @@ class Supervisor:
         self._log(f'run_test: {item.child.name} is back; resuming the test')
 
     def _is_up(self, child: Child, restart: _Restart) -> bool:
-        """Whether a restarted receiver offers itself again (and, behind a bridge, the
-        bridge re-opened its session with it)."""
+        """Whether a restarted receiver offers itself again.
+
+        Behind a bridge, also whether the bridge re-opened its session with it.
+        """
         assert self.operator is not None
         offer = self.operator.offers.get(child.namespace)
         if offer is None or offer.at < restart.since:
@@ -532,9 +559,11 @@ class Supervisor:
         return None
 
     def _check_hung(self) -> None:
-        """A live process that has said nothing for ``hung_timeout`` s stopped answering:
-        report it (once), hold the test, and under ``restart`` kill it (it is then restarted
-        with its state like any process that died)."""
+        """A live process that has said nothing for ``hung_timeout`` s stopped answering.
+
+        Report it (once), hold the test, and under ``restart`` kill it (it is then restarted with
+        its state like any process that died).
+        """
         if self.operator is None or self.hung_timeout <= 0.0:
             return
         now = time.monotonic()
@@ -583,9 +612,11 @@ def _describe_exit(code: int) -> str:
 
 
 def _stop(items: list[_Running], log: Callable[[str], None]) -> None:
-    """SIGTERM to each process group (a clean stop for every node), in order and without
-    waiting in between; then each is waited for (``STOP_TIMEOUT`` in all) and killed if it is
-    still there."""
+    """SIGTERM to each process group (a clean stop for every node).
+
+    In order and without waiting in between; then each is waited for (``STOP_TIMEOUT`` in all) and
+    killed if it is still there.
+    """
     signalled = []
     for item in items:
         if item.process.poll() is not None:

@@ -1,5 +1,7 @@
-"""Exception classes of pd_common (specimen models, their configuration, experimental errors,
-the actuator bridge's safety limits)."""
+"""Exception classes of pd_common.
+
+Specimen models, their configuration, experimental errors, the actuator bridge's safety limits.
+"""
 
 from __future__ import annotations
 
@@ -25,8 +27,11 @@ class SetupError(ValueError):
 
 
 class RthsError(ValueError):
-    """A real-time hybrid simulation piece (transfer system, compensator, continuous actuator)
-    or its configuration is invalid."""
+    """A real-time hybrid simulation piece or its configuration is invalid.
+
+    A real-time hybrid simulation piece (transfer system, compensator, continuous actuator)
+    or its configuration is invalid.
+    """
 
 
 class BridgeError(Exception):
@@ -34,6 +39,8 @@ class BridgeError(Exception):
 
 
 class BridgeConfigError(BridgeError, ValueError):
-    """Invalid bridge configuration (safety limits, DOF names, options): raised by the safety
-    limits of :mod:`pd_common.experimental.limits` wherever they are applied (the bridge, the
-    ROS-free rehearsals)."""
+    """Invalid bridge configuration (safety limits, DOF names, options).
+
+    Raised by the safety limits of :mod:`pd_common.experimental.limits` wherever they are applied
+    (the bridge, the ROS-free rehearsals).
+    """

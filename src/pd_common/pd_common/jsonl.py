@@ -1,5 +1,7 @@
-"""Append-only JSON-lines files that survive a crash (the journal, a simulator's state file,
-a bridge's record)."""
+"""Append-only JSON-lines files that survive a crash.
+
+The journal, a simulator's state file, a bridge's record.
+"""
 
 from __future__ import annotations
 
@@ -13,9 +15,12 @@ __all__ = ['EventFile', 'end_last_line']
 
 
 def end_last_line(path: Path) -> None:
-    """Before appending to ``path``: drop a last line a crash cut short (the readers ignore it),
+    """Before appending to ``path``, make its last line complete or drop it.
+
+    Before appending to ``path``: drop a last line a crash cut short (the readers ignore it),
     or end a complete one that lost only its newline, so that the next record starts a line of
-    its own. Nothing to do for a file that does not exist yet."""
+    its own. Nothing to do for a file that does not exist yet.
+    """
     if not path.is_file():
         return
     with path.open('rb+') as file:
@@ -32,9 +37,10 @@ def end_last_line(path: Path) -> None:
 
 
 class EventFile:
-    """An append-only JSON-lines file of events, each on disk (``fsync``) before
-    :meth:`append` returns: a node's durable record of what must survive its crash (an
-    emergency stop, a person's hold, the controls it took).
+    """An append-only JSON-lines file of events.
+
+    Each on disk (``fsync``) before :meth:`append` returns: a node's durable record of what must
+    survive its crash (an emergency stop, a person's hold, the controls it took).
 
     Args:
         path: the file (created with its folder when missing).

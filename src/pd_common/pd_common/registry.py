@@ -356,8 +356,11 @@ class Registry(Mapping[str, T], Generic[T]):
                              self.kind, point.name, point.value, self.group, reason)
 
     def loaded(self) -> Mapping[str, T]:
-        """The entries registered so far, without loading the plug-ins (for an ``admit``
-        that compares a new entry with the others: it runs while the built-ins register)."""
+        """The entries registered so far.
+
+        Without loading the plug-ins (for an ``admit`` that compares a new entry with the others:
+        it runs while the built-ins register).
+        """
         return dict(self._entries)
 
     @property

@@ -1,5 +1,6 @@
-"""The live test console in the browser: ``./pd console [RUN]`` (``ros2 run pd_integrator
-console``).
+"""The live test console in the browser.
+
+``./pd console [RUN]`` (``ros2 run pd_integrator console``).
 
 A local web server (aiohttp, its WebSocket) serving one page, with its JavaScript and plotting
 shipped in this package (``share/pd_integrator/console``): nothing is loaded from the
@@ -117,8 +118,10 @@ def web_directory() -> Path:
 
 
 def default_bridge_limits(path: str = '') -> dict[str, float]:
-    """The bridge limits of a site whose test definition names none: ``path`` (a bridge
-    parameter file) or the installed ``pd_actuator_bridge/config/bridge.yaml``."""
+    """The bridge limits of a site whose test definition names none.
+
+    ``path`` (a bridge parameter file) or the installed ``pd_actuator_bridge/config/bridge.yaml``.
+    """
     try:
         file = Path(path) if path else share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
         raw = read_yaml_file(file) if file.is_file() else {}
@@ -230,8 +233,11 @@ class ConsoleNode(Node):
             return tuple(self.model.sites)
 
     def send_control(self, request: ControlRequest) -> tuple[bool, str]:
-        """Send a signed control as ``./pd control`` does, bound to its receiver, and wait for
-        its acknowledgement (up to ``CONTROL_WAIT_S``); (taken, what the receiver said)."""
+        """Send a signed control as ``./pd control`` does, bound to its receiver.
+
+        And wait for its acknowledgement (up to ``CONTROL_WAIT_S``); (taken, what the receiver
+        said).
+        """
         if self.key is None:
             return False, f'no key: {self.key_error}'
         if request.bridge_site is not None:
@@ -324,11 +330,13 @@ class ConsoleServer:
     # -- every request ---------------------------------------------------------------------
     @web.middleware
     async def guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
-        """Every request: its ``Host`` must name the served address (else 421: DNS
-        rebinding), and one that changes anything (not GET) must be a JSON request of this
-        page (else 403: another site's page, a form post); nothing is done for a refused one.
-        The response is written here, so that a client that drops its request costs one line
-        on the terminal, and a failing handler one line with its error, never a traceback."""
+        """Every request: its ``Host`` must name the served address (else 421: DNS rebinding).
+
+        And one that changes anything (not GET) must be a JSON request of this page (else 403:
+        another site's page, a form post); nothing is done for a refused one. The response is
+        written here, so that a client that drops its request costs one line on the terminal, and a
+        failing handler one line with its error, never a traceback.
+        """
         where = f'{request.method} {request.path}'
         response: web.StreamResponse | None = None
         try:
@@ -388,23 +396,28 @@ class ConsoleServer:
 
     # -- pages -----------------------------------------------------------------------------
     async def index(self, request: web.Request) -> web.StreamResponse:
+        """The console page."""
         return await _file(self.web / 'index.html', STATIC_FILES['index.html'], _NO_CACHE)
 
     async def static(self, request: web.Request) -> web.StreamResponse:
+        """One of the page's static files."""
         name = request.match_info['name']
         if name not in STATIC_FILES:
             raise web.HTTPNotFound
         return await _file(self.web / name, STATIC_FILES[name], _NO_CACHE)
 
     async def figure(self, request: web.Request) -> web.StreamResponse:
+        """One of the run's figures."""
         name = request.match_info['name']
         if self.run_dir is None or name not in self.model.figures:
             raise web.HTTPNotFound
         return await _file(self.run_dir / name, 'image/png')
 
     def frame_text(self) -> str:
-        """The current frame as JSON (made again when the model changed, or each second for
-        the rate and ETA)."""
+        """The current frame as JSON.
+
+        Made again when the model changed, or each second for the rate and ETA.
+        """
         now = time.monotonic()
         with self.lock:
             if self.model.version != self._frame_version or now - self._frame_at > 1.0:
@@ -415,14 +428,17 @@ class ConsoleServer:
         return self._frame_text
 
     async def frame(self, request: web.Request) -> web.Response:
+        """The current frame as JSON."""
         return web.Response(text=self.frame_text(), content_type='application/json')
 
     async def session(self, request: web.Request) -> web.Response:
+        """Whether this browser is logged in and whether controls are possible."""
         return web.json_response({'authenticated': self._authenticated(request),
                                   'controls': self.node is not None,
                                   'token_spent': self.access.token_spent})
 
     async def websocket(self, request: web.Request) -> web.WebSocketResponse:
+        """Stream the frames to the page over a WebSocket."""
         if not self._own_origin(request):
             raise web.HTTPForbidden(text='another site may not read this console')
         socket = web.WebSocketResponse(heartbeat=20.0)
@@ -467,12 +483,16 @@ class ConsoleServer:
 
     @classmethod
     def _same_origin(cls, request: web.Request) -> bool:
-        """A JSON request from this page: a cross-site form cannot send JSON without a CORS
-        preflight (never granted here), and a foreign ``Origin`` is refused. Checked by
-        :meth:`guard` on every request that changes anything, the e-stop included."""
+        """A JSON request from this page.
+
+        A cross-site form cannot send JSON without a CORS preflight (never granted here), and a
+        foreign ``Origin`` is refused. Checked by :meth:`guard` on every request that changes
+        anything, the e-stop included.
+        """
         return request.content_type == 'application/json' and cls._own_origin(request)
 
     async def login(self, request: web.Request) -> web.Response:
+        """Log in with the token; set the session cookie."""
         try:
             body = await request.json()
         except ValueError:
@@ -487,12 +507,14 @@ class ConsoleServer:
         return response
 
     async def logout(self, request: web.Request) -> web.Response:
+        """Log out; clear the session cookie."""
         self.access.logout(request.cookies.get(SESSION_COOKIE))
         response = web.json_response({'authenticated': False})
         response.del_cookie(SESSION_COOKIE, path='/')
         return response
 
     async def control(self, request: web.Request) -> web.Response:
+        """Send a control of a logged-in person."""
         if not self._authenticated(request):
             self.refused_controls += 1
             return web.json_response(
@@ -514,6 +536,7 @@ class ConsoleServer:
         return web.json_response({'sent': control.command, 'topic': said})
 
     async def estop(self, request: web.Request) -> web.Response:
+        """Send an emergency stop (no login needed: anyone may stop the test)."""
         if self.node is None:
             return web.json_response({'error': 'a finished run: nothing to stop'},
                                      status=409)
@@ -531,9 +554,11 @@ _NO_CACHE = {'Cache-Control': 'no-store'}
 
 async def _file(path: Path, content_type: str, headers: dict[str, str] | None = None
                 ) -> web.Response:
-    """A file's bytes (read in a worker thread); 404 if it cannot be read. Not aiohttp's
-    ``FileResponse``: :meth:`ConsoleServer.guard` writes every response itself (to see a
-    client drop it), and a ``FileResponse`` cannot be prepared twice."""
+    """A file's bytes (read in a worker thread); 404 if it cannot be read.
+
+    Not aiohttp's ``FileResponse``: :meth:`ConsoleServer.guard` writes every response itself (to
+    see a client drop it), and a ``FileResponse`` cannot be prepared twice.
+    """
     try:
         body = await asyncio.get_running_loop().run_in_executor(None, path.read_bytes)
     except OSError as err:
@@ -555,8 +580,11 @@ def _gone(request: web.Request) -> bool:
 
 
 def _abandon(request: web.Request) -> web.StreamResponse:
-    """Close a connection whose response cannot be finished; aiohttp's own attempt to write
-    the returned response then fails quietly (it logs a closed connection at debug level)."""
+    """Close a connection whose response cannot be finished.
+
+    aiohttp's own attempt to write the returned response then fails quietly (it logs a closed
+    connection at debug level).
+    """
     transport = request.transport
     if transport is not None:
         transport.close()
@@ -564,11 +592,14 @@ def _abandon(request: web.Request) -> web.StreamResponse:
 
 
 class OneLineLog(logging.Filter):
-    """aiohttp's error records in one line, without their traceback: a dropped connection
-    (what the :meth:`ConsoleServer.guard` does not see, e.g. during aiohttp's own writing),
-    a malformed request. The console's terminal shows the login token: no tracebacks."""
+    """aiohttp's error records in one line, without their traceback.
+
+    A dropped connection (what the :meth:`ConsoleServer.guard` does not see, e.g. during aiohttp's
+    own writing), a malformed request. The console's terminal shows the login token: no tracebacks.
+    """
 
     def filter(self, record: logging.LogRecord) -> bool:
+        """Log the record on one line, without its traceback."""
         if record.exc_info and record.exc_info[1] is not None:
             err = record.exc_info[1]
             said = ' '.join(record.getMessage().split())
@@ -602,9 +633,11 @@ async def _loud_aiohttp(app: web.Application) -> None:
 
 
 def machine_names() -> tuple[str, ...]:
-    """This machine's own names, found without asking DNS: its host name and its mDNS
-    name (``<host>.local``). Its addresses need no list: a console listening on every
-    address accepts the one each connection reached."""
+    """This machine's own names, found without asking DNS.
+
+    Its host name and its mDNS name (``<host>.local``). Its addresses need no list: a console
+    listening on every address accepts the one each connection reached.
+    """
     name = gethostname().strip().lower()
     if not name:
         return ()
@@ -613,9 +646,11 @@ def machine_names() -> tuple[str, ...]:
 
 
 class FoxgloveFeed:
-    """The live test on foxglove-sdk's WebSocket server: every answered step of every DOF,
-    the status and the gauges, logged from the web server's timer (never from a ROS
-    callback)."""
+    """The live test on foxglove-sdk's WebSocket server.
+
+    Every answered step of every DOF, the status and the gauges, logged from the web server's timer
+    (never from a ROS callback).
+    """
 
     def __init__(self, model: ConsoleModel, lock: threading.Lock, host: str, port: int
                  ) -> None:
@@ -693,8 +728,10 @@ def _is_loopback(host: str) -> bool:
 
 
 async def serve(server: ConsoleServer, stop: threading.Event) -> None:
-    """Serve on ``server.host`` and ``server.port`` until ``stop`` is set; prints the
-    address and the login token."""
+    """Serve on ``server.host`` and ``server.port`` until ``stop`` is set.
+
+    Prints the address and the login token.
+    """
     host, port = server.host, server.port
     runner = web.AppRunner(server.app(), access_log=None)
     await runner.setup()

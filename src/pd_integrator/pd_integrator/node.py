@@ -311,8 +311,11 @@ class IntegratorNode(Node):
         return {source: count for source, count in counts.items() if count}
 
     def status(self) -> Status:
-        """The dispatcher's status with the refused messages counted and the holds a person
-        made."""
+        """The dispatcher's status with refused messages and a person's holds.
+
+        The dispatcher's status with the refused messages counted and the holds a person
+        made.
+        """
         status = self.dispatcher.status()
         refused = merge_refusals(self.refusals().values())
         holds = self.steering.holds
@@ -338,9 +341,12 @@ class IntegratorNode(Node):
                 self.get_logger().info(line)
 
     def _guard(self, callback: Callable[..., None]) -> Callable[..., None]:
-        """``callback`` for the executor: a record it cannot write (a full disk) is kept in
-        :attr:`record_error` for the run loop (one line and the end of the test) instead of
-        escaping into the executor (a FATAL log and a traceback); nothing more is done."""
+        """``callback`` for the executor.
+
+        A record it cannot write (a full disk) is kept in :attr:`record_error` for the run loop
+        (one line and the end of the test) instead of escaping into the executor (a FATAL log and a
+        traceback); nothing more is done.
+        """
         def guarded(*args: Any) -> None:
             if self.record_error is not None:
                 return
@@ -352,8 +358,10 @@ class IntegratorNode(Node):
         return guarded
 
     def _heartbeat(self) -> None:
-        """The status again (signed anew, not recorded again) if none went out for a second:
-        the supervisor hears a live integrator."""
+        """The status again (signed anew, not recorded again) if none went out for a second.
+
+        The supervisor hears a live integrator.
+        """
         if time.monotonic() - self._status_at < HEARTBEAT_S * 0.9:
             return
         self._last_status_message = self.announcer.status(self.status(), now_stamp())
@@ -439,8 +447,11 @@ class IntegratorNode(Node):
             self.publish_status()
 
     def _check_offers(self) -> list[str]:
-        """Why the sites' announced states may not be driven (a fresh specimen state in the
-        middle of the test), once the test has started."""
+        """Why the sites' announced states may not be driven, once the test has started.
+
+        Why the sites' announced states may not be driven (a fresh specimen state in the
+        middle of the test), once the test has started.
+        """
         if not self._started:
             return []
         refused = []
@@ -655,8 +666,10 @@ class IntegratorNode(Node):
         return summary
 
     def specimen_side(self) -> dict[str, Any]:
-        """Per site, the node that answered and what it had in force (a bridge: its driver
-        and limits), from its signed session offers."""
+        """Per site, the node that answered and what it had in force.
+
+        A bridge: its driver and limits, from its signed session offers.
+        """
         sides: dict[str, Any] = {}
         for site, sender in self.senders.items():
             offer = sender.offer
@@ -674,8 +687,10 @@ class IntegratorNode(Node):
         return sides
 
     def _journal_to_bag(self) -> None:
-        """The run's bag from its journal (a bag of an earlier recovery is replaced: the
-        journal has all of it now)."""
+        """The run's bag from its journal.
+
+        A bag of an earlier recovery is replaced: the journal has all of it now.
+        """
         bag = self.directory / BAG_DIRECTORY
         if bag.exists():
             shutil.rmtree(bag)
@@ -788,8 +803,10 @@ def main(args: list[str] | None = None) -> int:
 
 
 def process_main() -> NoReturn:
-    """The console entry point (``ros2 run pd_integrator main``): :func:`main`, then the
-    process ends at once (:func:`pd_common.ros.exit_process`)."""
+    """The console entry point (``ros2 run pd_integrator main``).
+
+    :func:`main`, then the process ends at once (:func:`pd_common.ros.exit_process`).
+    """
     exit_process(main)
 
 

@@ -32,8 +32,10 @@ def default_test_file() -> Path:
 
 
 def write_failure(err: OSError, out: Path | None) -> str:
-    """One line about a run file that cannot be written (a full disk, a read-only folder),
-    with what to do: a run whose journal has records is rebuilt by ``./pd recover``."""
+    """One line about a run file that cannot be written (a full disk, a read-only folder).
+
+    With what to do: a run whose journal has records is rebuilt by ``./pd recover``.
+    """
     where = err.filename or out or ''
     line = f'{where}: cannot write ({err.strerror or type(err).__name__})'
     journal = out / JOURNAL_FILE if out is not None else None
@@ -47,8 +49,11 @@ def write_failure(err: OSError, out: Path | None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns 0 when the test finished, 1 if it stopped (or its files could not
-    be written), 2 on invalid input."""
+    """Entry point; returns the exit status.
+
+    Entry point; returns 0 when the test finished, 1 if it stopped (or its files could not
+    be written), 2 on invalid input.
+    """
     parser = argparse.ArgumentParser(prog='offline', description=__doc__.splitlines()[0])
     parser.add_argument('test_file', nargs='?', help='YAML test file (default: the thesis '
                         'section 5.1 test)')

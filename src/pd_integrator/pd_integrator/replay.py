@@ -23,8 +23,11 @@ from .core.run.runner import rebuild_outputs
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns 0 on success, 1 if a signature fails or the outputs cannot be
-    written, 2 if the bag cannot be replayed."""
+    """Entry point; returns the exit status.
+
+    Entry point; returns 0 on success, 1 if a signature fails or the outputs cannot be
+    written, 2 if the bag cannot be replayed.
+    """
     parser = argparse.ArgumentParser(prog='replay', description=__doc__.splitlines()[0])
     parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag), its run "
                         'folder or its journal.jsonl')

@@ -128,7 +128,9 @@ def _controller_parameters(texts: list[str]) -> dict[str, object]:
 
 
 def _check_intensity(intensity: float, record: BenchmarkRecord) -> None:
-    """Refuse an ``--intensity`` that takes the record's peak beyond
+    """Refuse an ``--intensity`` that takes the record's peak too high.
+
+    Refuse an ``--intensity`` that takes the record's peak beyond
     :data:`MAX_PEAK_ACCELERATION` (one line, before anything runs).
 
     Raises:
@@ -148,8 +150,11 @@ def _number(value: float) -> float | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: 0 when the run is valid, 1 if the actuator's capacity was reached, 2 on
-    invalid input."""
+    """Entry point; returns the exit status.
+
+    Entry point: 0 when the run is valid, 1 if the actuator's capacity was reached, 2 on
+    invalid input.
+    """
     args = _parser().parse_args(argv)
     if args.controller is None:
         args.controller = 'none' if args.ideal else DEFAULT_COMPENSATOR

@@ -1,4 +1,4 @@
-"""The thesis's chapter 5 study: ``ros2 run pd_integrator study_ch5`` (or ``./pd study_ch5``).
+r"""The thesis's chapter 5 study: ``ros2 run pd_integrator study_ch5`` (or ``./pd study_ch5``).
 
 Runs the section 5.1 SDOF column (m = 2543.4 kg, k_ini = 312.559 kN/m, 5 % damping, the default
 bilinear pushover specimen, dt = 0.01 s) under each record with each scheme through the
@@ -6,7 +6,7 @@ ROS-free runner (:func:`~pd_integrator.core.run.runner.run_offline`: the same se
 models as the node graph), and compares the schemes as the thesis's Figures 5.4-5.15 do::
 
     study_ch5                                   # El Centro (shipped), both schemes
-    study_ch5 --records elcentro northridge=/data/RSN953_NORTHR_MUL009.AT2 \\
+    study_ch5 --records elcentro northridge=/data/RSN953_NORTHR_MUL009.AT2 \
               kobe=/data/RSN1106_KOBE_KJM000.AT2 --out runs/ch5
     study_ch5 --records /data/RSN1106_KOBE_KJM000.AT2 --schemes newmark_explicit,alpha_os
 

@@ -323,15 +323,20 @@ class ActuatorBridge:
 
     @property
     def held_force(self) -> tuple[float, ...]:
-        """Per DOF the force last commanded to it under force control, N (0 at the start, or
-        the measured force a restarted bridge adopted: :meth:`adopt_held_force`)."""
+        """Per DOF the force last commanded to it under force control, N.
+
+        0 at the start, or the measured force a restarted bridge adopted:
+        :meth:`adopt_held_force`.
+        """
         return self._force_control.held_force
 
     def adopt_held_force(self, measured: Sequence[float]) -> bool:
-        """Take the actuators' measured forces as the forces they hold, before this bridge has
-        commanded any: a restarted bridge ramps from the load the specimen carries (e.g. a
-        column's axial load), never from 0 N back up. ``False`` (nothing changed) once a force
-        was commanded, or for a measurement of the wrong size or with a non-finite value.
+        """Take the actuators' measured forces as the forces they hold.
+
+        Before this bridge has commanded any: a restarted bridge ramps from the load the specimen
+        carries (e.g. a column's axial load), never from 0 N back up. ``False`` (nothing changed)
+        once a force was commanded, or for a measurement of the wrong size or with a non-finite
+        value.
         """
         with self._lock:
             return self._force_control.adopt(measured)
@@ -885,8 +890,11 @@ class ActuatorBridge:
         )
 
     def _check_and_store(self, measurement: ActuatorMeasurement) -> LimitViolation | None:
-        """Check a measurement (:func:`~.limits.check_feedback`) and, if it is finite and well
-        formed (no violation or a LIMIT), keep it: it is the actuator's true state."""
+        """Check a measurement and keep it if it is the actuator's true state.
+
+        Check a measurement (:func:`~.limits.check_feedback`) and, if it is finite and well
+        formed (no violation or a LIMIT), keep it: it is the actuator's true state.
+        """
         displacement, force = measurement.displacement, measurement.force
         violation = check_feedback(
             displacement, force, self._limits, self._dof_names, n_dof=self._n_dof
@@ -911,8 +919,7 @@ class ActuatorBridge:
 
 def _feedback(test_id: str, step: StepId, displacement: tuple[float, ...],
               force: tuple[float, ...], status: FeedbackStatus, message: str) -> Feedback:
-    """The protocol's answer for ``step`` (an ``int``: iteration 0; else ``(step,
-    iteration)``)."""
+    """The protocol's answer for ``step`` (an ``int``: iteration 0; else ``(step, iteration)``)."""
     if isinstance(step, tuple):
         number = int(step[0]) if step else 0
         iteration = int(step[1]) if len(step) > 1 else 0

@@ -111,8 +111,10 @@ class ForceControl:
         return self.ramp is not None and self.ramp.step is None
 
     def adopt(self, measured: Sequence[float]) -> bool:
-        """Take measured forces as the held ones unless a force was commanded already (see
-        :meth:`~.bridge.ActuatorBridge.adopt_held_force`)."""
+        """Take measured forces as the held ones unless a force was commanded already.
+
+        See :meth:`~.bridge.ActuatorBridge.adopt_held_force`.
+        """
         values = [float(value) for value in measured]
         if (self.substeps or len(values) != len(self.held_force)
                 or not all(math.isfinite(value) for value in values)):
@@ -171,8 +173,10 @@ class ForceControl:
         return None
 
     def loaded(self) -> str:
-        """The DOFs the last command force-controlled that hold a force, for messages (''
-        if none: nothing to ramp down)."""
+        """The DOFs the last command force-controlled that hold a force.
+
+        For messages ('' if none: nothing to ramp down).
+        """
         return ', '.join(f'{_dof_label(dof, self._dof_names)} at '
                          f'{_fmt(self.held_force[dof])} N' for dof in range(self._n_dof)
                          if self.force_controlled[dof] and self.held_force[dof] != 0.0)
@@ -205,8 +209,9 @@ class ForceControl:
 
     def next_substep(self, measured: tuple[float, ...] | None
                      ) -> tuple[ForceRamp, list[float], tuple[float, ...]]:
-        """The sub-step to send now: ``(ramp, targets, forces)``; counts it and takes its
-        forces as the held ones.
+        """The sub-step to send now: ``(ramp, targets, forces)``.
+
+        Counts it and takes its forces as the held ones.
 
         Args:
             measured: The strokes last measured (``None``: none yet, the ramp's start): a
@@ -250,8 +255,10 @@ class ForceControl:
         return None
 
     def advance(self) -> bool:
-        """The sub-step in flight is answered and checked: whether another one follows (else
-        the ramp has ended and :attr:`ramp` is ``None``)."""
+        """The sub-step in flight is answered and checked.
+
+        Whether another one follows (else the ramp has ended and :attr:`ramp` is ``None``).
+        """
         ramp = self.ramp
         assert ramp is not None
         ramp.index += 1

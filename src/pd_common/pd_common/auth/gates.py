@@ -167,8 +167,10 @@ class ControlGate(_Gate):
         self._seen: dict[str, int] = {}  # sender session -> last sequence admitted
 
     def admit(self, control: Control, signature: Signature, test_id: str) -> Refusal | None:
-        """``None`` if ``control`` may be obeyed by this node serving ``test_id``; else why
-        not (counted)."""
+        """``None`` if ``control`` may be obeyed by this node serving ``test_id``.
+
+        Else why not (counted).
+        """
         if self.key is None:
             return None
         reason = self._check_mac(control_payload(control), signature)
@@ -209,8 +211,10 @@ class StatusGate(_Gate):
 
     def admit(self, source: str, payload: bytes, signature: Signature, stamp_ns: int
               ) -> Refusal | None:
-        """``None`` if the statement published on ``source`` at ``stamp_ns`` is genuine and
-        new; else why not (counted)."""
+        """``None`` if the statement published on ``source`` at ``stamp_ns`` is genuine and new.
+
+        Else why not (counted).
+        """
         if self.key is None:
             return None
         reason = self._check_mac(payload, signature)

@@ -143,8 +143,11 @@ def default_rig_key() -> Path:
 
 
 def operator_key_path(explicit: str | Path | None = None) -> Path:
-    """The key file an operator's tool uses: ``explicit``, else ``$PD_KEY_FILE``, else the
-    rig's key (as ``./pd control`` and ``./pd console`` find it)."""
+    """The key file an operator's tool uses.
+
+    ``explicit``, else ``$PD_KEY_FILE``, else the rig's key (as ``./pd control`` and ``./pd
+    console`` find it).
+    """
     if explicit:
         return Path(explicit)
     return Path(os.environ.get(KEY_FILE_ENV) or default_rig_key())

@@ -1,6 +1,9 @@
-"""Experimental errors (thesis section 3.4.3), tracking monitors (command vs measured),
+"""Experimental errors, tracking monitors, experimental setups and the bridge's safety limits.
+
+Experimental errors (thesis section 3.4.3), tracking monitors (command vs measured),
 experimental setups (an element's basic DOFs ↔ its site's actuator strokes) and the actuator
-bridge's safety limits (:mod:`.limits`: the bridge and the ROS-free rehearsals apply them)."""
+bridge's safety limits (:mod:`.limits`: the bridge and the ROS-free rehearsals apply them).
+"""
 
 from __future__ import annotations
 

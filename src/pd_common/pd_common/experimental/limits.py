@@ -210,8 +210,10 @@ ON_LIMIT_OPTIONS = ('hold', 'saturate')
 
 
 def bridge_parameters(raw: Any, source: str) -> dict[str, Any]:
-    """The bridge's parameters in a ROS parameter file's content: the ``ros__parameters`` of its
-    first node section that has them (e.g. ``/**``), or ``raw`` itself if none has.
+    """The bridge's parameters in a ROS parameter file's content.
+
+    The ``ros__parameters`` of its first node section that has them (e.g. ``/**``), or ``raw``
+    itself if none has.
 
     Raises:
         BridgeConfigError: ``raw`` is not a mapping.
@@ -481,8 +483,10 @@ def check_control(
     n_dof: int,
     dof_names: Sequence[str] | None = None,
 ) -> tuple[tuple[bool, ...], tuple[float, ...], LimitViolation | None]:
-    """Check a command's control modes and target forces for consistency: the protocol's
-    :func:`pd_common.protocol.control_problem` on values taken as they come from the wire.
+    """Check a command's control modes and target forces for consistency.
+
+    The protocol's :func:`pd_common.protocol.control_problem` on values taken as they come from the
+    wire.
 
     Modes must be empty (every DOF displacement-controlled; then no forces either) or one
     :class:`~pd_common.protocol.ControlMode` per DOF, with one finite target force per DOF.

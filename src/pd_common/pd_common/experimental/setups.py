@@ -114,17 +114,21 @@ class OneToOneSetup(ExperimentalSetup):
         self._identity = np.eye(n_basic)
 
     def actuator_targets(self, basic: np.ndarray) -> np.ndarray:
+        """Actuator strokes [m]: the basic displacement itself."""
         return np.array(basic, dtype=float)
 
     def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
+        """The identity matrix."""
         return self._identity
 
     def basic_displacement(self, actuator: np.ndarray) -> np.ndarray:
+        """The basic displacement: the measured strokes themselves."""
         return np.array(actuator, dtype=float)
 
     def basic_force(
         self, actuator_force: NDArray[np.float64], basic: np.ndarray
     ) -> NDArray[np.float64]:
+        """Basic forces: the actuator forces themselves."""
         return np.array(actuator_force, dtype=float)
 
 
@@ -170,6 +174,7 @@ class RigidLinkTwoActuators(ExperimentalSetup):
         return float(self.actuator_length)
 
     def actuator_targets(self, basic: np.ndarray) -> np.ndarray:
+        """Actuator strokes [m] that impose the basic displacement ``basic``."""
         u, theta = float(basic[0]), float(basic[1])
         if self.geometry == 'linear':
             return u + self.offsets * theta
@@ -179,6 +184,7 @@ class RigidLinkTwoActuators(ExperimentalSetup):
         return np.hypot(along, across) - length
 
     def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
+        """``∂ d_actuator / ∂ d_basic`` at ``basic`` (``n_actuators × n_basic``)."""
         if self.geometry == 'linear':
             return self._linear
         u, theta = float(basic[0]), float(basic[1])
@@ -192,6 +198,7 @@ class RigidLinkTwoActuators(ExperimentalSetup):
         return np.column_stack((d_u, d_theta))
 
     def basic_displacement(self, actuator: np.ndarray) -> np.ndarray:
+        """The basic displacement that produced the measured actuator strokes."""
         actuator = np.asarray(actuator, dtype=float)
         basic = np.linalg.solve(self._linear, actuator)
         if self.geometry == 'linear':
@@ -310,6 +317,7 @@ class PlanarActuators(ExperimentalSetup):
         return full
 
     def actuator_targets(self, basic: np.ndarray) -> np.ndarray:
+        """Actuator strokes [m] that impose the basic displacement ``basic``."""
         if self.geometry == 'linear':
             linear: NDArray[np.float64] = self._at_rest @ np.asarray(basic, dtype=float)
             return linear
@@ -318,11 +326,13 @@ class PlanarActuators(ExperimentalSetup):
         return strokes
 
     def jacobian(self, basic: np.ndarray) -> NDArray[np.float64]:
+        """``∂ d_actuator / ∂ d_basic`` at ``basic`` (``n_actuators × n_basic``)."""
         if self.geometry == 'linear':
             return self._at_rest
         return self._exact_jacobian(basic)
 
     def basic_displacement(self, actuator: np.ndarray) -> np.ndarray:
+        """The basic displacement that produced the measured actuator strokes."""
         actuator = np.asarray(actuator, dtype=float)
         basic = np.linalg.solve(self._at_rest, actuator)
         if self.geometry == 'linear':

@@ -174,8 +174,10 @@ class TrackingMonitor:
 
     @property
     def commands(self) -> FloatArray:
-        """Command history, shape ``(count, n_dof)``, m (without ``keep_history``: the last
-        sample only)."""
+        """Command history, shape ``(count, n_dof)``, m.
+
+        Without ``keep_history``: the last sample only.
+        """
         return _stack(self._commands, self._n)
 
     @property

@@ -104,8 +104,10 @@ RUN_SEPARATOR = '#'
 
 
 class RunTags:
-    """Which run of a test a command belongs to: a receiver started by hand serves the same
-    test file run twice (two integrators, one after the other) as two runs.
+    """Which run of a test a command belongs to.
+
+    A receiver started by hand serves the same test file run twice (two integrators, one after the
+    other) as two runs.
 
     A command for step 0 (iteration 0) of a test whose later steps this receiver answered,
     from another sender session (a new integrator process), starts a new run: its commands

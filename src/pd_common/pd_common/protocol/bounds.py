@@ -65,14 +65,19 @@ def check_names(field: str, values: Iterable[str], limit: int = MAX_NAME) -> Non
 
 
 def one_line(text: str) -> str:
-    """``text`` on one line: control characters and line breaks become spaces, runs of
-    whitespace one space (a reason cannot forge log lines)."""
+    """``text`` on one line.
+
+    Control characters and line breaks become spaces, runs of whitespace one space (a reason cannot
+    forge log lines).
+    """
     return ' '.join(''.join(ch if ch.isprintable() else ' ' for ch in text).split())
 
 
 def clip_reason(text: str, limit: int = MAX_REASON) -> str:
-    """An open channel's free text made safe to log and record: on one line, at most ``limit``
-    characters (cut ones are marked ``…``)."""
+    """An open channel's free text made safe to log and record.
+
+    On one line, at most ``limit`` characters (cut ones are marked ``…``).
+    """
     if len(text) > 4 * limit:  # never walk a megabyte string character by character
         text = text[:4 * limit]
     line = one_line(text)

@@ -55,8 +55,10 @@ def operator_name(tool: str) -> str:
 
 
 def acknowledgement(signature: Signature, command: str, outcome: str) -> str:
-    """The acknowledgement of a control signed ``signature``: ``"<session>:<sequence>
-    <command>: <outcome>"`` (``outcome`` is ``ok`` or ``refused: <why>``)."""
+    """The acknowledgement of a control signed ``signature``.
+
+    ``"<session>:<sequence> <command>: <outcome>"`` (``outcome`` is ``ok`` or ``refused: <why>``).
+    """
     return f'{signature.session}:{signature.sequence} {command}: {outcome}'
 
 

@@ -149,8 +149,11 @@ def control_from_message(message: Any) -> Control:
 
 def signed_from_message(convert: Callable[[Any], Item], message: Any
                         ) -> tuple[Item, Signature] | None:
-    """A signed message's item (``convert(message)``) and its signature, or ``None`` when a
-    field is beyond its bound (a malformed message: refuse it, count it, nothing else)."""
+    """A signed message's item (``convert(message)``) and its signature.
+
+    Or ``None`` when a field is beyond its bound (a malformed message: refuse it, count it, nothing
+    else).
+    """
     try:
         return convert(message), signature_from_message(message.signature)
     except MalformedMessageError:

@@ -55,8 +55,10 @@ class PersonHolds:
         return None
 
     def emergency_stop(self, reason: str) -> dict[str, Any] | None:
-        """Latch an emergency stop; the event to record, or ``None`` when one was latched
-        already (the repeat is counted)."""
+        """Latch an emergency stop.
+
+        The event to record, or ``None`` when one was latched already (the repeat is counted).
+        """
         if self.emergency is not None:
             self.repeats += 1
             return None
@@ -69,8 +71,10 @@ class PersonHolds:
         return {'what': OPERATOR_HOLD, 'reason': self.operator}
 
     def clear(self, *, emergency: bool, by: str) -> dict[str, Any] | None:
-        """Clear the operator's hold (and the emergency stop with ``emergency``); the event,
-        or ``None`` when nothing was latched."""
+        """Clear the operator's hold (and the emergency stop with ``emergency``).
+
+        The event, or ``None`` when nothing was latched.
+        """
         if self.operator is None and (self.emergency is None or not emergency):
             return None
         self.operator = None

@@ -88,8 +88,10 @@ class ControlSender:
 
     def watch(self, status_topic: str,
               on_status: Callable[[Status], None] | None = None) -> None:
-        """Keep the last genuine status published on ``status_topic`` (latched); hand each
-        to ``on_status`` too."""
+        """Keep the last genuine status published on ``status_topic`` (latched).
+
+        Hand each to ``on_status`` too.
+        """
         if status_topic in self._watched:
             return
         self._watched.add(status_topic)
@@ -112,8 +114,11 @@ class ControlSender:
         return self._publishers[topic]
 
     def ready(self, topic: str, status_topic: str) -> bool:
-        """Whether the receiver's status is known and the receiver itself listens on
-        ``topic`` (another listener there is not the receiver)."""
+        """Whether the receiver's status is known and the receiver listens on ``topic``.
+
+        Whether the receiver's status is known and the receiver itself listens on
+        ``topic`` (another listener there is not the receiver).
+        """
         self.watch(status_topic)
         status = self.statuses.get(status_topic)
         return (status is not None and self.publisher(topic).get_subscription_count() > 0
@@ -121,8 +126,10 @@ class ControlSender:
 
     def send(self, command: str, topic: str, status_topic: str, reason: str = ''
              ) -> Sent | None:
-        """Send ``command`` on ``topic`` to the node whose status is on ``status_topic``;
-        ``None`` when its status is not known yet or it does not listen (nothing was sent)."""
+        """Send ``command`` on ``topic`` to the node whose status is on ``status_topic``.
+
+        ``None`` when its status is not known yet or it does not listen (nothing was sent).
+        """
         if not self.ready(topic, status_topic):
             return None
         status = self.statuses[status_topic]
@@ -149,8 +156,11 @@ class ControlSender:
         return find_acknowledgement(status.acknowledged, sent.signature)
 
     def resend(self, sent: Sent) -> Sent:
-        """Send ``sent`` again, signed anew and bound to the receiver as its status names it
-        now (a receiver that restarted has a new session)."""
+        """Send ``sent`` again, signed anew and bound to the receiver's current status.
+
+        Send ``sent`` again, signed anew and bound to the receiver as its status names it
+        now (a receiver that restarted has a new session).
+        """
         status = self.statuses.get(sent.status_topic)
         control = sent.control
         if status is not None:
@@ -164,8 +174,10 @@ _STOP_STATUS = {'pd_actuator_bridge': 'bridge/status', 'pd_integrator': 'test_st
 
 
 def emergency_stop_receivers(node: Node, topic: str) -> dict[str, str]:
-    """The bridges and integrators listening on the emergency stop ``topic`` now: their
-    fully qualified names and the status topic where each confirms that it holds."""
+    """The bridges and integrators listening on the emergency stop ``topic`` now.
+
+    Their fully qualified names and the status topic where each confirms that it holds.
+    """
     receivers = {}
     for info in node.get_subscriptions_info_by_topic(topic):
         status = _STOP_STATUS.get(info.node_name)

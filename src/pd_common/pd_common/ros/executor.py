@@ -43,8 +43,9 @@ def events_executor(node: Node) -> Executor:
 
 def spin_until_shutdown(executor: Executor, timeout_sec: float,
                         between: Callable[[], None] | None = None) -> None:
-    """Spin ``executor`` until the context shuts down (SIGINT/SIGTERM), calling ``between``
-    after every ``spin_once``.
+    """Spin ``executor`` until the context shuts down (SIGINT/SIGTERM).
+
+    Calling ``between`` after every ``spin_once``.
 
     A callback (or ``between``) that was running when a signal shut the context down fails
     to publish or to count a publisher's matches ("publisher's context is invalid"): that is
@@ -63,9 +64,12 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
 
 
 def init_with_stop_flag(args: list[str] | None = None) -> threading.Event:
-    """``rclpy.init`` without rclpy's signal handlers: SIGINT and SIGTERM only set the returned
-    flag, so a node that must end cleanly (write its record, publish its final status) does so
-    from its own loop instead of being interrupted in the middle of a write."""
+    """``rclpy.init`` without rclpy's signal handlers.
+
+    SIGINT and SIGTERM only set the returned flag, so a node that must end cleanly (write its
+    record, publish its final status) does so from its own loop instead of being interrupted in the
+    middle of a write.
+    """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
     for number in (signal.SIGINT, signal.SIGTERM):
@@ -159,8 +163,9 @@ def _teardown_deadline(program: str, seconds: float, code: int) -> threading.Tim
 
 
 def exit_process(main: Callable[[], int | None]) -> NoReturn:
-    """Run a process's ``main`` (which shuts rclpy down before it returns), then end the
-    process at once with its exit code.
+    """Run a process's ``main`` (which shuts rclpy down before it returns).
+
+    Then end the process at once with its exit code.
 
     For a console entry point (``pd_integrator main`` and ``run_test``), never for a ``main``
     called in-process. After ``main`` returns, a normal exit would run the ``atexit``

@@ -93,9 +93,12 @@ def control_message(control: Control, signature: Signature = _UNSIGNED) -> Contr
 
 def signed_control(signer: Signer | None, command: str, *, target: str = '', test_id: str = '',
                    session: str = '', sender: str = '', reason: str = '') -> ControlMessage:
-    """A control message stamped now, bound to its receiver (``target``, its ``test_id`` and
-    instance ``session``, from the receiver's status), signed (unsigned without a signer):
-    what ``./pd control``, ``run_test`` and ``./pd console`` send."""
+    """A control message stamped now.
+
+    Bound to its receiver (``target``, its ``test_id`` and instance ``session``, from the
+    receiver's status), signed (unsigned without a signer): what ``./pd control``, ``run_test`` and
+    ``./pd console`` send.
+    """
     control = Control(command=command, target=target, reason=reason, stamp=time.time(),
                       test_id=test_id, session=session, sender=sender)
     if signer is None:

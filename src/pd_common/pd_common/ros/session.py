@@ -140,10 +140,13 @@ class SessionReceiver:
         self._offer_pub.publish(offer_message(offer, self.announcer.signer))
 
     def refresh(self) -> None:
-        """Publish the offer again if the state (epoch, origin, position, force) changed since
+        """Publish the offer again if the state changed or the last one is old.
+
+        Publish the offer again if the state (epoch, origin, position, force) changed since
         it was last published, or ``OFFER_REFRESH_S`` after the last one (called on a timer: a
         late joiner, such as a restarted bridge, reads where the specimen is now, and whose
-        state it is; a sender sees that the receiver still answers)."""
+        state it is; a sender sees that the receiver still answers).
+        """
         if (self._published != (self.epoch, int(self.origin), tuple(self.position),
                                 tuple(self.force))
                 or time.monotonic() - self._published_at >= OFFER_REFRESH_S * 0.9):
@@ -249,8 +252,10 @@ class SessionSender:
         return ''
 
     def open(self, test_id: str) -> None:
-        """Send a signed session start for the receiver's current challenge (once each, again
-        if it is still offered ``START_RESEND_S`` later: the first was lost)."""
+        """Send a signed session start for the receiver's current challenge.
+
+        Once each, again if it is still offered ``START_RESEND_S`` later: the first was lost.
+        """
         offer = self.offer
         if (offer is None or not offer.challenge or self.opened or self._signer is None
                 or self.mismatch):
@@ -287,10 +292,12 @@ class SessionSender:
         return self.reply_gate.admit(feedback_payload(feedback), signature)
 
     def reopen(self) -> None:
-        """A process of the test restarted: the last offer may be a dead receiver's (its
-        session gone with it), so the session counts as closed until the receiver offers
-        again, and is then opened anew (a live receiver whose session was intact takes the
-        new start as well: the same session, started again)."""
+        """A process of the test restarted.
+
+        The last offer may be a dead receiver's (its session gone with it), so the session counts
+        as closed until the receiver offers again, and is then opened anew (a live receiver whose
+        session was intact takes the new start as well: the same session, started again).
+        """
         self._offer_doubted = True
         self._started_with = ''
 

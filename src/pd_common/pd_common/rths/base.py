@@ -51,8 +51,11 @@ class TransferSystem(abc.ABC):
 
 
 class IdealPlant(TransferSystem):
-    """A perfect actuator: the displacement one sample after a command is that command
-    (``output()`` returns the last command; 0 at rest)."""
+    """A perfect actuator: one sample after a command, the displacement is that command.
+
+    A perfect actuator: the displacement one sample after a command is that command
+    (``output()`` returns the last command; 0 at rest).
+    """
 
     def __init__(self, dt: float) -> None:
         """Create the ideal plant."""
@@ -102,8 +105,10 @@ class PhysicalSpecimen:
         return 2.0 * self.damping_ratio * math.sqrt(self.stiffness * self.mass)
 
     def force(self, x0: float, x1: float, x2: float, dt: float) -> float:
-        """The force the load cell reads, from the displacement at samples k (``x0``), k − 1
-        and k − 2 by backward differences: k_e x + c_e ẋ + m_e ẍ, N."""
+        """The force the load cell reads, N: ``k_e x + c_e ẋ + m_e ẍ``.
+
+        From the displacement at samples k (``x0``), k − 1 and k − 2 by backward differences.
+        """
         velocity = (x0 - x1) / dt
         acceleration = (x0 - 2.0 * x1 + x2) / (dt * dt)
         return self.stiffness * x0 + self.damping * velocity + self.mass * acceleration
@@ -122,8 +127,9 @@ def quantise(value: float, quantum: float) -> float:
 
 @dataclass(frozen=True)
 class SensorNoise:
-    """Band-limited white sensor noise (Simulink's block): a Gaussian sample each controller
-    sample ``dt`` with standard deviation √(power / dt).
+    """Band-limited white sensor noise (Simulink's block).
+
+    A Gaussian sample each controller sample ``dt`` with standard deviation √(power / dt).
 
     Attributes:
         displacement_power: Noise power of the displacement sensor, m²·s (benchmark 6.25e-14:

@@ -436,8 +436,10 @@ class ContinuousActuator:
 
     # -- state -------------------------------------------------------------------------------
     def reset(self) -> None:
-        """Back to rest at sample 0 of step 1: plant, compensator, sensors, counters; the
-        previous targets are 0 (the structure at rest before the start)."""
+        """Back to rest at sample 0 of step 1: plant, compensator, sensors, counters.
+
+        The previous targets are 0 (the structure at rest before the start).
+        """
         self.plant.reset()
         self.compensator.reset()
         noise = self.config.noise
@@ -668,8 +670,9 @@ class ContinuousActuator:
 
     # -- simulated time ----------------------------------------------------------------------
     def step(self, target: float) -> ContinuousMeasurement:
-        """Execute one integration step in simulated time: set ``target`` (d[n+1]) and run the
-        step's ``S`` controller samples.
+        """Execute one integration step in simulated time.
+
+        Set ``target`` (d[n+1]) and run the step's ``S`` controller samples.
 
         Raises:
             RthsError: A non-finite target, or a step already under way with its target set.

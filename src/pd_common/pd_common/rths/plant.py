@@ -119,9 +119,11 @@ class BenchmarkPlantParameters:
 def benchmark_state_space(
     params: BenchmarkPlantParameters,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The continuous state-space model ``(A, B, C, D)`` of the plant, states
-    ``[q, q̇, f, x, ẋ]`` (module docstring), input ``u``, outputs ``[x, f]`` (displacement m,
-    actuator force N)."""
+    """The continuous state-space model ``(A, B, C, D)`` of the plant.
+
+    States ``[q, q̇, f, x, ẋ]`` (module docstring), input ``u``, outputs ``[x, f]`` (displacement
+    m, actuator force N).
+    """
     m = params.specimen.mass
     c = params.specimen.damping
     k = params.specimen.stiffness
@@ -143,7 +145,9 @@ def benchmark_state_space(
 def benchmark_transfer_function(
     params: BenchmarkPlantParameters,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The plant's continuous transfer function ``G(s) = num(s)/den(s)`` from the block
+    """The plant's continuous transfer function ``G(s) = num(s)/den(s)``.
+
+    The plant's continuous transfer function ``G(s) = num(s)/den(s)`` from the block
     diagram's polynomials (highest power first, as :mod:`scipy.signal`)::
 
         G = g a1β0 / ((s² + β1 s + β2)((s + a3)(m_e s² + c_e s + k_e) + a2 s) + a1β0)
@@ -167,8 +171,9 @@ def frequency_response(
 
 
 def equivalent_delay(params: BenchmarkPlantParameters, frequency_hz: float) -> float:
-    """The plant's phase delay ``−∠G(j ω) / ω`` at ``frequency_hz``, s (about 25 ms at 1 Hz
-    for the nominal plant).
+    """The plant's phase delay ``−∠G(j ω) / ω`` at ``frequency_hz``, s.
+
+    About 25 ms at 1 Hz for the nominal plant.
 
     Raises:
         RthsError: If the frequency is not positive.
@@ -235,8 +240,10 @@ class BenchmarkPlant(TransferSystem):
 
     @property
     def specimen(self) -> PhysicalSpecimen:
-        """The physical specimen the plant was drawn with (a perturbed plant's k_e): the one
-        whose force the load cell reads."""
+        """The physical specimen the plant was drawn with (a perturbed plant's k_e).
+
+        The one whose force the load cell reads.
+        """
         return self.params.specimen
 
     @property
@@ -259,9 +266,11 @@ class BenchmarkPlant(TransferSystem):
 
 
 def perturbed_plants(seed: int, count: int) -> list[BenchmarkPlantParameters]:
-    """The first ``count`` uncertain plants of ``seed``: one generator
-    ``np.random.default_rng(seed)``, one :meth:`BenchmarkPlantParameters.perturbed` call per
-    plant, in order (plant ``i`` of a seed is the same in every run and for everyone)."""
+    """The first ``count`` uncertain plants of ``seed``.
+
+    One generator ``np.random.default_rng(seed)``, one :meth:`BenchmarkPlantParameters.perturbed`
+    call per plant, in order (plant ``i`` of a seed is the same in every run and for everyone).
+    """
     rng = np.random.default_rng(seed)
     return [BenchmarkPlantParameters.perturbed(rng) for _ in range(count)]
 
@@ -339,8 +348,10 @@ def _keys(section: Mapping[str, Any], where: str, keys: tuple[str, ...]) -> None
 
 
 def _benchmark_plant(section: Mapping[str, Any], dt: float, where: str) -> TransferSystem:
-    """``{model: benchmark, perturbed: false, seed: 0, index: 0}``: ``perturbed: true`` is
-    plant ``index`` of :func:`perturbed_plants` of ``seed``."""
+    """The benchmark plant of ``{model: benchmark, perturbed: false, seed: 0, index: 0}``.
+
+    ``perturbed: true`` is plant ``index`` of :func:`perturbed_plants` of ``seed``.
+    """
     _keys(section, where, ('model', 'perturbed', 'seed', 'index'))
     perturbed = section.get('perturbed', False)
     if not isinstance(perturbed, bool):

@@ -1,5 +1,6 @@
-"""Specimen models: backbones, hysteresis, specimens (a column with P-Δ among them), their
-config schema and the step server.
+"""Specimen models, their config schema and the step server.
+
+The models: backbones, hysteresis, specimens (a column with P-Δ among them).
 
 The simulator node and the ROS-free runner answer step commands with a
 :class:`SpecimenServer`; the integrator's numerical springs and the bridge's emulator use the

@@ -46,6 +46,7 @@ class Backbone:
     _slope: list[float] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        """Check the points; keep them read-only, with the slopes between them."""
         name = f"backbone '{self.source}'"
         try:
             d = np.array(self.displacement, dtype=float)

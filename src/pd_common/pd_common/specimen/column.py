@@ -162,7 +162,9 @@ class ColumnSpecimen:
         return np.array([lateral + axial * u / self._height, axial])
 
     def tangent(self, x: np.ndarray | Sequence[float]) -> NDArray[np.float64]:
-        """The trial tangent ``∂R/∂(u, v)`` at ``(u, v)`` [N/m], leaving the trial there::
+        """The trial tangent ``∂R/∂(u, v)`` at ``(u, v)`` [N/m], leaving the trial there.
+
+        The matrix::
 
             [[k_t(u) + k_a v / L,  k_a u / L],
              [0,                   k_a      ]]

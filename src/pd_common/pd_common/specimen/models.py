@@ -66,8 +66,9 @@ class ElementReader:
         return SpecimenConfigError(f'{self.source}: {where}: {message}')
 
     def values(self) -> dict[str, Any]:
-        """Every declared key's value, checked by its :class:`~pd_common.registry.Parameter`
-        (the default where it is not given).
+        """Every declared key's value.
+
+        Checked by its :class:`~pd_common.registry.Parameter` (the default where it is not given).
 
         Raises:
             SpecimenConfigError: One line naming the key.

@@ -39,8 +39,11 @@ _ENCODE = json.JSONEncoder(separators=(',', ':')).encode
 
 
 def specimen_fingerprint(section: Any, dof_names: list[str], geometry: Any = None) -> str:
-    """A short fingerprint of a specimen definition (its section and DOF names, and the
-    server's :attr:`~pd_common.specimen.SpecimenServer.geometry` when not ``None``)."""
+    """A short fingerprint of a specimen definition.
+
+    Its section and DOF names, and the server's :attr:`~pd_common.specimen.SpecimenServer.geometry`
+    when not ``None``.
+    """
     value = [section, dof_names] if geometry is None else [section, dof_names, geometry]
     text = json.dumps(value, sort_keys=True, default=str)
     return hashlib.sha256(text.encode('utf-8')).hexdigest()[:16]

@@ -37,8 +37,10 @@ def readonly_copy(array: Any) -> NDArray[np.float64]:
 
 
 def first_boolean(value: Any) -> bool | None:
-    """The first boolean in ``value`` (a scalar, nested lists or tuples, an array), or
-    ``None``: YAML's ``true`` is no number, but numpy reads it as 1.0."""
+    """The first boolean in ``value`` (a scalar, nested lists or tuples, an array), or ``None``.
+
+    YAML's ``true`` is no number, but numpy reads it as 1.0.
+    """
     stack = [value]
     while stack:
         item = stack.pop()
@@ -52,8 +54,10 @@ def first_boolean(value: Any) -> bool | None:
 
 
 def as_float_array(value: Any, name: str) -> NDArray[np.float64]:
-    """``value`` as a finite float array; a ConfigError naming ``name`` otherwise (a boolean
-    is not a number)."""
+    """``value`` as a finite float array.
+
+    A ConfigError naming ``name`` otherwise (a boolean is not a number).
+    """
     if value is None:
         msg = f'{name}: a value is required'
         raise ConfigError(msg)

@@ -1,5 +1,8 @@
-"""The one way the integrator's figures get matplotlib: ``pyplot`` on the Agg backend (files,
-no display), imported on first use (it is the heaviest import of a run's end)."""
+"""The one way the integrator's figures get matplotlib.
+
+``pyplot`` on the Agg backend (files, no display), imported on first use (it is the heaviest import
+of a run's end).
+"""
 
 from __future__ import annotations
 

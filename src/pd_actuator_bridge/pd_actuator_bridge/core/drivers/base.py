@@ -94,14 +94,19 @@ class ActuatorDriver(abc.ABC):
 
     @property
     def state_origin(self) -> StateOrigin:
-        """Where the specimen state the driver drives comes from: the controller's hardware
-        (the default), or a simulated specimen (``FRESH`` when it cannot be restored)."""
+        """Where the specimen state the driver drives comes from.
+
+        The controller's hardware (the default), or a simulated specimen (``FRESH`` when it cannot
+        be restored).
+        """
         return StateOrigin.HARDWARE
 
     @property
     def state_epoch(self) -> str | None:
-        """The epoch of the specimen state behind the driver, if it has its own (a simulator
-        node); ``None``: the bridge's own epoch."""
+        """The epoch of the specimen state behind the driver, if it has its own (a simulator node).
+
+        ``None``: the bridge's own epoch.
+        """
         return None
 
     @property
@@ -127,41 +132,55 @@ class ActuatorDriver(abc.ABC):
         return 'the driver'
 
     def poll(self) -> None:
-        """Keep the driver's connection alive; called by the node's loop while the bridge is
-        configured (about every 50 ms). The default does nothing."""
+        """Keep the driver's connection alive.
+
+        Called by the node's loop while the bridge is configured (about every 50 ms). The default
+        does nothing.
+        """
 
     def set_test_id(self, test_id: str) -> None:
-        """Take the (run-tagged) test id of the commands that follow, before the bridge sees
-        them; a driver that forwards moves to a keyed receiver keys them by it. The default
-        ignores it."""
+        """Take the (run-tagged) test id of the commands that follow, before the bridge sees them.
+
+        A driver that forwards moves to a keyed receiver keys them by it. The default ignores it.
+        """
 
     def repeat(self) -> None:
-        """The step in flight was commanded again (a re-sent command): ask the controller
-        again, without a new motion. The default does nothing (nothing is in flight between
-        calls of a synchronous driver)."""
+        """The step in flight was commanded again (a re-sent command).
+
+        Ask the controller again, without a new motion. The default does nothing (nothing is in
+        flight between calls of a synchronous driver).
+        """
 
     def waiting_since(self) -> float | None:
-        """``time.monotonic()`` when the move in flight was last sent, or ``None`` if no move
-        waits for its measurement (the default). The node holds when it is older than the
-        ``driver_timeout`` parameter."""
+        """``time.monotonic()`` when the move in flight was last sent.
+
+        Or ``None`` if no move waits for its measurement (the default). The node holds when it is
+        older than the ``driver_timeout`` parameter.
+        """
         return None
 
     @property
     def last_force(self) -> list[float] | None:
-        """Force per DOF of the last measurement, N; ``None`` (the default) if the driver does
-        not know it: the node then offers 0 N."""
+        """Force per DOF of the last measurement, N.
+
+        ``None`` (the default) if the driver does not know it: the node then offers 0 N.
+        """
         return None
 
     @property
     def carried_force(self) -> list[float] | None:
-        """The force per DOF the actuators carry when the driver becomes ready, N (``None``:
-        not known): a restarted bridge ramps force from it, never from 0 N. The default:
-        :attr:`last_force`."""
+        """The force per DOF the actuators carry when the driver becomes ready, N.
+
+        ``None``: not known. A restarted bridge ramps force from it, never from 0 N. The
+        default: :attr:`last_force`.
+        """
         return self.last_force
 
     def refusals(self) -> dict[str, dict[str, int]]:
-        """Messages the driver refused by authentication, by source and reason (none by
-        default)."""
+        """Messages the driver refused by authentication.
+
+        By source and reason (none by default).
+        """
         return {}
 
     def close(self) -> None:

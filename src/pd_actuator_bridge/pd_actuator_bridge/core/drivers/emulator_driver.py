@@ -58,8 +58,10 @@ class EmulatorDriver(ActuatorDriver):
 
     @property
     def state_origin(self) -> StateOrigin:
-        """``FRESH``: the emulated specimen lives in the bridge's process (a restarted bridge
-        has a new one)."""
+        """``FRESH``: the emulated specimen lives in the bridge's process.
+
+        A restarted bridge has a new one.
+        """
         return StateOrigin.FRESH
 
 

@@ -66,7 +66,9 @@ class EmulatorPlant(TransferSystem):
 
 
 def emulator_plant(section: Mapping[str, Any], dt: float, where: str) -> TransferSystem:
-    """The emulator plant of a ``plant: {model: emulator, stiffness: ..., <parameters>}``
+    """The emulator plant of a ``plant: {model: emulator, ...}`` section.
+
+    The emulator plant of a ``plant: {model: emulator, stiffness: ..., <parameters>}``
     section at controller period ``dt``.
 
     Raises:

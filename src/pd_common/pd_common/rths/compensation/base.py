@@ -148,8 +148,11 @@ def make_compensator(name: str, dt: float,
 
 
 class NoCompensation(Compensator):
-    """``u = x_d``: the command is the desired displacement (of the next sample where the
-    caller knows it: with an ideal plant the actuator is then exactly on its path)."""
+    """No compensation: the command is the desired displacement, ``u = x_d``.
+
+    ``u = x_d``: the command is the desired displacement (of the next sample where the
+    caller knows it: with an ideal plant the actuator is then exactly on its path).
+    """
 
     uses_preview = True
 

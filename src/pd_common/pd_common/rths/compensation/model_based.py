@@ -1,5 +1,7 @@
-"""Model-based compensation: feed-forward through the inverse of an identified all-pole model of
-the transfer system, plus PI feedback on the tracking error: ``model_based``.
+"""Model-based compensation.
+
+Feed-forward through the inverse of an identified all-pole model of the transfer system, plus PI
+feedback on the tracking error: ``model_based``.
 
 The model (continuous, all-pole, order ``n`` = 1–4, the coefficient ``c_i`` in s^i)::
 
@@ -67,7 +69,9 @@ MAX_ORDER = 4
 
 def state_variable_filter(x: ArrayLike, order: int, cutoff: float, dt: float,
                           hold: str = 'foh') -> NDArray[np.float64]:
-    """``[(s^i F) x for i = 0…order]`` with ``F(s) = 1/(1 + s/ω_f)^{order+1}``,
+    """The state-variable filter ``[(s^i F) x for i = 0…order]`` of ``x``.
+
+    ``[(s^i F) x for i = 0…order]`` with ``F(s) = 1/(1 + s/ω_f)^{order+1}``,
     ``ω_f = 2π cutoff``; ``(order + 1, len(x))``.
 
     Each filter is discretised exactly (:func:`scipy.signal.cont2discrete`) for the samples
@@ -93,7 +97,9 @@ def state_variable_filter(x: ArrayLike, order: int, cutoff: float, dt: float,
 
 def identify_all_pole(command: ArrayLike, displacement: ArrayLike, dt: float, order: int = 3,
                       cutoff: float = 20.0) -> tuple[float, ...]:
-    """The coefficients ``(c_0, …, c_n)`` of ``G_m = 1/Σ c_i s^i`` that fit the record best
+    """The all-pole model ``G_m = 1/Σ c_i s^i`` that fits the record best.
+
+    The coefficients ``(c_0, …, c_n)`` of ``G_m = 1/Σ c_i s^i`` that fit the record best
     (least squares, state-variable filter of cutoff ``cutoff`` Hz; module docstring).
 
     Args:
@@ -127,9 +133,12 @@ def identify_all_pole(command: ArrayLike, displacement: ArrayLike, dt: float, or
 def identification_record(plant: TransferSystem, seconds: float = 60.0,
                           bandwidth: float = 20.0, rms: float = 1e-3, seed: int = 1
                           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(u, y)``: a band-limited random command (white Gaussian through a 4th-order
+    """A band-limited random command and the displacement ``plant`` gives for it.
+
+    ``(u, y)``: a band-limited random command (white Gaussian through a 4th-order
     Butterworth low-pass at ``bandwidth`` Hz, scaled to ``rms`` m) run through ``plant``
-    (reset first) at its rate, and the plant's displacement."""
+    (reset first) at its rate, and the plant's displacement.
+    """
     from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     dt = plant.dt
     n = round(seconds / dt)
@@ -147,8 +156,11 @@ def identification_record(plant: TransferSystem, seconds: float = 60.0,
 
 def _tustin(a: float, b: float, c: float, d: float, dt: float
             ) -> tuple[float, float, float, float]:
-    """The Tustin discretisation of the scalar ``ẋ = a x + b e``, ``y = c x + d e``
-    (:func:`scipy.signal.cont2discrete`): ``(a_d, b_d, c_d, d_d)``."""
+    """The Tustin discretisation of a scalar first-order system.
+
+    The Tustin discretisation of the scalar ``ẋ = a x + b e``, ``y = c x + d e``
+    (:func:`scipy.signal.cont2discrete`): ``(a_d, b_d, c_d, d_d)``.
+    """
     from scipy import signal  # noqa: PLC0415 - 0.5 s to import: not on a node's start-up
     ad, bd, cd, dd, _dt = signal.cont2discrete(
         (np.array([[a]]), np.array([[b]]), np.array([[c]]), np.array([[d]])), dt,

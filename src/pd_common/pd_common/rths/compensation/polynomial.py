@@ -1,4 +1,5 @@
-"""Polynomial extrapolation of the target over a constant delay (Horiuchi et al. 1999):
+"""Polynomial extrapolation of the target over a constant delay (Horiuchi et al. 1999).
+
 ``polynomial``.
 
 The transfer system answers a command about ``τ`` later (the benchmark's plant: about 24 ms
@@ -41,7 +42,9 @@ __all__ = [
 
 
 def lagrange_weights(nodes: Sequence[float], point: float, derivative: int = 0) -> list[float]:
-    """The weights ``w`` with ``p^{(d)}(point) = Σ w_i f(nodes[i])`` for the polynomial ``p``
+    """The weights of a derivative of the interpolating polynomial at ``point``.
+
+    The weights ``w`` with ``p^{(d)}(point) = Σ w_i f(nodes[i])`` for the polynomial ``p``
     of degree ``len(nodes) − 1`` through ``(nodes[i], f_i)`` (``d = derivative``).
 
     Solved from the moment conditions ``Σ w_i (node_i − point)^m = m! δ_{md}``, m = 0…n
@@ -65,17 +68,23 @@ def lagrange_weights(nodes: Sequence[float], point: float, derivative: int = 0) 
 
 
 def backward_derivative_weights(derivative: int, points: int, dt: float) -> list[float]:
-    """The weights of the ``derivative``-th derivative at sample ``k`` from the samples
+    """The weights of a backward derivative from the last ``points`` samples.
+
+    The weights of the ``derivative``-th derivative at sample ``k`` from the samples
     ``k, k−1, …, k−points+1`` (spacing ``dt``): the derivative of their interpolating
-    polynomial (no lag; exact for a polynomial of degree ``points − 1``)."""
+    polynomial (no lag; exact for a polynomial of degree ``points − 1``).
+    """
     unit = lagrange_weights([-float(i) for i in range(points)], 0.0, derivative)
     return [w / dt ** derivative for w in unit]
 
 
 def push_and_filter(history: list[float], weights: Sequence[float], value: float) -> float:
-    """Shift ``value`` into ``history`` (newest first, its length kept) and return the FIR
+    """Shift ``value`` into ``history`` and return the FIR output.
+
+    Shift ``value`` into ``history`` (newest first, its length kept) and return the FIR
     output ``Σ w_i history_i`` (the feed-forward of the polynomial and model-based
-    compensators)."""
+    compensators).
+    """
     history.pop()
     history.insert(0, value)
     total = 0.0

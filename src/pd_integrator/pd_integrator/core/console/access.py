@@ -119,9 +119,12 @@ class ConsoleAccess:
 
 
 def host_name(text: str) -> str:
-    """``text`` (a host name or an IP address; IPv6 with or without brackets) as a ``Host``
+    """``text`` as a ``Host`` header names it.
+
+    ``text`` (a host name or an IP address; IPv6 with or without brackets) as a ``Host``
     header names it: lower case, an IPv6 address in brackets and compressed, an IPv4-mapped
-    IPv6 address as its IPv4 address."""
+    IPv6 address as its IPv4 address.
+    """
     name = text.strip().lower()
     inner = name[1:-1] if name.startswith('[') and name.endswith(']') else name
     try:
@@ -136,9 +139,12 @@ def host_name(text: str) -> str:
 
 
 def split_host(header: str | None, default_port: int = 80) -> tuple[str, int] | None:
-    """A ``Host`` header's name (as :func:`host_name` writes it) and port (``default_port``
+    """A ``Host`` header's name and port, or ``None`` when missing or malformed.
+
+    A ``Host`` header's name (as :func:`host_name` writes it) and port (``default_port``
     when it gives none); ``None`` when missing or malformed (a bare IPv6 address, a port that
-    is not a number)."""
+    is not a number).
+    """
     if not header:
         return None
     text = header.strip()
@@ -165,7 +171,9 @@ def split_host(header: str | None, default_port: int = 80) -> tuple[str, int] | 
 
 @dataclass(frozen=True)
 class ServedAddress:
-    """The names a request's ``Host`` header may give for the address the console listens
+    """The names a request's ``Host`` header may give for the console's address.
+
+    The names a request's ``Host`` header may give for the address the console listens
     on (made by :func:`served_address`).
 
     Attributes:
@@ -178,9 +186,11 @@ class ServedAddress:
     wildcard: bool = False
 
     def allows(self, header: str | None, port: int, local_address: str = '') -> bool:
-        """Whether ``header`` (a request's ``Host``) names this console: one of ``names``
-        (or, listening everywhere, ``local_address``, the address the connection reached)
-        and ``port``, the port the console listens on."""
+        """Whether ``header`` (a request's ``Host``) names this console.
+
+        One of ``names`` (or, listening everywhere, ``local_address``, the address the connection
+        reached) and ``port``, the port the console listens on.
+        """
         split = split_host(header)
         if split is None:
             return False
@@ -192,10 +202,12 @@ class ServedAddress:
 
 
 def served_address(host: str, machine_names: Iterable[str] = ()) -> ServedAddress:
-    """The :class:`ServedAddress` of a console told to listen on ``host``: ``host`` itself;
-    ``localhost`` too for ``127.0.0.1`` and ``::1`` (and both of them for ``localhost``);
-    for an address of every interface (:data:`WILDCARD_HOSTS`), also the loopback names and
-    ``machine_names`` (the machine's own names, found by the caller)."""
+    """The :class:`ServedAddress` of a console told to listen on ``host``: ``host`` itself.
+
+    ``localhost`` too for ``127.0.0.1`` and ``::1`` (and both of them for ``localhost``); for an
+    address of every interface (:data:`WILDCARD_HOSTS`), also the loopback names and
+    ``machine_names`` (the machine's own names, found by the caller).
+    """
     name = host_name(host)
     names = {name} if name else set()
     if name in ('127.0.0.1', '[::1]'):

@@ -52,8 +52,11 @@ def gauges_message(site_json: Mapping[str, Any]) -> dict[str, float]:
 
 
 def foxglove_layout(sites: Mapping[str, Iterable[str]]) -> str:
-    """A Foxglove layout (JSON) for ``sites`` (site → its DOF names): per DOF the hysteresis
-    loop (x-y), the displacement and force histories; the status and the gauges."""
+    """A Foxglove layout (JSON) for ``sites`` (site → its DOF names).
+
+    Per DOF the hysteresis loop (x-y), the displacement and force histories; the status and the
+    gauges.
+    """
     rows: list[fl.SplitItem] = []
     for site, dofs in sites.items():
         for dof in dofs:

@@ -91,6 +91,7 @@ class SiteView:
     fresh: deque[tuple[tuple[float, ...], ...]] | None = None
 
     def __post_init__(self) -> None:
+        """One gauge per bridge limit."""
         self.gauges = {name: Gauge(name, float(self.limits.get(name, 0.0)))
                        for name in BRIDGE_LIMITS}
 
@@ -163,8 +164,11 @@ class SiteView:
         return {'gauges': [gauge.to_json() for gauge in self.gauges.values()]}
 
     def to_json(self, test_over: bool = False) -> dict[str, Any]:
-        """The site for the page (``test_over``: the test ended, so a bridge that says it is
-        active is shown idle: it answers nothing more of this test)."""
+        """The site for the page.
+
+        ``test_over``: the test ended, so a bridge that says it is active is shown idle: it answers
+        nothing more of this test.
+        """
         dofs = []
         for name, history in zip(self.dof_names, self.histories, strict=True):
             t, command, measured, force, error, indicator = history.columns(6)
@@ -288,8 +292,10 @@ class ConsoleModel:
         return view
 
     def drain(self) -> dict[str, tuple[tuple[str, ...], list[tuple[tuple[float, ...], ...]]]]:
-        """Per site, its DOF names and the rows answered since the last drain (each a tuple
-        per DOF of ``(t, command, measured, force, error, indicator)``)."""
+        """Per site, its DOF names and the rows answered since the last drain.
+
+        Each a tuple per DOF of ``(t, command, measured, force, error, indicator)``.
+        """
         drained = {}
         for name, view in self.sites.items():
             if view.fresh:

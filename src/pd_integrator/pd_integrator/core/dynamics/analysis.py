@@ -229,8 +229,9 @@ class SpectralProperties:
 
 
 def _eigenvalues(matrix: np.ndarray) -> np.ndarray:
-    """Eigenvalues of ``A``, computed after an exact diagonal similarity that balances the
-    principal eigenvector.
+    """Eigenvalues of ``A``.
+
+    Computed after an exact diagonal similarity that balances the principal eigenvector.
 
     For small ``Ω`` the principal eigenvectors of a state such as ``(x, Δt·v, Δt²·a)`` are
     nearly parallel (``(1, ±iΩ, −Ω²)``), so the eigenvalues of ``A`` itself carry an absolute

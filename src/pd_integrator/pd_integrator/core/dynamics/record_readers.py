@@ -208,8 +208,7 @@ def read_at2(path: PathLike, *, g: float = G_THESIS) -> GroundMotion:
 
 def read_mat(path: PathLike, *, units: str = 'm/s2', g: float = G_THESIS,
              variable: str | None = None) -> GroundMotion:
-    """Read a MATLAB ``.mat`` record: time and acceleration as a 2×N (rows) or N×2 (columns)
-    array.
+    """Read a MATLAB ``.mat`` record: time and acceleration as a 2×N (rows) or N×2 (columns) array.
 
     The vRTHS benchmark's records (``ElCentroAccelNoScaling.mat`` etc.) hold one such 2×N
     array in m/s², the units' default here. The array is ``variable`` or, if not given, the

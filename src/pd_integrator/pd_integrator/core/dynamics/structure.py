@@ -188,8 +188,10 @@ def mode_frequencies(mass: Any, stiffness: Any, modes: Sequence[int]) -> NDArray
 
 
 def _checked_extremes(d: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[float, float]:
-    """The lowest and highest eigenvalues of a symmetric tridiagonal matrix (bisection, O(n)
-    each), after :func:`_check_spectrum`."""
+    """The lowest and highest eigenvalues of a symmetric tridiagonal matrix (bisection, O(n) each).
+
+    After :func:`_check_spectrum`.
+    """
     lowest, highest = (_tridiagonal_eigenvalue(d, e, i) for i in (0, d.size - 1))
     _check_spectrum(lowest, highest)
     return lowest, highest
@@ -365,6 +367,7 @@ class Structure:
     influence: np.ndarray
 
     def __post_init__(self) -> None:
+        """Check the DOF names and the matrices."""
         names = self.dof_names
         if isinstance(names, str) or not isinstance(names, Sequence):
             msg = f'dof_names: expected a sequence of names, got {names!r}'
@@ -409,6 +412,7 @@ class Structure:
         return len(self.dof_names)
 
     def __eq__(self, other: object) -> bool:
+        """Equal DOF names and equal matrices."""
         if not isinstance(other, Structure):
             return NotImplemented
         return self.dof_names == other.dof_names and all(
@@ -417,5 +421,6 @@ class Structure:
         )
 
     def __hash__(self) -> int:
+        """A hash of the DOF names and the matrices' bytes."""
         fields = ('mass', 'damping', 'initial_stiffness', 'influence')
         return hash((self.dof_names, *(getattr(self, f).tobytes() for f in fields)))

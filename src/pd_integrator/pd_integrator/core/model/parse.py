@@ -155,8 +155,10 @@ class _Parts:
 
 def _condensed(stiffness: np.ndarray, structural: list[int], free: list[int], where: str
                ) -> np.ndarray:
-    """``K_ss − K_sf K_ff⁻¹ K_fs``: the stiffness on the structure DOFs when the free DOFs
-    are held by constant forces (the given matrix when there are none)."""
+    """The stiffness condensed on the structure DOFs, ``K_ss − K_sf K_ff⁻¹ K_fs``.
+
+    The free DOFs are held by constant forces (the given matrix when there are none).
+    """
     if not free:
         return stiffness
     k_ss = stiffness[np.ix_(structural, structural)]
@@ -290,8 +292,11 @@ def _collect(elements: Sequence[Element], names: list[str], where: str) -> _Part
 
 
 def _massless(mass: np.ndarray, parts: _Parts, source: str) -> tuple[list[int], list[int]]:
-    """``(massless, retained)`` DOF indices: the massless ones are condensed out (the mass
-    must be diagonal for that, and no nonlinear or experimental element may touch them)."""
+    """The ``(massless, retained)`` DOF indices.
+
+    The massless ones are condensed out (the mass must be diagonal for that, and no nonlinear
+    or experimental element may touch them).
+    """
     names = parts.names
     diagonal = np.diag(mass)
     massless = [i for i in range(len(names)) if diagonal[i] == 0.0]
@@ -389,8 +394,9 @@ def _experimental_object(item: _Experimental, position: dict[int, int], names: l
 
 def parse_elements(elements: Sequence[Element], *, dof_names: Sequence[str], mass: np.ndarray,
                    source: str, base_dir: Path) -> ParsedModel:
-    """Build the structural model of ``structure.elements`` (typed by the schema:
-    ``pd_common.config.validate_elements``).
+    """Build the structural model of ``structure.elements``.
+
+    The elements are typed by the schema (``pd_common.config.validate_elements``).
 
     Raises:
         ConfigError: one line naming ``source`` and the element's dotted path
@@ -444,9 +450,11 @@ def _dense(matrix: Any) -> np.ndarray:
 
 def _full_stiffness(n_all: int, linear: Parts, model: StructuralModel | None,
                     retained: list[int], *, elastic: bool) -> np.ndarray:
-    """The initial stiffness on every DOF (massless ones not condensed): the linear elements,
-    and the springs' and experimental elements' initial stiffness on the retained DOFs
-    (without their P-Δ terms if ``elastic``)."""
+    """The initial stiffness on every DOF (massless ones not condensed).
+
+    The linear elements, and the springs' and experimental elements' initial stiffness on the
+    retained DOFs (without their P-Δ terms if ``elastic``).
+    """
     full = _dense(assemble(n_all, linear, sparse=False)) if linear else np.zeros((n_all,) * 2)
     if model is None:
         return full
@@ -477,9 +485,12 @@ def _positive_definite(stiffness: np.ndarray) -> bool:
 def _check_stable(n_all: int, linear: Parts, geometric: Parts, model: StructuralModel | None,
                   retained: list[int], names: list[str], source: str, *,
                   only: list[int] | None = None) -> None:
-    """One line if the initial stiffness with the P-Δ terms (on every DOF: a massless DOF may
-    buckle too; on the DOFs ``only`` if given) is not positive definite while the one without
-    them is; otherwise the usual stiffness checks speak."""
+    """Refuse, in one line, a stiffness that P-Δ alone makes indefinite.
+
+    That is: the initial stiffness with the P-Δ terms (on every DOF: a massless DOF may buckle
+    too; on the DOFs ``only`` if given) is not positive definite while the one without them
+    is; otherwise the usual stiffness checks speak.
+    """
     chosen = list(range(n_all)) if only is None else only
     total = _full_stiffness(n_all, linear, model, retained, elastic=False)[np.ix_(chosen, chosen)]
     if _positive_definite(total):

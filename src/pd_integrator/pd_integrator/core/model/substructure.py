@@ -124,6 +124,7 @@ class ExperimentalElement(_TwoEnded):
     basic_stiffness: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        """Index the basic DOFs; nothing measured yet."""
         n_basic = self.setup.n_basic if self.setup is not None else int(self.dofs.size)
         n_act = self.setup.n_actuators if self.setup is not None else int(self.dofs.size)
         index = (np.arange(self.dofs.size, dtype=np.intp) if self.basic_index is None
@@ -158,8 +159,10 @@ class ExperimentalElement(_TwoEnded):
         return self._forced
 
     def trial_basic(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The basic displacement commanded at ``x``: the structure's trial on its DOFs, the
-        last measured displacement on the free DOFs."""
+        """The basic displacement commanded at ``x``.
+
+        The structure's trial on its DOFs, the last measured displacement on the free DOFs.
+        """
         if not self._free.size:
             return self.basic(x)
         basic = self.measured_basic.copy()
@@ -188,9 +191,11 @@ class ExperimentalElement(_TwoEnded):
                       target_basic: NDArray[np.float64], x: NDArray[np.float64],
                       force_out: NDArray[np.float64], measured_out: NDArray[np.float64]
                       ) -> None:
-        """Add the measured basic forces of the structure DOFs to ``force_out``; move the
-        element's DOFs of ``measured_out`` by the measured − commanded basic displacement;
-        remember the measurement (the next command's free DOFs and force-controlled strokes)."""
+        """Add the measured basic forces of the structure DOFs to ``force_out``.
+
+        Move the element's DOFs of ``measured_out`` by the measured − commanded basic displacement;
+        remember the measurement (the next command's free DOFs and force-controlled strokes).
+        """
         setup = self.setup
         assert setup is not None
         basic = setup.basic_displacement(strokes)
@@ -222,6 +227,7 @@ class StructuralModel:
     condensed_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        """Group the experimental elements by site; prepare the stiffness product."""
         sites: dict[str, list[ExperimentalElement]] = {}
         for element in self.experimental:
             sites.setdefault(element.site, []).append(element)

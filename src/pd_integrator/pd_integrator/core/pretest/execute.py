@@ -159,9 +159,11 @@ def batches(plan: Plan) -> list[Batch]:
 
 def holds(batch: Batch, runs: Sequence[int], limits: BridgeLimits, dof_name: str
           ) -> dict[int, Hold | None]:
-    """Where the bridge would hold the batch's runs ``runs`` (indices in the batch): each
-    integrated again with its history (the same arithmetic per system, so the same floats),
-    :data:`HOLD_CHUNK` runs at a time."""
+    """Where the bridge would hold the batch's runs ``runs``.
+
+    Indices in the batch: each integrated again with its history (the same arithmetic per system,
+    so the same floats), :data:`HOLD_CHUNK` runs at a time.
+    """
     found: dict[int, Hold | None] = {}
     systems = batch.systems
     for first in range(0, len(runs), HOLD_CHUNK):

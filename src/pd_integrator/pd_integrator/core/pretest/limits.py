@@ -1,5 +1,6 @@
-"""The actuator bridge's safety limits, read from its parameter file, which runs trip them, and
-the step at which the bridge would hold each of them.
+"""The actuator bridge's safety limits, read from its parameter file, which runs trip them.
+
+And the step at which the bridge would hold each of them.
 
 The limits are those the bridge enforces, checked by the bridge's own functions
 (:mod:`pd_common.experimental.limits`): ``|x_target| <= max_displacement``, ``|x_target −
@@ -77,8 +78,10 @@ class BridgeLimits:
 
     @property
     def safety(self) -> SafetyLimits:
-        """The same limits as the bridge's :class:`~pd_common.experimental.SafetyLimits` (the
-        velocity limit only with a step duration, as :meth:`value`)."""
+        """The same limits as the bridge's :class:`~pd_common.experimental.SafetyLimits`.
+
+        The velocity limit only with a step duration, as :meth:`value`.
+        """
         velocity = self.max_velocity if self.step_duration is not None else None
         return SafetyLimits(max_displacement=self.max_displacement,
                             max_increment=self.max_increment, max_force=self.max_force,
@@ -86,8 +89,10 @@ class BridgeLimits:
 
 
 def _parameters(raw: Any, source: str) -> Mapping[str, Any]:
-    """The ``ros__parameters`` mapping of a ROS parameter file (or a plain mapping), found as
-    the bridge's rehearsals find it (:func:`~pd_common.experimental.bridge_parameters`)."""
+    """The ``ros__parameters`` mapping of a ROS parameter file (or a plain mapping).
+
+    Found as the bridge's rehearsals find it (:func:`~pd_common.experimental.bridge_parameters`).
+    """
     try:
         return bridge_parameters(raw, source)
     except BridgeConfigError as err:

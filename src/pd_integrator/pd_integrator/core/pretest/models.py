@@ -91,6 +91,7 @@ class ElasticBatch(BatchModel):
         self.k = np.array(stiffness, dtype=float)
 
     def trial(self, x: FloatArray) -> FloatArray:
+        """The trial force at ``x``: ``k x``."""
         self._take_trial(x)
         np.multiply(self.k, x, out=self._ft)
         return self._ft
@@ -120,6 +121,7 @@ class EPPBatch(BatchModel):
         self._elastic = np.empty(n, dtype=bool)
 
     def trial(self, x: FloatArray) -> FloatArray:
+        """The trial force at ``x`` (a buffer owned by the model, valid until the next call)."""
         self._take_trial(x)
         f, tmp, ft, xpt = self._f, self._tmp, self._ft, self._xp_t
         np.subtract(x, self.xp, out=f)
@@ -132,6 +134,7 @@ class EPPBatch(BatchModel):
         return ft
 
     def commit(self) -> None:
+        """Make the trial state the committed state."""
         super().commit()
         self.xp, self._xp_t = self._xp_t, self.xp
 
@@ -172,6 +175,7 @@ class BilinearBatch(BatchModel):
         self._mask2 = np.empty(n, dtype=bool)
 
     def trial(self, x: FloatArray) -> FloatArray:
+        """The trial force at ``x`` (a buffer owned by the model, valid until the next call)."""
         self._take_trial(x)
         k = self.k
         f, xi, excess, dgamma, tmp = self._f, self._xi, self._excess, self._dgamma, self._tmp
@@ -220,6 +224,7 @@ class BilinearBatch(BatchModel):
         np.copyto(alt, tmp, where=below)
 
     def commit(self) -> None:
+        """Make the trial state the committed state."""
         super().commit()
         self.xp, self._xp_t = self._xp_t, self.xp
         self.alpha, self._alpha_t = self._alpha_t, self.alpha
@@ -312,6 +317,7 @@ class PushoverBatch(BatchModel):
          self._flag) = (np.empty(n, dtype=bool) for _ in range(8))
 
     def trial(self, x: FloatArray) -> FloatArray:
+        """The trial force at ``x`` (a buffer owned by the model, valid until the next call)."""
         self._take_trial(x)
         xc, fc, branch = self.xc, self.fc, self.branch
         pos, neg, rev_p, rev_n = self._pos, self._neg, self._rev_p, self._rev_n
@@ -373,6 +379,7 @@ class PushoverBatch(BatchModel):
         return ft
 
     def commit(self) -> None:
+        """Make the trial state the committed state."""
         super().commit()
         self.branch, self._branch_t = self._branch_t, self.branch
         self.pp, self._pp_t = self._pp_t, self.pp

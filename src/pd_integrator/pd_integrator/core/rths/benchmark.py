@@ -181,8 +181,11 @@ class BenchmarkRun:
         return int(self.t.size)
 
     def write_histories(self, path: Path) -> Path:
-        """``histories.csv``: t, x_d, x_m at the controller rate, with the floors and the
-        reference at the same instants where the loop has them (empty cells otherwise)."""
+        """``histories.csv``: t, x_d, x_m at the controller rate.
+
+        With the floors and the reference at the same instants where the loop has them (empty cells
+        otherwise).
+        """
         rows = ['t,x_d,x_m,x1,x2,x3,x1_ref,x2_ref,x3_ref']
         by_time = {round(float(tf) * CONTROLLER_RATE): i for i, tf in enumerate(self.t_floors)}
         for k in range(self.t.size):
@@ -253,11 +256,12 @@ def _noise(options: BenchmarkOptions) -> SensorNoise | None:
 
 def benchmark_ground_motion(record: BenchmarkRecord, intensity: float
                             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The loop's sample times and ground acceleration (m/s²): ``record`` × ``intensity`` with
-    the benchmark's 5 s of zeros at each end that does not hold them yet, at 4096 Hz
-    (:func:`~.problem.prepare_ground_motion`). A record that carries them (the benchmark's
-    own) runs from 0 to its last time: ``⌊t_end · 4096⌋ + 1`` samples, as the benchmark's
-    model runs to ``tend = record(1, end)``.
+    """The loop's sample times and ground acceleration (m/s²).
+
+    ``record`` × ``intensity`` with the benchmark's 5 s of zeros at each end that does not hold
+    them yet, at 4096 Hz (:func:`~.problem.prepare_ground_motion`). A record that carries them (the
+    benchmark's own) runs from 0 to its last time: ``⌊t_end · 4096⌋ + 1`` samples, as the
+    benchmark's model runs to ``tend = record(1, end)``.
 
     Raises:
         ConfigError: A bad record or intensity.
@@ -319,9 +323,11 @@ def run_benchmark(options: BenchmarkOptions, record: BenchmarkRecord,
 def native_benchmark_file(options: BenchmarkOptions, record: BenchmarkRecord,
                           perturbed: int | None = None, *,
                           bridge: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The native loop of ``options`` as a test file (a mapping): the site ``lab1`` with
-    its ``transfer_system`` (plant, compensator, sensors, capacity) and, for a run through the
-    node graph, its ``bridge`` parameters."""
+    """The native loop of ``options`` as a test file (a mapping).
+
+    The site ``lab1`` with its ``transfer_system`` (plant, compensator, sensors, capacity) and, for
+    a run through the node graph, its ``bridge`` parameters.
+    """
     case = benchmark_case(options.case)
     params, plant_section, _label = _plant(options, perturbed)
     parameters = compensator_spec(options.controller).resolve(options.controller_parameters)

@@ -91,8 +91,10 @@ class BenchmarkLoopResult:
 
 def substructure_state_space(case: BenchmarkCase, specimen: PhysicalSpecimen
                              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(A, B)`` of the numerical substructure, state ``[x; ẋ]``, input ``[ẍ_g; F]``:
-    ``ẍ = −M_N⁻¹ (K_N x + C_N ẋ) − M_N⁻¹ M ι ẍ_g − M_N⁻¹ e_1 F``."""
+    """``(A, B)`` of the numerical substructure, state ``[x; ẋ]``, input ``[ẍ_g; F]``.
+
+    ``ẍ = −M_N⁻¹ (K_N x + C_N ẋ) − M_N⁻¹ M ι ẍ_g − M_N⁻¹ e_1 F``.
+    """
     m_n, c_n, k_n = numerical_substructure(case, specimen)
     n = m_n.shape[0]
     m_n_inv = np.linalg.inv(m_n)
@@ -106,9 +108,11 @@ def substructure_state_space(case: BenchmarkCase, specimen: PhysicalSpecimen
 def rk4_linear_map(a: NDArray[np.float64], b: NDArray[np.float64], h: float
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                               NDArray[np.float64]]:
-    """One classical RK4 step of ``ż = A z + b_g g(t) + b_f F`` as ``(A_rk, P, Q, R)``:
-    ``z⁺ = A_rk z + P g₀ + Q g₁ + R F``, with ``g`` at the stages ``g₀``, ``(g₀ + g₁)/2``,
-    ``(g₀ + g₁)/2``, ``g₁`` and ``F`` constant. Exact (the step is linear in its inputs)."""
+    """One classical RK4 step of ``ż = A z + b_g g(t) + b_f F`` as ``(A_rk, P, Q, R)``.
+
+    ``z⁺ = A_rk z + P g₀ + Q g₁ + R F``, with ``g`` at the stages ``g₀``, ``(g₀ + g₁)/2``, ``(g₀ +
+    g₁)/2``, ``g₁`` and ``F`` constant. Exact (the step is linear in its inputs).
+    """
     n = a.shape[0]
 
     def step(z: NDArray[np.float64], g0: float, g1: float, force: float

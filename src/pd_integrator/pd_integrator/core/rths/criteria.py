@@ -47,8 +47,10 @@ def _vector(name: str, values: ArrayLike, n: int | None = None) -> NDArray[np.fl
 
 
 def _nrms(error: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
-    """100 std(error) / std(reference); NaN for a reference at rest (a run that stopped
-    before the motion: no criterion)."""
+    """100 std(error) / std(reference).
+
+    NaN for a reference at rest (a run that stopped before the motion: no criterion).
+    """
     scale = float(np.std(reference, ddof=1))
     return float(100.0 * np.std(error, ddof=1) / scale) if scale > 0.0 else math.nan
 
@@ -126,10 +128,11 @@ def j_criteria(x_d: ArrayLike, x_m: ArrayLike, floors: ArrayLike, reference: Arr
 def native_j_criteria(x_d: ArrayLike, x_m: ArrayLike, reference_at_samples: ArrayLike,
                       floors: ArrayLike, reference_at_steps: ArrayLike,
                       dt: float) -> dict[str, float]:
-    """J1–J9 of a run whose floors are known at the integration steps only (``--loop
-    native``): J1–J5 at the controller samples (x_d, x_m against the reference's floor 1 at
-    the same instants, ``(n, 3)``), J6–J9 at the integration steps (``floors`` against
-    ``reference_at_steps``, both ``(m, 3)``).
+    """J1–J9 of a run whose floors are known at the integration steps only (``--loop native``).
+
+    J1–J5 at the controller samples (x_d, x_m against the reference's floor 1 at the same instants,
+    ``(n, 3)``), J6–J9 at the integration steps (``floors`` against ``reference_at_steps``, both
+    ``(m, 3)``).
 
     Raises:
         ConfigError: On arrays of the wrong shapes or a bad ``dt``.

@@ -78,8 +78,10 @@ class BenchmarkCase:
 
 
 def classical_damping(mass: Matrix, stiffness: Matrix, ratio: float) -> Matrix:
-    """``C = M Φ diag(2 ζ ω_i) Φᵀ M``: damping ratio ``ratio`` in every mode (Φ mass-normalised,
-    ``Φᵀ M Φ = I``)."""
+    """``C = M Φ diag(2 ζ ω_i) Φᵀ M``.
+
+    Damping ratio ``ratio`` in every mode (Φ mass-normalised, ``Φᵀ M Φ = I``).
+    """
     eigenvalues, modes = linalg.eigh(stiffness, mass)
     omega = np.sqrt(eigenvalues)
     damping = mass @ modes @ np.diag(2.0 * ratio * omega) @ modes.T @ mass
@@ -143,11 +145,12 @@ def padding_needed(acceleration: ArrayLike, samples: int) -> tuple[bool, bool]:
 def prepare_ground_motion(acceleration_m_s2: ArrayLike, dt_record: float,
                           intensity: float = 0.4, rate: float = 4096.0,
                           padding: float = 5.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The benchmark's input: the record × ``intensity`` with ``padding`` s of zeros before and
-    after where it does not have them yet (:func:`padding_needed`, ``round(padding /
-    dt_record)`` zero samples), resampled at ``rate`` Hz by linear interpolation (the zeros are
-    samples: the record goes to zero over one record step at each padded end, as the
-    zero-padded array does).
+    """The benchmark's input.
+
+    The record × ``intensity`` with ``padding`` s of zeros before and after where it does not have
+    them yet (:func:`padding_needed`, ``round(padding / dt_record)`` zero samples), resampled at
+    ``rate`` Hz by linear interpolation (the zeros are samples: the record goes to zero over one
+    record step at each padded end, as the zero-padded array does).
 
     The record's sample ``i`` is at ``before + i dt_record`` (``before`` = ``padding`` or 0);
     the output runs from 0 to ``before + after + (N − 1) dt_record`` (the last loop sample at or
@@ -212,8 +215,11 @@ def state_matrix(mass: Matrix, damping: Matrix, stiffness: Matrix) -> Matrix:
 
 
 def _foh_matrices(a: Matrix, b: Matrix, h: float) -> tuple[Matrix, Matrix, Matrix]:
-    """``(Φ, Γ0, Γ1)`` of ``ż = A z + B w`` over one step ``h`` with ``w`` linear between the
-    samples: ``z[k+1] = Φ z[k] + Γ0 w[k] + Γ1 w[k+1]`` (exact)."""
+    """``(Φ, Γ0, Γ1)`` of ``ż = A z + B w`` over one step with a first-order hold.
+
+    ``(Φ, Γ0, Γ1)`` of ``ż = A z + B w`` over one step ``h`` with ``w`` linear between the
+    samples: ``z[k+1] = Φ z[k] + Γ0 w[k] + Γ1 w[k+1]`` (exact).
+    """
     n, m = b.shape
     augmented = np.zeros((n + 2 * m, n + 2 * m))
     augmented[:n, :n] = a * h

@@ -71,8 +71,10 @@ SATURATED_PREFIX = 'saturated: '
 
 
 def default_bridge_file() -> Path:
-    """The actuator bridge's shipped parameters (installed share, or the source tree), as
-    ``run_test`` finds them."""
+    """The actuator bridge's shipped parameters (installed share, or the source tree).
+
+    As ``run_test`` finds them.
+    """
     try:
         path = share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
         if path.is_file():
@@ -187,8 +189,10 @@ class LimitRecord:
 
 
 class BridgeGate:
-    """One site's bridge in front of its in-process specimen: :meth:`handle` checks each command
-    and measurement as the bridge does and refuses (``apply``) or records (``apply=False``).
+    """One site's bridge in front of its in-process specimen.
+
+    :meth:`handle` checks each command and measurement as the bridge does and refuses (``apply``)
+    or records (``apply=False``).
 
     A refused step is answered as the bridge answers it (its status and message, the position
     and force last measured); the gate then refuses every new step (the bridge's hold is
@@ -296,8 +300,10 @@ class BridgeGate:
 
     def _refused(self, test_id: str, step: int, iteration: int, violation: LimitViolation
                  ) -> Feedback:
-        """Record the violation (and latch the hold, if applied); the bridge's answer to a step
-        it holds at."""
+        """Record the violation (and latch the hold, if applied).
+
+        The bridge's answer to a step it holds at.
+        """
         record = self._record(step, iteration, violation)
         self.holding = self.apply
         return self._reply(test_id, step, iteration, record.kind, violation.message)
@@ -321,9 +327,11 @@ class BridgeGate:
 
 
 def limits_summary(gates: Mapping[str, BridgeGate]) -> dict[str, Any]:
-    """``summary.json``'s ``bridge_limits``: each site's limits, and where the first bridge held
-    (``held``) or would have held (``would_have_held``, past the limits), and the first step
-    beyond each limit (``exceeded``)."""
+    """``summary.json``'s ``bridge_limits``.
+
+    Each site's limits, and where the first bridge held (``held``) or would have held
+    (``would_have_held``, past the limits), and the first step beyond each limit (``exceeded``).
+    """
     applied = all(gate.apply for gate in gates.values())
     records = [gate.held for gate in gates.values() if gate.held is not None]
     first = min(records, key=lambda r: (r.step, r.iteration), default=None)

@@ -265,8 +265,9 @@ def serve_queue(queue: deque[tuple[str, Command]],
 
 def site_servers(definition: TestDefinition, *, keep_samples: bool = False
                  ) -> dict[str, SiteServer]:
-    """The simulated specimen of every site (``''``: the test's ``specimen`` section); a site
-    with a ``transfer_system`` section is an actuator in continuous motion
+    """The simulated specimen of every site (``''``: the test's ``specimen`` section).
+
+    A site with a ``transfer_system`` section is an actuator in continuous motion
     (:class:`~pd_common.rths.ContinuousSiteServer`, its controller samples kept with
     ``keep_samples``).
 
@@ -325,8 +326,9 @@ def _continuous_site(definition: TestDefinition, site: str, section: Any, keep_s
 
 
 def _site_geometry(definition: TestDefinition, site: str) -> SiteGeometry:
-    """The setup and force ramp a simulated site takes from the test file (as the simulator
-    node does: :func:`~pd_common.specimen.site_geometry`).
+    """The setup and force ramp a simulated site takes from the test file.
+
+    As the simulator node does: :func:`~pd_common.specimen.site_geometry`.
 
     """
     if not site or definition.model is None:
@@ -482,8 +484,11 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
 
 def _owed(dispatcher: StepDispatcher, unrecorded: list[tuple[str, Command]]
           ) -> list[tuple[str, Command]]:
-    """The site commands still unanswered: those never recorded, and those recorded (sent:
-    the specimen may have executed them) whose answer is not on record."""
+    """The site commands still unanswered.
+
+    Those never recorded, and those recorded (sent: the specimen may have executed them) whose
+    answer is not on record.
+    """
     owed = list(unrecorded)
     coordinator = dispatcher.coordinator
     for site in dispatcher.sites:

@@ -33,8 +33,11 @@ def unit_sdof(omega_dt: float, xi: float) -> tuple[float, float]:
 def newmark_amplification(
     beta: float, gamma: float, lhs_motion: list[float], rhs_motion: list[float]
 ) -> np.ndarray:
-    """:func:`amplification_from` with Newmark's ``x``, ``v`` updates (``β``, ``γ``) as the
-    first two rows and the scheme's equation of motion as the third."""
+    """:func:`amplification_from` with Newmark's updates.
+
+    :func:`amplification_from` with Newmark's ``x``, ``v`` updates (``β``, ``γ``) as the
+    first two rows and the scheme's equation of motion as the third.
+    """
     lhs = [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], lhs_motion]
     rhs = [[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma], rhs_motion]
     return amplification_from(lhs, rhs)

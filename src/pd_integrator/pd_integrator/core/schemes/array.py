@@ -62,7 +62,9 @@ class ArrayIntegrator(Integrator):
     def _weighted_rhs(
         self, alpha_f: float, load: Any, r_new: NDArray[np.float64], v_new: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
+        """The weighted right-hand side of HHT-α and generalized-α.
+
+        ``(1 − α_f)(p_{n+1} − r_{n+1} − C v_{n+1}) + α_f (p_n − r_n − C v_n)`` (HHT-α,
         generalized-α), with the committed state at ``t_n``.
 
         An MDOF keeps ``p_{n+1} − r_{n+1} − C v_{n+1}`` with the arrays it was made of: when
@@ -85,9 +87,11 @@ class ArrayIntegrator(Integrator):
 
 
 class GeneralizedAlphaFamily(ArrayIntegrator):
-    """Common base of the schemes with Chung & Hulbert's (1993) parameters of ``rho_inf``
-    (:class:`.GeneralizedAlphaOS`, :class:`.KRAlpha`): unconditionally stable for specimens
-    not stiffer than ``K_I`` (required)."""
+    """Common base of the schemes with Chung & Hulbert's (1993) parameters.
+
+    Parameters of ``rho_inf`` (:class:`.GeneralizedAlphaOS`, :class:`.KRAlpha`): unconditionally
+    stable for specimens not stiffer than ``K_I`` (required).
+    """
 
     stability_limit: float = math.inf
     needs_initial_stiffness: ClassVar[bool] = True

@@ -310,7 +310,9 @@ class Integrator(abc.ABC):
 
     @classmethod
     def numerical_frequency(cls, omega_dt: float) -> float | None:
-        """Closed-form numerical frequency ``Ω̄(Ω)`` of the undamped mode at the default
+        """Closed-form numerical frequency ``Ω̄(Ω)`` of the undamped mode, or ``None``.
+
+        Closed-form numerical frequency ``Ω̄(Ω)`` of the undamped mode at the default
         parameters, or ``None`` if the scheme has none (the spectral analysis is used).
 
         Args:
@@ -584,10 +586,12 @@ class Integrator(abc.ABC):
         return self._export(self._x)
 
     def committed_state(self) -> tuple[Any, Any, Any]:
-        """The committed ``x_i``, ``v_i``, ``a_i`` as held: floats for one DOF, else the
-        integrator's own arrays (no copies: read them at once, never write them). The values
-        of :attr:`x`, :attr:`v`, :attr:`a` without their per-call read-only copies (the
-        session records them into its history every step)."""
+        """The committed ``x_i``, ``v_i``, ``a_i`` as held.
+
+        Floats for one DOF, else the integrator's own arrays (no copies: read them at once, never
+        write them). The values of :attr:`x`, :attr:`v`, :attr:`a` without their per-call read-only
+        copies (the session records them into its history every step).
+        """
         return self._x, self._v, self._a
 
     @property
@@ -636,14 +640,19 @@ class Integrator(abc.ABC):
 
     @property
     def status(self) -> str:
-        """``'idle'`` before :meth:`initialize`, ``'running'``, or ``'failed'`` after a
-        non-finite trial state (call :meth:`initialize` to restart)."""
+        """The scheme's status: ``'idle'``, ``'running'`` or ``'failed'``.
+
+        ``'idle'`` before :meth:`initialize`, ``'running'``, or ``'failed'`` after a non-finite
+        trial state (call :meth:`initialize` to restart).
+        """
         return self._status
 
     @property
     def phase(self) -> str:
-        """Phase of the current step: ``'committed'``, ``'predicted'``, ``'iterating'`` or
-        ``'corrected'``."""
+        """Phase of the current step.
+
+        ``'committed'``, ``'predicted'``, ``'iterating'`` or ``'corrected'``.
+        """
         return self._phase
 
     @property
@@ -662,6 +671,7 @@ class Integrator(abc.ABC):
         return self._initial_stiffness
 
     def __repr__(self) -> str:
+        """The scheme's class, size, time step, step, status and phase."""
         return (
             f'{type(self).__name__}(n_dof={self._n}, dt={self._dt!r}, step={self._step}, '
             f'status={self._status!r}, phase={self._phase!r})'

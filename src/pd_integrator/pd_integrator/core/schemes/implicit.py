@@ -271,8 +271,11 @@ class NewmarkImplicit(ArrayIntegrator):
         return self._iteration_matrix.solve(residual)
 
     def _forward(self, position: np.ndarray, increment: np.ndarray) -> np.ndarray:
-        """The imposed increment from ``position``: with ``forward_only``, components that
-        would reverse a DOF's motion within the step are dropped; reversals are counted."""
+        """The imposed increment from ``position``.
+
+        With ``forward_only``, components that would reverse a DOF's motion within the step are
+        dropped; reversals are counted.
+        """
         backwards = self._direction * increment < 0.0
         noise = np.abs(increment) <= _NOISE_ULPS * np.spacing(np.abs(position))
         self._reversals_trial += int(np.count_nonzero(backwards & ~noise))

@@ -107,9 +107,12 @@ Bands = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 
 def large_bands(matrix: Any) -> Bands | None:
-    """``(lower, diagonal, upper)`` (copies) of a dense tridiagonal matrix of at least
+    """The bands of a large dense tridiagonal matrix, else ``None``.
+
+    ``(lower, diagonal, upper)`` (copies) of a dense tridiagonal matrix of at least
     :data:`LARGE_MODEL_DOF` rows (a shear building, a chain; a diagonal one too), else
-    ``None``. One counting pass over the matrix; everything else is then O(n)."""
+    ``None``. One counting pass over the matrix; everything else is then O(n).
+    """
     if not isinstance(matrix, np.ndarray) or matrix.ndim != 2 or (
             matrix.shape[0] < LARGE_MODEL_DOF or matrix.shape[0] != matrix.shape[1]):
         return None
@@ -140,8 +143,11 @@ class Tridiagonal:
 
     @classmethod
     def of_csr(cls, matrix: Any) -> Tridiagonal | None:
-        """The bands of a large square scipy CSR matrix in canonical form whose entries are
-        all on the three middle diagonals, else ``None``."""
+        """The bands of a large tridiagonal scipy CSR matrix, else ``None``.
+
+        The bands of a large square scipy CSR matrix in canonical form whose entries are
+        all on the three middle diagonals, else ``None``.
+        """
         if not scipy.sparse.issparse(matrix) or matrix.format != 'csr':
             return None
         n = matrix.shape[0]
@@ -155,6 +161,7 @@ class Tridiagonal:
                    np.asarray(matrix.diagonal(1), dtype=float))
 
     def __matmul__(self, other: NDArray[np.float64], /) -> NDArray[np.float64]:
+        """The product of the matrix with ``other`` (a vector or the columns of a matrix)."""
         x = np.asarray(other, dtype=float)
         if x.ndim != 1:
             columns: NDArray[np.float64] = self.csr() @ x
@@ -172,8 +179,11 @@ class Tridiagonal:
 
 
 def large_diagonal(matrix: np.ndarray) -> NDArray[np.float64] | None:
-    """The diagonal of ``matrix`` if it is a diagonal matrix of at least
-    :data:`LARGE_MODEL_DOF` rows (a copy), else ``None``."""
+    """The diagonal of a large diagonal ``matrix`` (a copy), else ``None``.
+
+    The diagonal of ``matrix`` if it is a diagonal matrix of at least
+    :data:`LARGE_MODEL_DOF` rows (a copy), else ``None``.
+    """
     if matrix.ndim != 2 or matrix.shape[0] < LARGE_MODEL_DOF or (
             matrix.shape[0] != matrix.shape[1]):
         return None
@@ -192,8 +202,11 @@ class MatrixOperator(Protocol):
 
 
 def operator(matrix: np.ndarray) -> MatrixOperator:
-    """``matrix`` for repeated products: its bands (:class:`Tridiagonal`) when it is large and
-    tridiagonal, CSR when it is large and sparse, else itself."""
+    """``matrix`` for repeated products.
+
+    Its bands (:class:`Tridiagonal`) when it is large and tridiagonal, CSR when it is large and
+    sparse, else itself.
+    """
     bands = large_bands(matrix)
     if bands is not None:
         return Tridiagonal(*bands)
@@ -237,10 +250,12 @@ def cholesky_or_lu(matrix: np.ndarray, symmetric: bool, bands: Bands | None = No
 
 def _tridiagonal_cholesky(matrix: np.ndarray, bands: Bands | None = None
                           ) -> tuple[str, Any] | None:
-    """``('tridiagonal', (d, e))``, the ``L D Lᵀ`` factors of LAPACK ``?pttrf``, for a large
-    (:data:`LARGE_MODEL_DOF`) symmetric positive definite tridiagonal matrix (a shear
+    """``('tridiagonal', (d, e))``, the ``L D Lᵀ`` factors of LAPACK ``?pttrf``.
+
+    For a large (:data:`LARGE_MODEL_DOF`) symmetric positive definite tridiagonal matrix (a shear
     building, a chain: ``M + γΔt C + βΔt² K``), else ``None``. A solve is then O(n) with no
-    sparse-matrix overhead."""
+    sparse-matrix overhead.
+    """
     if bands is None:
         bands = large_bands(matrix)
         if bands is None:

@@ -128,8 +128,10 @@ class NewmarkExplicit(Integrator):
     @classmethod
     def _amplification(cls, omega_dt: float, xi: float, parameters: Mapping[str, Any]
                        ) -> np.ndarray:
-        """Thesis eq. 3.7 on ``(x, Δt·v, Δt²·a)``; with damping, eqs. 3.20–3.22 with
-        ``c = 2ξω`` (:func:`amplification_matrix_newmark_explicit` for ``ξ = 0``).
+        """The scheme's amplification matrix.
+
+        Thesis eq. 3.7 on ``(x, Δt·v, Δt²·a)``; with damping, eqs. 3.20–3.22 with ``c = 2ξω``
+        (:func:`amplification_matrix_newmark_explicit` for ``ξ = 0``).
         """
         if xi == 0.0:
             return amplification_matrix_newmark_explicit(omega_dt)
@@ -211,6 +213,7 @@ class NewmarkExplicit(Integrator):
         return a_new, v_new
 
     def predict(self) -> np.ndarray:
+        """Compute the trial displacement of the next step (an SDOF fast path)."""
         # SDOF fast path: same checks and arithmetic as the generic path, fewer calls.
         if self._scalar and self._status == 'running' and self._phase == COMMITTED:
             dt = self._dt
@@ -222,6 +225,7 @@ class NewmarkExplicit(Integrator):
         return super().predict()
 
     def correct(self, restoring_force: Any, load: Any) -> None:
+        """Compute the trial acceleration and velocity (an SDOF fast path)."""
         # SDOF fast path for float inputs (numpy float64 and one-element arrays included);
         # anything else goes through the validating path of the base class.
         if self._scalar:

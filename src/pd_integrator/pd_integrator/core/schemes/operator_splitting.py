@@ -44,7 +44,9 @@ __all__ = ['AlphaOS', 'GeneralizedAlphaOS']
 
 
 class _OperatorSplitting(ArrayIntegrator):
-    """OS predictor/corrector for the generalized-α weighting (Chung & Hulbert 1993)::
+    """OS predictor/corrector for the generalized-α weighting (Chung & Hulbert 1993).
+
+    The equation of motion it satisfies::
 
         M [(1 − α_m) a_{n+1} + α_m a_n] + (1 − α_f)(C v_{n+1} + r_{n+1} − p_{n+1})
             + α_f (C v_n + r_n − p_n) = 0

@@ -161,9 +161,11 @@ class StepDispatcher:
             self.start()
 
     def on_offer(self, site: str, epoch: str, origin: StateOrigin) -> str | None:
-        """A site announces its specimen state (its session offer): a fresh state that replaced
-        the test's specimen holds the test before any answer of it is taken; ``None`` if the
-        state may be driven, else why not."""
+        """A site announces its specimen state (its session offer).
+
+        A fresh state that replaced the test's specimen holds the test before any answer of it is
+        taken; ``None`` if the state may be driven, else why not.
+        """
         noted = len(self.epochs.changes)
         reason = self.epochs.check_state(site, epoch, origin, self.session.committed_step + 1,
                                          announced=True)

@@ -67,9 +67,11 @@ class EpochGuard:
 
     def check_state(self, site: str, epoch: str, origin: StateOrigin, step: int, *,
                     announced: bool = False) -> str | None:
-        """:meth:`check` of a state a site answers from, or (``announced``) one its session
-        offer announces — an offer may lag behind the answers, so an epoch this site already
-        answered from is not a change."""
+        """:meth:`check` of a state a site answers from.
+
+        Or (``announced``) one its session offer announces — an offer may lag behind the answers,
+        so an epoch this site already answered from is not a change.
+        """
         if not epoch:
             return None
         known = self.epochs.get(site)

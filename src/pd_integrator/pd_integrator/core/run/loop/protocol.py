@@ -94,9 +94,12 @@ class StepProtocol:
         return verdict
 
     def accept(self, feedback: Feedback) -> None:
-        """Take ``feedback``, whose :meth:`verdict` was just found ``ACCEPTED`` (nothing changed
+        """Take ``feedback`` just found ``ACCEPTED`` as the answer to the pending command.
+
+        Take ``feedback``, whose :meth:`verdict` was just found ``ACCEPTED`` (nothing changed
         since): it answers the pending command, which is cleared (:meth:`classify` without
-        classifying it a second time)."""
+        classifying it a second time).
+        """
         answered = (feedback.test_id, feedback.step, feedback.iteration)
         self._answered.add(answered)
         self._last_answered = answered

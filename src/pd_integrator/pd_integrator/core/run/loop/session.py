@@ -41,9 +41,12 @@ def _all_finite(values: tuple[float, ...] | FloatArray) -> bool:
 
 
 class _Target(tuple[float, ...]):
-    """A command's target displacement: a tuple of floats that also holds them as the
-    integrator's read-only array, which ``np.array``/``np.asarray`` return without reading the
-    floats back one by one (the coordinator, the bag, the tracking check of a large model)."""
+    """A command's target displacement.
+
+    A tuple of floats that also holds them as the integrator's read-only array, which
+    ``np.array``/``np.asarray`` return without reading the floats back one by one (the coordinator,
+    the bag, the tracking check of a large model).
+    """
 
     _array: FloatArray | None = None
 
@@ -273,8 +276,11 @@ class TestSession:
 
     # -- internals ----------------------------------------------------------------------------
     def _implausible(self, pending: Command, feedback: Feedback) -> str | None:
-        """Why the measured displacement cannot be committed (non-finite, or too far from the
-        command: ``protocol.tracking_tolerance``), or ``None``."""
+        """Why the measured displacement cannot be committed, or ``None``.
+
+        Why the measured displacement cannot be committed (non-finite, or too far from the
+        command: ``protocol.tracking_tolerance``), or ``None``.
+        """
         measured = feedback.measured_displacement
         if len(measured) != self.definition.n_dof or not _all_finite(measured):
             return (f'step {feedback.step}: invalid measured displacement {list(measured)!r} '

@@ -83,8 +83,10 @@ class Steering:
         return True
 
     def after_feedback(self, feedback: Feedback, was: TestState) -> None:
-        """A feedback that put the test on hold: a safety limit or an emergency stop at the
-        specimen side is a person's to clear."""
+        """A feedback that put the test on hold.
+
+        A safety limit or an emergency stop at the specimen side is a person's to clear.
+        """
         if was is TestState.HOLDING or self.session.state is not TestState.HOLDING:
             return
         if EMERGENCY_MARK in feedback.message:

@@ -190,12 +190,14 @@ class BagRecorder:
             self._writer = None
 
     def __enter__(self) -> BagRecorder:
+        """Open the bag."""
         return self.open()
 
     def flush(self, *, sync: bool = True) -> None:
         """Nothing to do: the writer buffers until :meth:`close` (the journal is durable)."""
 
     def __exit__(self, *exc: object) -> None:
+        """Close the bag."""
         self.close()
 
     def _connection(self, topic: str) -> Connection:

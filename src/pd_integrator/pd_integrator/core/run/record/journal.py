@@ -83,30 +83,40 @@ _ENCODE = json.JSONEncoder(separators=(',', ':'), allow_nan=True).encode
 class RunRecorder(Protocol):
     """What records a run (the journal during a test; a bag when converting)."""
 
-    def write_definition(self, text: str, t_ns: int) -> None: ...
+    def write_definition(self, text: str, t_ns: int) -> None:
+        """Record the test definition."""
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None) -> None: ...
+                      signature: Signature | None = None) -> None:
+        """Record a command sent to a site."""
 
     def write_feedback(self, feedback: Feedback, t_ns: int,
                        topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None) -> None: ...
+                       signature: Signature | None = None) -> None:
+        """Record a site's feedback."""
 
     def write_status(self, status: Status, t_ns: int, *,
-                     topic: str = TOPIC_STATUS) -> None: ...
+                     topic: str = TOPIC_STATUS) -> None:
+        """Record a status."""
 
-    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None: ...
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+        """Record a serialized message of ``topic``."""
 
-    def write_event(self, what: str, t_ns: int, **info: Any) -> None: ...
+    def write_event(self, what: str, t_ns: int, **info: Any) -> None:
+        """Record an event of the run."""
 
-    def flush(self, *, sync: bool = True) -> None: ...
+    def flush(self, *, sync: bool = True) -> None:
+        """Hand the records to the operating system (and ``fsync`` with ``sync``)."""
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Write what is pending and close."""
 
 
 class RecordWriteError(BagError):
-    """The run's record (its journal, or the bag made of it) cannot be written: a full disk, a
-    file system gone read-only. One line naming the file, the reason and what to do."""
+    """The run's record (its journal, or the bag made of it) cannot be written.
+
+    A full disk, a file system gone read-only. One line naming the file, the reason and what to do.
+    """
 
 
 def _signature(signature: Signature | None) -> list[Any] | None:
@@ -174,9 +184,11 @@ class Journal:
         return self
 
     def __enter__(self) -> Journal:
+        """Open the journal."""
         return self.open()
 
     def __exit__(self, *exc: object) -> None:
+        """Close the journal."""
         self.close()
 
     def _add(self, record: dict[str, Any]) -> None:
@@ -225,16 +237,19 @@ class Journal:
                    'cdr': base64.b64encode(data).decode('ascii')})
 
     def write_event(self, what: str, t_ns: int, **info: Any) -> None:
-        """Record an event of the run (resumed, a process restarted, ...); kept in
-        :attr:`events` too."""
+        """Record an event of the run (resumed, a process restarted, ...).
+
+        Kept in :attr:`events` too.
+        """
         self._add({'k': 'ev', 't': t_ns, 'what': what, **info})
         self.events.append({'what': what, **info, 't_ns': t_ns})
 
     # -- durability ---------------------------------------------------------------------------
     def flush(self, *, sync: bool = True) -> None:
-        """Hand the new records to the operating system; ``fsync`` if the interval is over
-        (and ``sync``: records a crash may lose, as a command the resumed run recomputes,
-        need no ``fsync`` of their own).
+        """Hand the new records to the operating system.
+
+        ``fsync`` if the interval is over (and ``sync``: records a crash may lose, as a command the
+        resumed run recomputes, need no ``fsync`` of their own).
 
         Raises:
             RecordWriteError: the records cannot be written (the file is closed then).
@@ -256,8 +271,9 @@ class Journal:
             raise self._write_failed(err) from None
 
     def persist(self) -> None:
-        """Hand the new records to the operating system and ``fsync`` now (an emergency
-        stop, a person's hold: on disk before the node answers anything else).
+        """Hand the new records to the operating system and ``fsync`` now.
+
+        An emergency stop, a person's hold: on disk before the node answers anything else.
 
         Raises:
             RecordWriteError: the records cannot be written (the file is closed then).
@@ -271,8 +287,10 @@ class Journal:
             self._synced = self._clock()
 
     def close(self) -> None:
-        """Write and sync what is pending; close the file (a journal whose writing failed is
-        only closed: its error was raised already).
+        """Write and sync what is pending.
+
+        Close the file (a journal whose writing failed is only closed: its error was raised
+        already).
 
         Raises:
             RecordWriteError: what was pending cannot be written (the file is closed).
@@ -290,8 +308,11 @@ class Journal:
         self._file = None
 
     def _write_failed(self, err: OSError) -> RecordWriteError:
-        """Close the file after a failed write (what it still buffers is dropped) and return
-        the error to raise."""
+        """Close the file after a failed write and return the error to raise.
+
+        Close the file after a failed write (what it still buffers is dropped) and return
+        the error to raise.
+        """
         self._pending.clear()
         file, self._file = self._file, None
         if file is not None:
@@ -403,8 +424,10 @@ def _record(raw: Any) -> JournalRecord:
 
 def iter_journal_records(path: str | Path, notes: list[str] | None = None
                          ) -> Iterator[JournalRecord]:
-    """The complete records of a journal, one at a time (a long run's journal is never held
-    in memory whole); a last line a crash cut short is skipped and described in ``notes``.
+    """The complete records of a journal.
+
+    One at a time (a long run's journal is never held in memory whole); a last line a crash cut
+    short is skipped and described in ``notes``.
 
     Raises:
         BagError: the file cannot be read, or a complete line is malformed.

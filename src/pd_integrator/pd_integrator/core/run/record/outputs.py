@@ -355,8 +355,11 @@ def draw_run_figures(history: ResponseHistory, directory: str | Path, *, title: 
 
 
 def prepare_figures() -> None:
-    """Import matplotlib and draw a small figure (fonts, text layout), as the first of a run's
-    figures would: a process that draws later starts at once (``.figure_worker``)."""
+    """Import matplotlib and draw a small figure (fonts, text layout).
+
+    As the first of a run's figures would: a process that draws later starts at once
+    (``.figure_worker``).
+    """
     plt = pyplot()
     figure, axes = plt.subplots(figsize=(2, 2), layout='constrained')
     axes.plot([0.0, 1.0], [0.0, 1.0], linewidth=1.0)
