@@ -318,7 +318,7 @@ def protocol_work_us(offline_us: float) -> tuple[float, str]:
     """The step protocol's own work per step outside DDS [µs]: run_offline's loop (session,
     dispatcher, specimen server, journal) plus one sign and one verify of a command and of a
     feedback (``bench_security``); and how it was made up."""
-    from bench_security import message_costs
+    from _message_costs import message_costs
 
     auth = message_costs(5000)
     auth_us = sum(auth.values())
