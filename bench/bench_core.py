@@ -85,14 +85,14 @@ OPENSEES_SCRIPT = textwrap.dedent('''\
 
 def ground_acceleration() -> list[float]:
     """The record at Δt [m/s²], as ``bench/iterations_table.py`` reads it."""
-    from pd_integrator.core.dynamics.record_readers import read_ground_motion
+    from pd_core.dynamics.record_readers import read_ground_motion
 
     return [float(a) for a in read_ground_motion(RECORD).resampled(DT).acceleration]
 
 
 def definition(record: list[float]) -> Any:
     """The EPP SDOF test (simulated specimen at the default site)."""
-    from pd_integrator.core.run.test_file import from_dict
+    from pd_core.run.test_file import from_dict
 
     raw = {
         'test': {'id': 'core-vs-opensees', 'scheme': 'newmark_explicit', 'dt': DT},
@@ -111,9 +111,9 @@ def core_loop(test: Any) -> tuple[float, int, float]:
     import numpy as np
 
     from pd_common.protocol import Command, TestState
-    from pd_integrator.core.run.loop.dispatch import StepDispatcher
-    from pd_integrator.core.run.loop.session import TestSession
-    from pd_integrator.core.run.runner import serve_queue, site_servers
+    from pd_core.run.loop.dispatch import StepDispatcher
+    from pd_core.run.loop.session import TestSession
+    from pd_core.run.runner import serve_queue, site_servers
 
     servers = site_servers(test)
     session = TestSession(test)

@@ -271,9 +271,9 @@ def check_record(run: Any, steps: int) -> tuple[bool, str]:
 def step_loop(definition: Any, recorder_factory: Callable[[], Any] | None
               ) -> tuple[float, int, int]:
     """The step loop of ``run_offline`` with a recorder (or none): seconds, steps, fsyncs."""
-    from pd_integrator.core.run.loop.dispatch import StepDispatcher
-    from pd_integrator.core.run.loop.session import TestSession
-    from pd_integrator.core.run.runner import serve_queue, site_servers
+    from pd_core.run.loop.dispatch import StepDispatcher
+    from pd_core.run.loop.session import TestSession
+    from pd_core.run.runner import serve_queue, site_servers
 
     servers = site_servers(definition)
     session = TestSession(definition)
@@ -307,9 +307,9 @@ def _remove(path: Path) -> None:
 
 def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
     """Section 1: µs/step without and with the journal, fsync per step, the conversion."""
-    from pd_integrator.core.run.record.bag import BagRecorder
-    from pd_integrator.core.run.record.journal import Journal, journal_to_bag
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.record.bag import BagRecorder
+    from pd_core.run.record.journal import Journal, journal_to_bag
+    from pd_core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     work = work / 'core'
@@ -400,7 +400,7 @@ PROGRESS = re.compile(r'step\s+(\d+)/(\d+)')
 
 def soak_definition(steps: int) -> Any:
     """The default test with ``test.duration`` for ``steps`` steps."""
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.test_file import load_test_file
 
     dt = load_test_file(DEFAULT_TEST, {}).dt
     definition = load_test_file(DEFAULT_TEST, {'duration': steps * dt})
@@ -438,7 +438,7 @@ def soak_worker(directory: Path, steps: int) -> int:
 
     Prints what it saw as one JSON line (the last line of its standard output).
     """
-    from pd_integrator.core.run import runner
+    from pd_core.run import runner
 
     definition = soak_definition(steps)
     phases: dict[str, dict[str, float]] = {}
@@ -496,8 +496,8 @@ def bench_soak(table: Table, steps: int, work: Path) -> tuple[Figures, Path | No
 
     Returns the figures and the soak's run folder (None: it failed).
     """
-    from pd_integrator.core.run.record.journal import read_journal
-    from pd_integrator.core.run.runner import load_run
+    from pd_core.run.record.journal import read_journal
+    from pd_core.run.runner import load_run
 
     section = '2 soak'
     out = work / 'soak-run'
@@ -678,8 +678,8 @@ def check_recovered(killed: KilledRun, summary: dict[str, Any], full_run: Path) 
 def bench_recovery(table: Table, work: Path, overrides: dict[str, Any],
                    soak_run: Path | None) -> Figures:
     """Section 3: recover_run of a journal cut mid-line (default test, and the soak's)."""
-    from pd_integrator.core.run.runner import recover_run, run_offline
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.runner import recover_run, run_offline
+    from pd_core.run.test_file import load_test_file
 
     section = '3 recovery'
     work = work / 'recovery'
@@ -766,7 +766,7 @@ def bench_recovery(table: Table, work: Path, overrides: dict[str, Any],
 # -- 4. the soak through the node graph (--graph-soak) ---------------------------------------
 def soak_test_file(steps: int, directory: Path) -> Path:
     """The default test with ``test.duration`` for ``steps`` steps (absolute record path)."""
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.test_file import load_test_file
 
     raw = yaml.safe_load(DEFAULT_TEST.read_text(encoding='utf-8'))
     raw['test']['duration'] = steps * float(raw['test']['dt'])
@@ -937,7 +937,7 @@ def run_soak(test: Path, out: Path, domain_id: int, timeout: float) -> SoakRun:
 def check_bag(bag: Path, steps: int) -> tuple[bool, str, float]:
     """Whether ``read_bag`` reads it and it holds a command and a feedback for every step."""
     from pd_common.protocol import Command, Feedback
-    from pd_integrator.core.run.record.bag import read_bag
+    from pd_core.run.record.bag import read_bag
 
     start = time.perf_counter()
     try:
@@ -968,8 +968,8 @@ def _quantiles(samples: list[Sample]) -> list[Sample]:
 
 def bench_graph_soak(table: Table, steps: int, domain_id: int, work: Path) -> Figures:
     """Section 4: the graph soak, its memory, rate, bag and replay."""
-    from pd_integrator.core.run.record.journal import journal_to_bag
-    from pd_integrator.core.run.runner import rebuild_outputs
+    from pd_core.run.record.journal import journal_to_bag
+    from pd_core.run.runner import rebuild_outputs
 
     section = '4 graph soak'
     test = soak_test_file(steps, work)

@@ -7,7 +7,7 @@ Run inside the sourced workspace (``. scripts/env.sh``)::
 or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
 
 1. ROS-free core, default test (``config/default_test.yaml``): steps/s of
-   ``pd_integrator.core.run.runner.run_offline`` (session + simulated specimen + MCAP bag), and of
+   ``pd_core.run.runner.run_offline`` (session + simulated specimen + MCAP bag), and of
    the session loop alone (``TestSession`` + ``SpecimenServer``, no bag); best of 3.
 2. The node graph, one process per node, started by the launcher (``run_test``) for
    ``--site bridge`` and ``--site direct``, best of 2 runs (concurrent load on the machine
@@ -271,9 +271,9 @@ def bench_core(table: Table, overrides: dict[str, Any], work: Path) -> float:
     """run_offline (with the bag) and the bare session loop (no bag), best of REPEATS;
     returns run_offline's loop time per step [s]."""
     from pd_common.specimen import SpecimenServer, specimen_from_config
-    from pd_integrator.core.run.loop.session import TestSession
-    from pd_integrator.core.run.runner import run_offline
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.loop.session import TestSession
+    from pd_core.run.runner import run_offline
+    from pd_core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     loop_times: list[float] = []
@@ -330,7 +330,7 @@ def protocol_work_us(offline_us: float) -> tuple[float, str]:
 def _round_trips_from_bag(bag: Path) -> list[float]:
     """Round trips [s]: accepted feedback log time minus its step's last command log time."""
     from pd_common.protocol import Command, FeedbackStatus
-    from pd_integrator.core.run.record.bag import read_bag
+    from pd_core.run.record.bag import read_bag
 
     samples: list[float] = []
     pending: tuple[str, int, int] | None = None  # test_id, step, t_ns of its last send
@@ -618,7 +618,7 @@ def select_schemes(text: str | None) -> list[str]:
     Raises:
         ValueError: an unknown scheme name.
     """
-    from pd_integrator.core.schemes import SCHEMES
+    from pd_core.schemes import SCHEMES
 
     if text is None or text.strip() == 'all':
         return list(SCHEMES)
@@ -634,7 +634,7 @@ def select_schemes(text: str | None) -> list[str]:
 
 def required_parameters(scheme: str) -> list[str]:
     """Keyword-only constructor parameters of a scheme that have no default."""
-    from pd_integrator.core.schemes import SCHEMES
+    from pd_core.schemes import SCHEMES
 
     signature = inspect.signature(SCHEMES[scheme].__init__)
     return [p.name for p in signature.parameters.values()
@@ -643,7 +643,7 @@ def required_parameters(scheme: str) -> list[str]:
 
 def defaults_rejected(scheme: str, definition: Any) -> str:
     """Why a scheme cannot run the test with its default parameters ('' if it can)."""
-    from pd_integrator.core.schemes import make_integrator
+    from pd_core.schemes import make_integrator
 
     structure = definition.structure()
     try:
@@ -666,7 +666,7 @@ def session_loop(definition: Any) -> tuple[float, int]:
     """
     from pd_common.protocol import TestState
     from pd_common.specimen import SpecimenServer, specimen_from_config
-    from pd_integrator.core.run.loop.session import TestSession
+    from pd_core.run.loop.session import TestSession
 
     specimen = specimen_from_config(definition.specimen, base_dir=definition.base_dir,
                                     source=definition.source, dof_names=definition.dof_names)
@@ -697,8 +697,8 @@ def shear_building_definition() -> tuple[Any, float, float, float]:
     import numpy as np
     import scipy.linalg
 
-    from pd_integrator.core.run.test_file import from_dict
-    from pd_integrator.core.schemes import SCHEMES
+    from pd_core.run.test_file import from_dict
+    from pd_core.schemes import SCHEMES
 
     n = SHEAR_STORIES
     k = SHEAR_STIFFNESS
@@ -745,7 +745,7 @@ def _best_rate(definition: Any, repeats: int) -> tuple[float, int]:
 
 def bench_schemes(schemes: list[str], overrides: dict[str, Any], verbose: bool) -> SchemeBench:
     """Section 5: per scheme, steps/s of the ROS-free core for the SDOF and the 200-DOF test."""
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.test_file import load_test_file
 
     result = SchemeBench()
     if not schemes:
@@ -950,7 +950,7 @@ def main(argv: list[str] | None = None) -> int:
     overrides: dict[str, Any] = {'duration': QUICK_DURATION} if args.quick else {}
     param_args = ['-p', f'duration:={QUICK_DURATION}'] if args.quick else []
 
-    from pd_integrator.core.run.test_file import load_test_file
+    from pd_core.run.test_file import load_test_file
 
     definition = load_test_file(DEFAULT_TEST, overrides)
     try:

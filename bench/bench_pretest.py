@@ -9,7 +9,7 @@ issue-13 core benchmark (m 1 kg, k 39.478 N/m, c 0.251 N s/m, u_y 0.025 m), the 
 softening bilinear (b = −0.05, residual force 0.3 F_y) and as the thesis's pushover hysteresis
 (bilinear backbone, b = 0.01) — ``--systems`` systems (100 scale factors 0.5–1.5 of El Centro ×
 yield forces ±20 %) under El Centro at its own dt = 0.02 s (1,559 steps), Newmark explicit,
-integrated by :func:`pd_integrator.core.pretest.integrate` (building the vectorised model from
+integrated by :func:`pd_pretest.core.integrate` (building the vectorised model from
 the scalar models included), best of 3, in one process and in ``--workers`` processes.
 
 Figures (printed, and merged into ``bench/results.json``; other keys are kept):
@@ -35,8 +35,8 @@ from pd_common.specimen import (
     PushoverHysteresis,
     bilinear_backbone,
 )
-from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.pretest import BatchSystems, integrate
+from pd_core.dynamics.record_readers import read_ground_motion
+from pd_pretest.core import BatchSystems, integrate
 
 REPO = Path(__file__).resolve().parents[1]
 RECORD = (REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions'

@@ -56,13 +56,13 @@ from pd_common.rths import (
 )
 from pd_common.rths.compensation import DEFAULT_COMPENSATOR
 from pd_common.rths.realtime import RealtimeLoop, RealtimeStatistics
-from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.rths.native_loop import SITE, native_test_file, run_native_loop
-from pd_integrator.core.rths.problem import benchmark_case
-from pd_integrator.core.run.loop.dispatch import StepDispatcher
-from pd_integrator.core.run.loop.session import TestSession
-from pd_integrator.core.run.runner import site_servers
-from pd_integrator.core.run.test_file import from_dict
+from pd_core.dynamics.record_readers import read_ground_motion
+from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.session import TestSession
+from pd_core.run.runner import site_servers
+from pd_core.run.test_file import from_dict
+from pd_rths_benchmark.core.native_loop import SITE, native_test_file, run_native_loop
+from pd_rths_benchmark.core.problem import benchmark_case
 
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')

@@ -75,10 +75,10 @@ def core_large(n: int, steps: int, scheme: str = 'newmark_explicit',
     servers. ``setup_s`` is the reading plus the fastest session set-up.
     """
     from pd_common.protocol import Command
-    from pd_integrator.core.run.loop.dispatch import StepDispatcher
-    from pd_integrator.core.run.loop.session import TestSession
-    from pd_integrator.core.run.runner import serve_queue, site_servers
-    from pd_integrator.core.run.test_file import from_dict
+    from pd_core.run.loop.dispatch import StepDispatcher
+    from pd_core.run.loop.session import TestSession
+    from pd_core.run.runner import serve_queue, site_servers
+    from pd_core.run.test_file import from_dict
 
     raw = large_model(n, steps, scheme)
     start = time.perf_counter()

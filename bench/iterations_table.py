@@ -2,10 +2,10 @@
 
     python bench/iterations_table.py [--iterations 1,2,3,5,10,20,50] [--reduction 0.9]
 
-The case of the issue (and of ``tests/pd_integrator/test_implicit_convergence.py``): an
+The case of the issue (and of ``tests/pd_core/test_implicit_convergence.py``): an
 elastic-perfectly-plastic SDOF (m 1 kg, k 39.478 N/m, c 0.251 N·s/m, u_y 0.025 m) under the
 whole El Centro 1940 NS record (a_g in m/s², load −m a_g), Δt = 0.02 s, ``average_acceleration``.
-The reference is :func:`pd_integrator.core.verification.newmark_epp` (average acceleration,
+The reference is :func:`pd_core.verification.newmark_epp` (average acceleration,
 Newton with the consistent tangent to 1e-14 m, no code shared with the scheme).
 
 Printed: the largest |x − x_Newton| over the history, per number of iterations N, for
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from pd_common.specimen import ElasticPerfectlyPlastic
-from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.schemes import make_integrator
-from pd_integrator.core.verification import newmark_epp
+from pd_core.dynamics.record_readers import read_ground_motion
+from pd_core.schemes import make_integrator
+from pd_core.verification import newmark_epp
 
 REPO = Path(__file__).resolve().parents[1]
 RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (

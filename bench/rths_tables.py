@@ -7,7 +7,7 @@ Run inside the sourced workspace (``. scripts/env.sh``)::
                                 [--perturbed 20] [--perturbed-compensators model_based,adaptive]
                                 [--seed 0] [--jobs 2] [--markdown FILE]
 
-Every run is :func:`pd_integrator.core.rths.benchmark.run_benchmark` (what
+Every run is :func:`pd_rths_benchmark.core.benchmark.run_benchmark` (what
 ``./pd rths_benchmark`` runs): El Centro 1940 NS ×0.4 with 5 s of zeros before and after, the
 benchmark's sensor noise (seed ``--seed``), converters and capacity. It prints (and writes as
 markdown with ``--markdown``):
@@ -36,8 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pd_integrator.core.rths.benchmark import BenchmarkOptions, load_record, run_benchmark
-from pd_integrator.core.rths.criteria import J_KEYS
+from pd_rths_benchmark.core.benchmark import BenchmarkOptions, load_record, run_benchmark
+from pd_rths_benchmark.core.criteria import J_KEYS
 
 Job = tuple[str, int, str, int | None, float, bool]   # loop, case, controller, plant, dt, ideal
 

@@ -13,7 +13,8 @@ python -m ruff check --quiet src tests bench scripts
 echo '[lint] mypy' >&2
 python -m mypy
 echo '[lint] import contracts' >&2
-sources="src/pd_common:src/pd_integrator:src/pd_actuator_bridge:src/pd_specimen_sim:src/pd_bringup"
+# every Python package of src/ (pd_msgs is generated): the contracts see the source tree
+sources="$(find src -mindepth 2 -maxdepth 2 -name setup.py -printf '%h\n' | sort | paste -sd:)"
 PYTHONPATH="$sources${PYTHONPATH:+:$PYTHONPATH}" lint-imports --no-cache --config pyproject.toml \
     > .lint-imports.log 2>&1 || { cat .lint-imports.log >&2; exit 1; }
 grep -E 'KEPT|BROKEN|Contracts:' .lint-imports.log >&2

@@ -28,9 +28,9 @@ from test_crash_resume import child_of, wait_for_step
 from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
 from pd_common.protocol import Feedback, FeedbackStatus
-from pd_integrator.core.run.record.bag import read_bag
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.record.bag import read_bag
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

@@ -95,7 +95,7 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     launcher = run_launcher(processes, 'run_test', [
         str(test_file), '--out', str(tmp_path / 'run'), '--key', str(key_file),
         '--no-figures', '-p', 'dt:=0.002'])
-    console = processes.start('console', [executable('pd_integrator', 'console'),
+    console = processes.start('console', [executable('pd_console', 'console'),
                                           '--port', '0', '--key', str(key_file)])
 
     def console_said(pattern: str) -> str:
@@ -184,7 +184,7 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     assert 'control pause sent' in log and 'EMERGENCY STOP sent' in log
 
     # -- the finished run in the same page: its histories from the bag ---------------------
-    processes.start('console_run', [executable('pd_integrator', 'console'),
+    processes.start('console_run', [executable('pd_console', 'console'),
                                     str(tmp_path / 'run'), '--port', '0'])
     wait_for(lambda: 'serving' in processes.log('console_run'), 20.0, 'the run console')
     found = re.search(r'serving (http://127\.0\.0\.1:\d+/)', processes.log('console_run'))

@@ -28,8 +28,8 @@ from test_graph import (
     write_test_file,
 )
 
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

@@ -15,9 +15,9 @@ import pytest
 import yaml
 from graph_support import REPO, Processes, executable
 
-from pd_integrator.core.run.record.outputs import read_response_csv
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.record.outputs import read_response_csv
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 from support.paths import DEFAULT_TEST
 
 pytestmark = pytest.mark.graph

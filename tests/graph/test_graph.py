@@ -26,9 +26,9 @@ from graph_support import REPO, Processes, executable, send_control
 from rosbags.highlevel import AnyReader
 
 from pd_common.protocol import Command, Feedback, FeedbackStatus
-from pd_integrator.core.run.record.bag import read_bag
-from pd_integrator.core.run.runner import rebuild_outputs, run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.record.bag import read_bag
+from pd_core.run.runner import rebuild_outputs, run_offline
+from pd_core.run.test_file import load_test_file
 from support.paths import DEFAULT_TEST
 
 pytestmark = pytest.mark.graph
@@ -152,8 +152,8 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
 def test_graph_figures_equal_the_ros_free_ones(short_test: Path, processes: Processes,
                                                tmp_path: Path) -> None:
     """With figures on, the integrator's figure worker draws the same files as an
-    in-process run (the worker's lifetime: tests/pd_integrator/test_figure_worker.py)."""
-    from pd_integrator.core.run.record.outputs import FIGURES
+    in-process run (the worker's lifetime: tests/pd_core/test_figure_worker.py)."""
+    from pd_core.run.record.outputs import FIGURES
 
     offline = tmp_path / 'offline'
     run_offline(load_test_file(short_test), offline)

@@ -18,8 +18,8 @@ import yaml
 from graph_support import REPO, Processes
 from test_graph import RUN_TIMEOUT, run_launcher, wait_exit
 
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 from support.plugin_package import install_example_plugin
 
 pytestmark = pytest.mark.graph

@@ -1,6 +1,6 @@
 """The vRTHS benchmark in simulated time through the node graph (issue 12).
 
-The benchmark's native test file (:func:`pd_integrator.core.rths.native_loop.native_test_file`:
+The benchmark's native test file (:func:`pd_rths_benchmark.core.native_loop.native_test_file`:
 the numerical substructure, the specimen at site ``lab1`` behind its ``transfer_system``: the
 benchmark plant with seeded sensor noise and quantisation, the PI-P compensator, Δt_int =
 1/1024 s at 4096 Hz) runs integrator ↔ bridge as separate processes (``run_test --site
@@ -26,11 +26,11 @@ from pd_common.rths import (
     BENCHMARK_QUANTUM,
     BENCHMARK_SPECIMEN,
 )
-from pd_integrator.core.dynamics.record_readers import read_ground_motion
-from pd_integrator.core.rths.native_loop import native_test_file
-from pd_integrator.core.rths.problem import benchmark_case
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.dynamics.record_readers import read_ground_motion
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
+from pd_rths_benchmark.core.native_loop import native_test_file
+from pd_rths_benchmark.core.problem import benchmark_case
 
 pytestmark = pytest.mark.graph
 

@@ -30,9 +30,9 @@ from test_graph import (
 from pd_common.auth import Signer, command_payload, control_payload, feedback_payload, new_key
 from pd_common.protocol import Command, Control, Feedback
 from pd_common.ros import command_message, control_message, feedback_message
-from pd_integrator.core.run.record.bag import read_bag
-from pd_integrator.core.run.runner import run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.record.bag import read_bag
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

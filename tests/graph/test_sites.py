@@ -20,10 +20,10 @@ from graph_support import REPO, Processes, executable, send_control
 from rosbags.highlevel import AnyReader
 from test_graph import RUN_TIMEOUT, latched_qos, run_launcher, spin_until, wait_exit
 
-from pd_integrator.core.run.bridge_limits import site_limits
-from pd_integrator.core.run.record.bag import read_bag
-from pd_integrator.core.run.runner import rebuild_outputs, run_offline
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.bridge_limits import site_limits
+from pd_core.run.record.bag import read_bag
+from pd_core.run.runner import rebuild_outputs, run_offline
+from pd_core.run.test_file import load_test_file
 
 pytestmark = pytest.mark.graph
 

@@ -16,7 +16,7 @@ from pd_bringup.plan import (
     insert_fault_proxies,
     site_commands,
 )
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.test_file import load_test_file
 from support.paths import CONFIG
 
 DEFAULT = CONFIG / 'default_test.yaml'

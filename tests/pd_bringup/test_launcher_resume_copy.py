@@ -17,9 +17,9 @@ import pytest
 
 from pd_bringup.launcher import parse_args, plan_new_run, plan_resumed_run
 from pd_bringup.plan import LaunchError, LaunchPlan
-from pd_integrator.core.run.loop.session import TestSession as Session
-from pd_integrator.core.run.record.journal import JOURNAL_FILE, Journal
-from pd_integrator.core.run.runner import DEFINITION_JSON
+from pd_core.run.loop.session import TestSession as Session
+from pd_core.run.record.journal import JOURNAL_FILE, Journal
+from pd_core.run.runner import DEFINITION_JSON
 from support.paths import CONFIG
 
 DEFAULT = CONFIG / 'default_test.yaml'

@@ -9,7 +9,7 @@ import pytest
 
 from pd_bringup.launcher import print_summary
 from pd_bringup.plan import LaunchError, opensees_command, site_commands
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.run.test_file import load_test_file
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
            / 'three_story_two_sites.yaml')

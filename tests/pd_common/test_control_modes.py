@@ -12,8 +12,8 @@ from pd_common.auth import Signer, command_payload, new_key, verify_mac
 from pd_common.auth.signing import canonical
 from pd_common.protocol import Command, ControlMode, Signature, command_from_message
 from pd_common.ros import command_message
-from pd_integrator.core.run.record.bag import BagRecorder, read_bag
-from pd_integrator.core.run.record.journal import Journal, read_journal_records
+from pd_core.run.record.bag import BagRecorder, read_bag
+from pd_core.run.record.journal import Journal, read_journal_records
 
 MIXED = Command(test_id='column', step=3, test_time=0.06, dof_names=('horizontal', 'vertical'),
                 target_displacement=(0.0125, -0.0004), control_mode=(0, 1),

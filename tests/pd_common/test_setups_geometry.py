@@ -22,8 +22,8 @@ from pd_common.experimental import (
     PlanarThreeActuators,
     setup_from_config,
 )
-from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.model import setups as adapter
+from pd_core.errors import ConfigError
+from pd_core.model import setups as adapter
 
 LH, LV, OFFSET = 1.5, 2.5, 0.6
 WHERE = 't.yaml: structure.elements[0].setup'

@@ -28,9 +28,9 @@ from support.paths import DEFAULT_TEST, INSTALL
 
 #: The modules of the entry points (when the workspace is not installed).
 MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline',
-           'pretest': 'pd_integrator.pretest', 'replay': 'pd_integrator.replay',
-           'recover': 'pd_integrator.recover', 'console': 'pd_integrator.console',
-           'rths_benchmark': 'pd_integrator.rths_benchmark'}
+           'pretest': 'pd_pretest.pretest', 'replay': 'pd_integrator.replay',
+           'recover': 'pd_integrator.recover', 'console': 'pd_console.console',
+           'rths_benchmark': 'pd_rths_benchmark.rths_benchmark'}
 #: Seconds a refusal may take (a process start with numpy and scipy is about one).
 PROMPT = 10.0
 #: The test-file commands, with options that keep them from writing anywhere but ``--out``.
@@ -48,7 +48,7 @@ class Result:
 
 def command(program: str) -> list[str]:
     """The entry point ``./pd <program>`` runs (or its module, without the install)."""
-    package = 'pd_bringup' if program == 'run_test' else 'pd_integrator'
+    package = MODULES[program].split('.')[0]
     executable = INSTALL / package / 'lib' / package / program
     if executable.is_file():
         return [str(executable)]

@@ -1,7 +1,7 @@
 """Rehearsals that apply the lab's limits: ``./pd offline`` holds where the bridges would.
 
 Each case runs a test file offline with its sites' bridge limits
-(:func:`~pd_integrator.core.run.bridge_limits.site_limits`) and, next to it, drives the real
+(:func:`~pd_core.run.bridge_limits.site_limits`) and, next to it, drives the real
 :class:`~pd_actuator_bridge.core.ActuatorBridge` core in-process (a synchronous driver in front
 of the same simulated specimen, keyed as ``sim_servo`` keys its moves) through the same session
 and step loop. Both must hold at the same step, with the bridge's message, after the same
@@ -33,15 +33,15 @@ from pd_common.config import read_yaml_file
 from pd_common.errors import BridgeConfigError
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StepKey
 from pd_common.protocol import TestState as State
+from pd_core.errors import ConfigError
+from pd_core.run.bridge_limits import SiteLimits, default_bridge_file, site_limits
+from pd_core.run.definition import TestDefinition as Definition
+from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.session import TestSession as Session
+from pd_core.run.runner import RunResult, run_offline, site_servers
+from pd_core.run.test_file import from_dict, load_test_file
 from pd_integrator import offline
-from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.pretest import build_plan, execute, read_bridge_limits
-from pd_integrator.core.run.bridge_limits import SiteLimits, default_bridge_file, site_limits
-from pd_integrator.core.run.definition import TestDefinition as Definition
-from pd_integrator.core.run.loop.dispatch import StepDispatcher
-from pd_integrator.core.run.loop.session import TestSession as Session
-from pd_integrator.core.run.runner import RunResult, run_offline, site_servers
-from pd_integrator.core.run.test_file import from_dict, load_test_file
+from pd_pretest.core import build_plan, execute, read_bridge_limits
 from support.paths import CONFIG
 
 RECORD = CONFIG.parent / 'data' / 'ground_motions' / 'elcentro_1940_ns_chopra.csv'

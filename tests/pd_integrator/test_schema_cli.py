@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from pd_common.config import read_yaml_file
-from pd_integrator.core.errors import ConfigError
-from pd_integrator.core.run.test_file import load_test_file
+from pd_core.errors import ConfigError
+from pd_core.run.test_file import load_test_file
 from support.paths import CONFIG, REPO
 
 OFFLINE = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / 'offline'

@@ -16,5 +16,8 @@ TWO_SITES = CONFIG / 'three_story_two_sites.yaml'
 GROUND_MOTIONS = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions'
 #: El Centro 1940 NS (public domain), in g.
 ELCENTRO = GROUND_MOTIONS / 'elcentro_1940_ns_chopra.csv'
+#: The Python packages of ``src/`` (each an ament_python package with its ``setup.py``; the
+#: generated ``pd_msgs`` is not one of them), sorted.
+PACKAGES = tuple(sorted(path.parent.name for path in (REPO / 'src').glob('*/setup.py')))
 #: The colcon install space (``./pd setup``).
 INSTALL = REPO / 'ros2_ws' / 'install'

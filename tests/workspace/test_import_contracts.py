@@ -16,9 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from support.paths import REPO
-
-PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
+from support.paths import PACKAGES, REPO
 
 
 def lint_imports(src: Path) -> subprocess.CompletedProcess[str]:
@@ -47,31 +45,39 @@ def test_the_contracts_hold_on_the_source_tree(source_copy: Path) -> None:
 
 
 @pytest.mark.parametrize(('module', 'line', 'contract'), [
-    ('pd_integrator/pd_integrator/core/run/record/history.py', 'import rclpy',
+    ('pd_core/pd_core/run/record/history.py', 'import rclpy',
      'Pure cores import no ROS'),
     ('pd_common/pd_common/specimen/backbone.py', 'import pd_common.ros',
      'Pure cores import no ROS'),
     ('pd_actuator_bridge/pd_actuator_bridge/core/force_control.py', 'import pd_msgs.msg',
      'Pure cores import no ROS'),
     ('pd_actuator_bridge/pd_actuator_bridge/node.py', 'import pd_specimen_sim.node',
-     'Node packages are peers'),
-    ('pd_integrator/pd_integrator/core/run/record/outputs.py', 'import pd_actuator_bridge.core',
-     'Node packages are peers'),
-    ('pd_common/pd_common/protocol/messages.py', 'import pd_integrator.core.errors',
-     'The shared library imports no node package'),
-    ('pd_integrator/pd_integrator/core/schemes/base.py',
-     'import pd_integrator.core.run.record.history',
+     'Node and tool packages are peers'),
+    ('pd_core/pd_core/run/record/outputs.py', 'import pd_actuator_bridge.core',
+     'Node and tool packages are peers'),
+    ('pd_common/pd_common/protocol/messages.py', 'import pd_core.errors',
+     'The libraries are layered'),
+    ('pd_core/pd_core/schemes/base.py',
+     'import pd_core.run.record.history',
      "The integrator's core is layered"),
     ('pd_common/pd_common/errors.py', 'import pd_common.specimen.backbone',
      'No import cycles'),
     ('pd_common/pd_common/jsonl.py', 'import rclpy', 'Pure cores import no ROS'),
     ('pd_bringup/pd_bringup/plan.py', 'import rclpy', 'Pure cores import no ROS'),
     ('pd_bringup/pd_bringup/supervisor.py', 'import pd_actuator_bridge.core',
-     "The bring-up reads the integrator's core"),
+     'Node and tool packages are peers'),
+    ('pd_pretest/pd_pretest/pretest.py', 'import pd_integrator.offline',
+     'Node and tool packages are peers'),
+    ('pd_studies/pd_studies/study_errors.py', 'import pd_scheme_analysis.analyze',
+     'Node and tool packages are peers'),
+    ('pd_core/pd_core/run/runner.py', 'import pd_console.core.model', 'The shared libraries'),
+    ('pd_console/pd_console/core/model.py', 'import rclpy', 'Pure cores import no ROS'),
+    ('pd_rths_benchmark/pd_rths_benchmark/core/problem.py', 'import pd_msgs.msg',
+     'Pure cores import no ROS'),
     ('pd_actuator_bridge/pd_actuator_bridge/core/drivers/base.py',
      'import pd_actuator_bridge.core.force_control', "The bridge's core is layered"),
-    ('pd_integrator/pd_integrator/core/run/record/outputs.py',
-     'import pd_integrator.core.run.loop.session', 'The record of a run never imports the step'),
+    ('pd_core/pd_core/run/record/outputs.py',
+     'import pd_core.run.loop.session', 'The record of a run never imports the step'),
     ('pd_common/pd_common/auth/__init__.py', 'import pd_common.ros', 'Pure cores import no ROS'),
     ('pd_common/pd_common/cli.py', 'import std_msgs.msg', 'Pure cores import no ROS'),
 ])
@@ -96,3 +102,20 @@ def test_every_part_of_pd_common_but_ros_is_a_pure_core() -> None:
              if (path.suffix == '.py' and path.stem != '__init__')
              or (path.is_dir() and (path / '__init__.py').is_file())}
     assert parts - set(pure['source_modules']) == {'pd_common.ros'}
+
+
+def test_every_package_is_under_the_contracts() -> None:
+    """A new package of src/ is a root of the contracts and a peer (or a shared library)."""
+    config = tomllib.loads((REPO / 'pyproject.toml').read_text(encoding='utf-8'))
+    linter = config['tool']['importlinter']
+    assert set(linter['root_packages']) == set(PACKAGES)
+    contracts = {contract['name']: contract for contract in linter['contracts']}
+    peers = set(contracts['Node and tool packages are peers: none imports another']['modules'])
+    shared = next(contract for name, contract in contracts.items()
+                  if name.startswith('The shared libraries'))
+    assert set(shared['source_modules']) == {'pd_common', 'pd_core'}
+    assert peers == set(PACKAGES) - {'pd_common', 'pd_core'}
+    assert set(shared['forbidden_modules']) == peers
+    acyclic = next(contract for contract in linter['contracts']
+                   if contract['type'] == 'acyclic_siblings')
+    assert set(acyclic['ancestors']) == set(PACKAGES)

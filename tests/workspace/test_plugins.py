@@ -25,12 +25,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from support.paths import REPO
+from support.paths import ELCENTRO, PACKAGES, REPO
 from support.plugin_package import install_example_plugin
 
-PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
-GROUND_MOTION = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / \
-    'elcentro_1940_ns_chopra.csv'
+GROUND_MOTION = ELCENTRO
 K = 312559.0  # N/m: the thesis specimen's initial stiffness
 
 

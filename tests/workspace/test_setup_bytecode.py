@@ -9,9 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from support.paths import REPO
-
-PACKAGES = ('pd_common', 'pd_integrator', 'pd_actuator_bridge', 'pd_specimen_sim', 'pd_bringup')
+from support.paths import PACKAGES, REPO
 
 
 def test_every_package_module_has_its_bytecode() -> None:
@@ -24,7 +22,7 @@ def test_every_package_module_has_its_bytecode() -> None:
 
 
 def test_the_compiled_module_is_the_one_loaded() -> None:
-    code = ('import pd_integrator.core.run.loop.session as m, importlib.util, pathlib\n'
+    code = ('import pd_core.run.loop.session as m, importlib.util, pathlib\n'
             'print(m.__spec__.cached)\n'
             'print(pathlib.Path(importlib.util.cache_from_source(m.__file__)).resolve())\n')
     cached, expected = subprocess.run([sys.executable, '-c', code], capture_output=True,

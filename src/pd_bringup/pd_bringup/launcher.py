@@ -50,17 +50,17 @@ from rclpy.signals import SignalHandlerOptions
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
 from pd_common.config import TestFile, load_yaml
-from pd_common.resources import ResourceError, find_executable, share_file
+from pd_common.resources import ResourceError, find_executable
 from pd_common.ros import events_executor, exit_process
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_common.units import format_quantity
-from pd_integrator.core.errors import PdIntegratorError
-from pd_integrator.core.run.definition import TestDefinition
-from pd_integrator.core.run.loop.session import TestSession
-from pd_integrator.core.run.record.journal import JOURNAL_FILE
-from pd_integrator.core.run.resume import load_resumable
-from pd_integrator.core.run.runner import BAG_DIRECTORY, default_run_directory
-from pd_integrator.core.run.test_file import read_definition
+from pd_core.errors import PdIntegratorError
+from pd_core.run.definition import TestDefinition
+from pd_core.run.loop.session import TestSession
+from pd_core.run.record.journal import JOURNAL_FILE
+from pd_core.run.resume import load_resumable
+from pd_core.run.runner import BAG_DIRECTORY, default_run_directory
+from pd_core.run.test_file import default_test_file, read_definition
 
 from .operator import Operator
 from .plan import (
@@ -223,7 +223,7 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     Raises:
         PdIntegratorError, ResourceError, RigError: one line naming the file and the key.
     """
-    test_file = Path(args.test_file) if args.test_file else _default_test()
+    test_file = Path(args.test_file) if args.test_file else default_test_file()
     overrides = parse_overrides(args.param)
     # Read once, fail early, before any process:
     definition, document = read_definition(test_file, overrides)
@@ -281,10 +281,6 @@ def check_probe(plan: LaunchPlan, definition: TestDefinition, test_file: Path,
     print(f'run_test: the stiffness probe pushes each DOF by {amplitude:g} m and back before '
           'the test; the stability limit is checked on the measured stiffness (an unstable dt '
           'aborts the test before its first step)', file=sys.stderr)
-
-
-def _default_test() -> Path:
-    return share_file('pd_integrator', 'config', 'default_test.yaml')
 
 
 def plan_resumed_run(args: argparse.Namespace) -> LaunchPlan:

@@ -20,8 +20,8 @@ from typing import Any
 
 from pd_common.config import read_text, read_yaml_file
 from pd_common.resources import ResourceError, find_executable, share_file
-from pd_integrator.core.errors import PdIntegratorError
-from pd_integrator.core.run.definition import TestDefinition
+from pd_core.errors import PdIntegratorError
+from pd_core.run.definition import TestDefinition
 
 from .faults import FaultPlanError, attach_reports, proxy_command
 from .reports import add_to_summary, read_reports

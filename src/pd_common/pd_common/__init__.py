@@ -9,6 +9,8 @@ Subpackages, one concern each:
 * :mod:`pd_common.ros`: the only part that imports rclpy: QoS profiles, message conversion
   and stamps, used by every node.
 
-The node packages (``pd_integrator``, ``pd_actuator_bridge``, ``pd_specimen_sim``) import this
-package and ``pd_msgs``, never each other.
+The node and tool packages (``pd_integrator``, ``pd_actuator_bridge``, ``pd_specimen_sim``,
+``pd_bringup``, ``pd_console``, ``pd_pretest``, ``pd_scheme_analysis``, ``pd_studies``,
+``pd_rths_benchmark``) import this package, the integrator's pure core ``pd_core`` and
+``pd_msgs``, never each other.
 """

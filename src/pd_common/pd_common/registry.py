@@ -7,7 +7,7 @@ in code, next to their classes (``registry.register(name, entry)``); a separate 
 its own entries through a Python entry point of the kind's group (the entry point's value,
 and the registry), without editing ours:
 
-* ``pd.schemes``: an ``Integrator`` subclass (``pd_integrator.core.schemes.SCHEMES``);
+* ``pd.schemes``: an ``Integrator`` subclass (``pd_core.schemes.SCHEMES``);
 * ``pd.drivers``: a ``DriverSpec`` (``pd_actuator_bridge.core.drivers.registry.DRIVERS``);
 * ``pd.hysteresis``: a ``HysteresisModelSpec`` (``pd_common.specimen.HYSTERESIS_MODELS``);
 * ``pd.compensators``: a ``CompensatorSpec`` (``pd_common.rths.compensation.COMPENSATORS``);

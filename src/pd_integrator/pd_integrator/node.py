@@ -16,7 +16,7 @@ Parameters: ``test_file`` (YAML test file), ``output_dir`` (run folder; default
 ``runs/<test_id>-<UTC time>``), ``figures``, ``progress_interval``, and overrides of the test
 file (``mass``, ``damping_ratio``, ``damping_coefficient``, ``initial_stiffness`` (a value or
 ``'probe'``), ``ground_motion_file``, ``scale_factor``, ``direction``, ``dt``, ``scheme``, ...;
-see ``pd_integrator.core.run.definition.PARAMETER_PATHS``).
+see ``pd_core.run.definition.PARAMETER_PATHS``).
 
 Exit codes: 0 finished, 1 aborted or held when stopped, 2 invalid test (nothing was moved).
 """
@@ -83,18 +83,15 @@ from pd_common.ros import (
     run_node,
     stamp_from_ns,
 )
-from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
-from pd_msgs.msg import Control as ControlMessage
-
-from .core.errors import PdIntegratorError
-from .core.run.loop.dispatch import StepDispatcher
-from .core.run.loop.progress import ProgressMeter
-from .core.run.loop.session import TestSession
-from .core.run.loop.steering import Steering
-from .core.run.record.bag import RecordedRun
-from .core.run.record.figure_worker import FigureWorker
-from .core.run.record.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
-from .core.run.resume import (
+from pd_core.errors import PdIntegratorError
+from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.progress import ProgressMeter
+from pd_core.run.loop.session import TestSession
+from pd_core.run.loop.steering import Steering
+from pd_core.run.record.bag import RecordedRun
+from pd_core.run.record.figure_worker import FigureWorker
+from pd_core.run.record.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
+from pd_core.run.resume import (
     ResumeAction,
     SiteState,
     check_sites,
@@ -102,7 +99,7 @@ from .core.run.resume import (
     last_measured,
     load_resumable,
 )
-from .core.run.runner import (
+from pd_core.run.runner import (
     BAG_DIRECTORY,
     DEFINITION_JSON,
     default_run_directory,
@@ -110,7 +107,9 @@ from .core.run.runner import (
     prepare_run_directory,
     restore_dispatcher,
 )
-from .core.run.test_file import PARAMETER_PATHS, load_test_file
+from pd_core.run.test_file import PARAMETER_PATHS, load_test_file
+from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
+from pd_msgs.msg import Control as ControlMessage
 
 Item = TypeVar('Item')
 

@@ -11,24 +11,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from pd_common.resources import ResourceError, share_file
-
-from .core.errors import PdIntegratorError
-from .core.run.bridge_limits import limits_report, site_limits
-from .core.run.record.journal import JOURNAL_FILE, RecordWriteError
-from .core.run.runner import default_run_directory, run_offline
-from .core.run.test_file import load_test_file
-
-
-def default_test_file() -> Path:
-    """The shipped default test (installed share, or the source tree)."""
-    try:
-        path = share_file('pd_integrator', 'config', 'default_test.yaml')
-        if path.is_file():
-            return path
-    except ResourceError:
-        pass
-    return Path(__file__).resolve().parents[1] / 'config' / 'default_test.yaml'
+from pd_core.errors import PdIntegratorError
+from pd_core.run.bridge_limits import limits_report, site_limits
+from pd_core.run.record.journal import JOURNAL_FILE, RecordWriteError
+from pd_core.run.runner import default_run_directory, run_offline
+from pd_core.run.test_file import default_test_file, load_test_file
 
 
 def write_failure(err: OSError, out: Path | None) -> str:

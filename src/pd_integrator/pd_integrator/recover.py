@@ -13,8 +13,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .core.errors import PdIntegratorError
-from .core.run.runner import recover_run
+from pd_core.errors import PdIntegratorError
+from pd_core.run.runner import recover_run
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -17,9 +17,8 @@ from pathlib import Path
 
 from pd_common.auth import AuthError, load_key
 from pd_common.config import existing_path
-
-from .core.errors import PdIntegratorError
-from .core.run.runner import rebuild_outputs
+from pd_core.errors import PdIntegratorError
+from pd_core.run.runner import rebuild_outputs
 
 
 def main(argv: list[str] | None = None) -> int:

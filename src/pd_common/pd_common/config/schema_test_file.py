@@ -1,7 +1,7 @@
 """The typed schema of a test file: every section, key, type, default and bound.
 
 Taken from the parsers that read the file today (the integrator's
-``pd_integrator.core.run.test_file`` and ``core.model``, :mod:`pd_common.specimen.config`,
+``pd_core.run.test_file`` and ``core.model``, :mod:`pd_common.specimen.config`,
 :mod:`pd_common.experimental.setups`, :mod:`pd_common.rths.continuous`, ``pd_bringup.rig``);
 they still run after it and check what a schema cannot (matrix shapes against the DOF count,
 symmetry, definiteness, DOF names of elements, records). ``./pd schema`` prints its JSON Schema.

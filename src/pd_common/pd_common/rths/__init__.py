@@ -1,7 +1,7 @@
 """Real-time hybrid simulation: transfer systems, compensators, continuous actuator motion.
 
 Pure (numpy/scipy). The vRTHS benchmark (Silva, Dyke et al. 2020) is built from these pieces
-by ``pd_integrator`` (``./pd rths_benchmark``); the bridge's ``transfer_system`` driver runs
+by ``pd_rths_benchmark`` (``./pd rths_benchmark``); the bridge's ``transfer_system`` driver runs
 them behind the step protocol.
 """
 

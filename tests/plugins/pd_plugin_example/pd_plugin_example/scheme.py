@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from pd_integrator.core.schemes import NewmarkExplicit
+from pd_core.schemes import NewmarkExplicit
 
 
 class CentralDifference(NewmarkExplicit):

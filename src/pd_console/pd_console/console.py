@@ -1,0 +1,842 @@
+"""The live test console in the browser.
+
+``./pd console [RUN]`` (``ros2 run pd_console console``).
+
+A local web server (aiohttp, its WebSocket) serving one page, with its JavaScript and plotting
+shipped in this package (``share/pd_console/console``): nothing is loaded from the
+internet. Live, the node only *subscribes* to the graph's topics — the integrator's status and
+test definition, every site's step command and feedback and its bridge's status — and pushes a
+decimated frame to the page on a timer (``update_rate`` Hz, at most ``max_points`` rows per
+series): it never slows the test. The data handling is the pure
+:mod:`pd_console.core`; this module is its shell.
+
+Controls (pause, resume, abort; a bridge's reset and reset_emergency_stop) are signed with the
+test's key exactly as ``./pd control`` signs them, and only a browser that logged in with the
+one-time token printed on this terminal may send them; any other page can watch, and its
+control requests are refused (HTTP 403) with nothing published. The emergency stop needs no
+login (unsigned, as the e-stop topic is by design), but like every request that changes
+anything it must be a JSON POST from the console's own page: another site's page (a form
+post) is refused. Every request must name the served address in its ``Host`` header (DNS
+rebinding is refused, HTTP 421). A client that drops its request costs one line on this
+terminal, never a traceback.
+
+``./pd console runs/<run>`` shows a finished run (its bag, or its journal) and its figures.
+The server listens on 127.0.0.1 unless ``--host`` says otherwise (a lab network: a warning
+is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import ipaddress
+import json
+import logging
+import sys
+import threading
+import time
+from pathlib import Path
+from socket import gethostname
+from typing import Any
+
+import foxglove
+import rclpy
+from aiohttp import WSMsgType, web
+from aiohttp.typedefs import Handler
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
+from std_msgs.msg import String
+
+from pd_common.auth import AuthError, Key, load_key, operator_key_path
+from pd_common.config import YAMLError, read_yaml_file
+from pd_common.protocol import (
+    GLOBAL_EMERGENCY_STOP,
+    Status,
+    command_from_message,
+    feedback_from_message,
+    site_topic,
+    site_topic_name,
+)
+from pd_common.resources import ResourceError, share_file
+from pd_common.ros import (
+    CONTROL_DEPTH,
+    LATCHED_QOS,
+    RESEND_S,
+    STEP_QOS,
+    ControlSender,
+    events_executor,
+    init_with_stop_flag,
+    repeat_emergency_stop,
+)
+from pd_core.errors import BagError
+from pd_msgs.msg import StepCommand, StepFeedback
+
+from .core import (
+    BRIDGE_LIMITS,
+    SESSION_COOKIE,
+    STATUS_TOPIC,
+    ConsoleAccess,
+    ConsoleModel,
+    ControlRequest,
+    gauges_message,
+    gauges_topic,
+    load_run_folder,
+    parse_control,
+    response_message,
+    response_topic,
+)
+from .core.access import WILDCARD_HOSTS, served_address
+
+#: Seconds the console waits for a control's receiver and its acknowledgement.
+CONTROL_WAIT_S = 3.0
+
+DEFAULT_PORT = 8765
+STATIC_FILES = {'console.js': 'application/javascript', 'console.css': 'text/css',
+                'index.html': 'text/html', 'foxglove_layout.json': 'application/json'}
+DEFAULT_FOXGLOVE_PORT = 8766
+FOXGLOVE_ROWS = 4096  # rows per site buffered between two Foxglove ticks
+#: Methods that change nothing: every other one must come from the console's own page.
+SAFE_METHODS = frozenset({'GET', 'HEAD', 'OPTIONS'})
+#: aiohttp's loggers whose records may carry a traceback (see :class:`OneLineLog`).
+AIOHTTP_LOGGERS = ('aiohttp.server', 'aiohttp.web', 'aiohttp.websocket', 'aiohttp.internal')
+
+#: The console's lines on its terminal (warnings and errors reach stderr through Python's
+#: last-resort handler, one line each, even when nothing configured logging).
+LOG = logging.getLogger('pd_console.console')
+
+
+def web_directory() -> Path:
+    """The page's files: installed in ``share/pd_console/console`` (or the source tree)."""
+    try:
+        installed = share_file('pd_console', 'console')
+        if (installed / 'index.html').is_file():
+            return installed
+    except ResourceError:
+        pass
+    return Path(__file__).resolve().parents[1] / 'console'
+
+
+def default_bridge_limits(path: str = '') -> dict[str, float]:
+    """The bridge limits of a site whose test definition names none.
+
+    ``path`` (a bridge parameter file) or the installed ``pd_actuator_bridge/config/bridge.yaml``.
+    """
+    try:
+        file = Path(path) if path else share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+        raw = read_yaml_file(file) if file.is_file() else {}
+    except (ResourceError, YAMLError):
+        return {}
+    params: dict[str, Any] = {}
+    if isinstance(raw, dict):
+        for section in raw.values():
+            if isinstance(section, dict) and isinstance(section.get('ros__parameters'), dict):
+                params.update(section['ros__parameters'])
+    return {name: float(params[name]) for name in (*BRIDGE_LIMITS, 'step_duration')
+            if isinstance(params.get(name), int | float)}
+
+
+class ConsoleNode(Node):
+    """Subscribes to the test's topics and feeds a :class:`ConsoleModel`; sends controls.
+
+    Parameters: ``host``, ``port``, ``update_rate`` (frames per second pushed to the page),
+    ``max_points`` (rows per series), ``key_file`` (the test's key; default ``$PD_KEY_FILE``,
+    then the rig key), ``bridge_params`` (the bridges' parameter file, for their limits).
+    """
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock,
+                 overrides: dict[str, Any] | None = None) -> None:
+        super().__init__('pd_console', namespace='/pd')
+        overrides = overrides or {}
+
+        def declare(name: str, default: Any, description: str) -> Any:
+            value = overrides.get(name, default)
+            return self.declare_parameter(name, value, ParameterDescriptor(
+                description=description)).value
+
+        self.host = str(declare('host', '127.0.0.1', 'address to listen on (127.0.0.1: '
+                                'this computer only)'))
+        self.port = int(declare('port', DEFAULT_PORT, 'TCP port (0: any free port)'))
+        self.update_rate = float(declare('update_rate', 4.0, 'frames per second pushed to '
+                                         'the page'))
+        self.max_points = int(declare('max_points', model.max_points,
+                                      'rows per series kept and pushed'))
+        self.key_file = str(declare('key_file', '', "the test's key file (default: "
+                                    '$PD_KEY_FILE, then the rig key)'))
+        self.bridge_params = str(declare('bridge_params', '', "the bridges' parameter file "
+                                         '(their limits, for the gauges)'))
+        self.foxglove_port = int(declare('foxglove_port', 0, "serve the live test to the "
+                                         "Foxglove app on this port (foxglove-sdk's "
+                                         'WebSocket server; 0: off)'))
+        model.max_points = self.max_points
+        if self.foxglove_port:
+            model.fresh_rows = FOXGLOVE_ROWS
+        model.default_limits = default_bridge_limits(self.bridge_params)
+        self.model = model
+        self.lock = lock
+        self.key: Key | None = None
+        self.key_error = ''
+        try:
+            self.key = load_key(operator_key_path(self.key_file or None))
+        except AuthError as err:
+            self.key_error = str(err)
+        # Statuses are believed only as their nodes signed them; controls go out bound to
+        # their receivers and are confirmed (pd_common.ros.ControlSender).
+        self.controls = ControlSender(self, self.key, 'console')
+        self._sites: set[str] = set()
+        self._estop = self.create_publisher(String, GLOBAL_EMERGENCY_STOP, CONTROL_DEPTH)
+        self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
+        self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
+        self._watch_site('')
+
+    # -- subscriptions (the executor's thread) ---------------------------------------------
+    def _watch_site(self, site: str) -> None:
+        if site in self._sites:
+            return
+        self._sites.add(site)
+
+        def on_command(message: Any) -> None:
+            command = command_from_message(message)
+            with self.lock:
+                self.model.on_command(site, command)
+
+        def on_feedback(message: Any) -> None:
+            feedback = feedback_from_message(message)
+            with self.lock:
+                self.model.on_feedback(site, feedback)
+
+        def on_bridge(status: Status) -> None:
+            with self.lock:
+                self.model.on_bridge_status(site, status)
+
+        self.create_subscription(StepCommand, site_topic(site, 'step_command'), on_command,
+                                 STEP_QOS)
+        self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'), on_feedback,
+                                 STEP_QOS)
+        self.controls.watch(site_topic_name(site, 'bridge/status'), on_bridge)
+
+    def _on_status(self, status: Status) -> None:
+        with self.lock:
+            self.model.on_status(status)
+
+    def _on_definition(self, message: Any) -> None:
+        with self.lock:
+            self.model.on_definition(str(message.data))
+            sites = list(self.model.sites)
+        for site in sites:
+            self._watch_site(site)
+
+    # -- controls (the web server's thread) ------------------------------------------------
+    def sites(self) -> tuple[str, ...]:
+        """The sites known so far."""
+        with self.lock:
+            return tuple(self.model.sites)
+
+    def send_control(self, request: ControlRequest) -> tuple[bool, str]:
+        """Send a signed control as ``./pd control`` does, bound to its receiver.
+
+        And wait for its acknowledgement (up to ``CONTROL_WAIT_S``); (taken, what the receiver
+        said).
+        """
+        if self.key is None:
+            return False, f'no key: {self.key_error}'
+        if request.bridge_site is not None:
+            topic = site_topic_name(request.bridge_site, 'bridge/control')
+            status_topic = site_topic_name(request.bridge_site, 'bridge/status')
+        else:
+            topic = site_topic_name('', 'test_control')
+            status_topic = site_topic_name('', 'test_status')
+        deadline = time.monotonic() + CONTROL_WAIT_S
+        sent = None
+        while sent is None:
+            sent = self.controls.send(request.command, topic, status_topic, request.reason)
+            if sent is None:
+                if time.monotonic() > deadline:
+                    return False, f'no receiver on {topic} (no status from it, or not listening)'
+                time.sleep(0.05)
+        self.get_logger().info(f'control {request.command} sent to {sent.control.target}')
+        while time.monotonic() < deadline:
+            ack = self.controls.acknowledgement(sent)
+            if ack is not None:
+                return ack.ok, f'{sent.control.target}: {ack.outcome}'
+            if time.monotonic() - sent.sent_at >= RESEND_S:
+                sent = self.controls.resend(sent)
+            time.sleep(0.05)
+        return False, f'{request.command}: not confirmed by {sent.control.target}'
+
+    def emergency_stop(self, reason: str) -> str:
+        """Publish the lab-wide emergency stop (no key: anyone may stop a machine)."""
+        message = String(data=reason or 'console emergency stop')
+        repeat_emergency_stop(lambda: self._estop.publish(message), background=True)
+        self.get_logger().warning(f'EMERGENCY STOP sent on {GLOBAL_EMERGENCY_STOP}')
+        return GLOBAL_EMERGENCY_STOP
+
+
+class ConsoleServer:
+    """The web side: the page, its frames over a WebSocket, login, controls, e-stop.
+
+    Args:
+        model: what the page shows (shared with the node under ``lock``).
+        lock: guards ``model``.
+        access: the login token and sessions.
+        node: the console node (``None``: a finished run, no controls).
+        update_rate: frames per second pushed.
+        run_dir: a finished run's folder (its figures are served).
+        host: the address it listens on: a request's ``Host`` header must name it.
+        port: the port it listens on (0: the port each connection reached; :func:`serve`
+            sets the bound one).
+    """
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock, access: ConsoleAccess,
+                 node: ConsoleNode | None, update_rate: float, run_dir: Path | None = None,
+                 *, host: str = '127.0.0.1', port: int = 0) -> None:
+        self.host = host
+        self.port = port
+        wildcard = host.strip() in WILDCARD_HOSTS
+        self.served = served_address(host, machine_names() if wildcard else ())
+        self.model = model
+        self.lock = lock
+        self.access = access
+        self.node = node
+        self.period = 1.0 / max(0.2, update_rate)
+        self.run_dir = run_dir
+        self.web = web_directory()
+        self.sockets: set[web.WebSocketResponse] = set()
+        self.frames_sent = 0
+        self.refused_controls = 0
+        self.refused_requests = 0
+        self.dropped_requests = 0
+        self._frame_text = ''
+        self._frame_version = -1
+        self._frame_at = 0.0
+
+    def app(self) -> web.Application:
+        """The aiohttp application."""
+        app = web.Application(client_max_size=64 * 1024, middlewares=[self.guard])
+        app.on_startup.append(_quiet_aiohttp)
+        app.on_cleanup.append(_loud_aiohttp)
+        app.router.add_get('/', self.index)
+        app.router.add_get('/static/{name}', self.static)
+        app.router.add_get('/figures/{name}', self.figure)
+        app.router.add_get('/api/frame', self.frame)
+        app.router.add_get('/api/session', self.session)
+        app.router.add_get('/ws', self.websocket)
+        app.router.add_post('/api/login', self.login)
+        app.router.add_post('/api/logout', self.logout)
+        app.router.add_post('/api/control', self.control)
+        app.router.add_post('/api/estop', self.estop)
+        return app
+
+    # -- every request ---------------------------------------------------------------------
+    @web.middleware
+    async def guard(self, request: web.Request, handler: Handler) -> web.StreamResponse:
+        """Every request: its ``Host`` must name the served address (else 421: DNS rebinding).
+
+        And one that changes anything (not GET) must be a JSON request of this page (else 403:
+        another site's page, a form post); nothing is done for a refused one. The response is
+        written here, so that a client that drops its request costs one line on the terminal, and a
+        failing handler one line with its error, never a traceback.
+        """
+        where = f'{request.method} {request.path}'
+        response: web.StreamResponse | None = None
+        try:
+            if not self._host_allowed(request):
+                self.refused_requests += 1
+                response = web.json_response(
+                    {'error': "misdirected request: the Host header does not name this "
+                              "console's address"}, status=421)
+            elif request.method not in SAFE_METHODS and not self._same_origin(request):
+                self.refused_requests += 1
+                response = web.json_response(
+                    {'error': "not from this page: a request that changes anything must be "
+                              "a JSON POST from the console's own page"}, status=403)
+            else:
+                response = await handler(request)
+            if not response.prepared:
+                await response.prepare(request)
+                await response.write_eof()
+            return response
+        except web.HTTPException:
+            raise
+        except asyncio.CancelledError:
+            # aiohttp cancels a handler whose client went away only with
+            # ``handler_cancellation`` (its test server); a shutdown cancels one whose
+            # connection is still open
+            if _gone(request):
+                self._dropped_request(where)
+            raise
+        except ConnectionError as err:
+            if not (_gone(request) or isinstance(err, _CLIENT_ERRORS)):
+                return self._failed(request, where, err, response)
+            self._dropped_request(where)
+            return _abandon(request)
+        except Exception as err:  # noqa: BLE001 - one line on the terminal, not a traceback
+            return self._failed(request, where, err, response)
+
+    def _dropped_request(self, where: str) -> None:
+        self.dropped_requests += 1
+        LOG.warning('console: a client dropped its request (%s)', where)
+
+    def _failed(self, request: web.Request, where: str, err: Exception,
+                response: web.StreamResponse | None) -> web.StreamResponse:
+        """A handler failed: one line with the error; a 500 if nothing was sent yet."""
+        said = _one_line(err)
+        LOG.error('console: %s failed: %s', where, said)
+        if (response is not None and response.prepared) or request.writer.output_size:
+            return _abandon(request)
+        return web.json_response({'error': said}, status=500)
+
+    def _host_allowed(self, request: web.Request) -> bool:
+        """Whether the request's ``Host`` names the served address and port."""
+        sockname = request.get_extra_info('sockname')
+        local = sockname if isinstance(sockname, tuple) and len(sockname) >= 2 else None
+        port = self.port or (int(local[1]) if local is not None else 0)
+        return self.served.allows(request.headers.get('Host'), port,
+                                  str(local[0]) if local is not None else '')
+
+    # -- pages -----------------------------------------------------------------------------
+    async def index(self, request: web.Request) -> web.StreamResponse:
+        """The console page."""
+        return await _file(self.web / 'index.html', STATIC_FILES['index.html'], _NO_CACHE)
+
+    async def static(self, request: web.Request) -> web.StreamResponse:
+        """One of the page's static files."""
+        name = request.match_info['name']
+        if name not in STATIC_FILES:
+            raise web.HTTPNotFound
+        return await _file(self.web / name, STATIC_FILES[name], _NO_CACHE)
+
+    async def figure(self, request: web.Request) -> web.StreamResponse:
+        """One of the run's figures."""
+        name = request.match_info['name']
+        if self.run_dir is None or name not in self.model.figures:
+            raise web.HTTPNotFound
+        return await _file(self.run_dir / name, 'image/png')
+
+    def frame_text(self) -> str:
+        """The current frame as JSON.
+
+        Made again when the model changed, or each second for the rate and ETA.
+        """
+        now = time.monotonic()
+        with self.lock:
+            if self.model.version != self._frame_version or now - self._frame_at > 1.0:
+                self._frame_version = self.model.version
+                self._frame_at = now
+                self._frame_text = json.dumps(self.model.frame(), allow_nan=False,
+                                              separators=(',', ':'))
+        return self._frame_text
+
+    async def frame(self, request: web.Request) -> web.Response:
+        """The current frame as JSON."""
+        return web.Response(text=self.frame_text(), content_type='application/json')
+
+    async def session(self, request: web.Request) -> web.Response:
+        """Whether this browser is logged in and whether controls are possible."""
+        return web.json_response({'authenticated': self._authenticated(request),
+                                  'controls': self.node is not None,
+                                  'token_spent': self.access.token_spent})
+
+    async def websocket(self, request: web.Request) -> web.WebSocketResponse:
+        """Stream the frames to the page over a WebSocket."""
+        if not self._own_origin(request):
+            raise web.HTTPForbidden(text='another site may not read this console')
+        socket = web.WebSocketResponse(heartbeat=20.0)
+        await socket.prepare(request)
+        self.sockets.add(socket)
+        try:
+            await socket.send_str(self.frame_text())
+            async for message in socket:
+                if message.type in (WSMsgType.ERROR, WSMsgType.CLOSE):
+                    break
+        finally:
+            self.sockets.discard(socket)
+        return socket
+
+    async def push(self) -> None:
+        """Push the frame to every page, ``update_rate`` times a second (only a new one)."""
+        last = ''
+        while True:
+            await asyncio.sleep(self.period)
+            if not self.sockets:
+                continue
+            text = self.frame_text()
+            if text == last:
+                continue
+            last = text
+            for socket in list(self.sockets):
+                try:
+                    await socket.send_str(text)
+                    self.frames_sent += 1
+                except (ConnectionError, RuntimeError):
+                    self.sockets.discard(socket)
+
+    # -- access and controls ---------------------------------------------------------------
+    def _authenticated(self, request: web.Request) -> bool:
+        return self.access.allowed(request.cookies.get(SESSION_COOKIE))
+
+    @staticmethod
+    def _own_origin(request: web.Request) -> bool:
+        """No ``Origin`` (not a browser's cross-site request), or this console's own."""
+        origin = request.headers.get('Origin')
+        return origin is None or origin.lower() == f'{request.scheme}://{request.host}'.lower()
+
+    @classmethod
+    def _same_origin(cls, request: web.Request) -> bool:
+        """A JSON request from this page.
+
+        A cross-site form cannot send JSON without a CORS preflight (never granted here), and a
+        foreign ``Origin`` is refused. Checked by :meth:`guard` on every request that changes
+        anything, the e-stop included.
+        """
+        return request.content_type == 'application/json' and cls._own_origin(request)
+
+    async def login(self, request: web.Request) -> web.Response:
+        """Log in with the token; set the session cookie."""
+        try:
+            body = await request.json()
+        except ValueError:
+            body = {}
+        token = str(body.get('token', '')) if isinstance(body, dict) else ''
+        session = self.access.login(token)
+        if session is None:
+            return web.json_response({'error': 'wrong or spent token'}, status=403)
+        response = web.json_response({'authenticated': True})
+        response.set_cookie(SESSION_COOKIE, session, httponly=True, samesite='Strict',
+                            path='/')
+        return response
+
+    async def logout(self, request: web.Request) -> web.Response:
+        """Log out; clear the session cookie."""
+        self.access.logout(request.cookies.get(SESSION_COOKIE))
+        response = web.json_response({'authenticated': False})
+        response.del_cookie(SESSION_COOKIE, path='/')
+        return response
+
+    async def control(self, request: web.Request) -> web.Response:
+        """Send a control of a logged-in person."""
+        if not self._authenticated(request):
+            self.refused_controls += 1
+            return web.json_response(
+                {'error': 'not logged in: controls need the token printed on the '
+                          "console's terminal"}, status=403)
+        if self.node is None:
+            return web.json_response({'error': 'a finished run: nothing to steer'},
+                                     status=409)
+        try:
+            body = await request.json()
+            control = parse_control(body, self.node.sites())
+        except ValueError as err:
+            return web.json_response({'error': str(err)}, status=400)
+        node = self.node
+        sent, said = await asyncio.get_running_loop().run_in_executor(
+            None, node.send_control, control)
+        if not sent:
+            return web.json_response({'error': said}, status=503)
+        return web.json_response({'sent': control.command, 'topic': said})
+
+    async def estop(self, request: web.Request) -> web.Response:
+        """Send an emergency stop (no login needed: anyone may stop the test)."""
+        if self.node is None:
+            return web.json_response({'error': 'a finished run: nothing to stop'},
+                                     status=409)
+        try:
+            body = await request.json()
+        except ValueError:
+            body = {}
+        reason = str(body.get('reason', '')) if isinstance(body, dict) else ''
+        topic = self.node.emergency_stop(reason[:200] or 'console emergency stop')
+        return web.json_response({'sent': 'estop', 'topic': topic})
+
+
+_NO_CACHE = {'Cache-Control': 'no-store'}
+
+
+async def _file(path: Path, content_type: str, headers: dict[str, str] | None = None
+                ) -> web.Response:
+    """A file's bytes (read in a worker thread); 404 if it cannot be read.
+
+    Not aiohttp's ``FileResponse``: :meth:`ConsoleServer.guard` writes every response itself (to
+    see a client drop it), and a ``FileResponse`` cannot be prepared twice.
+    """
+    try:
+        body = await asyncio.get_running_loop().run_in_executor(None, path.read_bytes)
+    except OSError as err:
+        raise web.HTTPNotFound from err
+    charset = 'utf-8' if not content_type.startswith('image/') else None
+    return web.Response(body=body, content_type=content_type, charset=charset,
+                        headers=headers)
+
+
+#: What a client that goes away raises (aiohttp's ``ClientConnectionResetError`` is a
+#: ``ConnectionResetError``).
+_CLIENT_ERRORS = (ConnectionResetError, BrokenPipeError, ConnectionAbortedError)
+
+
+def _gone(request: web.Request) -> bool:
+    """Whether the request's connection is closed or closing."""
+    transport = request.transport
+    return transport is None or transport.is_closing()
+
+
+def _abandon(request: web.Request) -> web.StreamResponse:
+    """Close a connection whose response cannot be finished.
+
+    aiohttp's own attempt to write the returned response then fails quietly (it logs a closed
+    connection at debug level).
+    """
+    transport = request.transport
+    if transport is not None:
+        transport.close()
+    return web.Response(status=500)
+
+
+class OneLineLog(logging.Filter):
+    """aiohttp's error records in one line, without their traceback.
+
+    A dropped connection (what the :meth:`ConsoleServer.guard` does not see, e.g. during aiohttp's
+    own writing), a malformed request. The console's terminal shows the login token: no tracebacks.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        """Log the record on one line, without its traceback."""
+        if record.exc_info and record.exc_info[1] is not None:
+            err = record.exc_info[1]
+            said = ' '.join(record.getMessage().split())
+            if isinstance(err, ConnectionError | asyncio.CancelledError):
+                record.msg = f'console: a client dropped its connection ({said})'
+            else:
+                record.msg = f'console: {said}: {_one_line(err)}'
+            record.args = ()
+            record.exc_info = None
+            record.exc_text = None
+            record.stack_info = None
+        return True
+
+
+_ONE_LINE = OneLineLog()
+
+
+def _one_line(err: BaseException) -> str:
+    """``Type: message`` of an error, on one line."""
+    return ' '.join(f'{type(err).__name__}: {err}'.split())
+
+
+async def _quiet_aiohttp(app: web.Application) -> None:
+    for name in AIOHTTP_LOGGERS:
+        logging.getLogger(name).addFilter(_ONE_LINE)
+
+
+async def _loud_aiohttp(app: web.Application) -> None:
+    for name in AIOHTTP_LOGGERS:
+        logging.getLogger(name).removeFilter(_ONE_LINE)
+
+
+def machine_names() -> tuple[str, ...]:
+    """This machine's own names, found without asking DNS.
+
+    Its host name and its mDNS name (``<host>.local``). Its addresses need no list: a console
+    listening on every address accepts the one each connection reached.
+    """
+    name = gethostname().strip().lower()
+    if not name:
+        return ()
+    short = name.split('.')[0]
+    return tuple(dict.fromkeys((name, short, f'{short}.local')))
+
+
+class FoxgloveFeed:
+    """The live test on foxglove-sdk's WebSocket server.
+
+    Every answered step of every DOF, the status and the gauges, logged from the web server's timer
+    (never from a ROS callback).
+    """
+
+    def __init__(self, model: ConsoleModel, lock: threading.Lock, host: str, port: int
+                 ) -> None:
+        self.model = model
+        self.lock = lock
+        self.server = foxglove.start_server(name='pd console', host=host, port=port)
+        self.port = int(self.server.port)
+        self._channels: dict[str, Any] = {}
+
+    def _log(self, topic: str, message: dict[str, Any], log_time: int) -> None:
+        channel = self._channels.get(topic)
+        if channel is None:
+            channel = foxglove.Channel(topic)
+            self._channels[topic] = channel
+        channel.log(message, log_time=log_time)
+
+    def tick(self) -> None:
+        """Log what arrived since the last tick."""
+        with self.lock:
+            drained = self.model.drain()
+            test = self.model.test_json()
+            gauges = {name: gauges_message(view.to_json_gauges())
+                      for name, view in self.model.sites.items()}
+        now = time.time_ns()
+        for site, (dofs, rows) in drained.items():
+            for row in rows:
+                for dof, values in zip(dofs, row, strict=True):
+                    self._log(response_topic(site, dof), response_message(values), now)
+        self._log(STATUS_TOPIC, test, now)
+        for site, message in gauges.items():
+            self._log(gauges_topic(site), message, now)
+
+    async def run(self, period: float) -> None:
+        """Tick every ``period`` s."""
+        while True:
+            await asyncio.sleep(period)
+            self.tick()
+
+    def stop(self) -> None:
+        """Stop the server."""
+        self.server.stop()
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    """Command-line arguments (ROS arguments removed)."""
+    parser = argparse.ArgumentParser(prog='console', description=__doc__.splitlines()[0])
+    parser.add_argument('run', nargs='?', default=None,
+                        help='a finished run folder, its bag or its journal (default: live)')
+    parser.add_argument('--host', default=None, help='address to listen on (default '
+                        '127.0.0.1; another one exposes the page to the network)')
+    parser.add_argument('--port', type=int, default=None, help=f'TCP port (default '
+                        f'{DEFAULT_PORT}; 0: any free port)')
+    parser.add_argument('--key', default=None,
+                        help="the test's key file (default: $PD_KEY_FILE, then the rig key)")
+    parser.add_argument('--bridge-params', default=None,
+                        help="the bridges' parameter file (their limits, for the gauges)")
+    parser.add_argument('--update-rate', type=float, default=None,
+                        help='frames per second pushed to the page (default 4)')
+    parser.add_argument('--max-points', type=int, default=None,
+                        help='rows per series (default 600)')
+    parser.add_argument('--foxglove', type=int, nargs='?', const=DEFAULT_FOXGLOVE_PORT,
+                        default=None, metavar='PORT',
+                        help='also serve the live test to the Foxglove app (foxglove-sdk '
+                        f'WebSocket server, default port {DEFAULT_FOXGLOVE_PORT})')
+    return parser.parse_args(argv)
+
+
+def _is_loopback(host: str) -> bool:
+    if host == 'localhost':
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+async def serve(server: ConsoleServer, stop: threading.Event) -> None:
+    """Serve on ``server.host`` and ``server.port`` until ``stop`` is set.
+
+    Prints the address and the login token.
+    """
+    host, port = server.host, server.port
+    runner = web.AppRunner(server.app(), access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, host, port)
+    await site.start()
+    addresses = runner.addresses
+    bound = int(addresses[0][1]) if addresses else port
+    # the Host header must name this port (port 0 on every address may bind several)
+    server.port = bound if len({int(address[1]) for address in addresses}) <= 1 else 0
+    shown = host if ':' not in host else f'[{host}]'
+    print(f'console: serving http://{shown}:{bound}/', flush=True)
+    if not _is_loopback(host):
+        print(f'console: WARNING: listening on {host}: anyone who reaches this address can '
+              'watch the test (controls still need the token)', flush=True)
+        names = ', '.join(sorted(server.served.names))
+        also = " and to the machine's address a browser connects to" if (
+            server.served.wildcard) else ''
+        print(f'console: the page answers to {names}{also}; any other name in the address '
+              'bar is refused (start with --host NAME to use one)', flush=True)
+    if server.node is not None:
+        if server.node.key is None:
+            print(f'console: WARNING: no key ({server.node.key_error}): the page can watch, '
+                  'controls are off (the emergency stop works)', flush=True)
+        print(f'console: login token (one use): {server.access.token}', flush=True)
+        print(f'console: or open http://{shown}:{bound}/#token={server.access.token}',
+              flush=True)
+    tasks = [asyncio.create_task(server.push())]
+    feed = None
+    if server.node is not None and server.node.foxglove_port:
+        feed = FoxgloveFeed(server.model, server.lock, host, server.node.foxglove_port)
+        tasks.append(asyncio.create_task(feed.run(server.period)))
+        layout = server.web / 'foxglove_layout.json'
+        print(f'console: Foxglove: ws://{shown}:{feed.port} (open it in the Foxglove app; '
+              f'a layout for the default test: {layout})', flush=True)
+    try:
+        while not stop.is_set():
+            await asyncio.sleep(0.1)
+    finally:
+        for task in tasks:
+            task.cancel()
+        if feed is not None:
+            feed.stop()
+        for socket in list(server.sockets):
+            await socket.close()
+        await runner.cleanup()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point; 0 on a clean stop, 2 on bad input."""
+    argv = list(sys.argv if args is None else ['console', *args])
+    options = parse_args(remove_ros_args(argv)[1:])
+    overrides: dict[str, Any] = {}
+    for name, value in (('host', options.host), ('port', options.port),
+                        ('key_file', options.key), ('bridge_params', options.bridge_params),
+                        ('update_rate', options.update_rate),
+                        ('max_points', options.max_points),
+                        ('foxglove_port', options.foxglove)):
+        if value is not None:
+            overrides[name] = value
+    lock = threading.Lock()
+    model = ConsoleModel(time.monotonic)
+    access = ConsoleAccess()
+    if options.run is not None:
+        if options.max_points is not None:
+            model.max_points = options.max_points
+        model.default_limits = default_bridge_limits(options.bridge_params or '')
+        try:
+            run_dir = load_run_folder(options.run, model)
+        except (BagError, OSError) as err:
+            print(f'console: error: {err}', file=sys.stderr)
+            return 2
+        stop = threading.Event()
+        server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir,
+                               host=options.host or '127.0.0.1',
+                               port=DEFAULT_PORT if options.port is None else options.port)
+        try:
+            asyncio.run(serve(server, stop))
+        except KeyboardInterrupt:
+            pass
+        return 0
+    stop = init_with_stop_flag(argv)
+    try:
+        node = ConsoleNode(model, lock, overrides)
+        executor = events_executor(node)
+
+        def spin() -> None:
+            while rclpy.ok() and not stop.is_set():
+                executor.spin_once(timeout_sec=0.1)
+
+        thread = threading.Thread(target=spin, name='console-ros', daemon=True)
+        thread.start()
+        server = ConsoleServer(model, lock, access, node, node.update_rate, host=node.host,
+                               port=node.port)
+        asyncio.run(serve(server, stop))
+        stop.set()
+        thread.join(timeout=2.0)
+        executor.shutdown()
+        node.destroy_node()
+        return 0
+    except OSError as err:
+        print(f'console: error: {err}', file=sys.stderr)
+        return 2
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    sys.exit(main())

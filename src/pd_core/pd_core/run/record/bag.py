@@ -1,0 +1,434 @@
+"""Recording a test to a rosbag2 (MCAP) file and reading it back, with ``rosbags`` (no ROS).
+
+Topics of a run's bag:
+
+=========================  ==========================  ======================================
+topic                      type                        content
+=========================  ==========================  ======================================
+``/pd/test_definition``    ``std_msgs/msg/String``     the resolved test definition (JSON)
+``/pd/step_command``       ``pd_msgs/msg/StepCommand`` every command sent, re-sends included
+``/pd/step_feedback``      ``pd_msgs/msg/StepFeedback`` every feedback received, ignored ones too
+``/pd/test_status``        ``pd_msgs/msg/TestStatus``  every status published by the integrator
+``/pd/bridge/status``      ``pd_msgs/msg/TestStatus``  the actuator bridge's status (if any)
+``/pd/bridge/trajectory``  ``ActuatorTrajectory``      sub-step actuator trajectories (if any)
+``/pd/run_events``         ``std_msgs/msg/String``     events of the run as JSON: resumed, a
+                                                       process restarted, a state epoch changed
+=========================  ==========================  ======================================
+
+A substructured test (``structure.elements`` with experimental elements at named sites) has
+instead, per site, ``/pd/<site>/step_command`` and ``/pd/<site>/step_feedback`` (what went to
+and came from that site, in actuator DOFs) and ``/pd/<site>/bridge/status`` (and
+``.../bridge/trajectory``) when a bridge serves it, plus the structure-level stream the
+integrator's session saw, ``/pd/structure/step_command`` and ``/pd/structure/step_feedback``
+(structure DOFs, total restoring force incl. the numerical elements).
+
+Messages are written in the order the integrator saw them, so replaying the bag through the
+same step protocol reproduces the run exactly (see :mod:`.replay`). The ``pd_msgs`` message
+definitions are read from the installed ``pd_msgs`` package (or the source tree), so there is
+one definition for ROS and for the bag.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol, cast
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    Signature,
+    Status,
+    command_from_message,
+    feedback_from_message,
+    signature_from_message,
+    status_from_message,
+)
+
+from ...errors import BagError
+
+_UNSIGNED = Signature()
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
+    from rosbags.typesys.store import Typestore
+
+TOPIC_DEFINITION = '/pd/test_definition'
+TOPIC_COMMAND = '/pd/step_command'
+TOPIC_FEEDBACK = '/pd/step_feedback'
+TOPIC_STATUS = '/pd/test_status'
+TOPIC_BRIDGE_STATUS = '/pd/bridge/status'
+TOPIC_TRAJECTORY = '/pd/bridge/trajectory'
+TOPIC_STRUCTURE_COMMAND = '/pd/structure/step_command'
+TOPIC_STRUCTURE_FEEDBACK = '/pd/structure/step_feedback'
+TOPIC_EVENTS = '/pd/run_events'
+
+MSG_COMMAND = 'pd_msgs/msg/StepCommand'
+MSG_FEEDBACK = 'pd_msgs/msg/StepFeedback'
+MSG_STATUS = 'pd_msgs/msg/TestStatus'
+MSG_TRAJECTORY = 'pd_msgs/msg/ActuatorTrajectory'
+MSG_STRING = 'std_msgs/msg/String'
+MSG_SIGNATURE = 'pd_msgs/msg/Signature'
+
+_TOPICS = {
+    TOPIC_DEFINITION: MSG_STRING,
+    TOPIC_COMMAND: MSG_COMMAND,
+    TOPIC_FEEDBACK: MSG_FEEDBACK,
+    TOPIC_STATUS: MSG_STATUS,
+    TOPIC_BRIDGE_STATUS: MSG_STATUS,
+    TOPIC_TRAJECTORY: MSG_TRAJECTORY,
+    TOPIC_EVENTS: MSG_STRING,
+}
+
+
+class _StringMessage(Protocol):
+    """A deserialised ``std_msgs/msg/String``."""
+
+    data: str
+
+
+def _message_type(topic: str) -> str | None:
+    """The message type of a bag topic (fixed ones, or per-site ones by their last part)."""
+    if topic in _TOPICS:
+        return _TOPICS[topic]
+    for suffix, msgtype in (('/step_command', MSG_COMMAND), ('/step_feedback', MSG_FEEDBACK),
+                            ('/bridge/status', MSG_STATUS),
+                            ('/bridge/trajectory', MSG_TRAJECTORY)):
+        if topic.startswith('/pd/') and topic.endswith(suffix):
+            return msgtype
+    return None
+
+
+def msg_directory() -> Path:
+    """The directory holding the ``pd_msgs`` ``.msg`` files.
+
+    Looks in the ament prefixes (``AMENT_PREFIX_PATH``), then in the source tree.
+
+    Raises:
+        BagError: no ``pd_msgs`` definitions were found.
+    """
+    candidates = [Path(prefix) / 'share' / 'pd_msgs' / 'msg'
+                  for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)
+                  if prefix]
+    candidates.append(Path(__file__).resolve().parents[4] / 'pd_msgs' / 'msg')
+    for candidate in candidates:
+        if (candidate / 'StepCommand.msg').is_file():
+            return candidate
+    msg = 'pd_msgs message definitions not found (build the workspace or set AMENT_PREFIX_PATH)'
+    raise BagError(msg)
+
+
+@functools.cache
+def typestore() -> Typestore:
+    """A ROS 2 Kilted typestore with the ``pd_msgs`` types registered."""
+    store = get_typestore(Stores.ROS2_KILTED)
+    directory = msg_directory()
+    types: dict[str, Any] = {}
+    for name in ('Signature', 'StepCommand', 'StepFeedback', 'TestStatus', 'ActuatorTrajectory'):
+        text = (directory / f'{name}.msg').read_text(encoding='utf-8')
+        types.update(get_types_from_msg(text, f'pd_msgs/msg/{name}'))
+    store.register(types)
+    return store
+
+
+def _stamp(store: Typestore, t_ns: int) -> Any:
+    time_type = store.types['builtin_interfaces/msg/Time']
+    header_type = store.types['std_msgs/msg/Header']
+    return header_type(stamp=time_type(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000),
+                       frame_id='')
+
+
+class BagRecorder:
+    """Writes a run's messages to a rosbag2 MCAP bag (context manager).
+
+    Args:
+        path: the bag directory to create (must not exist).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._writer: Writer | None = None
+        self._connections: dict[str, Connection] = {}
+        self._store = typestore()
+        self.counts: dict[str, int] = dict.fromkeys(_TOPICS, 0)
+
+    def open(self) -> BagRecorder:
+        """Create the bag.
+
+        Raises:
+            BagError: the path exists or cannot be written.
+        """
+        if self._writer is not None:
+            return self
+        if self.path.exists():
+            msg = f'{self.path}: bag exists already, not overwriting'
+            raise BagError(msg)
+        writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        try:
+            writer.open()
+            for topic, msgtype in _TOPICS.items():
+                self._connections[topic] = writer.add_connection(topic, msgtype,
+                                                                 typestore=self._store)
+        except Exception as err:
+            msg = f'{self.path}: cannot create the bag ({err})'
+            raise BagError(msg) from err
+        self._writer = writer
+        return self
+
+    def close(self) -> None:
+        """Finish the bag (writes its metadata)."""
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+
+    def __enter__(self) -> BagRecorder:
+        """Open the bag."""
+        return self.open()
+
+    def flush(self, *, sync: bool = True) -> None:
+        """Nothing to do: the writer buffers until :meth:`close` (the journal is durable)."""
+
+    def __exit__(self, *exc: object) -> None:
+        """Close the bag."""
+        self.close()
+
+    def _connection(self, topic: str) -> Connection:
+        """The connection of ``topic`` (per-site topics are added on first use)."""
+        connection = self._connections.get(topic)
+        if connection is not None:
+            return connection
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        msgtype = _message_type(topic)
+        if msgtype is None:
+            msg = f'{self.path}: {topic}: not a topic of a run bag'
+            raise BagError(msg)
+        connection = self._writer.add_connection(topic, msgtype, typestore=self._store)
+        self._connections[topic] = connection
+        self.counts[topic] = 0
+        return connection
+
+    def _write(self, topic: str, t_ns: int, message: Any) -> None:
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        connection = self._connection(topic)
+        data = self._store.serialize_cdr(message, connection.msgtype)
+        self._writer.write(connection, t_ns, data)
+        self.counts[topic] += 1
+
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+        """Record an already serialized (CDR) message of one of the bag's topics."""
+        if self._writer is None:
+            msg = f'{self.path}: bag is not open'
+            raise BagError(msg)
+        self._writer.write(self._connection(topic), t_ns, data)
+        self.counts[topic] += 1
+
+    def write_definition(self, text: str, t_ns: int) -> None:
+        """Record the resolved test definition (JSON)."""
+        self._write(TOPIC_DEFINITION, t_ns, self._store.types[MSG_STRING](data=text))
+
+    def write_event(self, what: str, t_ns: int, **info: Any) -> None:
+        """Record an event of the run (JSON text on ``/pd/run_events``)."""
+        text = json.dumps({'what': what, **info}, sort_keys=True)
+        self._write(TOPIC_EVENTS, t_ns, self._store.types[MSG_STRING](data=text))
+
+    def _signature(self, signature: Signature | None) -> Any:
+        signature = signature or _UNSIGNED
+        return self._store.types[MSG_SIGNATURE](
+            key_id=signature.key_id, session=signature.session, sequence=signature.sequence,
+            mac=np.frombuffer(signature.mac, dtype=np.uint8))
+
+    def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
+                      signature: Signature | None = None) -> None:
+        """Record a step command (with the signature it went out with, if any)."""
+        self._write(topic, t_ns, self._store.types[MSG_COMMAND](
+            header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
+            iteration=command.iteration, test_time=command.test_time,
+            dof_names=list(command.dof_names),
+            target_displacement=np.array(command.target_displacement, dtype=np.float64),
+            control_mode=np.array(command.control_mode, dtype=np.uint8),
+            target_force=np.array(command.target_force, dtype=np.float64),
+            signature=self._signature(signature)))
+
+    def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
+                       signature: Signature | None = None) -> None:
+        """Record a step feedback (with the signature it came with, if any)."""
+        self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
+            header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
+            iteration=feedback.iteration,
+            measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
+            restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
+            status=int(feedback.status), message=feedback.message, epoch=feedback.epoch,
+            state_origin=int(feedback.state_origin), signature=self._signature(signature)))
+
+    def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
+        """Record a test status (the integrator's, or the bridge's on its own topic)."""
+        self._write(topic, t_ns, self._store.types[MSG_STATUS](
+            header=_stamp(self._store, t_ns), test_id=status.test_id, state=int(status.state),
+            step=status.step, total_steps=status.total_steps, omega_dt=status.omega_dt,
+            retries=status.retries, ignored_messages=status.ignored_messages,
+            message=status.message, refused_messages=status.refused_messages,
+            refused_by_reason=status.refused_by_reason, node=status.node,
+            session=status.session, emergency_stop=status.emergency_stop,
+            operator_hold=status.operator_hold, acknowledged=status.acknowledged,
+            signature=self._signature(None)))
+
+
+@dataclass
+class RecordedRun:
+    """What a run's bag holds, in log-time order.
+
+    Attributes:
+        definition_json: the resolved test definition.
+        events: ``(t_ns, item)`` with item a :class:`Command` or :class:`Feedback`, in the order
+            the integrator sent and received them.
+        statuses: the integrator's statuses.
+        bridge_statuses: the bridge's statuses.
+        trajectories: the actuator's sub-step trajectories (``ActuatorTrajectory`` messages).
+        site_events: per site of a substructured test, ``(t_ns, item)`` of its own stream.
+        signatures: the signature of each item of ``events`` (unsigned ones empty).
+        site_signatures: the same for ``site_events``.
+        ordered: every command, feedback and integrator status as ``(topic, t_ns, item,
+            signature)``, in recorded order across all topics (what a resume re-runs).
+        notes: what reading found worth saying (e.g. a journal's last record cut short).
+        run_events: the run's events (``/pd/run_events``: resumed, restarted, epoch changes),
+            each a mapping with ``what`` and ``t_ns``.
+    """
+
+    definition_json: str
+    events: list[tuple[int, Command | Feedback]] = field(default_factory=list)
+    statuses: list[tuple[int, Status]] = field(default_factory=list)
+    bridge_statuses: list[tuple[int, Status]] = field(default_factory=list)
+    trajectories: list[tuple[int, Any]] = field(default_factory=list)
+    site_events: dict[str, list[tuple[int, Command | Feedback]]] = field(default_factory=dict)
+    signatures: list[Signature] = field(default_factory=list)
+    site_signatures: dict[str, list[Signature]] = field(default_factory=dict)
+    ordered: list[tuple[str, int, Command | Feedback | Status, Signature]] = field(
+        default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    run_events: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def commands(self) -> list[Command]:
+        """The commands, in order."""
+        return [item for _, item in self.events if isinstance(item, Command)]
+
+    @property
+    def feedback(self) -> list[Feedback]:
+        """The feedback messages, in order."""
+        return [item for _, item in self.events if isinstance(item, Feedback)]
+
+
+class RunIndex:
+    """Sorts a run's recorded messages into a :class:`RecordedRun` (bag or journal alike)."""
+
+    def __init__(self) -> None:
+        self._definition: str | None = None
+        self._run = RecordedRun(definition_json='')
+        self._messages: list[tuple[str, int, Command | Feedback, Signature]] = []
+
+    def definition(self, text: str) -> None:
+        """The recorded definition (the first one counts)."""
+        self._definition = self._definition or text
+
+    def message(self, topic: str, t_ns: int, item: Command | Feedback,
+                signature: Signature) -> None:
+        """A command or feedback on ``topic``."""
+        self._messages.append((topic, t_ns, item, signature))
+        self._run.ordered.append((topic, t_ns, item, signature))
+
+    def status(self, topic: str, t_ns: int, status: Status) -> None:
+        """A status: the integrator's on ``/pd/test_status``, a bridge's on its own topic."""
+        if topic == TOPIC_STATUS:
+            self._run.statuses.append((t_ns, status))
+            self._run.ordered.append((topic, t_ns, status, _UNSIGNED))
+        else:
+            self._run.bridge_statuses.append((t_ns, status))
+
+    def trajectory(self, t_ns: int, message: Any) -> None:
+        """An actuator trajectory."""
+        self._run.trajectories.append((t_ns, message))
+
+    def event(self, t_ns: int, event: dict[str, Any]) -> None:
+        """An event of the run."""
+        self._run.run_events.append({**event, 't_ns': t_ns})
+
+    def result(self, source: str) -> RecordedRun:
+        """The run.
+
+        Raises:
+            BagError: no definition was recorded.
+        """
+        if self._definition is None:
+            msg = f'{source}: no {TOPIC_DEFINITION} record (not a run record?)'
+            raise BagError(msg)
+        run = self._run
+        run.definition_json = self._definition
+        structured = any(topic == TOPIC_STRUCTURE_COMMAND for topic, *_ in self._messages)
+        main_topics = ((TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK) if structured
+                       else (TOPIC_COMMAND, TOPIC_FEEDBACK))
+        for topic, t_ns, item, signature in self._messages:
+            if topic in main_topics:
+                run.events.append((t_ns, item))
+                run.signatures.append(signature)
+            else:
+                site = site_of(topic)
+                run.site_events.setdefault(site, []).append((t_ns, item))
+                run.site_signatures.setdefault(site, []).append(signature)
+        return run
+
+
+def site_of(topic: str) -> str:
+    """The site of a per-site topic (``/pd/lab1/step_command`` → ``lab1``; ``/pd/...`` → '')."""
+    head = topic.removeprefix('/pd/').rsplit('/', 1)[0]
+    return '' if head in ('step_command', 'step_feedback') else head
+
+
+def read_bag(path: str | Path) -> RecordedRun:
+    """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
+
+    Raises:
+        BagError: the bag cannot be read or has no test definition.
+    """
+    path = Path(path)
+    index = RunIndex()
+    try:
+        with AnyReader([path], default_typestore=typestore()) as reader:
+            connections = [c for c in reader.connections if _message_type(c.topic) is not None]
+            for connection, t_ns, raw in reader.messages(connections=connections):
+                message = reader.deserialize(raw, connection.msgtype)
+                topic = connection.topic
+                msgtype = connection.msgtype
+                if topic == TOPIC_EVENTS:
+                    index.event(t_ns, json.loads(cast('_StringMessage', message).data))
+                elif topic == TOPIC_DEFINITION:
+                    # rosbags types a deserialised message as ``object``; the definition topic
+                    # carries a std_msgs/msg/String (the resolved test as JSON text).
+                    index.definition(cast('_StringMessage', message).data)
+                elif msgtype in (MSG_COMMAND, MSG_FEEDBACK):
+                    item = (command_from_message(message) if msgtype == MSG_COMMAND
+                            else feedback_from_message(message))
+                    signature = signature_from_message(
+                        message.signature)  # type: ignore[attr-defined]  # rosbags: ``object``
+                    index.message(topic, t_ns, item, signature)
+                elif msgtype == MSG_TRAJECTORY:
+                    index.trajectory(t_ns, message)
+                else:
+                    index.status(topic, t_ns, status_from_message(message))
+    except BagError:
+        raise
+    except Exception as err:
+        msg = f'{path}: cannot read the bag ({err})'
+        raise BagError(msg) from err
+    return index.result(str(path))

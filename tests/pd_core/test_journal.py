@@ -1,0 +1,519 @@
+"""The run's journal: durable per step, read back exactly, cut or corrupted, turned into a bag.
+
+The references are independent of the journal's own output: the live session of the run that
+wrote it, and an uninterrupted :func:`run_offline` of the same test (its ``response.csv``
+bytes and its history arrays).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from collections import deque
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    FeedbackStatus,
+    Signature,
+    StateOrigin,
+    Status,
+)
+from pd_common.protocol import TestState as State
+from pd_core.errors import BagError
+from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.session import TestSession as Session  # not a test class
+from pd_core.run.record import journal as journal_module
+from pd_core.run.record.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, read_bag
+from pd_core.run.record.journal import (
+    JOURNAL_FILE,
+    Journal,
+    journal_to_bag,
+    read_journal,
+    read_journal_records,
+)
+from pd_core.run.runner import (
+    load_run,
+    rebuild_outputs,
+    replay_run,
+    run_offline,
+    serve_queue,
+    site_servers,
+)
+from pd_core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST
+
+DURATION = 3.0  # 300 steps: the specimen yields at step 180 (its state matters)
+STEPS = 300
+
+
+def lines_of(path: Path) -> list[str]:
+    """The journal's lines (the last, empty one after the final newline left out)."""
+    text = path.read_text(encoding='utf-8')
+    assert text.endswith('\n')
+    return text.split('\n')[:-1]
+
+
+def kinds(path: Path) -> list[str]:
+    return [json.loads(line)['k'] for line in lines_of(path)]
+
+
+def assert_same_history(a: Any, b: Any, rows: int | None = None) -> None:
+    """Two histories equal bit for bit (the first ``rows`` committed rows)."""
+    n = a.n_committed if rows is None else rows
+    assert b.n_committed >= n
+    for name in ('displacement', 'velocity', 'acceleration', 'restoring_force',
+                 'measured_displacement'):
+        assert np.array_equal(getattr(a, name)[:n], getattr(b, name)[:n]), name
+
+
+@pytest.fixture(scope='module')
+def offline(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The uninterrupted reference run (300 steps of the default test)."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    return run_offline(definition, tmp_path_factory.mktemp('journal') / 'run', figures=False)
+
+
+# -- records ----------------------------------------------------------------------------------
+def test_records_round_trip_exactly(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    awkward = (0.1 + 0.2, -0.0, 5e-324, 1.0 / 3.0, -1.7976931348623157e308)
+    command = Command(test_id='t', step=7, test_time=0.07, dof_names=('a', 'b', 'c', 'd', 'e'),
+                      target_displacement=awkward, iteration=2)
+    signature = Signature(key_id='lab', session='ab' * 16, sequence=41, mac=bytes(range(32)))
+    feedback = Feedback(test_id='t', step=7, measured_displacement=awkward,
+                        restoring_force=(1.5, -2.25, 3.0, 0.0, 1e300),
+                        status=FeedbackStatus.LIMIT, message='max_force: 1e6 N', iteration=2,
+                        epoch='e-42', state_origin=StateOrigin.RESTORED)
+    status = Status(test_id='t', state=State.HOLDING, step=6, total_steps=10,
+                    omega_dt=0.1108, retries=2, ignored_messages=3, message='holding',
+                    refused_messages=4, refused_by_reason='bad mac: 4')
+    with Journal(path) as journal:
+        journal.write_definition('{"x": 1}', 10)
+        journal.write_command(command, 11, signature=signature)
+        journal.write_feedback(feedback, 12, topic='/pd/lab1/step_feedback')
+        journal.write_status(status, 13)
+        journal.write_status(status, 14, topic='/pd/bridge/status')
+        journal.write_raw('/pd/bridge/trajectory', 15, b'\x00\x01\xffraw')
+        journal.write_event('resumed', 16, committed_step=6, sites=['site default: ok'])
+        assert journal.records == 8  # the header, then seven records
+    records, note = read_journal_records(path)
+    assert note == ''
+    assert [r.kind for r in records] == ['def', 'cmd', 'fb', 'st', 'st', 'raw', 'ev']
+    assert [r.t_ns for r in records] == [10, 11, 12, 13, 14, 15, 16]
+    assert records[0].item == '{"x": 1}'
+    assert records[1].item == command
+    assert records[1].topic == TOPIC_COMMAND
+    assert records[1].signature == signature
+    assert math.copysign(1.0, records[1].item.target_displacement[1]) == -1.0
+    assert records[2].item == feedback
+    assert records[2].topic == '/pd/lab1/step_feedback'
+    assert records[2].signature == Signature()
+    assert records[3].item == status
+    assert records[3].topic == TOPIC_STATUS
+    assert records[4].topic == '/pd/bridge/status'
+    assert records[5].item == b'\x00\x01\xffraw'
+    assert records[6].item['what'] == 'resumed'
+    assert records[6].item['committed_step'] == 6
+
+
+def test_non_finite_values_round_trip(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    feedback = Feedback(test_id='t', step=1, measured_displacement=(math.nan, math.inf),
+                        restoring_force=(-math.inf, 0.0))
+    with Journal(path) as journal:
+        journal.write_feedback(feedback, 1)
+    (record,), _ = read_journal_records(path)
+    assert math.isnan(record.item.measured_displacement[0])
+    assert record.item.measured_displacement[1] == math.inf
+    assert record.item.restoring_force == (-math.inf, 0.0)
+
+
+def test_unsigned_signature_is_not_recorded(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    command = Command(test_id='t', step=0, test_time=0.0, dof_names=('a',),
+                      target_displacement=(0.0,))
+    with Journal(path) as journal:
+        journal.write_command(command, 1, signature=Signature(key_id='lab'))  # no mac
+    assert json.loads(lines_of(path)[1])['sig'] is None
+
+
+def test_events_kept_and_read_back(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_definition('{}', 1)
+        journal.write_event('epoch_change', 5, site='lab1', accepted=True)
+        journal.write_event('resumed', 9, note='after a crash')
+        assert journal.events == [
+            {'what': 'epoch_change', 'site': 'lab1', 'accepted': True, 't_ns': 5},
+            {'what': 'resumed', 'note': 'after a crash', 't_ns': 9}]
+    run = read_journal(path)
+    assert run.run_events == [
+        {'what': 'epoch_change', 'site': 'lab1', 'accepted': True, 't_ns': 5},
+        {'what': 'resumed', 'note': 'after a crash', 't_ns': 9}]
+    assert journal_to_bag(path, tmp_path / 'bag') == 3
+    assert read_bag(tmp_path / 'bag').run_events == run.run_events
+
+
+def test_journal_without_definition_is_not_a_run(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_event('resumed', 1)
+    with pytest.raises(BagError, match='no /pd/test_definition record'):
+        read_journal(path)
+
+
+# -- the file -----------------------------------------------------------------------------------
+def test_open_refuses_an_existing_journal(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_definition('{}', 1)
+    before = path.read_bytes()
+    with pytest.raises(BagError) as error:
+        Journal(path).open()
+    assert str(error.value).startswith(str(path))
+    assert 'a journal exists already' in str(error.value)
+    assert '\n' not in str(error.value)
+    assert path.read_bytes() == before
+
+
+def test_open_reports_an_unwritable_path(tmp_path: Path) -> None:
+    path = tmp_path / 'missing' / JOURNAL_FILE
+    with pytest.raises(BagError, match='cannot write the journal'):
+        Journal(path).open()
+
+
+def test_append_continues_without_a_second_header(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_definition('{}', 1)
+        journal.write_event('first', 2)
+    with Journal(path, append=True) as journal:
+        journal.write_event('resumed', 3)
+    assert kinds(path) == ['journal', 'def', 'ev', 'ev']
+    records, note = read_journal_records(path)
+    assert note == ''
+    assert [r.item['what'] for r in records if r.kind == 'ev'] == ['first', 'resumed']
+
+
+def test_append_to_a_missing_journal_creates_it(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path, append=True) as journal:
+        journal.write_event('resumed', 3)
+    assert kinds(path) == ['ev']
+
+
+def test_nothing_reaches_the_file_before_a_flush(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    journal = Journal(path).open()
+    try:
+        journal.write_definition('{}', 1)
+        assert path.read_bytes() == b''
+        journal.flush()
+        assert kinds(path) == ['journal', 'def']
+        journal.write_event('x', 2)
+        assert kinds(path) == ['journal', 'def']
+        journal.flush()
+        assert kinds(path) == ['journal', 'def', 'ev']
+    finally:
+        journal.close()
+
+
+def test_fsync_at_most_sync_interval_apart(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    synced: list[float] = []
+    now = [100.0]
+    monkeypatch.setattr(journal_module.os, 'fsync', lambda fd: synced.append(now[0]))
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0]).open()
+    for t in (100.2, 100.9, 101.0, 101.5, 101.99, 102.0, 105.0):
+        now[0] = t
+        journal.write_event('step', 0)
+        journal.flush()
+        # Every flush hands its records to the operating system at once.
+        assert kinds(journal.path)[-1] == 'ev'
+    assert synced == [101.0, 102.0, 105.0]
+    now[0] = 107.0
+    journal.flush()  # nothing pending: no write, no sync
+    assert synced == [101.0, 102.0, 105.0]
+    now[0] = 107.1
+    journal.close()  # always synced when closed
+    assert synced == [101.0, 102.0, 105.0, 107.1]
+    journal.close()  # twice: nothing more
+    assert len(synced) == 4
+
+
+def test_sync_interval_zero_syncs_every_flush(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    synced: list[int] = []
+    monkeypatch.setattr(journal_module.os, 'fsync', lambda fd: synced.append(fd))
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=0.0, clock=lambda: 5.0).open()
+    for _ in range(3):
+        journal.write_event('step', 0)
+        journal.flush()
+    assert len(synced) == 3
+    journal.close()
+
+
+def test_sync_interval_zero_is_one_fsync_per_committed_step_before_its_next_command(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=0.0).open()
+    events: list[str] = []
+    monkeypatch.setattr(journal_module.os, 'fsync', lambda fd: events.append('fsync'))
+    queue: deque[tuple[str, Command]] = deque()
+
+    def send(site: str, command: Command) -> None:
+        events.append('send')
+        queue.append((site, command))
+
+    dispatcher = StepDispatcher(session, send, journal)
+    dispatcher.start()
+    events.clear()
+    assert serve_queue(queue, {'': server}, dispatcher)
+    journal.close()
+    assert session.state is State.FINISHED
+    steps = definition.n_steps
+    # Each answer synced, then the command it leads to sent; the last answer, then the close.
+    assert events == ['fsync', 'send'] * steps + ['fsync', 'fsync']
+
+
+def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) -> None:
+    """What a specimen was sent is never more than one command ahead of the record: when a
+    command is sent, the answer that led to it is already in the file (a kill between the two
+    leaves a journal whose owed command the resumed run recomputes and re-sends)."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    path = tmp_path / JOURNAL_FILE
+    journal = Journal(path, sync_interval=3600.0).open()
+    queue: deque[tuple[str, Command]] = deque()
+    on_disk_when_sent: list[tuple[int, int]] = []
+
+    def send(site: str, command: Command) -> None:
+        answered = [json.loads(line)['step'] for line in
+                    path.read_text(encoding='utf-8').splitlines() if '"k":"fb"' in line]
+        on_disk_when_sent.append((command.step, answered[-1] if answered else -1))
+        queue.append((site, command))
+
+    dispatcher = StepDispatcher(session, send, journal)
+    dispatcher.start()
+    try:
+        assert serve_queue(queue, {'': server}, dispatcher)
+    finally:
+        journal.close()
+    assert session.state is State.FINISHED
+    assert on_disk_when_sent[0] == (0, -1)
+    assert on_disk_when_sent[1:] == [(step, step - 1)
+                                     for step in range(1, len(on_disk_when_sent))]
+
+
+def test_every_committed_step_is_on_disk_while_the_writer_runs(tmp_path: Path,
+                                                               offline: Any) -> None:
+    """A copy of the live journal taken after any step (what a SIGKILL leaves) holds it."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    queue: deque[tuple[str, Command]] = deque()
+    path = tmp_path / JOURNAL_FILE
+    journal = Journal(path, sync_interval=3600.0).open()  # durability must not need fsync
+    dispatcher = StepDispatcher(session, lambda site, command: queue.append((site, command)),
+                                journal)
+    journal.write_definition(definition.to_json(), 1)
+    dispatcher.start()
+    checked = 0
+    try:
+        while queue:
+            site, command = queue.popleft()
+            answer = server.handle(command.test_id, command.step, command.target_displacement)
+            assert answer is not None
+            dispatcher.on_feedback(site, answer)
+            step = session.committed_step
+            # A second reader, while the writer is alive and the file still open: the
+            # feedback that committed the step, then the next command (one flush).
+            text = path.read_text(encoding='utf-8')
+            assert text.endswith('\n')
+            tail = [json.loads(line) for line in text.split('\n')[-3:-1]]
+            written = tail[-2] if session.protocol.pending is not None else tail[-1]
+            assert (written['k'], written['step']) == ('fb', step)
+            assert tuple(written['r']) == answer.restoring_force
+            if session.protocol.pending is not None:
+                assert tail[-1]['k'] == 'cmd'
+                assert tuple(tail[-1]['x']) == session.protocol.pending.target_displacement
+                assert tail[-1]['step'] == step + 1
+            if step in (0, 150, 181, 240):  # a killed run: the copy replays to its last step
+                copy = tmp_path / f'copy-{step}.jsonl'
+                shutil.copyfile(path, copy)
+                replayed = replay_run(read_journal(copy), str(copy))
+                assert replayed.committed_step == step
+                assert_same_history(offline.session.history, replayed.history, step + 1)
+                checked += 1
+    finally:
+        journal.close()
+    assert checked == 4
+    assert session.committed_step == STEPS
+    assert_same_history(offline.session.history, session.history)
+
+
+# -- cut and corrupted journals ---------------------------------------------------------------
+def _small_journal(path: Path) -> None:
+    with Journal(path) as journal:
+        journal.write_definition('{}', 1)
+        for step in range(5):
+            journal.write_command(Command(test_id='t', step=step, test_time=0.01 * step,
+                                          dof_names=('a',),
+                                          target_displacement=(0.001 * step,)), 10 + step)
+
+
+@pytest.mark.parametrize('cut', [2, 5, 17, 40])
+def test_a_cut_last_line_is_ignored_and_reported(tmp_path: Path, cut: int) -> None:
+    path = tmp_path / JOURNAL_FILE
+    _small_journal(path)
+    last_line = lines_of(path)[-1]
+    assert len(last_line) > cut
+    size = path.stat().st_size
+    with path.open('r+b') as stream:
+        stream.truncate(size - cut)
+    records, note = read_journal_records(path)
+    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3]
+    assert note == (f'ignored the last record of {JOURNAL_FILE}, cut short '
+                    f'({len(last_line) + 1 - cut} bytes)')
+    run = read_journal(path)
+    assert run.notes == [note]
+    assert [c.step for c in run.commands] == [0, 1, 2, 3]
+
+
+def test_a_last_line_missing_only_its_newline_is_complete(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    _small_journal(path)
+    with path.open('r+b') as stream:
+        stream.truncate(path.stat().st_size - 1)
+    records, note = read_journal_records(path)
+    assert note == ''
+    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3, 4]
+
+
+@pytest.mark.parametrize('bad', ['{"k":"cmd","t":1,"id":"t"', 'garbage', '{"k":"cmd","t":3}',
+                                 ('{"k":"fb","t":3,"id":"t","step":1,"it":0,"xm":[0.0],'
+                                 '"r":[0.0],"status":7,"msg":""}')])
+def test_a_corrupted_middle_line_is_an_error_naming_it(tmp_path: Path, bad: str) -> None:
+    path = tmp_path / JOURNAL_FILE
+    _small_journal(path)
+    lines = lines_of(path)
+    lines[3] = bad
+    path.write_text('\n'.join(lines) + '\n', encoding='utf-8')
+    with pytest.raises(BagError) as error:
+        read_journal_records(path)
+    message = str(error.value)
+    assert message.startswith(f'{path}: line 4: malformed journal record (')
+    assert '\n' not in message
+    with pytest.raises(BagError, match='line 4: malformed'):
+        load_run(path)
+
+
+def test_an_unreadable_journal_is_an_error(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    with pytest.raises(BagError, match='cannot read the journal'):
+        read_journal_records(path)
+
+
+@pytest.mark.parametrize(('cut', 'steps'), [
+    (9, [0, 1, 2, 3]),        # cut in the middle of the last line: that line is dropped
+    (1, [0, 1, 2, 3, 4]),     # only its newline missing: the line is kept
+])
+def test_appending_to_a_cut_journal_keeps_it_readable(tmp_path: Path, cut: int,
+                                                      steps: list[int]) -> None:
+    """A resumed run appends to a journal a crash cut at its end."""
+    path = tmp_path / JOURNAL_FILE
+    _small_journal(path)
+    with path.open('r+b') as stream:
+        stream.truncate(path.stat().st_size - cut)
+    with Journal(path, append=True) as journal:
+        journal.write_event('resumed', 99)
+    records, note = read_journal_records(path)
+    assert note == ''
+    assert [r.item.step for r in records if r.kind == 'cmd'] == steps
+    assert records[-1].kind == 'ev'
+    assert records[-1].item['what'] == 'resumed'
+
+
+# -- the bag ----------------------------------------------------------------------------------
+def test_offline_journal_holds_the_whole_run(offline: Any) -> None:
+    path = offline.directory / JOURNAL_FILE
+    assert kinds(path)[:3] == ['journal', 'def', 'st']
+    run = read_journal(path)
+    assert run.notes == []
+    assert [c.step for c in run.commands] == list(range(STEPS + 1))
+    assert [f.step for f in run.feedback] == list(range(STEPS + 1))
+    assert np.array_equal(np.array([f.restoring_force for f in run.feedback]),
+                          offline.session.history.restoring_force)
+    assert run.statuses[-1][1].state is State.FINISHED
+    assert json.loads(run.definition_json) == json.loads(
+        (offline.directory / 'test_definition.json').read_text(encoding='utf-8'))
+
+
+def test_journal_to_bag_replays_to_the_offline_response(tmp_path: Path, offline: Any) -> None:
+    journal = offline.directory / JOURNAL_FILE
+    bag = tmp_path / 'bag'
+    count = journal_to_bag(journal, bag)
+    assert count == len(lines_of(journal)) - 1  # every record but the header
+    assert (bag / 'metadata.yaml').is_file()
+    from_bag = load_run(bag)
+    from_journal = load_run(journal)
+    assert from_bag.events == from_journal.events
+    assert [s for _, s in from_bag.statuses] == [s for _, s in from_journal.statuses]
+    assert from_bag.definition_json == from_journal.definition_json
+    session = replay_run(from_bag, str(bag))
+    assert session.state is State.FINISHED
+    assert_same_history(offline.session.history, session.history)
+    assert session.history.n_committed == STEPS + 1
+    # The outputs rebuilt from the converted bag: the offline run's response, byte for byte.
+    rebuilt = rebuild_outputs(bag, tmp_path / 'rebuilt', figures=False)
+    assert (rebuilt.directory / 'response.csv').read_bytes() == (
+        offline.directory / 'response.csv').read_bytes()
+    assert rebuilt.summary['steps'] == STEPS
+
+
+def test_journal_to_bag_refuses_an_existing_bag(tmp_path: Path, offline: Any) -> None:
+    with pytest.raises(BagError, match='bag exists already'):
+        journal_to_bag(offline.directory / JOURNAL_FILE, offline.directory / 'bag')
+
+
+def test_load_run_reads_the_journal_of_a_folder_without_a_bag(tmp_path: Path,
+                                                              offline: Any) -> None:
+    folder = tmp_path / 'killed'
+    folder.mkdir()
+    shutil.copyfile(offline.directory / JOURNAL_FILE, folder / JOURNAL_FILE)
+    (folder / 'bag').mkdir()  # a bag the crash left without its metadata
+    run = load_run(folder)
+    assert [c.step for c in run.commands] == list(range(STEPS + 1))
+    assert_same_history(offline.session.history, replay_run(run).history)
+    with pytest.raises(BagError, match='no complete bag and no journal'):
+        load_run(tmp_path / 'empty')
+
+
+def test_a_cut_journal_converts_and_replays_up_to_its_last_step(tmp_path: Path,
+                                                               offline: Any) -> None:
+    lines = lines_of(offline.directory / JOURNAL_FILE)
+    # The feedback of step 200 and the command of step 201 (one flush), then half a line.
+    index = next(i for i, line in enumerate(lines)
+                 if json.loads(line)['k'] == 'fb' and json.loads(line)['step'] == 200)
+    path = tmp_path / JOURNAL_FILE
+    path.write_text('\n'.join(lines[:index + 2]) + '\n' + lines[index + 2][:25],
+                    encoding='utf-8')
+    run = read_journal(path)
+    assert len(run.notes) == 1
+    assert journal_to_bag(path, tmp_path / 'bag') == index + 1
+    session = replay_run(load_run(tmp_path / 'bag'))
+    assert session.committed_step == 200
+    assert session.protocol.pending is not None
+    assert session.protocol.pending.step == 201
+    assert_same_history(offline.session.history, session.history, 201)
+    assert TOPIC_FEEDBACK in {topic for topic, *_ in run.ordered}
