@@ -12,10 +12,12 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
-        # The JSON Schemas of a test file and of the bridge's parameter file (for YAML
-        # editors); regenerate with `./pd schema --write src/pd_common/schema`.
+        # The JSON Schemas of a test file, of the bridge's parameter file and of a driver's
+        # settings file (for YAML editors); regenerate with
+        # `./pd schema --write src/pd_common/schema`.
         ('share/' + PACKAGE + '/schema', ['schema/test_file.schema.json',
-                                          'schema/bridge_parameters.schema.json']),
+                                          'schema/bridge_parameters.schema.json',
+                                          'schema/driver_config.schema.json']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -542,46 +542,57 @@ def _without_channel_key(key: str) -> dict[str, Any]:
     ('mapping', 'message'),
     [
         (_without_channel_key('command_channel'),
-         "test.yaml: channels[0]: missing required key 'command_channel'"),
-        (_with_channel(comand_scale=0.01), 'test.yaml: channels[0].comand_scale: unknown key'),
-        (_with_channel(command_scale=0.0), ('test.yaml: channels[0].command_scale: must be a '
-                                            'non-zero finite number')),
-        (_with_channel(force_scale=True), 'test.yaml: channels[0].force_scale: must be'),
-        (_with_channel(displacement_scale='0.01'), 'channels[0].displacement_scale: must be'),
-        (_with_channel(force_offset=math.nan), 'channels[0].force_offset: must be a finite'),
-        (_with_channel(command_max_voltage=12.0), ('channels[0].command_max_voltage: 12 V is '
-                                                   'beyond')),
-        (_with_channel(command_min_voltage=5.0), ('channels[0].command_min_voltage: must be '
+         'test.yaml: daqmx.channels.0.command_channel: is required'),
+        (_with_channel(comand_scale=0.01),
+         'test.yaml: daqmx.channels.0.comand_scale: unknown key'),
+        (_with_channel(command_scale=0.0), ('test.yaml: daqmx.channels.0.command_scale: must not '
+                                            'be 0, got 0.0')),
+        (_with_channel(force_scale=True), ('test.yaml: daqmx.channels.0.force_scale: must be a '
+                                           'number, got true')),
+        (_with_channel(displacement_scale='0.01'), ('daqmx.channels.0.displacement_scale: must be '
+                                                    "a number, got '0.01'")),
+        (_with_channel(force_offset=math.nan), ('daqmx.channels.0.force_offset: must be a finite '
+                                                'number, got nan')),
+        (_with_channel(command_max_voltage=12.0), ('daqmx.channels.0.command_max_voltage: must be '
+                                                   '<= 10, got 12.0')),
+        (_with_channel(command_min_voltage=5.0), ('daqmx.channels.0.command_min_voltage: must be '
                                                   'below command_max_voltage')),
-        (_with_channel(command_channel='Dev1/ao0:1'), ('channels[0].command_channel: must name '
-                                                       'one physical channel')),
-        (_with_channel(command_channel=''), 'channels[0].command_channel: must be a physical'),
-        (_with_channel(force_channel='Dev1/ai0'), 'channels[0].force_channel: same physical'),
-        (_with_channel(name=3), 'channels[0].name: must be a string'),
+        (_with_channel(command_channel='Dev1/ao0:1'), ('daqmx.channels.0.command_channel: must be '
+                                                       'one physical channel such as Dev1/ao0 (no '
+                                                       "list or range), got 'Dev1/ao0:1'")),
+        (_with_channel(command_channel=''), ('daqmx.channels.0.command_channel: must be one '
+                                             'physical channel')),
+        (_with_channel(force_channel='Dev1/ai0'), ('daqmx.channels.0.force_channel: same physical '
+                                                   'channel as displacement_channel (Dev1/ai0)')),
+        (_with_channel(name=3), 'daqmx.channels.0.name: must be a string, got 3'),
         (config_mapping(channels=[channel(0), channel(1, command_channel='dev1/ao0')]),
-         ('channels[1].command_channel: physical channel dev1/ao0 is already used by '
-          'channels[0].command_channel')),
+         ('daqmx.channels.1.command_channel: physical channel dev1/ao0 is already used by '
+          'channels.0.command_channel')),
         (config_mapping(channels=[channel(0), channel(1, name='dof0')]),
-         "channels[1].name: duplicate DOF name 'dof0'"),
-        (config_mapping(channels=[]), 'test.yaml: channels: must list at least one DOF'),
-        (config_mapping(channels={'a': 1}), 'test.yaml: channels: must be a list'),
-        (config_mapping(channels=['Dev1/ao0']), 'test.yaml: channels[0]: must be a mapping'),
-        (config_mapping(samples_per_read=0), ('test.yaml: samples_per_read: must be a positive '
-                                              'integer')),
-        (config_mapping(samples_per_read=10.0), 'test.yaml: samples_per_read'),
-        (config_mapping(sample_rate=-1.0), 'test.yaml: sample_rate: must be a positive'),
+         "daqmx.channels.1.name: duplicate DOF name 'dof0' (channels.0.name)"),
+        (config_mapping(channels=[]), ('test.yaml: daqmx.channels: must have at least 1 item(s), '
+                                       'got []')),
+        (config_mapping(channels={'a': 1}), 'test.yaml: daqmx.channels: must be a list'),
+        (config_mapping(channels=['Dev1/ao0']), ('test.yaml: daqmx.channels.0: must be a mapping, '
+                                                 "got 'Dev1/ao0'")),
+        (config_mapping(samples_per_read=0),
+         'test.yaml: daqmx.samples_per_read: must be >= 1, got 0'),
+        (config_mapping(samples_per_read=10.0), ('test.yaml: daqmx.samples_per_read: must be an '
+                                                 'integer, got 10.0')),
+        (config_mapping(sample_rate=-1.0), 'test.yaml: daqmx.sample_rate: must be > 0, got -1.0'),
         (config_mapping(terminal_configuration='differential'),
-         'test.yaml: terminal_configuration: must be one of'),
-        (config_mapping(settle_time=-0.1), 'test.yaml: settle_time: must be a finite number >= 0'),
-        (config_mapping(timeout=0.004), 'test.yaml: timeout: 0.004 s does not exceed'),
-        (config_mapping(sample_rte=1000.0), 'test.yaml: sample_rte: unknown key'),
-        ({'sample_rate': 1000.0}, "test.yaml: daqmx section: missing required key 'channels'"),
-        (['channels'], 'test.yaml: daqmx section: must be a mapping'),
+         ("test.yaml: daqmx.terminal_configuration: must be one of 'default', 'rse', 'nrse', "
+          "'diff', 'pseudo_diff', got 'differential'")),
+        (config_mapping(settle_time=-0.1), 'test.yaml: daqmx.settle_time: must be >= 0, got -0.1'),
+        (config_mapping(timeout=0.004), 'test.yaml: daqmx.timeout: 0.004 s does not exceed'),
+        (config_mapping(sample_rte=1000.0), 'test.yaml: daqmx.sample_rte: unknown key'),
+        ({'sample_rate': 1000.0}, 'test.yaml: daqmx.channels: is required'),
+        (['channels'], 'test.yaml: daqmx: must be a mapping'),
     ],
 )
 def test_config_errors_are_one_line_and_name_the_key(mapping: Any, message: str) -> None:
     with pytest.raises(BridgeConfigError) as info:
-        DaqmxConfig.from_mapping(mapping, source='test.yaml')
+        DaqmxConfig.from_mapping(mapping, source='test.yaml', path='daqmx')
     text = str(info.value)
     assert message in text
     assert '\n' not in text
@@ -598,9 +609,9 @@ def test_config_defaults_and_direct_construction() -> None:
     assert only.force_scale == 1000.0 and isinstance(only.force_scale, float)
     assert (config.sample_rate, config.samples_per_read, config.terminal_configuration,
             config.settle_time, config.timeout) == (1000.0, 100, 'diff', 0.5, 10.0)
-    with pytest.raises(BridgeConfigError, match='DaqmxChannelConfig: command_scale'):
+    with pytest.raises(BridgeConfigError, match=r'^DaqmxChannelConfig: command_scale: must not'):
         DaqmxChannelConfig('Dev1/ao0', 0, 'Dev1/ai0', 0.01, 'Dev1/ai1', 1000.0)
-    with pytest.raises(BridgeConfigError, match='DaqmxConfig: channels: must list'):
+    with pytest.raises(BridgeConfigError, match=r'^DaqmxConfig: channels: must have at least 1'):
         DaqmxConfig(channels=())
 
 
@@ -619,14 +630,18 @@ def test_example_yaml_loads_and_drives_a_fake_task() -> None:
 
 def test_from_yaml_errors_name_the_file(tmp_path: Path) -> None:
     path = tmp_path / 'rig.yaml'
-    path.write_text('bridge: {}\n', encoding='utf-8')
-    with pytest.raises(BridgeConfigError, match=r"rig.yaml: missing top-level section 'daqmx'"):
+    path.write_text('bridge: {}\n', encoding='utf-8')  # (a section no driver reads: refused)
+    with pytest.raises(BridgeConfigError, match=r'^rig.yaml: bridge: unknown key$'):
+        DaqmxConfig.from_yaml(path)
+    path.write_text('emulator: {}\n', encoding='utf-8')
+    with pytest.raises(BridgeConfigError, match=r'^rig.yaml: daqmx: is required'):
         DaqmxConfig.from_yaml(path)
     path.write_text('daqmx:\n  channels: [\n', encoding='utf-8')
     with pytest.raises(BridgeConfigError, match=r'rig.yaml: '):
         DaqmxConfig.from_yaml(path)
     path.write_text('daqmx:\n  channels: []\n', encoding='utf-8')
-    with pytest.raises(BridgeConfigError, match=r'rig.yaml: daqmx: channels: must list'):
+    message = r'^rig.yaml: daqmx.channels: must have at least 1 item\(s\), got \[\]$'
+    with pytest.raises(BridgeConfigError, match=message):
         DaqmxConfig.from_yaml(path)
 
 

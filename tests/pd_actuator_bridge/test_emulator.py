@@ -107,10 +107,11 @@ def test_from_mapping_builds_and_names_unknown_keys() -> None:
     p = EmulatorParameters.from_mapping({'kp': 5000, 'delay_ticks': 3}, source='bridge.yaml')
     assert p.kp == 5000.0 and isinstance(p.kp, float)
     assert p.delay_ticks == 3
-    with pytest.raises(BridgeConfigError, match=r"bridge.yaml: unknown emulator parameter 'kq'"):
-        EmulatorParameters.from_mapping({'kq': 1.0}, source='bridge.yaml')
-    with pytest.raises(BridgeConfigError, match=r'^bridge.yaml: EmulatorParameters: rate'):
-        EmulatorParameters.from_mapping({'rate': 100.0}, source='bridge.yaml')
+    with pytest.raises(BridgeConfigError, match=r'^bridge.yaml: emulator.kq: unknown key$'):
+        EmulatorParameters.from_mapping({'kq': 1.0}, source='bridge.yaml', path='emulator')
+    with pytest.raises(BridgeConfigError,
+                       match=r'^bridge.yaml: emulator.rate: must be >= 1000, got 100.0$'):
+        EmulatorParameters.from_mapping({'rate': 100.0}, source='bridge.yaml', path='emulator')
     with pytest.raises(BridgeConfigError, match='mapping'):
         EmulatorParameters.from_mapping([('kp', 1.0)])
 

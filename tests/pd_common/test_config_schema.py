@@ -16,14 +16,23 @@ from typing import Any
 import pytest
 
 from pd_common.config import (
+    DriverConfigFile,
     SchemaError,
     TestFileModel,
     json_schema,
+    read_bridge_parameter_file,
+    read_driver_config,
     read_yaml_file,
     validate_bridge_parameters,
+    validate_model,
     validate_test_file,
 )
-from pd_common.config.schema import BRIDGE_SCHEMA_FILE, TEST_FILE_SCHEMA_FILE, json_schema_text
+from pd_common.config.schema import (
+    BRIDGE_SCHEMA_FILE,
+    DRIVER_CONFIG_SCHEMA_FILE,
+    TEST_FILE_SCHEMA_FILE,
+    json_schema_text,
+)
 from pd_common.config.schema_markdown import markdown_reference
 from pd_common.specimen import HYSTERESIS_MODELS
 from support.paths import CONFIG, REPO
@@ -234,3 +243,49 @@ def test_the_command_prints_the_schema_and_the_page() -> None:
     assert run() == json_schema_text()
     assert run('--bridge') == json_schema_text(bridge=True)
     assert run('--markdown') == REFERENCE_PAGE.read_text(encoding='utf-8')
+
+
+def test_the_shipped_driver_settings_schema_is_what_the_model_generates() -> None:
+    shipped = (SCHEMA_DIR / DRIVER_CONFIG_SCHEMA_FILE).read_text(encoding='utf-8')
+    assert shipped == json_schema_text(driver=True), REGENERATE
+    schema = json_schema(driver=True)
+    assert schema['title'] == 'Actuator driver settings file'
+    assert set(schema['properties']) == {'daqmx', 'emulator', 'ramp_hold', 'errors'}
+    assert schema['additionalProperties'] is False
+
+
+def test_the_shipped_daqmx_example_is_a_valid_driver_settings_file() -> None:
+    example = REPO / 'src' / 'pd_actuator_bridge' / 'config' / 'daqmx_example.yaml'
+    settings = read_driver_config(example)
+    assert settings.daqmx is not None and settings.daqmx.channels[0].name == 'top'
+    assert settings.emulator is None
+
+
+@pytest.mark.parametrize(('text', 'message'), [
+    ('/**:\n  ros__parameters: {max_force: -1}\n',
+     'bridge.yaml: /**.ros__parameters.max_force: must be > 0, got -1'),
+    ('/**:\n  ros__parameters: {max_increment: true}\n',
+     'bridge.yaml: /**.ros__parameters.max_increment: must be a number, got true'),
+    ('/**:\n  ros__parameters: {max_forse: 1.0}\n',
+     'bridge.yaml: /**.ros__parameters.max_forse: unknown key'),
+    ('- 1\n', 'bridge.yaml: a bridge parameter file must be a mapping of sections, got list'),
+])
+def test_a_bridge_parameter_file_is_read_once_typed(tmp_path: Path, text: str,
+                                                    message: str) -> None:
+    path = tmp_path / 'bridge.yaml'
+    path.write_text(text, encoding='utf-8')
+    with pytest.raises(SchemaError) as info:
+        read_bridge_parameter_file(path)
+    assert str(info.value) == message
+    shipped = read_bridge_parameter_file(BRIDGE_FILE)
+    assert shipped.root['/**'].ros__parameters.driver == 'sim_servo'
+
+
+def test_a_check_of_a_mapping_names_the_key_it_refuses() -> None:
+    channel = {'command_channel': 'Dev1/ao0', 'command_scale': 0.01,
+               'displacement_channel': 'Dev1/ai0', 'displacement_scale': 0.01,
+               'force_channel': 'Dev1/AI0', 'force_scale': 1000.0}
+    with pytest.raises(SchemaError) as info:
+        validate_model(DriverConfigFile, {'daqmx': {'channels': [channel]}}, 'rig.yaml')
+    assert str(info.value) == ('rig.yaml: daqmx.channels.0.force_channel: same physical channel '
+                               'as displacement_channel (Dev1/AI0)')

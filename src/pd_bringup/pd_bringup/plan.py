@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pd_common.config import read_text, read_yaml_file
+from pd_common.config import SchemaError, read_bridge_parameter_file, read_text
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_core.errors import PdIntegratorError
 from pd_core.run.definition import TestDefinition
@@ -290,18 +290,26 @@ def discovery_profile(env: dict[str, str]) -> dict[str, str]:
 
 
 def bridge_driver(params: Path | None, extra: dict[str, Any]) -> str:
-    """The driver a bridge will use: its site's override, its parameter file's, or sim_servo."""
+    """The driver a bridge will use: its site's override, its parameter file's, or sim_servo.
+
+    The parameter file is read once, typed (:func:`pd_common.config.read_bridge_parameter_file`):
+    a bad one is refused here, before any process starts.
+
+    Raises:
+        LaunchError: the parameter file cannot be read or is refused (one line naming the file
+            and the dotted path, ``bridge.yaml: /**.ros__parameters.max_force: must be > 0,
+            got -1``).
+    """
     if 'driver' in extra:
         return str(extra['driver'])
     if params is not None:
         try:
-            raw = read_yaml_file(params) or {}
-        except (OSError, ValueError):
-            return 'sim_servo'
-        for section in raw.values() if isinstance(raw, dict) else ():
-            parameters = section.get('ros__parameters') if isinstance(section, dict) else None
-            if isinstance(parameters, dict) and 'driver' in parameters:
-                return str(parameters['driver'])
+            parameters = read_bridge_parameter_file(params)
+        except SchemaError as err:
+            raise LaunchError(str(err)) from None
+        for section in parameters.root.values():
+            if section.ros__parameters.driver is not None:
+                return section.ros__parameters.driver
     return 'sim_servo'
 
 

@@ -31,7 +31,6 @@ The tracking monitors are in :mod:`pd_common.experimental.tracking`.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import fields
 from numbers import Integral
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -48,7 +47,7 @@ from pd_common.experimental.error_model import (
 from .errors import BridgeConfigError, DriverError
 
 if TYPE_CHECKING:
-    from _typeshed import DataclassInstance
+    from pydantic import BaseModel
 
 __all__ = [
     'ErroneousStep',
@@ -56,48 +55,37 @@ __all__ = [
     'ErrorModel',
     'RestoringForce',
     'apply_error_model',
-    'parameters_from_mapping',
+    'validated',
 ]
 
-_P = TypeVar('_P', bound='DataclassInstance')
+_M = TypeVar('_M', bound='BaseModel')
 
 
-def parameters_from_mapping(
-    cls: type[_P], mapping: Mapping[str, Any], source: str, what: str, item: str
-) -> _P:
-    """Build a parameter dataclass from a mapping (a parsed YAML section or ROS parameters).
+def validated(model: type[_M], values: Any, source: str, path: str = '') -> _M:
+    """``values`` as the typed ``model`` of the shared schema (:mod:`pd_common.config`).
 
-    Shared by :meth:`ErrorModel.from_mapping` and ``EmulatorParameters.from_mapping``.
+    The one check of a driver's settings (a parsed YAML section, ROS parameters, or the values
+    of one of the bridge's parameter dataclasses): shared by :meth:`ErrorModel.from_mapping`,
+    ``EmulatorParameters``, ``RampHoldParameters`` and the daqmx configuration.
 
     Args:
-        cls: The dataclass; it raises :class:`~.errors.BridgeConfigError` on a bad value.
-        mapping: Any subset of the field names; missing ones keep their defaults.
-        source: Name of the file or parameter namespace, used in error messages.
-        what: Name of the whole mapping in error messages (``'error model'``).
-        item: Name of one key in error messages (``'error model parameter'``).
-
-    Returns:
-        The validated instance.
+        model: the model (``EmulatorSection``, ``ErrorsSection``, ...).
+        values: the values to check.
+        source: the file's (or the object's) name in messages.
+        path: the dotted path of ``values`` in their file (``'emulator'``; ``''``: none).
 
     Raises:
-        BridgeConfigError: On a non-mapping, an unknown key or a bad value.
+        BridgeConfigError: one line, ``<source>: <path>.<key>: <what is wrong>, got <value>``.
     """
-    if not isinstance(mapping, Mapping):
-        msg = f'{source}: {what} must be a mapping, got {type(mapping).__name__}'
-        raise BridgeConfigError(msg)
-    known = [f.name for f in fields(cls)]
-    for key in mapping:
-        if key not in known:
-            msg = (
-                f'{source}: unknown {item} {key!r} '
-                f'(expected one of: {", ".join(sorted(known))})'
-            )
-            raise BridgeConfigError(msg)
+    from pd_common.config.schema import (  # noqa: PLC0415 (the models: on first use)
+        SchemaError,
+        validate_model,
+    )
+
     try:
-        return cls(**dict(mapping))
-    except BridgeConfigError as exc:
-        msg = f'{source}: {exc}'
-        raise BridgeConfigError(msg) from None
+        return validate_model(model, values, source, path)
+    except SchemaError as err:
+        raise BridgeConfigError(str(err)) from None
 
 
 class ErrorModel(_shared.ErrorModel):
@@ -124,21 +112,27 @@ class ErrorModel(_shared.ErrorModel):
         return BridgeConfigError(f'ErrorModel: {name} {problem}')
 
     @classmethod
-    def from_mapping(cls, mapping: Mapping[str, Any], source: str = 'errors') -> ErrorModel:
+    def from_mapping(cls, mapping: Mapping[str, Any], source: str = 'ErrorModel',
+                     path: str = '') -> ErrorModel:
         """Build a model from a mapping (a parsed YAML section or ROS parameters).
 
         Args:
             mapping: Any subset of the attribute names; missing ones keep their defaults.
             source: Name of the file or parameter namespace, used in error messages.
+            path: The mapping's dotted path in its file (``'errors'``), in error messages.
 
         Returns:
             The validated model.
 
         Raises:
-            BridgeConfigError: On a non-mapping, an unknown key or a bad value.
+            BridgeConfigError: On a non-mapping, an unknown key or a bad value (the schema's
+                :class:`~pd_common.config.schema_specimen.ErrorsSection`).
         """
-        return parameters_from_mapping(cls, mapping, source, 'error model',
-                                       'error model parameter')
+        from pd_common.config.schema_specimen import (  # noqa: PLC0415 (on first use)
+            ErrorsSection,
+        )
+
+        return cls(**dict(validated(ErrorsSection, mapping, source, path)))
 
 
 def apply_error_model(

@@ -1,4 +1,4 @@
-"""One typed schema for the test file and the bridge's parameter file (pydantic v2).
+"""One typed schema for the test file, the bridge's parameter file and its driver's settings.
 
 :func:`validate_test_file` and :func:`validate_bridge_parameters` check parsed YAML against
 the models (:class:`~.schema_test_file.TestFileModel`,
@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Collection, Mapping
-from typing import Annotated, Any
+from typing import Annotated, Any, TypeVar
 
 from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from .schema_base import SchemaError, one_line
 from .schema_bridge import BridgeParameterFile, BridgeParameters, SiteBridgeParameters
+from .schema_driver import DriverConfigFile
 from .schema_specimen import SpecimenSection
 from .schema_test_file import (
     CollapseSection,
@@ -37,10 +38,11 @@ from .schema_test_file import (
     TestSection,
 )
 
-__all__ = ['BRIDGE_SCHEMA_FILE', 'JSON_SCHEMA_DIALECT', 'TEST_FILE_SCHEMA_FILE',
-           'BridgeParameterFile', 'BridgeParameters', 'SchemaError', 'SiteBridgeParameters',
-           'SiteSettings', 'SpecimenSection', 'TestFileModel', 'json_schema',
-           'json_schema_text', 'validate_bridge_parameters', 'validate_elements',
+__all__ = ['BRIDGE_SCHEMA_FILE', 'DRIVER_CONFIG_SCHEMA_FILE', 'JSON_SCHEMA_DIALECT',
+           'TEST_FILE_SCHEMA_FILE', 'BridgeParameterFile', 'BridgeParameters',
+           'DriverConfigFile', 'SchemaError', 'SiteBridgeParameters', 'SiteSettings',
+           'SpecimenSection', 'TestFileModel', 'json_schema', 'json_schema_text',
+           'validate_bridge_parameters', 'validate_elements', 'validate_model',
            'validate_section', 'validate_test_file']
 
 #: The JSON Schema dialect of the generated schemas.
@@ -48,9 +50,14 @@ JSON_SCHEMA_DIALECT = 'https://json-schema.org/draft/2020-12/schema'
 #: The file names of the shipped schemas (in ``src/pd_common/schema/``).
 TEST_FILE_SCHEMA_FILE = 'test_file.schema.json'
 BRIDGE_SCHEMA_FILE = 'bridge_parameters.schema.json'
+DRIVER_CONFIG_SCHEMA_FILE = 'driver_config.schema.json'
 
-#: The titles of the two schemas.
+#: The titles of the test file's and the bridge parameter file's schemas.
 _TITLES = {False: 'Pseudo-dynamic test file', True: 'Actuator bridge parameter file'}
+#: The title of the driver settings' schema.
+_DRIVER_TITLE = 'Actuator driver settings file'
+
+_Model = TypeVar('_Model', bound=BaseModel)
 
 
 def validate_test_file(data: Any, source: str, *,
@@ -122,6 +129,28 @@ def validate_elements(data: Any, source: str) -> list[Element]:
     return elements
 
 
+def validate_model(model: type[_Model], data: Any, source: str, path: str = '') -> _Model:
+    """``data`` (parsed YAML, or a mapping of values) as the typed ``model``.
+
+    Args:
+        model: a model of the schema (:class:`~.schema_driver.EmulatorSection`, ...).
+        data: its values.
+        source: the file's name (or the object's) for the message.
+        path: the dotted path of ``data`` in its file (``'emulator'``), prefixed to the path of
+            a refused value (``''``: the whole file).
+
+    Raises:
+        SchemaError: one line, ``<source>: <path>.<key>: <what is wrong>, got <value>``.
+
+    """
+    try:
+        return model.model_validate(data)
+    except ValidationError as err:
+        refusal = one_line(err, data, source)
+        where = '.'.join(part for part in (path, refusal.path) if part)
+        raise SchemaError(source, where, refusal.problem) from None
+
+
 def validate_bridge_parameters(data: Any, source: str) -> BridgeParameterFile:
     """A bridge's ROS parameter file ``data`` (parsed YAML) as a :class:`BridgeParameterFile`.
 
@@ -137,11 +166,16 @@ def validate_bridge_parameters(data: Any, source: str) -> BridgeParameterFile:
         raise one_line(err, data, source) from None
 
 
-def json_schema(*, bridge: bool = False) -> dict[str, Any]:
-    """The JSON Schema (draft 2020-12) of a test file, or of the bridge's parameter file."""
-    model: type[BaseModel] = BridgeParameterFile if bridge else TestFileModel
+def json_schema(*, bridge: bool = False, driver: bool = False) -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of a test file.
+
+    Or of the bridge's parameter file (``bridge``), or of a driver's settings file
+    (``driver``: the bridge's ``driver_config``).
+    """
+    model: type[BaseModel] = (DriverConfigFile if driver else BridgeParameterFile if bridge
+                              else TestFileModel)
     schema = model.model_json_schema(mode='validation')
-    schema['title'] = _TITLES[bridge]
+    schema['title'] = _DRIVER_TITLE if driver else _TITLES[bridge]
     return {'$schema': JSON_SCHEMA_DIALECT, **_markdown_code(schema)}
 
 
@@ -163,6 +197,7 @@ def _markdown_code(schema: Any) -> Any:
     return schema
 
 
-def json_schema_text(*, bridge: bool = False) -> str:
+def json_schema_text(*, bridge: bool = False, driver: bool = False) -> str:
     """:func:`json_schema` as the shipped file's text (indented, ending with a newline)."""
-    return json.dumps(json_schema(bridge=bridge), indent=2, ensure_ascii=False) + '\n'
+    text = json.dumps(json_schema(bridge=bridge, driver=driver), indent=2, ensure_ascii=False)
+    return text + '\n'

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Mapping, Sequence
-from typing import Annotated, Any
+from typing import Annotated, Any, NoReturn
 
 from pydantic import (
     BaseModel,
@@ -28,7 +28,8 @@ from pydantic.functional_validators import AfterValidator
 from pydantic_core import ErrorDetails, PydanticCustomError
 
 __all__ = ['ConfigModel', 'Finite', 'FloatMatrix', 'NonNegative', 'NonPositive', 'Positive',
-           'SchemaError', 'by_shape', 'check', 'either', 'error_path', 'one_line', 'show_value']
+           'SchemaError', 'by_shape', 'check', 'either', 'error_path', 'one_line', 'refuse_at',
+           'show_value']
 
 
 class SchemaError(ValueError):
@@ -101,6 +102,25 @@ def check(predicate: Callable[[Any], bool], problem: str) -> AfterValidator:
     return AfterValidator(validate)
 
 
+#: The error type of :func:`refuse_at`.
+_AT = 'refused_at'
+
+
+def refuse_at(key: str, problem: str) -> NoReturn:
+    """Refuse, from a check of a whole mapping, the value at ``key`` inside it.
+
+    For the checks that compare keys (``command_min_voltage`` below ``command_max_voltage``,
+    a channel used twice in a list): ``key`` is the dotted path of the refused value inside the
+    validated one (``'1.command_channel'``), and the message is
+    ``<path>.<key>: <problem>`` (``problem`` says the value itself). Called from a validator.
+
+    Raises:
+        PydanticCustomError: always (turned into one line by :func:`one_line`).
+    """
+    kind = _AT
+    raise PydanticCustomError(kind, '{problem}', {'at': key, 'problem': problem})
+
+
 def _shape(value: Any) -> str:
     """The shape of a value: ``mapping``, ``list``, ``number``, ``string`` or ``other``."""
     if isinstance(value, Mapping):
@@ -140,6 +160,7 @@ FloatMatrix = Annotated[
 _PATTERN_WORDS = {
     r'^[A-Za-z0-9_.\-]{1,64}$': '1-64 letters, digits, "_", "-" or "."',
     r'^[A-Za-z][A-Za-z0-9_]{0,63}$': 'a name of letters, digits and _ starting with a letter',
+    r'^\s*[^\s,:][^,:]*$': 'one physical channel such as Dev1/ao0 (no list or range)',
 }
 
 
@@ -261,6 +282,10 @@ def one_line(err: ValidationError, data: Any, source: str) -> SchemaError:
     best = max(errors, key=lambda error: _score(data, error))
     loc = list(best['loc'])
     kind = best['type']
+    if kind == _AT:  # (a check of a mapping naming a key inside it: refuse_at)
+        ctx: Mapping[str, Any] = best.get('ctx') or {}
+        loc += [int(step) if step.isdigit() else step for step in str(ctx['at']).split('.')]
+        return SchemaError(source, error_path(data, loc, key=True), str(ctx['problem']))
     if kind in ('union_tag_invalid', 'union_tag_not_found'):
         discriminator = str((best.get('ctx') or {}).get('discriminator', '')).strip("'")
         if discriminator.isidentifier():

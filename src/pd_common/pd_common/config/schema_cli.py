@@ -15,19 +15,27 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .schema import BRIDGE_SCHEMA_FILE, TEST_FILE_SCHEMA_FILE, json_schema, json_schema_text
+from .schema import (
+    BRIDGE_SCHEMA_FILE,
+    DRIVER_CONFIG_SCHEMA_FILE,
+    TEST_FILE_SCHEMA_FILE,
+    json_schema,
+    json_schema_text,
+)
 from .schema_markdown import markdown_reference
 
 __all__ = ['main']
 
 
 def _write(folder: Path) -> list[Path]:
-    """Write both schemas into ``folder``; the files written."""
+    """Write the three schemas into ``folder``; the files written."""
     folder.mkdir(parents=True, exist_ok=True)
     written = []
-    for bridge, name in ((False, TEST_FILE_SCHEMA_FILE), (True, BRIDGE_SCHEMA_FILE)):
+    for bridge, driver, name in ((False, False, TEST_FILE_SCHEMA_FILE),
+                                 (True, False, BRIDGE_SCHEMA_FILE),
+                                 (False, True, DRIVER_CONFIG_SCHEMA_FILE)):
         path = folder / name
-        path.write_text(json_schema_text(bridge=bridge), encoding='utf-8')
+        path.write_text(json_schema_text(bridge=bridge, driver=driver), encoding='utf-8')
         written.append(path)
     return written
 
@@ -49,19 +57,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         "the bridge's parameter file, or the reference page of every key.")
     parser.add_argument('--bridge', action='store_true',
                         help="the bridge's ROS parameter file instead of a test file")
+    parser.add_argument('--driver', action='store_true',
+                        help="a driver's settings file (the bridge's driver_config) instead")
     parser.add_argument('--markdown', action='store_true',
                         help='the reference page (Markdown) of every key instead')
     parser.add_argument('--write', metavar='DIR', type=Path,
-                        help='write both JSON Schemas into DIR (src/pd_common/schema)')
+                        help='write the JSON Schemas into DIR (src/pd_common/schema)')
     args = parser.parse_args(argv)
     if args.write is not None:
         for path in _write(args.write):
             sys.stdout.write(f"{path}\n")
         return 0
     if args.markdown:
-        sys.stdout.write(markdown_reference(json_schema(bridge=args.bridge), bridge=args.bridge))
+        sys.stdout.write(markdown_reference(json_schema(bridge=args.bridge, driver=args.driver),
+                                            bridge=args.bridge, driver=args.driver))
     else:
-        sys.stdout.write(json_schema_text(bridge=args.bridge))
+        sys.stdout.write(json_schema_text(bridge=args.bridge, driver=args.driver))
     return 0
 
 

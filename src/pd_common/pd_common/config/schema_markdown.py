@@ -25,6 +25,12 @@ _HEADER = {
            '(`<node>: {ros__parameters: {...}}`), generated from the typed schema by '
            '`./pd schema --bridge --markdown`; do not edit by hand.')),
 }
+#: The header of the driver settings' page.
+_DRIVER_HEADER = ('# Driver settings file reference',
+                  ("Every key of an actuator driver's settings file (the bridge's "
+                   '`driver_config`: `daqmx`, `emulator`, `ramp_hold`, `errors`), generated '
+                   'from the typed schema by `./pd schema --driver --markdown`; do not edit by '
+                   'hand.'))
 
 _BOUNDS = (('exclusiveMinimum', '>'), ('minimum', '>='), ('exclusiveMaximum', '<'),
            ('maximum', '<='))
@@ -171,13 +177,15 @@ def _section(name: str, schema: Mapping[str, Any], where: str) -> list[str]:
     return [*lines, '']
 
 
-def markdown_reference(schema: Mapping[str, Any], *, bridge: bool = False) -> str:
+def markdown_reference(schema: Mapping[str, Any], *, bridge: bool = False,
+                       driver: bool = False) -> str:
     """The reference page of the JSON Schema ``schema``.
 
-    Of a test file, or of the bridge's parameter file with ``bridge``: one section per mapping,
-    first the file's own, then each definition in the order the file reaches it.
+    Of a test file, of the bridge's parameter file with ``bridge``, or of a driver's settings
+    file with ``driver``: one section per mapping, first the file's own, then each definition
+    in the order the file reaches it.
     """
-    title, intro = _HEADER[bridge]
+    title, intro = _DRIVER_HEADER if driver else _HEADER[bridge]
     definitions: Mapping[str, Any] = schema.get('$defs', {})
     root_name = str(schema.get('title', 'File'))
     lines = [title, '', intro, '']

@@ -18,9 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .files import MAX_TEXT_BYTES, read_text
-from .loader import YAMLError, load_yaml, yaml_problem
-from .schema_base import SchemaError
+from .document import read_document
 
 if TYPE_CHECKING:
     from .schema_test_file import TestFileModel
@@ -63,21 +61,7 @@ def read_test_data(path: str | Path) -> dict[str, Any]:
             UTF-8: ``<path>: cannot read the test file (<reason>)``), is not YAML
             (``<name>: line N: <problem>``) or not a mapping of sections.
     """
-    path = Path(path)
-    try:
-        text = read_text(path, limit=MAX_TEXT_BYTES, what='a test file')
-    except OSError as err:  # (also not a regular file, too large, not UTF-8: InputFileError)
-        reason = f'cannot read the test file ({err.strerror or type(err).__name__})'
-        raise SchemaError(str(path), '', reason) from None
-    try:
-        data = load_yaml(text)
-    except YAMLError as err:
-        raise SchemaError(path.name, '', yaml_problem(err)) from None
-    data = {} if data is None else data
-    if not isinstance(data, dict):
-        reason = f'a test file must be a mapping of sections, got {type(data).__name__}'
-        raise SchemaError(path.name, '', reason)
-    return data
+    return read_document(path, what='test file')
 
 
 def read_test_file(path: str | Path, *, hysteresis_models: Collection[str] | None = None,

@@ -53,6 +53,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -65,7 +66,7 @@ from .registry import (
     DriverContext,
     DriverParameter,
     DriverSpec,
-    read_yaml_parameter,
+    read_driver_settings,
     register_driver,
 )
 
@@ -500,10 +501,20 @@ def _describe(exc: BaseException) -> str:
 
 
 def make_daqmx_driver(context: DriverContext) -> DaqmxDriver:
-    """The ``daqmx`` driver configured by the ``daqmx`` section of the ``driver_config`` file."""
-    path = context.parameters['driver_config']
-    settings = read_yaml_parameter(path, 'driver_config')
-    return DaqmxDriver(DaqmxConfig.from_mapping(settings.get('daqmx', {}), source=path))
+    """The ``daqmx`` driver configured by the ``daqmx`` section of the ``driver_config`` file.
+
+    The file is read once and typed (:func:`~.registry.read_driver_settings`).
+
+    Raises:
+        BridgeConfigError: No file, or one without a ``daqmx`` section or with a bad value (one
+            line naming the file and the dotted path).
+    """
+    path = str(context.parameters['driver_config'])
+    settings = read_driver_settings(path, 'driver_config')
+    if settings.daqmx is None:
+        msg = f"{Path(path).name}: daqmx: is required (the daqmx driver's section)"
+        raise BridgeConfigError(msg)
+    return DaqmxDriver(DaqmxConfig.from_section(settings.daqmx))
 
 
 DAQMX = DriverSpec(

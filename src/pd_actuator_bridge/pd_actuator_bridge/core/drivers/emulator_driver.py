@@ -25,7 +25,7 @@ from .registry import (
     DriverContext,
     DriverParameter,
     DriverSpec,
-    read_yaml_parameter,
+    read_driver_settings,
     register_driver,
 )
 
@@ -169,12 +169,19 @@ def make_emulator_driver(context: DriverContext) -> EmulatorDriver:
         msg = (f'parameter dof_names: {n_dof} DOF but the specimen of {test_file} has '
                f'{specimen.n_dof}')
         raise BridgeConfigError(msg)
-    settings = read_yaml_parameter(driver_config, 'driver_config') if driver_config else {}
-    parameters = (EmulatorParameters.from_mapping(settings['emulator'])
-                  if 'emulator' in settings else None)
-    errors = ErrorModel.from_mapping(settings['errors']) if 'errors' in settings else None
+    from pd_common.config.schema_driver import (  # noqa: PLC0415 (the models: on first use)
+        DriverConfigFile,
+    )
+
+    settings = (read_driver_settings(driver_config, 'driver_config') if driver_config
+                else DriverConfigFile())
+    parameters = (None if settings.emulator is None
+                  else EmulatorParameters.from_section(settings.emulator))
+    errors = None if settings.errors is None else ErrorModel(**dict(settings.errors))
+    ramp_hold = (None if settings.ramp_hold is None
+                 else RampHoldParameters.from_section(settings.ramp_hold))
     emulator = ServoHydraulicEmulator(specimen, parameters)
-    driver = EmulatorDriver(emulator, settings.get('ramp_hold'), errors=errors)
+    driver = EmulatorDriver(emulator, ramp_hold, errors=errors)
     driver.set_trajectory_callback(context.on_trajectory)
     return driver
 

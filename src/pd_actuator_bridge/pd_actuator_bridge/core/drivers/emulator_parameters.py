@@ -3,26 +3,23 @@
 :class:`EmulatorParameters` holds the physical, control and sensor parameters of
 :class:`~.emulator.ServoHydraulicEmulator` (the same for every DOF), validates them, builds them
 from a mapping (a parsed YAML section or ROS parameters) and derives the figures of the loop
-(oil-column stiffness, frequency and damping, velocity constant, static error). The model, the
-integration and the default tuning are described in :mod:`.emulator`.
+(oil-column stiffness, frequency and damping, velocity constant, static error). The values are
+checked by the shared schema (:class:`pd_common.config.schema_driver.EmulatorSection`, the
+``emulator`` section of a driver's settings file), the one place of those checks. The model,
+the integration and the default tuning are described in :mod:`.emulator`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
-from numbers import Integral, Real
-from typing import Any
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any
 
-from ..error_models import parameters_from_mapping
-from ..errors import BridgeConfigError
+from ..error_models import validated
 
-MIN_RATE = 1000.0
-"""Lowest accepted controller rate, Hz."""
-
-MAX_FRICTION_STIFFNESS_NUMBER = 0.5
-"""Largest accepted ``sqrt(friction_stiffness / piston_mass) * h`` (explicit friction coupling)."""
+if TYPE_CHECKING:
+    from pd_common.config.schema_driver import EmulatorSection
 
 
 @dataclass(frozen=True)
@@ -96,51 +93,23 @@ class EmulatorParameters:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        """Validate every value and normalise numbers to ``float``/``int``."""
-        where = 'EmulatorParameters'
-        for name in _POSITIVE:
-            object.__setattr__(self, name, _number(getattr(self, name), name, where, 'positive'))
-        for name in _NON_NEGATIVE:
-            object.__setattr__(
-                self, name, _number(getattr(self, name), name, where, 'non-negative')
-            )
-        object.__setattr__(self, 'force_bias', _number(self.force_bias, 'force_bias', where, ''))
-        band = self.integral_band
-        if isinstance(band, bool) or not isinstance(band, Real) or not float(band) > 0.0:
-            msg = f'{where}: integral_band must be a positive number (inf: no band), got {band!r}'
-            raise BridgeConfigError(msg)
-        object.__setattr__(self, 'integral_band', float(band))
-        if self.supply_pressure is not None:
-            object.__setattr__(
-                self,
-                'supply_pressure',
-                _number(self.supply_pressure, 'supply_pressure', where, 'positive'),
-            )
-        for name, lowest in (('substeps', 1), ('delay_ticks', 0)):
-            object.__setattr__(self, name, _integer(getattr(self, name), name, where, lowest))
-        if self.seed is not None:
-            object.__setattr__(self, 'seed', _integer(self.seed, 'seed', where, 0))
-        if self.rate < MIN_RATE:
-            msg = f'{where}: rate must be at least {MIN_RATE:g} Hz, got {self.rate:g}'
-            raise BridgeConfigError(msg)
-        number = math.sqrt(self.friction_stiffness / self.piston_mass) * self.substep
-        if self.friction_coulomb > 0.0 and number > MAX_FRICTION_STIFFNESS_NUMBER:
-            msg = (
-                f'{where}: friction_stiffness {self.friction_stiffness:g} N/m is too stiff for '
-                f'the sub-step {self.substep:g} s (sqrt(friction_stiffness/piston_mass)*h = '
-                f'{number:.3g} > {MAX_FRICTION_STIFFNESS_NUMBER}); raise substeps or rate'
-            )
-            raise BridgeConfigError(msg)
+        """Validate every value (the schema's ``EmulatorSection``) and normalise the numbers."""
+        from pd_common.config.schema_driver import EmulatorSection  # noqa: PLC0415 (first use)
+
+        values = {field.name: getattr(self, field.name) for field in fields(self)}
+        for name, value in validated(EmulatorSection, values, 'EmulatorParameters'):
+            object.__setattr__(self, name, value)
 
     @classmethod
     def from_mapping(
-        cls, mapping: Mapping[str, Any], source: str = 'emulator'
+        cls, mapping: Mapping[str, Any], source: str = 'EmulatorParameters', path: str = ''
     ) -> EmulatorParameters:
         """Build the parameters from a mapping (a parsed YAML section or ROS parameters).
 
         Args:
             mapping: Any subset of the attribute names; missing ones keep their defaults.
             source: Name of the file or parameter namespace, used in error messages.
+            path: The mapping's dotted path in its file (``'emulator'``), in error messages.
 
         Returns:
             The validated parameters.
@@ -148,8 +117,14 @@ class EmulatorParameters:
         Raises:
             BridgeConfigError: On a non-mapping, an unknown key or a bad value.
         """
-        return parameters_from_mapping(cls, mapping, source, 'emulator parameters',
-                                       'emulator parameter')
+        from pd_common.config.schema_driver import EmulatorSection  # noqa: PLC0415 (first use)
+
+        return cls.from_section(validated(EmulatorSection, mapping, source, path))
+
+    @classmethod
+    def from_section(cls, section: EmulatorSection) -> EmulatorParameters:
+        """The parameters of a typed ``emulator`` section (a driver's settings file)."""
+        return cls(**dict(section))
 
     @property
     def dt(self) -> float:
@@ -210,57 +185,3 @@ class EmulatorParameters:
             * specimen_stiffness
             / (self.piston_area * self.valve_flow * self.kp)
         )
-
-
-_POSITIVE = (
-    'rate',
-    'piston_area',
-    'bulk_modulus',
-    'chamber_volume',
-    'piston_mass',
-    'valve_time_constant',
-    'valve_flow',
-    'valve_saturation',
-    'friction_stiffness',
-)
-_NON_NEGATIVE = (
-    'piston_damping',
-    'leakage',
-    'kp',
-    'ki',
-    'kd',
-    'derivative_filter',
-    'velocity_feedforward',
-    'displacement_noise',
-    'force_noise',
-    'displacement_lsb',
-    'force_lsb',
-    'friction_coulomb',
-    'friction_viscous',
-)
-
-
-def _number(value: Any, name: str, where: str, kind: str) -> float:
-    """Return ``value`` as a finite float (``kind``: 'positive', 'non-negative' or '')."""
-    text = f'a {kind} finite number' if kind else 'a finite number'
-    if isinstance(value, bool) or not isinstance(value, Real):
-        msg = f'{where}: {name} must be {text}, got {type(value).__name__} {value!r}'
-        raise BridgeConfigError(msg)
-    number = float(value)
-    bad = (
-        not math.isfinite(number)
-        or (kind == 'positive' and number <= 0.0)
-        or (kind == 'non-negative' and number < 0.0)
-    )
-    if bad:
-        msg = f'{where}: {name} must be {text}, got {value!r}'
-        raise BridgeConfigError(msg)
-    return number
-
-
-def _integer(value: Any, name: str, where: str, lowest: int) -> int:
-    """Return ``value`` as an int ``>= lowest``."""
-    if isinstance(value, bool) or not isinstance(value, Integral) or int(value) < lowest:
-        msg = f'{where}: {name} must be an integer >= {lowest}, got {value!r}'
-        raise BridgeConfigError(msg)
-    return int(value)

@@ -19,18 +19,19 @@ which the :class:`~..bridge.ActuatorBridge` drives the emulator (the ``emulator`
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from numbers import Integral, Real
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..error_models import ErrorInjector, ErrorModel
+from ..error_models import ErrorInjector, ErrorModel, validated
 from ..errors import BridgeConfigError, DriverError
 from .emulator import ServoHydraulicEmulator
+
+if TYPE_CHECKING:
+    from pd_common.config.schema_driver import RampHoldSection
 
 DEFAULT_RAMP_TIME = 0.1
 """Ramp duration used when neither ``ramp_time`` nor ``ramp_velocity`` is set, s."""
@@ -74,86 +75,41 @@ class RampHoldParameters:
     timeout: float = 2.0
 
     def __post_init__(self) -> None:
-        """Validate and normalise the values."""
-        where = 'RampHoldParameters'
-        if self.ramp_time is not None and self.ramp_velocity is not None:
-            msg = (
-                f'{where}: ramp_time and ramp_velocity are exclusive, got both '
-                f'({self.ramp_time!r} s and {self.ramp_velocity!r} m/s)'
-            )
-            raise BridgeConfigError(msg)
-        if self.ramp_time is not None:
-            object.__setattr__(self, 'ramp_time', _number(self.ramp_time, 'ramp_time', False))
-        if self.ramp_velocity is not None:
-            object.__setattr__(
-                self, 'ramp_velocity', _number(self.ramp_velocity, 'ramp_velocity', True)
-            )
-        for name, positive in (
-            ('hold_time', False),
-            ('settle_tolerance', True),
-            ('settle_time', False),
-            ('timeout', True),
-        ):
-            object.__setattr__(self, name, _number(getattr(self, name), name, positive))
-        samples = self.samples
-        if isinstance(samples, bool) or not isinstance(samples, Integral) or samples < 1:
-            msg = f'{where}: samples must be an integer >= 1, got {samples!r}'
-            raise BridgeConfigError(msg)
-        object.__setattr__(self, 'samples', int(samples))
+        """Validate (the schema's ``RampHoldSection``) and normalise the values."""
+        from pd_common.config.schema_driver import RampHoldSection  # noqa: PLC0415 (first use)
+
+        values = {field.name: getattr(self, field.name) for field in fields(self)}
+        for name, value in validated(RampHoldSection, values, 'RampHoldParameters'):
+            object.__setattr__(self, name, value)
 
     @classmethod
     def from_mapping(
-        cls, mapping: Mapping[str, Any], source: str = 'ramp_hold'
+        cls, mapping: Mapping[str, Any], source: str = 'RampHoldParameters', path: str = ''
     ) -> RampHoldParameters:
         """Build the parameters from a mapping (a parsed YAML section or ROS parameters).
 
         Args:
             mapping: Any subset of the attribute names (``None`` means not set).
             source: Name of the file or parameter namespace, used in error messages.
+            path: The mapping's dotted path in its file (``'ramp_hold'``), in error messages.
 
         Raises:
             BridgeConfigError: On a non-mapping, an unknown key or a bad value.
         """
-        if not isinstance(mapping, Mapping):
-            msg = (
-                f'{source}: ramp-and-hold parameters must be a mapping, got '
-                f'{type(mapping).__name__}'
-            )
-            raise BridgeConfigError(msg)
-        known = [f.name for f in fields(cls)]
-        for key in mapping:
-            if key not in known:
-                msg = (
-                    f'{source}: unknown ramp-and-hold parameter {key!r} '
-                    f'(expected one of: {", ".join(sorted(known))})'
-                )
-                raise BridgeConfigError(msg)
-        try:
-            return cls(**dict(mapping))
-        except BridgeConfigError as exc:
-            msg = f'{source}: {exc}'
-            raise BridgeConfigError(msg) from None
+        from pd_common.config.schema_driver import RampHoldSection  # noqa: PLC0415 (first use)
+
+        return cls.from_section(validated(RampHoldSection, mapping, source, path))
+
+    @classmethod
+    def from_section(cls, section: RampHoldSection) -> RampHoldParameters:
+        """The parameters of a typed ``ramp_hold`` section (a driver's settings file)."""
+        return cls(**dict(section))
 
     def ramp_duration(self, increment: float) -> float:
         """Ramp duration for a largest absolute increment ``increment`` (m), s."""
         if self.ramp_velocity is not None:
             return abs(increment) / self.ramp_velocity
         return DEFAULT_RAMP_TIME if self.ramp_time is None else self.ramp_time
-
-
-def _number(value: Any, name: str, positive: bool) -> float:
-    kind = 'positive' if positive else 'non-negative'
-    if isinstance(value, bool) or not isinstance(value, Real):
-        msg = (
-            f'RampHoldParameters: {name} must be a {kind} finite number, got '
-            f'{type(value).__name__} {value!r}'
-        )
-        raise BridgeConfigError(msg)
-    number = float(value)
-    if not math.isfinite(number) or number < 0.0 or (positive and number == 0.0):
-        msg = f'RampHoldParameters: {name} must be a {kind} finite number, got {value!r}'
-        raise BridgeConfigError(msg)
-    return number
 
 
 @dataclass(frozen=True)
@@ -264,15 +220,8 @@ class RampHoldExecutor:
                 merged['ramp_time'] = None
             if 'ramp_time' in settings and 'ramp_velocity' not in settings:
                 merged['ramp_velocity'] = None
-            unknown = sorted(set(settings) - set(merged))
-            if unknown:
-                msg = (
-                    f'RampHoldExecutor: unknown ramp-and-hold parameter {unknown[0]!r} '
-                    f'(expected one of: {", ".join(sorted(merged))})'
-                )
-                raise BridgeConfigError(msg)
-            merged.update(settings)
-            parameters = dataclasses.replace(parameters, **merged)
+            parameters = RampHoldParameters.from_mapping({**merged, **settings},
+                                                         'RampHoldExecutor')
         self._emulator = emulator
         self._p = parameters
         self._n = int(emulator.n_dof)

@@ -32,14 +32,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from types import MappingProxyType
-from typing import Any
-
-import yaml
+from typing import TYPE_CHECKING, Any
 
 from pd_common.auth import Key
-from pd_common.config import load_yaml
+from pd_common.config.bridge_file import read_driver_config
+from pd_common.config.schema_base import SchemaError
 from pd_common.registry import (
     GROUPS,
     NAME_PATTERN,
@@ -51,6 +49,9 @@ from pd_common.registry import (
 
 from ..errors import BridgeConfigError
 from .base import ActuatorDriver
+
+if TYPE_CHECKING:
+    from pd_common.config.schema_driver import DriverConfigFile
 
 FaultCallback = Callable[[str], None]
 """``cb(message)``: an asynchronous driver reports a fault found outside :meth:`command`."""
@@ -260,23 +261,21 @@ def make_driver(name: str, context: DriverContext) -> ActuatorDriver:
     return driver
 
 
-def read_yaml_parameter(path: str, parameter: str) -> dict[str, Any]:
-    """Read the YAML mapping in file ``path``, the value of parameter ``parameter``.
+def read_driver_settings(path: str, parameter: str) -> DriverConfigFile:
+    """The driver's settings file ``path`` (the value of parameter ``parameter``), typed.
 
-    For factories whose settings are in a file named by a parameter (``driver_config``).
+    For factories whose settings are in a file named by a parameter (``driver_config``): the
+    file is read once (:func:`pd_common.config.read_driver_config`) and the factory builds
+    from its typed sections (``daqmx``, ``emulator``, ``ramp_hold``, ``errors``).
 
     Raises:
-        BridgeConfigError: If ``path`` is empty, cannot be read or parsed, or is not a mapping.
+        BridgeConfigError: If ``path`` is empty, cannot be read or parsed, or is refused by the
+            schema (one line naming the file and the dotted path).
     """
     if not path:
         msg = f'parameter {parameter}: a YAML file is required for this driver'
         raise BridgeConfigError(msg)
     try:
-        raw = load_yaml(Path(path).read_text(encoding='utf-8')) or {}
-    except (OSError, yaml.YAMLError) as err:
-        msg = f'{path}: cannot read ({err})'
-        raise BridgeConfigError(msg) from err
-    if not isinstance(raw, dict):
-        msg = f'{path}: must be a YAML mapping'
-        raise BridgeConfigError(msg)
-    return raw
+        return read_driver_config(path)
+    except SchemaError as err:
+        raise BridgeConfigError(str(err)) from None
