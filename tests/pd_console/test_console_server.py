@@ -160,6 +160,9 @@ def test_bridge_limits_come_from_a_parameter_file(tmp_path: Path) -> None:
                     '    driver: sim_servo\n', encoding='utf-8')
     assert default_bridge_limits(str(path)) == {'max_force': 5000.0, 'max_increment': 0.01}
     assert default_bridge_limits(str(tmp_path / 'missing.yaml')) == {}
+    # a file the bridge would refuse shows no limits (read through the same schema)
+    path.write_text('/**:\n  ros__parameters:\n    max_force: -5000.0\n', encoding='utf-8')
+    assert default_bridge_limits(str(path)) == {}
     assert default_bridge_limits()['max_displacement'] == pytest.approx(0.25)
 
 

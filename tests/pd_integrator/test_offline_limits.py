@@ -29,12 +29,12 @@ from pd_actuator_bridge.core import (
     StepId,
     force_substep_key,
 )
-from pd_common.config import read_yaml_file
+from pd_common.config import default_bridge_parameter_file, read_yaml_file
 from pd_common.errors import BridgeConfigError
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StepKey
 from pd_common.protocol import TestState as State
 from pd_core.errors import ConfigError
-from pd_core.run.bridge_limits import SiteLimits, default_bridge_file, site_limits
+from pd_core.run.bridge_limits import SiteLimits, site_limits
 from pd_core.run.definition import TestDefinition as Definition
 from pd_core.run.loop.dispatch import StepDispatcher
 from pd_core.run.loop.session import TestSession as Session
@@ -149,7 +149,7 @@ def collapsing_column(tmp_path: Path) -> Path:
 
 def bridge_file(tmp_path: Path, **changes: Any) -> Path:
     """The shipped bridge parameters with ``changes``."""
-    raw = yaml.safe_load(default_bridge_file().read_text(encoding='utf-8'))
+    raw = yaml.safe_load(default_bridge_parameter_file().read_text(encoding='utf-8'))
     raw['/**']['ros__parameters'].update(changes)
     return _write(tmp_path / 'bridge.yaml', raw)
 
@@ -318,7 +318,7 @@ def test_site_limits_are_the_bridge_file_then_the_sites_mapping(tmp_path: Path) 
     bad = from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
     with pytest.raises(BridgeConfigError, match=r'^bad\.yaml: sites\.lab\.bridge: max_increment '):
         site_limits(bad)
-    with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameters'):
+    with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameter file \(No such file'):
         site_limits(definition, tmp_path / 'no_such.yaml')
 
 
@@ -329,7 +329,10 @@ def test_a_bad_bridge_file_is_one_line_and_exit_2(tmp_path: Path,
                          str(tmp_path / 'run'), '--no-figures', '--quiet'])
     err = capsys.readouterr().err
     assert code == 2
-    assert len(err.strip().splitlines()) == 1 and 'on_limit must be one of hold' in err
+    # the bridge's parameter file is read through its schema: the file and the dotted path
+    assert err.strip().splitlines() == [
+        "offline: error: bridge.yaml: /**.ros__parameters.on_limit: must be one of 'hold', "
+        "'saturate', got 'clip'"]
     assert not (tmp_path / 'run').exists()
 
 

@@ -310,6 +310,33 @@ def test_bad_input_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixt
     assert expected in err and 'Traceback' not in err
 
 
+@pytest.mark.parametrize(('parameters', 'args', 'expected'), [
+    # the bridge's file is read through its schema, as ./pd run reads it: file + dotted path
+    ({'max_force': True}, [], 'bad_bridge.yaml: /**.ros__parameters.max_force: '),
+    ({'max_increment': -0.02}, [], 'bad_bridge.yaml: /**.ros__parameters.max_increment: '
+                                   'must be > 0, got -0.02'),
+    ({'max_displacment': 0.1}, [], 'bad_bridge.yaml: /**.ros__parameters.max_displacment: '
+                                   'unknown key'),
+    # an override is checked by the same schema, and the limits together as the bridge does
+    ({}, ['--step-duration', '-1'], '--step-duration: step_duration: must be >= 0, got -1.0'),
+    ({}, ['--limit', 'max_velocity=0.1'], 'max_velocity requires step_duration'),
+])
+def test_a_bridge_file_or_override_the_bridge_would_refuse_is_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], parameters: dict[str, Any],
+        args: list[str], expected: str) -> None:
+    bridge = tmp_path / 'bad_bridge.yaml'
+    bridge.write_text(yaml.safe_dump({'/**': {'ros__parameters': {'driver': 'sim_servo',
+                                                                  **parameters}}}),
+                      encoding='utf-8')
+    code = pretest.main([str(_bad(tmp_path, None)), '--out', str(tmp_path / 'out'),
+                         '--no-figures', '--bridge', str(bridge), *args])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert expected in err and 'Traceback' not in err
+    assert not (tmp_path / 'out').exists()
+
+
 @pytest.mark.parametrize(('test_file', 'expected'), [
     ('three_story_two_sites.yaml', 'substructured test'),
     ('column_axial.yaml', 'substructured test'),

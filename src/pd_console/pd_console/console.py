@@ -49,7 +49,7 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import String
 
 from pd_common.auth import AuthError, Key, load_key, operator_key_path
-from pd_common.config import YAMLError, read_yaml_file
+from pd_common.config import SchemaError, default_bridge_parameter_file, read_bridge_parameter_file
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Status,
@@ -120,20 +120,17 @@ def web_directory() -> Path:
 def default_bridge_limits(path: str = '') -> dict[str, float]:
     """The bridge limits of a site whose test definition names none.
 
-    ``path`` (a bridge parameter file) or the installed ``pd_actuator_bridge/config/bridge.yaml``.
+    ``path`` (a bridge parameter file) or the shipped one, read through its schema as
+    ``./pd run`` reads it; the limits the file sets (the gauges show no others). A file that
+    cannot be read or is refused gives none: the console only watches.
     """
     try:
-        file = Path(path) if path else share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
-        raw = read_yaml_file(file) if file.is_file() else {}
-    except (ResourceError, YAMLError):
+        file = Path(path) if path else default_bridge_parameter_file()
+        parameters = read_bridge_parameter_file(file).parameters()
+    except SchemaError:
         return {}
-    params: dict[str, Any] = {}
-    if isinstance(raw, dict):
-        for section in raw.values():
-            if isinstance(section, dict) and isinstance(section.get('ros__parameters'), dict):
-                params.update(section['ros__parameters'])
-    return {name: float(params[name]) for name in (*BRIDGE_LIMITS, 'step_duration')
-            if isinstance(params.get(name), int | float)}
+    return {name: float(parameters[name]) for name in (*BRIDGE_LIMITS, 'step_duration')
+            if isinstance(parameters.get(name), int | float)}
 
 
 class ConsoleNode(Node):

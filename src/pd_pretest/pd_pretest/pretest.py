@@ -18,8 +18,8 @@ import time
 from pathlib import Path
 from typing import NoReturn
 
+from pd_common.config import default_bridge_parameter_file
 from pd_common.errors import SpecimenError
-from pd_common.resources import ResourceError, share_file
 from pd_core.errors import PdIntegratorError
 from pd_core.run.test_file import default_test_file
 
@@ -49,17 +49,6 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def default_bridge_file() -> Path:
-    """The actuator bridge's shipped parameters (installed share, or the source tree)."""
-    try:
-        path = share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
-        if path.is_file():
-            return path
-    except ResourceError:
-        pass
-    return Path(__file__).resolve().parents[2] / 'pd_actuator_bridge' / 'config' / 'bridge.yaml'
-
-
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument('test_file', nargs='?', help='YAML test file (default: the thesis '
@@ -73,8 +62,7 @@ def _parser() -> argparse.ArgumentParser:
                         'specimen.elements.0.yield_force); several multiply')
     parser.add_argument('--out', help='output folder (default: runs/pretest-<test id>)')
     parser.add_argument('--bridge', help="the bridge's ROS parameter file (default: "
-                        "pd_actuator_bridge's config/bridge.yaml); the test file's 'bridge' "
-                        'mapping overrides it')
+                        "pd_actuator_bridge's config/bridge.yaml)")
     parser.add_argument('--step-duration', type=float, metavar='S',
                         help="s per actuator step (overrides the bridge's step_duration)")
     parser.add_argument('--limit', action='append', default=[], metavar='NAME=VALUE',
@@ -110,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
             msg = f'--workers: must be >= 1, got {args.workers}'
             raise ValueError(msg)
         plan = build_plan(test_file, records=args.records, scales=scales, variations=variations)
-        overrides: list[tuple[dict[str, object] | None, str]] = [
-            (plan.raw.get('bridge'), f'{plan.source}: bridge')]
+        overrides: list[tuple[dict[str, object] | None, str]] = []
         limit_overrides: dict[str, object] = {}
         for text in args.limit:
             name, sep, value = text.partition('=')
@@ -127,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
             overrides.append((limit_overrides, '--limit'))
         if args.step_duration is not None:
             overrides.append(({'step_duration': args.step_duration}, '--step-duration'))
-        bridge = Path(args.bridge) if args.bridge else default_bridge_file()
+        bridge = Path(args.bridge) if args.bridge else default_bridge_parameter_file()
         limits = read_bridge_limits(bridge, *overrides)
         for warning in plan.warnings:
             print(f'{PROG}: warning: {warning}', file=sys.stderr)

@@ -45,14 +45,39 @@ if TYPE_CHECKING:
     from .schema_base import SchemaError
     from .test_file import TestFile, read_test_data, read_test_file
 
-__all__ = ['MAX_DEPTH', 'MAX_TEXT_BYTES', 'BridgeParameterFile', 'DriverConfigFile',
-           'InputFileError', 'SchemaError', 'TestFile', 'TestFileModel', 'YAMLAliasError',
-           'YAMLDepthError', 'YAMLDuplicateKeyError', 'YAMLError', 'describe_size',
-           'existing_path', 'json_schema', 'load_yaml', 'open_regular_file',
-           'read_bridge_parameter_file', 'read_bytes', 'read_driver_config', 'read_test_data',
-           'read_test_file', 'read_text', 'read_yaml_file', 'validate_bridge_parameters',
-           'validate_elements', 'validate_model', 'validate_section', 'validate_test_file',
-           'yaml_problem']
+__all__ = [
+    'MAX_DEPTH',
+    'MAX_TEXT_BYTES',
+    'BridgeParameterFile',
+    'DriverConfigFile',
+    'InputFileError',
+    'SchemaError',
+    'TestFile',
+    'TestFileModel',
+    'YAMLAliasError',
+    'YAMLDepthError',
+    'YAMLDuplicateKeyError',
+    'YAMLError',
+    'default_bridge_parameter_file',
+    'describe_size',
+    'existing_path',
+    'json_schema',
+    'load_yaml',
+    'open_regular_file',
+    'read_bridge_parameter_file',
+    'read_bytes',
+    'read_driver_config',
+    'read_test_data',
+    'read_test_file',
+    'read_text',
+    'read_yaml_file',
+    'validate_bridge_parameters',
+    'validate_elements',
+    'validate_model',
+    'validate_section',
+    'validate_test_file',
+    'yaml_problem',
+]
 
 #: The names of the typed schema (:mod:`.schema`), imported on first use: building its models
 #: takes a third of a second, which a process that reads no test file need not pay.
@@ -62,7 +87,8 @@ _SCHEMA_NAMES = ('BridgeParameterFile', 'DriverConfigFile', 'SchemaError', 'Test
 #: The names of :mod:`.test_file` (reading a test file once per process), imported likewise.
 _TEST_FILE_NAMES = ('TestFile', 'read_test_data', 'read_test_file')
 #: The names of :mod:`.bridge_file` (the bridge's files), imported likewise.
-_BRIDGE_FILE_NAMES = ('read_bridge_parameter_file', 'read_driver_config')
+_BRIDGE_FILE_NAMES = ('default_bridge_parameter_file', 'read_bridge_parameter_file',
+                      'read_driver_config')
 
 
 def __getattr__(name: str) -> Any:

@@ -15,13 +15,29 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..resources import ResourceError, share_file
 from .document import read_document
 
 if TYPE_CHECKING:
     from .schema_bridge import BridgeParameterFile
     from .schema_driver import DriverConfigFile
 
-__all__ = ['read_bridge_parameter_file', 'read_driver_config']
+__all__ = ['default_bridge_parameter_file', 'read_bridge_parameter_file', 'read_driver_config']
+
+
+def default_bridge_parameter_file() -> Path:
+    """The actuator bridge's shipped parameter file (installed share, or the source tree).
+
+    As ``run_test`` finds it: the file every rehearsal (``./pd offline``, ``./pd pretest``) and
+    the console read when they are given none.
+    """
+    try:
+        path = share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+        if path.is_file():
+            return path
+    except ResourceError:
+        pass
+    return Path(__file__).resolve().parents[3] / 'pd_actuator_bridge' / 'config' / 'bridge.yaml'
 
 
 def read_bridge_parameter_file(path: str | Path) -> BridgeParameterFile:

@@ -11,7 +11,7 @@ configures (the limits together, the driver's own).
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, RootModel
 
@@ -102,3 +102,13 @@ class BridgeParameterFile(RootModel[dict[str, BridgeNodeSection]]):
 
     Node name (``/**`` for any) to its ``ros__parameters``.
     """
+
+    def parameters(self) -> dict[str, Any]:
+        """The parameters the file sets (its first node section's; the others' defaults apart).
+
+        As the bridge's rehearsals read it (:func:`pd_common.experimental.bridge_parameters`):
+        a parameter the file does not set is the node's default.
+        """
+        for section in self.root.values():
+            return section.ros__parameters.model_dump(exclude_unset=True)
+        return {}

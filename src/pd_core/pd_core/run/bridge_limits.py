@@ -41,12 +41,15 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from pd_common.config import YAMLError, read_yaml_file
+from pd_common.config import (
+    SchemaError,
+    default_bridge_parameter_file,
+    read_bridge_parameter_file,
+)
 from pd_common.experimental.force_ramp import force_ramp
 from pd_common.experimental.limits import (
     LimitViolation,
     SafetyLimits,
-    bridge_parameters,
     check_command,
     check_control,
     check_feedback,
@@ -58,30 +61,15 @@ from pd_common.experimental.limits import (
     saturate_command,
 )
 from pd_common.protocol import Feedback, FeedbackStatus, KeyedAnswers
-from pd_common.resources import ResourceError, share_file
 
 from ..errors import ConfigError
 from .definition import TestDefinition
 
-__all__ = ['BridgeGate', 'LimitRecord', 'SiteLimits', 'default_bridge_file',
-           'limits_report', 'limits_summary', 'site_limits']
+__all__ = ['BridgeGate', 'LimitRecord', 'SiteLimits', 'limits_report', 'limits_summary',
+           'site_limits']
 
 #: The bridge's prefix of the message of a step it executed with a clipped target.
 SATURATED_PREFIX = 'saturated: '
-
-
-def default_bridge_file() -> Path:
-    """The actuator bridge's shipped parameters (installed share, or the source tree).
-
-    As ``run_test`` finds them.
-    """
-    try:
-        path = share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
-        if path.is_file():
-            return path
-    except ResourceError:
-        pass
-    return Path(__file__).resolve().parents[3] / 'pd_actuator_bridge' / 'config' / 'bridge.yaml'
 
 
 @dataclass(frozen=True)
@@ -116,23 +104,20 @@ def site_limits(definition: TestDefinition, bridge_file: str | Path | None = Non
 
     Args:
         definition: the test.
-        bridge_file: the bridge's ROS parameter file (default: :func:`default_bridge_file`).
+        bridge_file: the bridge's ROS parameter file (default: the shipped one,
+            :func:`pd_common.config.default_bridge_parameter_file`).
 
     Raises:
-        ConfigError: the file cannot be read, or a ``sites.<site>.bridge`` is not a mapping.
+        ConfigError: the file cannot be read or its schema refuses it (one line naming the
+            file and the dotted path), or a ``sites.<site>.bridge`` is not a mapping.
         pd_common.errors.BridgeConfigError: a limit or ``on_limit`` the bridge would refuse (a
             ``ValueError``), naming the file or the test file's mapping.
     """
-    path = Path(bridge_file) if bridge_file is not None else default_bridge_file()
+    path = Path(bridge_file) if bridge_file is not None else default_bridge_parameter_file()
     try:
-        raw = read_yaml_file(path)
-    except OSError as err:
-        msg = f'{path}: cannot read the bridge parameters ({err.strerror or err})'
-        raise ConfigError(msg) from None
-    except YAMLError as err:
-        msg = f'{path}: not a YAML file ({getattr(err, "problem", None) or err})'
-        raise ConfigError(msg) from None
-    base = bridge_parameters(raw, str(path))
+        base = read_bridge_parameter_file(path).parameters()
+    except SchemaError as err:
+        raise ConfigError(str(err)) from None
     limits_from_parameters(base, str(path))  # a bad file is named as such
     on_limit_from_parameters(base, str(path))
     sites: list[tuple[str, tuple[str, ...], Mapping[str, Any]]] = []

@@ -8,8 +8,10 @@ x_current| <= max_increment``, ``|x_target − x_current| / step_duration <= max
 with both set) on each command, from the position last measured, then ``|f_measured| <=
 max_force`` on its measurement; a value exactly at a limit passes. They come from the bridge's
 ROS parameter file (``pd_actuator_bridge/config/bridge.yaml``: ``/**: ros__parameters: {...}``,
-0 = off for ``max_velocity`` and ``step_duration``), then the test file's ``bridge`` mapping,
-then explicit overrides (command line).
+0 = off for ``max_velocity`` and ``step_duration``), read through its schema as ``./pd run``
+reads it, then explicit overrides (command line), checked by the same schema; a parameter
+set nowhere is the bridge node's default, and the limits together are checked as the bridge
+checks them when it configures (:meth:`~pd_common.experimental.SafetyLimits.from_mapping`).
 
 :func:`trips` says which limits a run exceeds anywhere (its whole demand, for study);
 :func:`first_holds` the step at which the bridge would hold it (the first command or
@@ -19,22 +21,21 @@ offline`` and ``./pd run`` hold there.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from pd_common.config import read_yaml_file, yaml_problem
+from pd_common.config import SchemaError, read_bridge_parameter_file, validate_model
+from pd_common.config.schema_bridge import SiteBridgeParameters
 from pd_common.errors import BridgeConfigError
 from pd_common.experimental.limits import (
     SafetyLimits,
-    bridge_parameters,
     check_command,
     check_feedback,
+    limits_from_parameters,
 )
 from pd_common.protocol import FeedbackStatus
 from pd_common.types import FloatArray
@@ -45,8 +46,6 @@ __all__ = ['LIMIT_NAMES', 'BridgeLimits', 'Hold', 'first_holds', 'read_bridge_li
 
 #: The limits checked, in the bridge's order (a command's, then the measured force's).
 LIMIT_NAMES = ('max_displacement', 'max_increment', 'max_velocity', 'max_force')
-_REQUIRED = ('max_displacement', 'max_increment', 'max_force')
-_OPTIONAL = ('max_velocity', 'step_duration')
 
 
 @dataclass(frozen=True)
@@ -88,74 +87,36 @@ class BridgeLimits:
                             max_velocity=velocity, step_duration=self.step_duration)
 
 
-def _parameters(raw: Any, source: str) -> Mapping[str, Any]:
-    """The ``ros__parameters`` mapping of a ROS parameter file (or a plain mapping).
-
-    Found as the bridge's rehearsals find it (:func:`~pd_common.experimental.bridge_parameters`).
-    """
-    try:
-        return bridge_parameters(raw, source)
-    except BridgeConfigError as err:
-        raise PretestError(str(err)) from None
-
-
-def _number(value: Any, where: str, *, zero_off: bool) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-            float(value)) or float(value) < 0.0 or (float(value) == 0.0 and not zero_off):
-        what = 'a number >= 0 (0 = off)' if zero_off else 'a positive number'
-        msg = f'{where}: must be {what}, got {value!r}'
-        raise PretestError(msg)
-    number = float(value)
-    return None if number == 0.0 else number
-
-
 def read_bridge_limits(path: str | Path, *layers: tuple[Mapping[str, Any] | None, str]
                        ) -> BridgeLimits:
     """The bridge's limits: its parameter file, then each ``(mapping, source)`` override.
 
-    Keys other than the limits (``driver``, ``on_limit``, ...) are ignored.
+    The file is read through its schema (:func:`pd_common.config.read_bridge_parameter_file`)
+    and each override through the schema of a site's bridge parameters; a limit set nowhere is
+    the node's default; the limits together are checked as the bridge checks them. Parameters
+    other than the limits (``driver``, ``on_limit``, ...) are read but not used here.
 
     Raises:
-        PretestError: the file cannot be read, a limit is missing or not a valid number.
+        PretestError: one line naming the file (or the override) and the parameter.
     """
     path = Path(path)
-    try:
-        raw = read_yaml_file(path, what='a parameter file')
-    except OSError as err:
-        msg = f'{path}: cannot read the bridge parameters ({err.strerror})'
-        raise PretestError(msg) from None
-    except yaml.YAMLError as err:
-        msg = f'{path}: not a YAML file ({yaml_problem(err)})'
-        raise PretestError(msg) from None
-    values: dict[str, tuple[Any, str]] = {
-        key: (value, f'{path.name}: {key}') for key, value in _parameters(raw, path.name).items()}
     sources = [path.name]
-    for mapping, where in layers:
-        if mapping is None:
-            continue
-        if not isinstance(mapping, Mapping):
-            msg = f'{where}: must be a mapping of bridge parameters'
-            raise PretestError(msg)
-        sources.append(where)
-        values.update({key: (value, f'{where}.{key}') for key, value in mapping.items()})
-    limits: dict[str, float | None] = {}
-    for key in _REQUIRED + _OPTIONAL:
-        if key not in values:
-            if key in _REQUIRED:
-                msg = f'{path}: {key}: missing (a bridge limit)'
-                raise PretestError(msg)
-            limits[key] = None
-            continue
-        value, where = values[key]
-        limits[key] = _number(value, where, zero_off=key in _OPTIONAL)
-    required = {key: limits[key] for key in _REQUIRED}
-    assert all(value is not None for value in required.values())
-    return BridgeLimits(max_displacement=float(required['max_displacement'] or 0.0),
-                        max_increment=float(required['max_increment'] or 0.0),
-                        max_force=float(required['max_force'] or 0.0),
-                        max_velocity=limits['max_velocity'],
-                        step_duration=limits['step_duration'],
-                        source=' + '.join(sources))
+    try:
+        parameters = read_bridge_parameter_file(path).parameters()
+        for mapping, where in layers:
+            if mapping is None:
+                continue
+            layer = validate_model(SiteBridgeParameters, mapping, where)
+            parameters.update(layer.model_dump(exclude_unset=True))
+            sources.append(where)
+        source = ' + '.join(sources)
+        safety = limits_from_parameters(parameters, source)
+    except (SchemaError, BridgeConfigError) as err:
+        raise PretestError(str(err)) from None
+    return BridgeLimits(max_displacement=safety.max_displacement,
+                        max_increment=safety.max_increment, max_force=safety.max_force,
+                        max_velocity=safety.max_velocity, step_duration=safety.step_duration,
+                        source=source)
 
 
 def trips(limits: BridgeLimits, *, peak_displacement: FloatArray, max_increment: FloatArray,
