@@ -318,7 +318,8 @@ def test_site_limits_are_the_bridge_file_then_the_sites_mapping(tmp_path: Path) 
     bad = from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
     with pytest.raises(BridgeConfigError, match=r'^bad\.yaml: sites\.lab\.bridge: max_increment '):
         site_limits(bad)
-    with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameter file \(No such file'):
+    with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameter '
+                                          r'file \(No such file'):
         site_limits(definition, tmp_path / 'no_such.yaml')
 
 
@@ -331,8 +332,8 @@ def test_a_bad_bridge_file_is_one_line_and_exit_2(tmp_path: Path,
     assert code == 2
     # the bridge's parameter file is read through its schema: the file and the dotted path
     assert err.strip().splitlines() == [
-        "offline: error: bridge.yaml: /**.ros__parameters.on_limit: must be one of 'hold', "
-        "'saturate', got 'clip'"]
+        ("offline: error: bridge.yaml: /**.ros__parameters.on_limit: must be one of 'hold', "
+         "'saturate', got 'clip'")]
     assert not (tmp_path / 'run').exists()
 
 

@@ -313,10 +313,10 @@ def test_bad_input_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixt
 @pytest.mark.parametrize(('parameters', 'args', 'expected'), [
     # the bridge's file is read through its schema, as ./pd run reads it: file + dotted path
     ({'max_force': True}, [], 'bad_bridge.yaml: /**.ros__parameters.max_force: '),
-    ({'max_increment': -0.02}, [], 'bad_bridge.yaml: /**.ros__parameters.max_increment: '
-                                   'must be > 0, got -0.02'),
-    ({'max_displacment': 0.1}, [], 'bad_bridge.yaml: /**.ros__parameters.max_displacment: '
-                                   'unknown key'),
+    ({'max_increment': -0.02}, [], ('bad_bridge.yaml: /**.ros__parameters.max_increment: '
+                                    'must be > 0, got -0.02')),
+    ({'max_displacment': 0.1}, [], ('bad_bridge.yaml: /**.ros__parameters.max_displacment: '
+                                    'unknown key')),
     # an override is checked by the same schema, and the limits together as the bridge does
     ({}, ['--step-duration', '-1'], '--step-duration: step_duration: must be >= 0, got -1.0'),
     ({}, ['--limit', 'max_velocity=0.1'], 'max_velocity requires step_duration'),
