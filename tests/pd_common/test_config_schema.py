@@ -236,6 +236,18 @@ def test_the_reference_page_is_what_the_schema_generates() -> None:
         assert f'| `{key}` |' in page
 
 
+@pytest.mark.parametrize(('args', 'page'), [(('--bridge', '--markdown'), 'bridge-parameters.md'),
+                                            (('--driver', '--markdown'), 'driver-settings.md')])
+def test_the_bridge_and_driver_reference_pages_are_what_the_schema_generates(
+        args: tuple[str, ...], page: str) -> None:
+    shipped = (REPO / 'docs' / 'reference' / page).read_text(encoding='utf-8')
+    generated = subprocess.run([sys.executable, '-m', 'pd_common.config.schema_cli', *args],
+                               capture_output=True, text=True, check=True, timeout=60).stdout
+    assert shipped == generated, (f'regenerate: ./pd schema {" ".join(args)} > '
+                                  f'docs/reference/{page}')
+    assert '| `max_force` |' in shipped or '| `command_scale` |' in shipped
+
+
 def test_the_command_prints_the_schema_and_the_page() -> None:
     def run(*args: str) -> str:
         return subprocess.run([sys.executable, '-m', 'pd_common.config.schema_cli', *args],
