@@ -24,6 +24,7 @@ from .explicit_alpha import ExplicitGeneralizedAlpha, ModifiedNewmark
 from .implicit import AverageAcceleration, LinearAcceleration, NewmarkImplicit
 from .model_based import ChenRicles, KRAlpha
 from .newmark_explicit import NewmarkExplicit
+from .opensees_element import OpenSeesElement
 from .operator_splitting import AlphaOS, GeneralizedAlphaOS
 
 __all__ = ['SCHEMES', 'make_integrator', 'register_scheme', 'scheme_class']
@@ -63,7 +64,7 @@ def register_scheme(cls: type[Integrator]) -> type[Integrator]:
 
 for _builtin in (NewmarkExplicit, ExplicitGeneralizedAlpha, ModifiedNewmark, AlphaOS,
                  GeneralizedAlphaOS, ChenRicles, KRAlpha, NewmarkImplicit, AverageAcceleration,
-                 LinearAcceleration):
+                 LinearAcceleration, OpenSeesElement):
     register_scheme(_builtin)
 
 
