@@ -59,7 +59,8 @@ def run(args: argparse.Namespace, nodes: list[int], elements: list[int],
     rows = []
     for _ in range(args.steps):
         if ops.analyze(1, 0.01) != 0:
-            raise SystemExit('analysis failed')
+            msg = 'analysis failed'
+            raise SystemExit(msg)
         row = [ops.getTime()]
         row += [ops.nodeDisp(node, dof) for node in nodes]
         row += [ops.eleResponse(element, 'forces')[-1] for element in elements]

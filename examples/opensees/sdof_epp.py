@@ -10,7 +10,6 @@ NS (the project's copy), 5 % Rayleigh damping on the mass.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import common

@@ -7,7 +7,7 @@ accepts the element's connection (closing, with one log line, any client not on 
 allow-list), reads its size message and then hands over one event at a time
 (:class:`~.exchange.ElementExchange`). A malformed or out-of-order message, or a client that
 disconnects, ends the connection: :class:`~pd_common.errors.ElementProtocolError` or
-:class:`ElementLinkLost`.
+:class:`ElementLinkLostError`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ LOOPBACK = '127.0.0.1'
 _QUICKACK: int | None = getattr(socket, 'TCP_QUICKACK', None)
 
 
-class ElementLinkLost(ElementProtocolError):
+class ElementLinkLostError(ElementProtocolError):
     """The element's connection closed (or timed out) without ``DIE``."""
 
 
@@ -59,8 +59,9 @@ def check_bind(host: str, allow: Sequence[str], allow_remote: bool) -> list[str]
     if not allow:
         msg = f'allow: binding {host} needs the list of client addresses that may connect'
         raise ElementProtocolError(msg)
-    return [f'WARNING: serving OpenSees on {host} (no authentication on this link); clients '
-            f'allowed: {", ".join(allow)}']
+    warning = (f'WARNING: serving OpenSees on {host} (no authentication on this link); '
+               f'clients allowed: {", ".join(allow)}')
+    return [warning]
 
 
 class ElementLink:
@@ -111,7 +112,7 @@ class ElementLink:
             stiffness: The ``n`` x ``n`` stiffness to answer, given the element's DOFs.
 
         Raises:
-            ElementLinkLost: No allowed client within :attr:`timeout`.
+            ElementLinkLostError: No allowed client within :attr:`timeout`.
             ElementProtocolError: A bad size message (the client is closed).
         """
         deadline = time.monotonic() + self.timeout
@@ -119,7 +120,7 @@ class ElementLink:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 msg = f'no OpenSees element connected within {self.timeout:g} s'
-                raise ElementLinkLost(msg)
+                raise ElementLinkLostError(msg)
             self._listener.settimeout(remaining)
             try:
                 client, (address, _) = self._listener.accept()
@@ -152,10 +153,10 @@ class ElementLink:
                 chunk = self._client.recv(n - got)
             except OSError as err:  # a timeout or a reset
                 msg = f'the element\'s connection failed: {err}'
-                raise ElementLinkLost(msg) from None
+                raise ElementLinkLostError(msg) from None
             if not chunk:
                 msg = 'the element closed its connection without DIE'
-                raise ElementLinkLost(msg)
+                raise ElementLinkLostError(msg)
             chunks.append(chunk)
             got += len(chunk)
         return b''.join(chunks)
@@ -164,13 +165,13 @@ class ElementLink:
         """Answer queries until the test must act: a force request, a commit or the end.
 
         Raises:
-            ElementLinkLost: The connection closed or timed out (it is closed).
+            ElementLinkLostError: The connection closed or timed out (it is closed).
             ElementProtocolError: A malformed or out-of-order message (it is closed).
         """
         exchange = self.exchange
         if exchange is None or self._client is None:
             msg = 'no element is connected'
-            raise ElementLinkLost(msg)
+            raise ElementLinkLostError(msg)
         try:
             while True:
                 event, reply = exchange.take(self._read(exchange.size.vector_bytes))
@@ -184,13 +185,13 @@ class ElementLink:
         except OSError as err:
             self.close(f'send failed: {err}')
             msg = f'the element\'s connection failed: {err}'
-            raise ElementLinkLost(msg) from None
+            raise ElementLinkLostError(msg) from None
 
     def answer_force(self, force: Sequence[float], measured: Sequence[float]) -> None:
         """Send the owed ``getForce`` reply.
 
         Raises:
-            ElementLinkLost: The connection failed (it is closed).
+            ElementLinkLostError: The connection failed (it is closed).
         """
         assert self.exchange is not None and self._client is not None
         reply = self.exchange.answer_force(force, measured)
@@ -199,7 +200,7 @@ class ElementLink:
         except OSError as err:
             self.close(f'send failed: {err}')
             msg = f'the element\'s connection failed: {err}'
-            raise ElementLinkLost(msg) from None
+            raise ElementLinkLostError(msg) from None
 
     def close(self, reason: str = '') -> None:
         """Close the client's connection (the listener stays open), logging ``reason``."""

@@ -118,8 +118,8 @@ def decode_size_message(payload: bytes) -> SizeMessage:
         raise ElementProtocolError(msg)
     data_size = ids[10]
     if not max(1 + 3 * n + 1, n * n) <= data_size <= MAX_DATA_SIZE:
-        msg = f'size message: dataSize {data_size} does not fit {n} DOFs (or exceeds ' \
-              f'{MAX_DATA_SIZE})'
+        msg = (f'size message: dataSize {data_size} does not fit {n} DOFs (or exceeds '
+               f'{MAX_DATA_SIZE})')
         raise ElementProtocolError(msg)
     return SizeMessage(n, data_size)
 

@@ -31,5 +31,5 @@ class BagError(PdIntegratorError):
     """A test bag cannot be written, read or replayed."""
 
 
-class AnalysisEnded(IntegratorError):
+class AnalysisEndedError(IntegratorError):
     """An external integrator (OpenSees's ``genericClient``) ended the analysis: not a fault."""

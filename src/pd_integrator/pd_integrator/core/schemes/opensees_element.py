@@ -38,7 +38,7 @@ import numpy as np
 from pd_common.opensees import COMMIT, END, FORCE, ElementLink, ElementProtocolError, Trial
 from pd_common.registry import Parameter
 
-from ..errors import AnalysisEnded, IntegratorError
+from ..errors import AnalysisEndedError, IntegratorError
 from .base import COMMITTED, CORRECTED, ITERATING, PREDICTED, Integrator
 
 __all__ = ['OpenSeesElement']
@@ -143,8 +143,8 @@ class OpenSeesElement(Integrator):
 
     def _predict(self) -> Any:
         if self._pending is not None:
-            trial, self._pending = self._pending, None
-            return self._value(trial.displacement)
+            pending, self._pending = self._pending, None
+            return self._value(pending.displacement)
         kind, trial = self._next_event()
         while kind == FORCE and trial is not None and self._committed_query(trial):
             self._answer(np.atleast_1d(np.asarray(self._r, dtype=float)),
@@ -153,7 +153,7 @@ class OpenSeesElement(Integrator):
         if kind == END:
             self.close()
             msg = f'OpenSees ended the analysis after step {self._step}'
-            raise AnalysisEnded(msg)
+            raise AnalysisEndedError(msg)
         if kind != FORCE or trial is None:  # the exchange refuses a commit before a force
             msg = f'OpenSees element: unexpected {kind} before a getForce'
             raise IntegratorError(msg)
@@ -180,7 +180,7 @@ class OpenSeesElement(Integrator):
 
         Raises:
             IntegratorError: Before :meth:`predict`, on a fault of the link, or if OpenSees's
-                time is not the test's. :class:`~..errors.AnalysisEnded` if the element ended
+                time is not the test's. :class:`~..errors.AnalysisEndedError` if the element ended
                 before committing.
         """
         if self._status != 'running' or self._phase != PREDICTED:
@@ -196,7 +196,7 @@ class OpenSeesElement(Integrator):
             if kind == END:
                 self.close()
                 msg = f'OpenSees ended the analysis within step {self._step + 1}'
-                raise AnalysisEnded(msg)
+                raise AnalysisEndedError(msg)
             assert trial is not None
             if kind == COMMIT:
                 self._commit_trial(trial, force, load)
@@ -240,7 +240,8 @@ class OpenSeesElement(Integrator):
             return None
         assert self._initial_stiffness is not None
         self.held_iterations += 1
-        return last_r + np.asarray(self._initial_stiffness) @ (displacement - last_x)
+        held: np.ndarray = last_r + np.asarray(self._initial_stiffness) @ (displacement - last_x)
+        return held
 
     def _commit_trial(self, trial: Trial, force: np.ndarray, load: Any) -> None:
         time = (self._step + 1) * self._dt

@@ -21,7 +21,7 @@ from pd_common.types import FloatArray
 
 from ...dynamics.stability import StabilityReport, check_stability, require_stable
 from ...errors import (
-    AnalysisEnded,
+    AnalysisEndedError,
     ConfigError,
     IntegratorError,
     PdIntegratorError,
@@ -162,7 +162,7 @@ class TestSession:
         else:
             try:
                 command = self._integration_command()
-            except AnalysisEnded as end:  # an external integrator (OpenSees) ended the test
+            except AnalysisEndedError as end:  # an external integrator (OpenSees) ended the test
                 self.state = TestState.FINISHED
                 self.message = f'{end}; {self.committed_step} steps committed'
                 return None
@@ -422,7 +422,7 @@ class TestSession:
                 if integrator.phase != 'corrected':
                     return  # an implicit scheme iterates: next command (step, iteration + 1)
                 integrator.commit()
-        except AnalysisEnded as end:  # OpenSees ended within a step: it stays uncommitted
+        except AnalysisEndedError as end:  # OpenSees ended within a step: it stays uncommitted
             self.state = TestState.FINISHED
             self.message = f'{end}; {self.committed_step} steps committed'
             return
