@@ -53,6 +53,8 @@ class OpenSeesElement(Integrator):
     stability_limit = math.inf
     needs_initial_stiffness = True
     accuracy_order = 2
+    external = True
+    softening_note = 'OpenSees integrates: its own integrator and algorithm decide'
     PARAMETERS = (
         Parameter('port', 44000, 'TCP port of the element (its -server PORT); 0: any free one',
                   low=0, high=65535, integer=True),

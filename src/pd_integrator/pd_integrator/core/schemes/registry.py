@@ -27,7 +27,7 @@ from .newmark_explicit import NewmarkExplicit
 from .opensees_element import OpenSeesElement
 from .operator_splitting import AlphaOS, GeneralizedAlphaOS
 
-__all__ = ['SCHEMES', 'make_integrator', 'register_scheme', 'scheme_class']
+__all__ = ['SCHEMES', 'make_integrator', 'numerical_schemes', 'register_scheme', 'scheme_class']
 
 
 def _admit(name: str, entry: Any) -> type[Integrator]:
@@ -66,6 +66,11 @@ for _builtin in (NewmarkExplicit, ExplicitGeneralizedAlpha, ModifiedNewmark, Alp
                  GeneralizedAlphaOS, ChenRicles, KRAlpha, NewmarkImplicit, AverageAcceleration,
                  LinearAcceleration, OpenSeesElement):
     register_scheme(_builtin)
+
+
+def numerical_schemes() -> list[str]:
+    """The names of the schemes that integrate by themselves (all but the ``external`` ones)."""
+    return [name for name, cls in SCHEMES.items() if not cls.external]
 
 
 def scheme_class(scheme: str | type[Integrator] | Integrator) -> type[Integrator]:
