@@ -621,7 +621,7 @@ def select_schemes(text: str | None) -> list[str]:
     from pd_core.schemes import SCHEMES
 
     if text is None or text.strip() == 'all':
-        return list(SCHEMES)
+        return [name for name, cls in SCHEMES.items() if not cls.external]
     if text.strip() == 'none':
         return []
     names = [name.strip() for name in text.split(',') if name.strip()]

@@ -27,6 +27,8 @@ setup(
             'main = pd_actuator_bridge.node:main',
             'controller_server = pd_actuator_bridge.controller_server:main',
             'opensees_site = pd_actuator_bridge.opensees_site:main',
+            'element_server = pd_actuator_bridge.element_server:main',
         ],
+        'pd.commands': ['serve = pd_actuator_bridge.commands:SERVE'],
     },
 )

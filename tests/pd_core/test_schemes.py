@@ -34,6 +34,7 @@ from pd_core.schemes import (
     NewmarkExplicit,
     amplification_matrix_newmark_explicit,
     make_integrator,
+    numerical_schemes,
 )
 from support.spectra import assert_same_spectrum
 
@@ -257,7 +258,7 @@ def test_registry_names_and_classes() -> None:
     assert set(SCHEMES) == {
         'newmark_explicit', 'explicit_generalized_alpha', 'modified_newmark', 'alpha_os',
         'generalized_alpha_os', 'cr', 'kr_alpha', 'newmark_implicit', 'average_acceleration',
-        'linear_acceleration',
+        'linear_acceleration', 'opensees_element',
     }
     assert SCHEMES['newmark_explicit'] is NewmarkExplicit
     for name, cls in SCHEMES.items():
@@ -265,7 +266,7 @@ def test_registry_names_and_classes() -> None:
         assert issubclass(cls, Integrator)
     needs_k = {name for name, cls in SCHEMES.items() if cls.needs_initial_stiffness}
     assert needs_k == {'alpha_os', 'generalized_alpha_os', 'cr', 'kr_alpha', 'newmark_implicit',
-                       'average_acceleration', 'linear_acceleration'}
+                       'average_acceleration', 'linear_acceleration', 'opensees_element'}
     assert SCHEMES['kr_alpha'].numerical_damping_parameter == 'rho_inf'
     assert SCHEMES['generalized_alpha_os'].numerical_damping_parameter == 'rho_inf'
     assert SCHEMES['alpha_os'].numerical_damping_parameter == 'alpha'
@@ -288,7 +289,8 @@ def test_parameters_round_trip_through_make_integrator(case: tuple) -> None:
     assert again.stability_limit == integrator.stability_limit
 
 
-NEEDS_K = sorted(name for name, cls in SCHEMES.items() if cls.needs_initial_stiffness)
+NEEDS_K = sorted(name for name, cls in SCHEMES.items()
+                 if cls.needs_initial_stiffness and not cls.external)
 
 
 @pytest.mark.parametrize('name', NEEDS_K)
@@ -986,7 +988,7 @@ def test_implicit_iteration_contract_and_revert() -> None:
     assert integrator.phase == 'committed'
 
 
-@pytest.mark.parametrize('name', sorted(n for n in SCHEMES if 'implicit' not in n
+@pytest.mark.parametrize('name', sorted(n for n in numerical_schemes() if 'implicit' not in n
                                         and n not in ('average_acceleration',
                                                       'linear_acceleration')))
 def test_single_iteration_schemes_reach_corrected_after_one_correct(name: str) -> None:

@@ -44,3 +44,7 @@ class BridgeConfigError(BridgeError, ValueError):
     Raised by the safety limits of :mod:`pd_common.experimental.limits` wherever they are applied
     (the bridge, the ROS-free rehearsals).
     """
+
+
+class ElementProtocolError(ValueError):
+    """A ``genericClient`` element sent a malformed or out-of-order message, or was refused."""

@@ -29,3 +29,7 @@ class ProtocolError(PdIntegratorError):
 
 class BagError(PdIntegratorError):
     """A test bag cannot be written, read or replayed."""
+
+
+class AnalysisEndedError(IntegratorError):
+    """An external integrator (OpenSees's ``genericClient``) ended the analysis: not a fault."""

@@ -90,8 +90,9 @@ def _label(scheme: str, parameters: dict[str, Any]) -> str:
 
 def _select_schemes(text: str | None, params: dict[str, dict[str, list[Any]]]) -> list[str]:
     if text is None:
-        names = [name for name in SCHEMES if has_amplification_matrix(name)]
-        for name in SCHEMES:
+        numerical = [name for name, cls in SCHEMES.items() if not cls.external]
+        names = [name for name in numerical if has_amplification_matrix(name)]
+        for name in numerical:
             if name not in names:
                 print(f'analyze: skipping {name}: it has no amplification matrix',
                       file=sys.stderr)

@@ -55,10 +55,10 @@ class TestSection(ConfigModel):
     """The integration scheme, one of the registered schemes (``newmark_explicit``,
     ``alpha_os``, ``average_acceleration``, ``cr``, ``explicit_generalized_alpha``,
     ``generalized_alpha_os``, ``kr_alpha``, ``linear_acceleration``, ``modified_newmark``,
-    ``newmark_implicit``)."""
-    scheme_parameters: dict[str, Finite | bool] | None = None
-    """The scheme's parameters by name (finite numbers or true/false; the scheme's defaults
-    otherwise)."""
+    ``newmark_implicit``, ``opensees_element``)."""
+    scheme_parameters: dict[str, Finite | bool | str] | None = None
+    """The scheme's parameters by name (finite numbers, true/false or text, e.g.
+    ``opensees_element``'s ``host``; the scheme's defaults otherwise)."""
     dt: Positive
     """The integration time step [s]."""
     duration: Positive | None = None

@@ -135,7 +135,7 @@ class TestDefinition:
     source: str = '<memory>'
     base_dir: Path = field(default_factory=Path.cwd)
     record_info: dict[str, Any] = field(default_factory=dict)
-    scheme_parameters: dict[str, float | bool] = field(default_factory=dict)
+    scheme_parameters: dict[str, float | bool | str] = field(default_factory=dict)
     damping_spec: dict[str, Any] | None = None
     components: tuple[GroundComponent, ...] = ()
     model: StructuralModel | None = None

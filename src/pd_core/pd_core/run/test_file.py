@@ -343,7 +343,7 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
         influence=first.influence, ground_motion=first.motion,
         ground_acceleration=first.acceleration, specimen=specimen, protocol=protocol,
         probe=probe, source=source, base_dir=base_dir, record_info=first.info,
-        scheme_parameters={key: value if isinstance(value, bool) else float(value)
+        scheme_parameters={key: value if isinstance(value, bool | str) else float(value)
                            for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
         structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None

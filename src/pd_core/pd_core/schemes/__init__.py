@@ -30,7 +30,13 @@ from .newmark_explicit import (
 )
 from .operator_splitting import AlphaOS, GeneralizedAlphaOS
 from .parameters import SchemeParameter, SchemeParameterError, check_parameter
-from .registry import SCHEMES, make_integrator, register_scheme, scheme_class
+from .registry import (
+    SCHEMES,
+    make_integrator,
+    numerical_schemes,
+    register_scheme,
+    scheme_class,
+)
 
 __all__ = [
     'SCHEMES',
@@ -54,6 +60,7 @@ __all__ = [
     'check_parameter',
     'make_integrator',
     'newmark_explicit_numerical_frequency',
+    'numerical_schemes',
     'register_scheme',
     'scheme_class',
 ]

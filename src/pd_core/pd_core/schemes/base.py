@@ -104,6 +104,7 @@ class Integrator(abc.ABC):
         accuracy_order: Order of accuracy at the default parameters: the displacement error
             of a linear response started with no acceleration (``a_0 = 0``) falls as
             ``Δt**accuracy_order`` (see :mod:`.model_based` for starts with ``a_0 ≠ 0``).
+        external: Whether the steps come from another program (see the class attribute).
         softening_note: What the scheme assumes of the tangent stiffness when the structure
             may soften (printed with the stability line when the test states a ``collapse``
             drift; ``''``: nothing to say).
@@ -121,6 +122,9 @@ class Integrator(abc.ABC):
     iterations_per_step: int = 1
     accuracy_order: ClassVar[int] = 2
     softening_note: ClassVar[str] = ''
+    #: The steps come from another program (OpenSees through ``opensees_element``): the
+    #: scheme cannot run by itself, and whatever runs every scheme numerically skips it.
+    external: ClassVar[bool] = False
 
     #: The scheme's parameters, each declared once (default and range).
     PARAMETERS: ClassVar[tuple[SchemeParameter, ...]] = ()

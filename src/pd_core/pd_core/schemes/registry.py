@@ -24,9 +24,10 @@ from .explicit_alpha import ExplicitGeneralizedAlpha, ModifiedNewmark
 from .implicit import AverageAcceleration, LinearAcceleration, NewmarkImplicit
 from .model_based import ChenRicles, KRAlpha
 from .newmark_explicit import NewmarkExplicit
+from .opensees_element import OpenSeesElement
 from .operator_splitting import AlphaOS, GeneralizedAlphaOS
 
-__all__ = ['SCHEMES', 'make_integrator', 'register_scheme', 'scheme_class']
+__all__ = ['SCHEMES', 'make_integrator', 'numerical_schemes', 'register_scheme', 'scheme_class']
 
 
 def _admit(name: str, entry: Any) -> type[Integrator]:
@@ -63,8 +64,13 @@ def register_scheme(cls: type[Integrator]) -> type[Integrator]:
 
 for _builtin in (NewmarkExplicit, ExplicitGeneralizedAlpha, ModifiedNewmark, AlphaOS,
                  GeneralizedAlphaOS, ChenRicles, KRAlpha, NewmarkImplicit, AverageAcceleration,
-                 LinearAcceleration):
+                 LinearAcceleration, OpenSeesElement):
     register_scheme(_builtin)
+
+
+def numerical_schemes() -> list[str]:
+    """The names of the schemes that integrate by themselves (all but the ``external`` ones)."""
+    return [name for name, cls in SCHEMES.items() if not cls.external]
 
 
 def scheme_class(scheme: str | type[Integrator] | Integrator) -> type[Integrator]:

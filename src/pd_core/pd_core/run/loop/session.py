@@ -20,7 +20,13 @@ from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestSt
 from pd_common.types import FloatArray
 
 from ...dynamics.stability import StabilityReport, check_stability, require_stable
-from ...errors import ConfigError, IntegratorError, PdIntegratorError, ProtocolError
+from ...errors import (
+    AnalysisEndedError,
+    ConfigError,
+    IntegratorError,
+    PdIntegratorError,
+    ProtocolError,
+)
 from ...schemes import SchemeParameterError, make_integrator
 from ..collapse import Collapse, CollapseMonitor
 from ..record.history import ResponseHistory
@@ -156,6 +162,10 @@ class TestSession:
         else:
             try:
                 command = self._integration_command()
+            except AnalysisEndedError as end:  # an external integrator (OpenSees) ended the test
+                self.state = TestState.FINISHED
+                self.message = f'{end}; {self.committed_step} steps committed'
+                return None
             except IntegratorError as err:  # a non-finite target: the response diverged
                 self._fail(self._step, err)
                 return None
@@ -412,6 +422,10 @@ class TestSession:
                 if integrator.phase != 'corrected':
                     return  # an implicit scheme iterates: next command (step, iteration + 1)
                 integrator.commit()
+        except AnalysisEndedError as end:  # OpenSees ended within a step: it stays uncommitted
+            self.state = TestState.FINISHED
+            self.message = f'{end}; {self.committed_step} steps committed'
+            return
         except IntegratorError as err:
             self._fail(step, err)
             return

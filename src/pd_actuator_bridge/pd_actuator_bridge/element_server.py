@@ -1,0 +1,107 @@
+"""Serve OpenSees's ``genericClient`` element: ``ros2 run pd_actuator_bridge element_server``.
+
+``./pd serve [TEST_FILE]`` (default: the shipped ``serve_epp.yaml``) checks the test file's
+``opensees_element`` scheme and its network settings (:func:`pd_common.opensees.check_bind`:
+loopback only, unless ``allow_remote: true`` and an ``allow`` list, with a printed warning),
+then starts the test as ``./pd run`` does (the node graph: the integrator serves the element,
+the bridge drives the specimen with its limits, e-stop and lifecycle; signed messages, the
+journal, the bag and the run folder) or, with ``--offline``, in one process as ``./pd
+offline``. The element's model then runs unchanged but for its ``genericClient`` line; see
+``docs/how-to/bring-your-opensees-model.md``.
+
+This shell holds no protocol: the wire format and the trial/commit exchange are in
+:mod:`pd_common.opensees`, the step mapping in the integrator's ``opensees_element`` scheme.
+Bad input is one line naming the key, exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from pd_common.config import YAMLError, read_yaml_file
+from pd_common.opensees import ElementProtocolError, check_bind
+from pd_common.resources import ResourceError, find_executable, share_file
+
+PROG = 'element_server'
+SCHEME = 'opensees_element'
+DEFAULT_TEST = 'serve_epp.yaml'
+
+
+class ServeError(Exception):
+    """One line: why the element cannot be served."""
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    """Command-line options."""
+    parser = argparse.ArgumentParser(
+        prog=PROG, description="Serve an OpenSees model's genericClient element through the "
+        'actuator bridge (the test file sets test.scheme: opensees_element).')
+    parser.add_argument('test_file', nargs='?', help='YAML test file (default: '
+                        f'pd_integrator config/{DEFAULT_TEST})')
+    parser.add_argument('--offline', action='store_true', help='in one process, without ROS '
+                        '(as ./pd offline): the bridge\'s limits are checked in-process')
+    parser.add_argument('--out', help='run folder (default: runs/<test_id>-<UTC time>)')
+    parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    return parser.parse_args(argv)
+
+
+def check_test_file(path: Path) -> tuple[str, list[str]]:
+    """Check the scheme and the network settings; returns ``(served address, warnings)``.
+
+    Raises:
+        ServeError: The file cannot be read, is not served, or its address is refused.
+    """
+    try:
+        raw = read_yaml_file(path, what='a test file')
+    except (YAMLError, OSError) as err:
+        msg = f'{path}: {err}'
+        raise ServeError(msg) from None
+    test = raw.get('test') if isinstance(raw, Mapping) else None
+    test = test if isinstance(test, Mapping) else {}
+    if test.get('scheme') != SCHEME:
+        msg = (f'{path}: test.scheme: must be {SCHEME} to serve an element, got '
+               f'{test.get("scheme")!r}')
+        raise ServeError(msg)
+    parameters: Mapping[str, Any] = test.get('scheme_parameters') or {}
+    host = str(parameters.get('host', '127.0.0.1'))
+    allow = [a.strip() for a in str(parameters.get('allow', '')).split(',') if a.strip()]
+    try:
+        warnings = check_bind(host, allow, parameters.get('allow_remote') is True)
+    except ElementProtocolError as err:
+        msg = f'{path}: test.scheme_parameters.{err}'
+        raise ServeError(msg) from None
+    return f'{host}:{parameters.get("port", 44000)}', warnings
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Check, then run the served test (replaces this process)."""
+    args = parse_args(argv)
+    try:
+        test_file = (Path(args.test_file) if args.test_file
+                     else share_file('pd_integrator', 'config', DEFAULT_TEST))
+        address, warnings = check_test_file(test_file)
+        tool = find_executable('pd_integrator', 'offline') if args.offline else \
+            find_executable('pd_bringup', 'run_test')
+    except (ServeError, ResourceError) as err:
+        print(f'{PROG}: error: {err}', file=sys.stderr)
+        return 2
+    for warning in warnings:
+        print(f'{PROG}: {warning}', file=sys.stderr)
+    print(f'{PROG}: serving the genericClient element of {test_file} on {address} '
+          f'({"in one process" if args.offline else "through the node graph"})', flush=True)
+    command = [str(tool), str(test_file)]
+    if args.out:
+        command += ['--out', args.out]
+    if args.no_figures:
+        command.append('--no-figures')
+    os.execv(command[0], command)
+    return 0  # not reached
+
+
+if __name__ == '__main__':
+    sys.exit(main())
