@@ -18,6 +18,7 @@ from pd_common.config import (
     read_test_file,
     validate_section,
 )
+from pd_common.config.schema_test_file import SiteSettings
 from pd_common.errors import SpecimenError
 from pd_common.specimen import load_site_server, load_specimen_section
 from pd_core.errors import ConfigError
@@ -115,3 +116,18 @@ def test_a_test_id_is_refused_in_words(tmp_path: Path) -> None:
         load_test_file(write(tmp_path, raw))
     assert str(info.value) == ('t.yaml: test.id: must be 1-64 letters, digits, "_", "-" or ".", '
                                "got 'a b'")
+
+
+def test_the_definition_carries_the_typed_sites_and_elements() -> None:
+    definition = load_test_file(TWO_SITES)
+    lab1 = definition.site_settings['lab1']
+    assert isinstance(lab1, SiteSettings) and lab1.bridge is not None
+    assert (lab1.bridge.max_force, lab1.bridge.max_increment) == (1.0e6, 0.01)
+    assert lab1.bridge.model_fields_set == {'max_force', 'max_displacement', 'max_increment'}
+    # the raw section stays as written (the resolved form and the bridge limits read it)
+    assert definition.sites is not None
+    assert definition.sites['lab1']['bridge'] == {'max_force': 1.0e6, 'max_displacement': 0.1,
+                                                  'max_increment': 0.01}
+    assert [element.type for element in definition.elements] == [
+        'experimental', 'story', 'experimental']
+    assert load_test_file(DEFAULT_TEST).site_settings == {}

@@ -333,8 +333,8 @@ def _site_geometry(definition: TestDefinition, site: str) -> SiteGeometry:
     """
     if not site or definition.model is None:
         return SiteGeometry()
-    raw = {'structure': definition.structure_raw or {}, 'sites': definition.sites or {}}
-    return site_geometry(raw, site, definition.source)
+    return site_geometry(definition.elements, definition.site_settings.get(site), site,
+                         definition.source)
 
 
 def _same_command(recorded: Command, computed: Command) -> bool:
