@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
+import yaml
 
-from pd_bringup.launcher import print_summary
-from pd_bringup.plan import LaunchError, opensees_command, site_commands
+from pd_bringup.launcher import main, print_summary
+from pd_bringup.plan import opensees_command, site_commands
+from pd_common.config import read_yaml_file
+from pd_common.config.schema_test_file import OpenSeesSite
+from pd_core.errors import ConfigError
 from pd_core.run.test_file import load_test_file
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / 'src' / 'pd_integrator' / 'config'
@@ -45,18 +50,70 @@ def test_each_site_gets_its_namespace_its_names_and_its_bridge_limits(tmp_path: 
     assert site_commands(definition, EXAMPLE, 'none', None, tmp_path) == ([], True)
 
 
-def test_opensees_site_options_and_errors() -> None:
+def _two_sites(folder: Path, **lab1: Any) -> Path:
+    """The two-site example with ``sites.lab1`` changed (its record found from ``folder``)."""
+    raw = read_yaml_file(EXAMPLE)
+    raw['ground_motion']['file'] = str(EXAMPLE.parent / raw['ground_motion']['file'])
+    raw['sites']['lab1'] = {**raw['sites']['lab1'], **lab1}
+    path = folder / 'two_sites.yaml'
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
+    return path
+
+
+def test_opensees_site_options_come_from_the_typed_settings(tmp_path: Path) -> None:
     definition = load_test_file(EXAMPLE)
-    command = opensees_command({'model': 'epp', 'stiffness': 1.0e5, 'yield_force': 2.0e3},
-                               45001, definition, 'sites.lab1.opensees')
+    command = opensees_command(OpenSeesSite(model='epp', stiffness=1.0e5, yield_force=2.0e3),
+                               45001, definition)
     assert command[1:] == ['--port', '45001', '--quiet', '--model', 'epp', '--stiffness',
                            '100000.0', '--yield-force', '2000.0']
-    script = opensees_command({'script': 'model.py'}, 45001, definition, 'x')
+    script = opensees_command(OpenSeesSite(script='model.py'), 45001, definition)
     assert script[script.index('--model') + 1] == 'script'
-    assert Path(script[script.index('--script') + 1]).is_absolute()
-    with pytest.raises(LaunchError, match=r"^three_story_two_sites\.yaml: sites\.lab1\.opensees"
-                                          r"\.stifness: unknown"):
-        opensees_command({'stifness': 1.0}, 45001, definition, 'sites.lab1.opensees')
+    assert Path(script[script.index('--script') + 1]) == EXAMPLE.parent / 'model.py'
+    # the test file's opensees mapping reaches the plan typed: an OpenSees process per site
+    path = _two_sites(tmp_path, opensees={'model': 'elastic', 'stiffness': 40000000})
+    children, _ = site_commands(load_test_file(path), path, 'bridge', None, tmp_path)
+    opensees = {child.name: child.command for child in children}['opensees_site[lab1]']
+    assert opensees[opensees.index('--stiffness') + 1] == '40000000.0'
+    # a bad key is refused when the file is read, one line naming the dotted path
+    bad = _two_sites(tmp_path, opensees={'stifness': 1.0})
+    with pytest.raises(ConfigError) as info:
+        load_test_file(bad)
+    assert str(info.value) == 'two_sites.yaml: sites.lab1.opensees.stifness: unknown key'
+
+
+def test_a_sites_bridge_parameters_reach_its_bridge_typed(tmp_path: Path) -> None:
+    # an integer limit is a double, as the bridge declares it (an integer ROS parameter
+    # would be refused by the node); only the keys the user set are passed on
+    path = _two_sites(tmp_path, bridge={'max_force': 1000000, 'autostart': True})
+    children, _ = site_commands(load_test_file(path), path, 'bridge', None, tmp_path)
+    bridge = {child.name: child.command for child in children}['pd_actuator_bridge[lab1]']
+    given = [item for item in bridge if item.startswith(('max_', 'autostart', 'driver'))]
+    assert given == ['max_force:=1000000.0', 'autostart:=true']
+    # a site given as null has no settings: its bridge gets the parameter file's
+    path = _two_sites(tmp_path)
+    raw = read_yaml_file(path)
+    raw['sites']['lab3'] = None
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
+    children, _ = site_commands(load_test_file(path), path, 'bridge', None, tmp_path)
+    bridge = {child.name: child.command for child in children}['pd_actuator_bridge[lab3]']
+    assert not [item for item in bridge if item.startswith('max_')]
+
+
+@pytest.mark.parametrize(('bridge', 'message'), [
+    ({'max_forse': 1.0}, 'two_sites.yaml: sites.lab1.bridge.max_forse: unknown key'),
+    ({'max_force_increment': -5.0},
+     'two_sites.yaml: sites.lab1.bridge.max_force_increment: must be >= 0, got -5.0'),
+    ({'driver': 'Sim Servo'},
+     "two_sites.yaml: sites.lab1.bridge.driver: must match ^[a-z][a-z0-9_]*$, got 'Sim Servo'"),
+])
+def test_a_bad_site_bridge_mapping_through_run_test_is_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], bridge: dict[str, Any],
+        message: str) -> None:
+    out = tmp_path / 'run'
+    path = _two_sites(tmp_path, bridge=bridge)
+    assert main([str(path), '--site', 'bridge', '--out', str(out), '--no-figures']) == 2
+    assert capsys.readouterr().err == f'run_test: error: {message}\n'
+    assert not out.exists()
 
 
 def test_summary_lines_of_a_run_that_committed_nothing_and_of_one_that_did(

@@ -8,8 +8,9 @@ import stat
 from pathlib import Path
 
 import pytest
+import yaml
 
-from pd_bringup.launcher import resolve_key
+from pd_bringup.launcher import parse_args, plan_new_run, resolve_key
 from pd_bringup.plan import LaunchError, with_key
 from pd_bringup.rig import (
     RigError,
@@ -20,6 +21,9 @@ from pd_bringup.rig import (
 )
 from pd_bringup.rig import test_key_path as new_test_key
 from pd_common.auth import generate_key, load_key
+from pd_common.config import SchemaError, read_test_file, read_yaml_file
+from pd_common.config.schema_test_file import RigSection
+from support.paths import DEFAULT_TEST
 
 
 def args(**values: object) -> argparse.Namespace:
@@ -39,9 +43,10 @@ def test_the_rig_section_gives_the_domain_and_discovery(tmp_path: Path) -> None:
     rig_file = tmp_path / 'rig.yaml'
     rig_file.write_text('rig: {domain_id: 17, key_file: keys/lab.key}\n')
     test_file = tmp_path / 'test.yaml'
-    rig = load_rig({'rig': {'domain_id': 42}}, test_file, rig_file)
+    rig = load_rig(RigSection(domain_id=42), test_file, rig_file)
     assert rig.domain_id == 42  # the test file's value wins over the rig file's
     assert rig.key_file == tmp_path / 'keys' / 'lab.key'
+    assert rig.sources == (str(rig_file), str(test_file))
     env = rig.environment({'ROS_DOMAIN_ID': '3', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
     assert env['ROS_DOMAIN_ID'] == '42' and env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
     subnet = RigSettings(discovery='subnet', static_peers=('10.0.0.2', '10.0.0.3'))
@@ -49,20 +54,53 @@ def test_the_rig_section_gives_the_domain_and_discovery(tmp_path: Path) -> None:
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET'
     assert env['ROS_STATIC_PEERS'] == '10.0.0.2;10.0.0.3'
     assert 'ROS_DOMAIN_ID' not in RigSettings().environment({})
+    # a default of the section does not override the rig file's value (only what is given)
+    rig_file.write_text('{discovery: subnet, static_peers: [10.0.0.2]}\n')
+    rig = load_rig(RigSection(domain_id=5), test_file, rig_file)
+    assert (rig.domain_id, rig.discovery, rig.static_peers) == (5, 'subnet', ('10.0.0.2',))
+    rig_file.write_text('')  # an empty rig file: no settings
+    assert load_rig(None, test_file, rig_file) == RigSettings()
+
+
+def test_the_typed_rig_section_reaches_the_plan(tmp_path: Path) -> None:
+    raw = read_yaml_file(DEFAULT_TEST)
+    raw['ground_motion']['file'] = str(DEFAULT_TEST.parent / raw['ground_motion']['file'])
+    raw['rig'] = {'domain_id': 42, 'key_file': 'keys/lab.key'}
+    test_file = tmp_path / 'test.yaml'
+    test_file.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
+    generate_key(tmp_path / 'keys' / 'lab.key')
+    args = parse_args([str(test_file), '--site', 'direct', '--out', str(tmp_path / 'run'),
+                       '--no-figures'])
+    plan, _, rig = plan_new_run(args)
+    assert rig.domain_id == 42 and rig.key_file == tmp_path / 'keys' / 'lab.key'
+    assert plan.environment['ROS_DOMAIN_ID'] == '42'
+    assert plan.key_file == tmp_path / 'keys' / 'lab.key'
 
 
 @pytest.mark.parametrize(('section', 'pattern'), [
-    ({'domain_id': 300}, r'test\.yaml: rig\.domain_id: must be an integer'),
-    ({'domain_id': True}, r'rig\.domain_id'),
-    ({'discovery': 'everywhere'}, r'rig\.discovery: must be one of localhost, subnet'),
-    ({'static_peers': 'host'}, r'rig\.static_peers'),
-    ({'domian_id': 1}, r'rig\.domian_id: unknown key'),
-    ('lab', r'test\.yaml: rig: must be a mapping'),
+    ({'domain_id': 300}, r'rig\.domain_id: must be an integer in 0-101 or 215-232, got 300$'),
+    ({'domain_id': 150}, r'rig\.domain_id: must be an integer in 0-101 or 215-232, got 150$'),
+    ({'domain_id': True}, r'rig\.domain_id: must be an integer, got true$'),
+    ({'discovery': 'everywhere'}, r'rig\.discovery: must be one of .localhost., .subnet.'),
+    ({'static_peers': 'host'}, r'rig\.static_peers: must be a list'),
+    ({'domian_id': 1}, r'rig\.domian_id: unknown key$'),
+    ('lab', r'rig: must be a mapping'),
 ])
 def test_bad_rig_settings_name_the_file_and_the_key(tmp_path: Path, section: object,
                                                     pattern: str) -> None:
-    with pytest.raises(RigError, match=pattern) as info:
-        load_rig({'rig': section}, tmp_path / 'test.yaml', None)
+    # in the test file: refused by its schema when it is read, one line
+    raw = read_yaml_file(DEFAULT_TEST)
+    raw['rig'] = section
+    test_file = tmp_path / 'test.yaml'
+    test_file.write_text(yaml.safe_dump(raw, sort_keys=False), encoding='utf-8')
+    with pytest.raises(SchemaError, match=r'^test\.yaml: ' + pattern) as info:
+        read_test_file(test_file)
+    assert '\n' not in str(info.value)
+    # in a rig file (run_test --rig): the same schema, the same line
+    rig_file = tmp_path / 'lab_rig.yaml'
+    rig_file.write_text(yaml.safe_dump({'rig': section}), encoding='utf-8')
+    with pytest.raises(RigError, match=r'^lab_rig\.yaml: ' + pattern) as info:
+        load_rig(None, test_file, rig_file)
     assert '\n' not in str(info.value)
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
+from pd_common.config import read_test_file
 from pd_common.errors import SpecimenConfigError, SpecimenError
 from pd_common.experimental import ColumnSetup, ErrorModel, OneToOneSetup
 from pd_common.experimental.force_ramp import force_ramp
@@ -24,10 +25,12 @@ from pd_common.specimen import (
     ColumnSpecimen,
     Elastic,
     ElasticPerfectlyPlastic,
+    SiteGeometry,
     Specimen,
     SpecimenServer,
     load_site_server,
     server_from_config,
+    site_geometry,
 )
 from support.sections import INLINE_GROUND_MOTION
 
@@ -309,6 +312,21 @@ def test_load_site_server_takes_the_setup_and_ramp_of_the_site(tmp_path: Path) -
     _, _, default = load_site_server(column_test_file(tmp_path, element={'actuators': None}),
                                      'lab')
     assert default == ['a1', 'a2']
+
+
+def test_site_geometry_reads_the_typed_test_file(tmp_path: Path) -> None:
+    model = read_test_file(column_test_file(tmp_path)).model
+    assert model.sites is not None
+    lab = model.sites['lab']
+    geometry = site_geometry(model.structure.elements, lab, 'lab', 'column.yaml')
+    assert isinstance(geometry.setup, ColumnSetup)
+    assert (geometry.setup.n_basic, geometry.setup.n_actuators) == (2, 2)
+    assert geometry.max_force_increment == INCREMENT
+    assert geometry.actuators == ('horizontal', 'vertical')
+    # the test's own specimen: no setup, no ramp; a site without settings: no ramp
+    assert site_geometry(model.structure.elements, None, '', 'column.yaml') == SiteGeometry()
+    bare = site_geometry(model.structure.elements, None, 'lab', 'column.yaml')
+    assert bare.setup is None and bare.max_force_increment == 0.0  # (no column specimen)
 
 
 @pytest.mark.parametrize(('changes', 'message'), [

@@ -16,11 +16,14 @@ from pd_common.config import (
     TestFileModel,
     read_test_data,
     read_test_file,
+    read_yaml_file,
     validate_section,
 )
+from pd_common.config.schema_test_file import SiteSettings
 from pd_common.errors import SpecimenError
-from pd_common.specimen import load_site_server, load_specimen_section
+from pd_common.specimen import SpecimenServer, load_site_server, load_specimen_section
 from pd_core.errors import ConfigError
+from pd_core.run.runner import site_servers
 from pd_core.run.test_file import load_test_file, read_definition
 from support.paths import DEFAULT_TEST, TWO_SITES
 
@@ -115,3 +118,31 @@ def test_a_test_id_is_refused_in_words(tmp_path: Path) -> None:
         load_test_file(write(tmp_path, raw))
     assert str(info.value) == ('t.yaml: test.id: must be 1-64 letters, digits, "_", "-" or ".", '
                                "got 'a b'")
+
+
+def test_the_definition_carries_the_typed_sites_and_elements() -> None:
+    definition = load_test_file(TWO_SITES)
+    lab1 = definition.site_settings['lab1']
+    assert isinstance(lab1, SiteSettings) and lab1.bridge is not None
+    assert (lab1.bridge.max_force, lab1.bridge.max_increment) == (1.0e6, 0.01)
+    assert lab1.bridge.model_fields_set == {'max_force', 'max_displacement', 'max_increment'}
+    # the raw section stays as written (the resolved form and the bridge limits read it)
+    assert definition.sites is not None
+    assert definition.sites['lab1']['bridge'] == {'max_force': 1.0e6, 'max_displacement': 0.1,
+                                                  'max_increment': 0.01}
+    assert [element.type for element in definition.elements] == [
+        'experimental', 'story', 'experimental']
+    assert load_test_file(DEFAULT_TEST).site_settings == {}
+
+
+def test_the_runner_simulates_a_site_from_its_typed_settings(tmp_path: Path) -> None:
+    raw = read_yaml_file(TWO_SITES)
+    raw['ground_motion']['file'] = str(TWO_SITES.parent / raw['ground_motion']['file'])
+    raw['sites']['lab1']['transfer_system'] = None  # (null: none, as the schema reads it)
+    servers = site_servers(load_test_file(write(tmp_path, raw)))
+    assert isinstance(servers['lab1'], SpecimenServer)
+    assert servers['lab1'].max_force_increment == 0.0
+    raw['sites']['lab3'] = None  # a site without settings has no specimen to simulate
+    with pytest.raises(ConfigError, match=r'^t\.yaml: sites\.lab3\.specimen: section is '
+                                          r'required for a simulated run$'):
+        site_servers(load_test_file(write(tmp_path, raw)))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 from collections import deque
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -311,11 +312,16 @@ def test_site_limits_are_the_bridge_file_then_the_sites_mapping(tmp_path: Path) 
     assert off.limits.tracking_tolerance == 0.01
     raw = yaml.safe_load((tmp_path / 'collapse.yaml').read_text(encoding='utf-8'))
     raw['sites']['lab']['bridge']['max_increment'] = -1.0
-    # (the typed schema refuses the file when it is loaded; the limits' own check stays)
+    # (the typed schema refuses the file when it is read, from_dict too: the sites are typed
+    # there; the limits' own check stays, for a definition whose raw sites bypass it)
     with pytest.raises(ConfigError, match=r'^bad\.yaml: sites\.lab\.bridge\.max_increment: '
                                           r'must be > 0, got -1\.0$'):
         load_test_file(_write(tmp_path / 'bad.yaml', raw))
-    bad = from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
+    with pytest.raises(ConfigError, match=r'^bad\.yaml: sites\.lab\.bridge\.max_increment: '
+                                          r'must be > 0, got -1\.0$'):
+        from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
+    bad = replace(definition, source='bad.yaml',
+                  sites=read_yaml_file(tmp_path / 'bad.yaml')['sites'])
     with pytest.raises(BridgeConfigError, match=r'^bad\.yaml: sites\.lab\.bridge: max_increment '):
         site_limits(bad)
     with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameter '

@@ -240,7 +240,7 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     children, physical = site_commands(
         definition, test_file.resolve(), args.site,
         Path(args.bridge_params) if args.bridge_params else None, out)
-    rig = load_rig(document.data, test_file,
+    rig = load_rig(document.model.rig, test_file,
                    Path(args.rig) if args.rig else None)
     key_file = resolve_key(args, rig, definition.test_id)
     for child in children:

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from pd_common.config import SchemaError, read_bridge_parameter_file, read_text
+from pd_common.config.schema_test_file import OpenSeesSite, SiteSettings
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_core.errors import PdIntegratorError
 from pd_core.run.definition import TestDefinition
@@ -328,40 +329,36 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
                   bridge_params: Path | None, out: Path) -> tuple[list[Child], bool]:
     """The processes of the specimen side: per site a simulator (and its bridge).
 
-    Whether a physical specimen is driven.
+    Whether a physical specimen is driven. A site's settings are the typed ones
+    (``definition.site_settings``): its ``bridge`` parameters the user set (each passed to its
+    bridge as a ROS parameter, with the schema's type: a limit is a double), its ``opensees``
+    substructure and its ``transfer_system``.
     """
     if mode == 'none':
         return [], True
     params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
-    # Per site: name, namespace, actuator (DOF) names and extra bridge parameters.
-    sites: list[tuple[str, str, list[str], dict[str, Any]]]
+    # Per site: name, namespace, actuator (DOF) names and its typed settings.
+    sites: list[tuple[str, str, list[str], SiteSettings]]
     if definition.model is None:
-        sites = [('', '/pd', list(definition.dof_names), {})]
+        sites = [('', '/pd', list(definition.dof_names), SiteSettings())]
     else:
-        settings = definition.sites or {}
-        sites = []
-        for site in definition.model.site_names:
-            extra = settings.get(site, {}).get('bridge', {}) if isinstance(
-                settings.get(site), dict) else {}
-            if not isinstance(extra, dict):
-                msg = f'{definition.source}: sites.{site}.bridge: must be a mapping of parameters'
-                raise LaunchError(msg)
-            sites.append((site, f'/pd/{site}', list(definition.model.actuator_names(site)),
-                          extra))
+        sites = [(site, f'/pd/{site}', list(definition.model.actuator_names(site)),
+                  definition.site_settings.get(site) or SiteSettings())
+                 for site in definition.model.site_names]
     children: list[Child] = []
     physical = False
-    for site, namespace, names, extra in sites:
+    for site, namespace, names, settings in sites:
         label = f'[{site}]' if site else ''
-        opensees = (definition.sites or {}).get(site, {}).get('opensees') if site else None
+        extra = (settings.bridge.model_dump(exclude_unset=True) if settings.bridge is not None
+                 else {})
         bridge = [str(find_executable('pd_actuator_bridge')), '--ros-args',
                   '--params-file', str(params), '-r', f'__ns:={namespace}',
                   '-p', f'dof_names:={json.dumps(names)}',
                   '-p', f'record_file:={bridge_record_file(out, site)}']
-        if opensees is not None:
+        if settings.opensees is not None:
             port = _free_port()
             children.append(Child(f'opensees_site{label}', 'opensees', site, '',
-                                  opensees_command(opensees, port, definition,
-                                                   f'sites.{site}.opensees')))
+                                  opensees_command(settings.opensees, port, definition)))
             bridge += ['-p', 'driver:=opensees_adapter', '-p', 'tcp_host:=127.0.0.1',
                        '-p', f'tcp_port:={port}']
             for name, value in extra.items():
@@ -377,8 +374,7 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
         if site:
             simulator += ['-p', f'site:={site}', '-p', f'dof_names:={json.dumps(names)}']
         driver = bridge_driver(params, extra) if mode == 'bridge' else ''
-        continuous = site and 'transfer_system' in (definition.sites or {}).get(site, {})
-        if continuous and driver not in IN_BRIDGE_DRIVERS:
+        if settings.transfer_system is not None and driver not in IN_BRIDGE_DRIVERS:
             msg = (f'{definition.source}: sites.{site}.transfer_system: a continuous site runs '
                    'in its bridge: use --site bridge with sites.'
                    f'{site}.bridge: {{driver: transfer_system}}')
@@ -413,25 +409,19 @@ _OPENSEES_OPTIONS = {'model': '--model', 'stiffness': '--stiffness',
                      'script': '--script', 'tolerance': '--tolerance'}
 
 
-def opensees_command(settings: Any, port: int, definition: TestDefinition, where: str
+def opensees_command(settings: OpenSeesSite, port: int, definition: TestDefinition
                      ) -> list[str]:
-    """The ``opensees_site`` command line of a site's ``opensees`` mapping.
+    """The ``opensees_site`` command line of a site's typed ``opensees`` settings.
 
-    Raises:
-        LaunchError: the mapping is not one, or has an unknown key.
+    Each value given becomes its option (a ``script`` without a ``model`` is
+    ``--model script``; a relative script resolves against the test file's folder).
     """
-    if not isinstance(settings, dict):
-        msg = f'{definition.source}: {where}: must be a mapping (model, stiffness, ...)'
-        raise LaunchError(msg)
     command = [str(find_executable('pd_actuator_bridge', 'opensees_site')), '--port', str(port),
                '--quiet']
-    if 'script' in settings and 'model' not in settings:
-        settings = {**settings, 'model': 'script'}
-    for key, value in settings.items():
-        if key not in _OPENSEES_OPTIONS:
-            msg = (f'{definition.source}: {where}.{key}: unknown (expected '
-                   f'{", ".join(_OPENSEES_OPTIONS)})')
-            raise LaunchError(msg)
+    given = settings.model_dump(exclude_none=True)
+    if 'script' in given and 'model' not in given:
+        given = {'model': 'script', **given}
+    for key, value in given.items():
         if key == 'script':
             value = (definition.base_dir / str(value)).resolve()
         command += [_OPENSEES_OPTIONS[key], str(value)]

@@ -25,7 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from pd_common.auth import default_rig_key, generate_key
-from pd_common.config import YAMLError, read_yaml_file
+from pd_common.config import SchemaError, YAMLError, read_yaml_file, validate_model
+from pd_common.config.schema_test_file import RigSection
 
 __all__ = ['DISCOVERY', 'TEST_KEYS_KEPT', 'TEST_KEY_DAYS', 'RigError', 'RigSettings',
            'default_rig_key', 'load_rig', 'prune_test_keys', 'state_key_dir', 'test_key_path']
@@ -36,7 +37,6 @@ TEST_KEY_DAYS = 30
 TEST_KEYS_KEPT = 20
 
 DISCOVERY = ('localhost', 'subnet')
-_KEYS = {'domain_id', 'discovery', 'static_peers', 'key_file'}
 
 
 class RigError(ValueError):
@@ -74,51 +74,33 @@ class RigSettings:
         return env
 
 
-def _settings(raw: Any, where: str, base_dir: Path) -> dict[str, Any]:
-    if raw is None:
-        return {}
-    if not isinstance(raw, Mapping):
-        msg = f'{where}: must be a mapping of {", ".join(sorted(_KEYS))}'
-        raise RigError(msg)
-    unknown = sorted(set(raw) - _KEYS)
-    if unknown:
-        msg = f'{where}.{unknown[0]}: unknown key (expected {", ".join(sorted(_KEYS))})'
-        raise RigError(msg)
-    out: dict[str, Any] = {}
-    if 'domain_id' in raw:
-        value = raw['domain_id']
-        if isinstance(value, bool) or not isinstance(value, int) or not (
-                0 <= value <= 101 or 215 <= value <= 232):
-            msg = f'{where}.domain_id: must be an integer in 0-101 or 215-232, got {value!r}'
-            raise RigError(msg)
-        out['domain_id'] = value
-    if 'discovery' in raw:
-        if raw['discovery'] not in DISCOVERY:
-            msg = (f'{where}.discovery: must be one of {", ".join(DISCOVERY)}, got '
-                   f'{raw["discovery"]!r}')
-            raise RigError(msg)
-        out['discovery'] = raw['discovery']
-    if 'static_peers' in raw:
-        peers = raw['static_peers']
-        if not isinstance(peers, list) or not all(isinstance(p, str) and p for p in peers):
-            msg = f'{where}.static_peers: must be a list of host names or addresses'
-            raise RigError(msg)
-        out['static_peers'] = tuple(peers)
-    if 'key_file' in raw:
-        if not isinstance(raw['key_file'], str) or not raw['key_file']:
-            msg = f'{where}.key_file: must be the path of a key file'
-            raise RigError(msg)
-        path = Path(raw['key_file']).expanduser()
+def _given(section: RigSection, base_dir: Path) -> dict[str, Any]:
+    """The values a typed ``rig`` section gives (the keys set, not null); its key file resolved.
+
+    A relative key file resolves against ``base_dir`` (the folder of the file that names it).
+    """
+    out: dict[str, Any] = section.model_dump(exclude_unset=True, exclude_none=True)
+    if 'static_peers' in out:
+        out['static_peers'] = tuple(out['static_peers'])
+    if 'key_file' in out:
+        path = Path(out['key_file']).expanduser()
         out['key_file'] = path if path.is_absolute() else base_dir / path
     return out
 
 
-def load_rig(test_raw: Mapping[str, Any], test_file: Path, rig_file: Path | None
-             ) -> RigSettings:
+def load_rig(rig: RigSection | None, test_file: Path, rig_file: Path | None) -> RigSettings:
     """The rig settings of a test: its rig file's, overridden by its ``rig`` section.
 
+    Args:
+        rig: the test file's typed ``rig`` section (``TestFileModel.rig``; ``None``: none).
+        test_file: the test file (its folder resolves a relative key file).
+        rig_file: the rig file (``run_test --rig``), read and typed here by the same schema
+            (:class:`~pd_common.config.schema_test_file.RigSection`), the section at its
+            top level or under ``rig``.
+
     Raises:
-        RigError: one line naming the file and the key.
+        RigError: the rig file cannot be read or is refused: one line naming the file and the
+            key (``rig.yaml: rig.domain_id: must be an integer in 0-101 or 215-232, got 300``).
     """
     values: dict[str, Any] = {}
     sources: list[str] = []
@@ -129,10 +111,15 @@ def load_rig(test_raw: Mapping[str, Any], test_file: Path, rig_file: Path | None
             msg = f'{rig_file}: cannot read the rig file ({err})'
             raise RigError(msg) from None
         section = raw.get('rig', raw) if isinstance(raw, Mapping) else raw
-        values.update(_settings(section, f'{rig_file.name}: rig', rig_file.parent))
+        try:  # (an empty file, or an empty rig section: no settings)
+            typed = validate_model(RigSection, {} if section is None else section,
+                                   rig_file.name, 'rig')
+        except SchemaError as err:
+            raise RigError(str(err)) from None
+        values.update(_given(typed, rig_file.parent))
         sources.append(str(rig_file))
-    if test_raw.get('rig') is not None:
-        values.update(_settings(test_raw['rig'], f'{test_file.name}: rig', test_file.parent))
+    if rig is not None:
+        values.update(_given(rig, test_file.parent))
         sources.append(str(test_file))
     return RigSettings(**values, sources=tuple(sources))
 

@@ -99,6 +99,7 @@ _SECTIONS: dict[str, TypeAdapter[Any]] = {
     'collapse': TypeAdapter(CollapseSection),
     'structure.damping': TypeAdapter(DampingSection),
     'ground_motion': TypeAdapter(TestFileModel.model_fields['ground_motion'].rebuild_annotation()),
+    'sites': TypeAdapter(TestFileModel.model_fields['sites'].rebuild_annotation()),
 }
 
 
@@ -107,9 +108,8 @@ def validate_section(path: str, data: Any, source: str) -> Any:
 
     For the readers that build a part before the whole file is validated: the sections
     ``test``, ``protocol``, ``probe``, ``collapse``, ``ground_motion``, ``structure.damping``
-    (a mapping) and
-    ``structure.elements`` (whose hysteresis models are any registry name here: their builder
-    checks it).
+    (a mapping), ``sites`` and ``structure.elements`` (whose hysteresis models, and those of
+    the sites' specimens, are any registry name here: their builder checks it).
 
     Raises:
         SchemaError: one line, ``<source>: <path>.<key>: <what is wrong>, got <value>``.

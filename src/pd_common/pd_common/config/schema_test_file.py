@@ -377,8 +377,8 @@ class CollapseSection(ConfigModel):
 class RigSection(ConfigModel):
     """The rig the test runs on: its ROS domain, discovery range and key."""
 
-    domain_id: Annotated[int, Field(ge=0, le=232),
-                         check(lambda value: not 101 < value < 215,
+    domain_id: Annotated[int, Field(json_schema_extra={'minimum': 0, 'maximum': 232}),
+                         check(lambda value: 0 <= value <= 101 or 215 <= value <= 232,
                                'must be an integer in 0-101 or 215-232')] | None = None
     """ROS_DOMAIN_ID of the rig (0-101 or 215-232)."""
     discovery: Literal['localhost', 'subnet'] = 'localhost'

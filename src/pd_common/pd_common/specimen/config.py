@@ -422,25 +422,25 @@ def load_specimen_section(path: str | Path | TestFile, site: str = ''
         SpecimenError: the file cannot be read or has no such section.
     """
     test = path if isinstance(path, TestFile) else read_specimen_test_file(path)
-    raw = test.data
+    model = test.model
+    # The typed file says what is there; the builders (and a simulator's state-file
+    # fingerprint) take the section as it was written.
     if site:
-        sites = raw.get('sites')
-        settings = sites.get(site) if isinstance(sites, dict) else None
-        section = settings.get('specimen') if isinstance(settings, dict) else None
-        if not isinstance(section, dict):
+        settings = (model.sites or {}).get(site)
+        if settings is None or settings.specimen is None:
             msg = (f'{test.source}: sites.{site}.specimen: section is required for the '
                    f'simulated specimen of site {site!r}')
             raise SpecimenError(msg)
-        return section, None
-    if not isinstance(raw.get('specimen'), dict):
+        return test.data['sites'][site]['specimen'], None
+    if model.specimen is None:
         msg = f'{test.source}: specimen: section is required for the simulated specimen'
         raise SpecimenError(msg)
-    structure = raw.get('structure') or {}
-    names = structure.get('dof_names') if isinstance(structure, dict) else None
+    structure = model.structure
+    names = structure.dof_names
     if names is None:
-        mass = structure.get('mass') if isinstance(structure, dict) else None
+        mass = structure.mass
         names = [f'u{i + 1}' for i in range(len(mass) if isinstance(mass, list) else 1)]
-    return raw['specimen'], list(names)
+    return test.data['specimen'], list(names)
 
 
 def _key(name: str, description: str, *, required: bool = True) -> Parameter:

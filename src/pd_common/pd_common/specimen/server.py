@@ -78,6 +78,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..config.schema_test_file import ExperimentalElement, SiteSettings
 from ..config.test_file import TestFile
 from ..errors import SetupError, SpecimenConfigError, SpecimenError
 from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
@@ -86,7 +87,6 @@ from ..experimental.setups import ExperimentalSetup, OneToOneSetup, setup_from_c
 from ..protocol.answers import KeyedAnswers
 from ..protocol.messages import Command, Feedback, FeedbackStatus
 from .config import (
-    COLUMN_KEY,
     load_specimen_section,
     model_from_config,
     read_specimen_test_file,
@@ -97,6 +97,7 @@ if TYPE_CHECKING:
 
     from numpy.typing import NDArray
 
+    from ..config.schema_test_file import Element
     from .column import ColumnSpecimen
     from .specimen import Specimen
 
@@ -183,8 +184,8 @@ class SiteGeometry:
 
     Attributes:
         setup: the setup of the site's experimental element (``None``: one-to-one).
-        max_force_increment: [N] ``sites.<site>.bridge.max_force_increment`` (or the top-level
-            ``bridge.max_force_increment`` for the test's own specimen), 0 without one.
+        max_force_increment: [N] ``sites.<site>.bridge.max_force_increment``, 0 without one
+            (and for the test's own specimen).
         actuators: the element's ``actuators`` names, when the test file gives them.
     """
 
@@ -193,11 +194,17 @@ class SiteGeometry:
     actuators: tuple[str, ...] | None = None
 
 
-def site_geometry(raw: Mapping[str, Any], site: str, source: str) -> SiteGeometry:
+def site_geometry(elements: Sequence[Element] | None, settings: SiteSettings | None,
+                  site: str, source: str) -> SiteGeometry:
     """The setup and force ramp of ``site`` ('' for the test's own specimen) in a test file.
 
-    The setup is the ``setup`` mapping of the ``structure.elements`` entry of type
-    ``experimental`` whose ``site`` is ``site`` (built by
+    Read from the typed test file (:class:`~pd_common.config.TestFileModel`): its
+    ``structure.elements`` and the site's settings (``sites.<site>``), whose values the schema
+    has checked (``bridge.max_force_increment`` a number >= 0 [N], an element's ``dofs`` a
+    non-empty list, its ``actuators`` names).
+
+    The setup is the ``setup`` of the ``structure.elements`` entry of type ``experimental``
+    whose ``site`` is ``site`` (built by
     :func:`~pd_common.experimental.setups.setup_from_config` with as many basic DOFs as the
     element's ``dofs``): one source of truth for the integrator and the simulator. A site with
     several experimental elements is simulated one-to-one (each must have a ``one_to_one``
@@ -208,40 +215,33 @@ def site_geometry(raw: Mapping[str, Any], site: str, source: str) -> SiteGeometr
     was, and is simulated without a setup (its force-controlled actuators, if any, hold their
     forces on their own elements). One rule for the simulator node and the ROS-free runs.
 
+    Args:
+        elements: the typed ``structure.elements`` (``None``: a test without elements).
+        settings: the typed ``sites.<site>`` (``None``: none given).
+        site: the site ('' for the test's own specimen: no setup, no ramp).
+        source: the test file's name, for messages.
+
     Raises:
         SpecimenConfigError: one line naming ``source`` and the key.
     """
-    bridge: Any = raw.get('bridge')
-    where = 'bridge'
-    if site:
-        sites = raw.get('sites')
-        settings = sites.get(site) if isinstance(sites, Mapping) else None
-        bridge = settings.get('bridge') if isinstance(settings, Mapping) else None
-        where = f'sites.{site}.bridge'
-    increment = _max_force_increment(bridge, f'{source}: {where}.max_force_increment')
     if not site:
-        return SiteGeometry(None, increment)
-    structure = raw.get('structure')
-    items = structure.get('elements') if isinstance(structure, Mapping) else None
-    mine = [(index, item) for index, item in enumerate(items if isinstance(items, list) else [])
-            if isinstance(item, Mapping) and item.get('type') == 'experimental'
-            and item.get('site') == site]
+        return SiteGeometry()
+    bridge = settings.bridge if settings is not None else None
+    increment = bridge.max_force_increment if bridge is not None else 0.0
+    mine = [(index, item) for index, item in enumerate(elements or ())
+            if isinstance(item, ExperimentalElement) and item.site == site]
     setups: list[ExperimentalSetup] = []
     names: list[str] = []
     named = True
     for index, item in mine:
         path = f'{source}: structure.elements[{index}]'
-        dofs = item.get('dofs')
-        if not isinstance(dofs, list) or not dofs:
-            msg = f'{path}.dofs: must be a non-empty list of DOF names, got {dofs!r}'
-            raise SpecimenConfigError(msg)
+        given = None if item.setup is None else item.setup.model_dump(exclude_unset=True)
         try:
-            setups.append(setup_from_config(item.get('setup'), len(dofs), f'{path}.setup'))
+            setups.append(setup_from_config(given, len(item.dofs), f'{path}.setup'))
         except SetupError as err:
             raise SpecimenConfigError(str(err)) from None
-        actuators = item.get('actuators')
-        if isinstance(actuators, list) and all(isinstance(a, str) and a for a in actuators):
-            names.extend(actuators)
+        if item.actuators is not None:
+            names.extend(item.actuators)
         else:
             named = False
         if len(mine) > 1 and not isinstance(setups[-1], OneToOneSetup):
@@ -249,21 +249,10 @@ def site_geometry(raw: Mapping[str, Any], site: str, source: str) -> SiteGeometr
                    'simulator takes one_to_one setups only')
             raise SpecimenConfigError(msg)
     setup = setups[0] if len(setups) == 1 and not isinstance(setups[0], OneToOneSetup) else None
-    sites = raw.get('sites')
-    settings = sites.get(site) if isinstance(sites, Mapping) else None
-    specimen = settings.get('specimen') if isinstance(settings, Mapping) else None
-    if not (isinstance(specimen, Mapping) and COLUMN_KEY in specimen):
+    specimen = settings.specimen if settings is not None else None
+    if specimen is None or specimen.column is None:
         setup = None  # a specimen per actuator
     return SiteGeometry(setup, increment, tuple(names) if mine and named else None)
-
-
-def _max_force_increment(bridge: Any, key: str) -> float:
-    value = bridge.get('max_force_increment', 0.0) if isinstance(bridge, Mapping) else 0.0
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-            math.isfinite(value) and value >= 0.0):
-        msg = f'{key}: must be a number >= 0 [N], got {value!r}'
-        raise SpecimenConfigError(msg)
-    return float(value)
 
 
 def load_site_server(test_file: str | Path | TestFile, site: str = '',
@@ -288,17 +277,20 @@ def load_site_server(test_file: str | Path | TestFile, site: str = '',
             else read_specimen_test_file(test_file))
     section, names = load_specimen_section(test, site)
     path = test.path
-    geometry = site_geometry(test.data, site, path.name)
+    model = test.model
+    settings = (model.sites or {}).get(site) if site else None
+    geometry = site_geometry(model.structure.elements, settings, site, path.name)
     if dof_names:
         names = list(dof_names)
     elif names is None:
         if geometry.actuators is not None:
             names = list(geometry.actuators)
         else:
-            elements = section.get('elements')
+            specimen = settings.specimen if settings is not None else None
             count = (geometry.setup.n_actuators if geometry.setup is not None
-                     else len(elements) if isinstance(elements, list)
-                     else 2 if 'column' in section else 1)
+                     else 1 if specimen is None  # (load_specimen_section has refused it)
+                     else len(specimen.elements) if specimen.elements is not None
+                     else 2 if specimen.column is not None else 1)
             names = [f'a{i + 1}' for i in range(count)]
     try:
         server = server_from_config(section, base_dir=path.resolve().parent, source=path.name,

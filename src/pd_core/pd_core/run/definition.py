@@ -27,6 +27,8 @@ from ..model.modes import modal_properties
 from .collapse import CollapseSettings
 
 if TYPE_CHECKING:
+    from pd_common.config.schema_test_file import Element, SiteSettings
+
     from ..dynamics.ground_motion import GroundMotion
     from ..model.substructure import StructuralModel
 
@@ -115,6 +117,11 @@ class TestDefinition:
         warnings: one-line warnings about the test as given (e.g. an initial stiffness that is
             not the specimen's), for the user to read; not part of the resolved form.
         collapse: the ``collapse`` section (``None``: not checked), see :mod:`.collapse`.
+        sites: the ``sites`` section as written (plain mappings; the resolved form stores it so).
+        site_settings: the same, typed: per site its
+            :class:`~pd_common.config.SiteSettings` (a site given as ``null``: empty
+            settings); what the readers of a site's settings use.
+        elements: the typed ``structure.elements`` (``()``: a test without elements).
     """
 
     test_id: str
@@ -143,6 +150,8 @@ class TestDefinition:
     sites: dict[str, Any] | None = None
     warnings: tuple[str, ...] = ()
     collapse: CollapseSettings | None = None
+    site_settings: dict[str, SiteSettings] = field(default_factory=dict)
+    elements: tuple[Element, ...] = ()
 
     @property
     def n_dof(self) -> int:

@@ -279,18 +279,20 @@ def site_servers(definition: TestDefinition, *, keep_samples: bool = False
     if definition.model is None:
         sections[''] = (definition.specimen, definition.dof_names, 'specimen')
     else:
-        sites = definition.sites or {}
+        # The typed settings say what a site has; its builders take the sections as written.
+        written = definition.sites or {}
         for site in definition.model.site_names:
-            settings = sites.get(site)
-            if isinstance(settings, dict) and 'transfer_system' in settings:
-                servers[site] = _continuous_site(definition, site, settings['transfer_system'],
-                                                 keep_samples)
+            settings = definition.site_settings.get(site)
+            if settings is not None and settings.transfer_system is not None:
+                servers[site] = _continuous_site(
+                    definition, site, written[site]['transfer_system'], keep_samples)
                 continue
-            section = settings.get('specimen') if isinstance(settings, dict) else None
+            section = (written[site]['specimen']
+                       if settings is not None and settings.specimen is not None else None)
             sections[site] = (section, definition.model.actuator_names(site),
                               f'sites.{site}.specimen')
     for site, (section, names, path) in sections.items():
-        if not isinstance(section, dict):
+        if section is None:
             msg = f'{definition.source}: {path}: section is required for a simulated run'
             raise ConfigError(msg)
         try:
@@ -333,8 +335,8 @@ def _site_geometry(definition: TestDefinition, site: str) -> SiteGeometry:
     """
     if not site or definition.model is None:
         return SiteGeometry()
-    raw = {'structure': definition.structure_raw or {}, 'sites': definition.sites or {}}
-    return site_geometry(raw, site, definition.source)
+    return site_geometry(definition.elements, definition.site_settings.get(site), site,
+                         definition.source)
 
 
 def _same_command(recorded: Command, computed: Command) -> bool:

@@ -28,7 +28,7 @@ from pd_common.config import (
     validate_section,
     validate_test_file,
 )
-from pd_common.config.schema_test_file import GroundMotionSection
+from pd_common.config.schema_test_file import GroundMotionSection, SiteSettings
 from pd_common.resources import ResourceError, share_file
 from pd_common.specimen import HYSTERESIS_MODELS, SpecimenError, specimen_from_config
 
@@ -257,6 +257,7 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
     stiffness: np.ndarray | None
     model = None
     retained = list(range(n))
+    elements: Any = ()
     if elements_raw is not None:
         if stiffness_raw is not None:
             error = structure.error('initial_stiffness', 'must not be given with elements (it '
@@ -328,6 +329,9 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
                      if used else 'only a test with experimental elements has sites')
             msg = f'{source}: sites.{unknown[0]}: {where}'
             raise ConfigError(msg)
+    typed_sites = _section('sites', sites, source) or {}
+    site_settings = {name: settings if settings is not None else SiteSettings()
+                     for name, settings in typed_sites.items()}
     warnings: tuple[str, ...] = ()
     if model is not None:
         stiffness = model.initial_stiffness()
@@ -347,7 +351,8 @@ def from_dict(raw: Mapping[str, Any], *, source: str = '<memory>',
                            for key, value in scheme_parameters.items()},
         damping_spec=damping_spec, components=components, model=model,
         structure_raw=_with_absolute_paths(structure_raw, base_dir) if model is not None
-        else None, sites=sites, warnings=warnings, collapse=collapse)
+        else None, sites=sites, warnings=warnings, collapse=collapse,
+        site_settings=site_settings, elements=tuple(elements))
     if stiffness is not None:
         # Validates matrices together (symmetry, definiteness) and derives the damping.
         definition = definition.with_initial_stiffness(stiffness)
