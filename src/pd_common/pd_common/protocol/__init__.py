@@ -1,9 +1,29 @@
-"""The step protocol's data types, conversions and topic names, shared by every package."""
+"""The step protocol's data types, conversions, CDR codec and topic names (every package)."""
 
 from __future__ import annotations
 
 from .answers import Arrival, KeyedAnswers, RunTags, arrival, untag
 from .bounds import MAX_REASON, MalformedMessageError, clip_reason
+from .cdr import (
+    ENCAPSULATION,
+    CdrDecodeError,
+    CdrEncodeError,
+    Decoded,
+    decode_command,
+    decode_control,
+    decode_feedback,
+    decode_offer,
+    decode_session_start,
+    decode_signature,
+    decode_status,
+    encode_command,
+    encode_control,
+    encode_feedback,
+    encode_offer,
+    encode_session_start,
+    encode_signature,
+    encode_status,
+)
 from .controls import (
     ACKNOWLEDGED,
     BRIDGE_CONTROLS,
@@ -58,6 +78,7 @@ __all__ = [
     'ACKNOWLEDGED',
     'BRIDGE_CONTROLS',
     'DEFAULT_SITE',
+    'ENCAPSULATION',
     'GLOBAL_EMERGENCY_STOP',
     'LIFECYCLE_CONTROLS',
     'MAC_BYTES',
@@ -70,9 +91,12 @@ __all__ = [
     'Acknowledgement',
     'Acknowledgements',
     'Arrival',
+    'CdrDecodeError',
+    'CdrEncodeError',
     'Command',
     'Control',
     'ControlMode',
+    'Decoded',
     'Feedback',
     'FeedbackStatus',
     'KeyedAnswers',
@@ -92,7 +116,21 @@ __all__ = [
     'command_from_message',
     'control_from_message',
     'control_problem',
+    'decode_command',
+    'decode_control',
+    'decode_feedback',
+    'decode_offer',
+    'decode_session_start',
+    'decode_signature',
+    'decode_status',
     'dof_label',
+    'encode_command',
+    'encode_control',
+    'encode_feedback',
+    'encode_offer',
+    'encode_session_start',
+    'encode_signature',
+    'encode_status',
     'feedback_from_message',
     'find_acknowledgement',
     'offer_from_message',
