@@ -31,6 +31,8 @@ from pd_actuator_bridge.core import (
     force_substep_key,
 )
 from pd_common.config import default_bridge_parameter_file, read_yaml_file
+from pd_common.config.schema_bridge import SiteBridgeParameters
+from pd_common.config.schema_test_file import SiteSettings
 from pd_common.errors import BridgeConfigError
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StepKey
 from pd_common.protocol import TestState as State
@@ -320,10 +322,16 @@ def test_site_limits_are_the_bridge_file_then_the_sites_mapping(tmp_path: Path) 
     with pytest.raises(ConfigError, match=r'^bad\.yaml: sites\.lab\.bridge\.max_increment: '
                                           r'must be > 0, got -1\.0$'):
         from_dict(read_yaml_file(tmp_path / 'bad.yaml'), source='bad.yaml', base_dir=tmp_path)
-    bad = replace(definition, source='bad.yaml',
-                  sites=read_yaml_file(tmp_path / 'bad.yaml')['sites'])
+    # a site's settings built without the schema (model_construct) still meet the limits'
+    # own check, as the bridge would refuse them
+    unchecked = SiteSettings.model_construct(
+        bridge=SiteBridgeParameters.model_construct(max_increment=-1.0))
+    bad = replace(definition, source='bad.yaml', site_settings={'lab': unchecked})
     with pytest.raises(BridgeConfigError, match=r'^bad\.yaml: sites\.lab\.bridge: max_increment '):
         site_limits(bad)
+    # a site given as null takes the bridge file's limits, as run_test passes none
+    bare = replace(definition, site_settings={'lab': SiteSettings()})
+    assert site_limits(bare)['lab'].source == 'bridge.yaml'
     with pytest.raises(ConfigError, match=r'no_such\.yaml: cannot read the bridge parameter '
                                           r'file \(No such file'):
         site_limits(definition, tmp_path / 'no_such.yaml')

@@ -109,7 +109,7 @@ def site_limits(definition: TestDefinition, bridge_file: str | Path | None = Non
 
     Raises:
         ConfigError: the file cannot be read or its schema refuses it (one line naming the
-            file and the dotted path), or a ``sites.<site>.bridge`` is not a mapping.
+            file and the dotted path).
         pd_common.errors.BridgeConfigError: a limit or ``on_limit`` the bridge would refuse (a
             ``ValueError``), naming the file or the test file's mapping.
     """
@@ -124,15 +124,12 @@ def site_limits(definition: TestDefinition, bridge_file: str | Path | None = Non
     if definition.model is None:
         sites.append(('', tuple(definition.dof_names), {}))
     else:
-        settings = definition.sites or {}
         for site in definition.model.site_names:
-            entry = settings.get(site)
-            extra = entry.get('bridge', {}) if isinstance(entry, dict) else {}
-            if not isinstance(extra, Mapping):
-                msg = (f'{definition.source}: sites.{site}.bridge: must be a mapping of '
-                       'parameters')
-                raise ConfigError(msg)
-            sites.append((site, tuple(definition.model.actuator_names(site)), extra))
+            settings = definition.site_settings.get(site)
+            bridge = settings.bridge if settings is not None else None
+            # the keys the test file sets (typed: its schema checked them when it was read)
+            given = bridge.model_dump(exclude_unset=True) if bridge is not None else {}
+            sites.append((site, tuple(definition.model.actuator_names(site)), given))
     result: dict[str, SiteLimits] = {}
     for site, names, extra in sites:
         parameters = {**base, **extra}
