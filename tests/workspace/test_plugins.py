@@ -182,3 +182,38 @@ def test_the_plugins_compensator_and_plant_are_built_by_name(site_packages: Path
     assert result['refused'] == "compensator scaled: parameter gain must be float, got 'high'"
     assert result['plants'] == ['benchmark', 'ideal', 'scaled_ideal']
     assert result['output'] == 0.5 * 0.01
+
+
+BRIDGE_FILE_SCRIPT = """
+import sys
+from pd_common.config import SchemaError, read_bridge_parameter_file
+try:
+    print(read_bridge_parameter_file(sys.argv[1]).parameters())
+except SchemaError as err:
+    print(err)
+"""
+
+
+@pytest.mark.parametrize(('parameters', 'with_plugin', 'expected'), [
+    # a driver plug-in's declared parameter is a parameter of the bridge's file
+    ({'driver': 'spring_rig', 'spring_stiffness': 2.0e5}, True, "'spring_stiffness': 200000.0"),
+    # of its default's kind, and a misspelt one stays unknown
+    ({'spring_stiffness': 'stiff'}, True,
+     "bridge.yaml: /**.ros__parameters.spring_stiffness: must be a number"),
+    ({'spring_stifness': 2.0e5}, True,
+     'bridge.yaml: /**.ros__parameters.spring_stifness: unknown key'),
+    # without the plug-in, its parameter is no parameter of the bridge
+    ({'spring_stiffness': 2.0e5}, False,
+     'bridge.yaml: /**.ros__parameters.spring_stiffness: unknown key'),
+])
+def test_a_bridge_file_may_set_a_driver_plugins_parameters(
+        site_packages: Path, tmp_path: Path, parameters: dict[str, object], with_plugin: bool,
+        expected: str) -> None:
+    bridge = tmp_path / 'bridge.yaml'
+    bridge.write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}}),
+                      encoding='utf-8')
+    env = environment(site_packages if with_plugin else tmp_path / 'no_plugin')
+    done = subprocess.run([sys.executable, '-c', BRIDGE_FILE_SCRIPT, str(bridge)], env=env,
+                          capture_output=True, text=True, check=False, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert expected in done.stdout, done.stdout

@@ -11,21 +11,54 @@ configures (the limits together, the driver's own).
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+import functools
+from typing import Annotated, Any, Literal, Self
 
-from pydantic import Field, RootModel
+from pydantic import ConfigDict, Field, RootModel, model_validator
 
-from .schema_base import ConfigModel, NonNegative, Positive
+from ..registry import GROUPS, Registry
+from .schema_base import ConfigModel, NonNegative, Positive, refuse_at
 
 __all__ = ['BridgeNodeSection', 'BridgeParameterFile', 'BridgeParameters',
-           'SiteBridgeParameters']
+           'SiteBridgeParameters', 'plugin_driver_parameters']
+
+
+@functools.cache
+def plugin_driver_parameters() -> dict[str, Any]:
+    """The parameters the installed driver plug-ins declare: name to default.
+
+    The ``pd.drivers`` entry points (a lab's own driver package); the built-in drivers'
+    parameters are this schema's own fields. The bridge node declares both, so a parameter
+    file may set both.
+    """
+    drivers: Registry[Any] = Registry('driver', GROUPS['driver'])
+    drivers.discover()
+    declared: dict[str, Any] = {}
+    for spec in drivers.loaded().values():
+        for parameter in getattr(spec, 'parameters', ()):
+            declared.setdefault(str(parameter.name), parameter.default)
+    return declared
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, bool):
+        return 'a boolean'
+    if isinstance(value, int | float):
+        return 'a number'
+    if isinstance(value, str):
+        return 'a string'
+    return 'a list' if isinstance(value, list | tuple) else type(value).__name__
 
 
 class SiteBridgeParameters(ConfigModel):
     """The bridge's parameters that a test file may set for one site.
 
-    Each key of ``sites.<site>.bridge`` is passed to that site's bridge as a ROS parameter.
+    Each key of ``sites.<site>.bridge`` is passed to that site's bridge as a ROS parameter. A
+    key that no field names is refused unless an installed driver plug-in declares it (then of
+    its default's kind); the published JSON Schema lists the built-in keys only.
     """
+
+    model_config = ConfigDict(extra='allow', json_schema_extra={'additionalProperties': False})
 
     driver: Annotated[str, Field(pattern=r'^[a-z][a-z0-9_]*$')] | None = None
     """The actuator driver, a registered one (``sim_servo``, ``emulator``, ``generic_tcp``,
@@ -65,6 +98,22 @@ class SiteBridgeParameters(ConfigModel):
     """daqmx, emulator: the YAML file with the driver's settings."""
     clock: Literal['simulated', 'realtime'] | None = None
     """transfer_system: the clock of the continuous loop."""
+
+
+    @model_validator(mode='after')
+    def _plugin_parameters(self) -> Self:
+        """Keys beyond the fields: parameters an installed driver plug-in declares."""
+        extra = self.model_extra or {}
+        if extra:
+            declared = plugin_driver_parameters()
+            for key, value in extra.items():
+                if key not in declared:
+                    refuse_at(key, 'unknown key')
+                default = declared[key]
+                if default is not None and _kind(value) != _kind(default):
+                    refuse_at(key, f'must be {_kind(default)} (a driver plug-in\'s parameter), '
+                                   f'got {value!r}')
+        return self
 
 
 class BridgeParameters(SiteBridgeParameters):
