@@ -10,6 +10,7 @@ bridge's limits applied), must equal the same OpenSees model with the element's 
 from __future__ import annotations
 
 import json
+import socket
 import threading
 import time
 from dataclasses import replace
@@ -21,7 +22,13 @@ import pytest
 from pd_core.run.bridge_limits import site_limits
 from pd_core.run.runner import RunResult, run_offline
 from pd_core.run.test_file import load_test_file
-from support.element_client import free_port, listening, run_example
+from support.element_client import (
+    committed_steps,
+    free_port,
+    listening,
+    run_example,
+    start_example,
+)
 from support.opensees_material import opensees_available
 from support.paths import CONFIG
 
@@ -102,3 +109,40 @@ def test_two_story_shear_with_storey_one_physical_equals_its_twin(tmp_path: Path
     assert np.abs(twin[:, 1]).max() > 6.0e4 / 4.0e6  # storey 1 yields
     np.testing.assert_allclose(served[:, 1:3], twin[:, 1:3], rtol=0, atol=1e-12)
     np.testing.assert_allclose(served[:, 3], twin[:, 3], rtol=0, atol=1e-6)
+
+
+def test_a_dropped_client_holds_the_test_with_a_complete_record(tmp_path: Path) -> None:
+    """openseespy killed mid-test: the test holds with the reason, nothing more is commanded,
+    the record holds every committed step (the twin's first steps), a reconnect is refused."""
+    port = free_port()
+    out = tmp_path / 'run'
+    thread, box = serve(SERVE_EPP, port, out)
+    wait_port(port, thread)
+    client = start_example('sdof_epp.py', tmp_path / 'served.txt', '--element', 'generic',
+                           '--port', str(port), '--steps', STEPS)
+    deadline = time.monotonic() + 60
+    while committed_steps(out) < 150:
+        assert client.poll() is None and time.monotonic() < deadline, 'no step 150'
+        time.sleep(0.01)
+    client.kill()
+    client.wait(10)
+    thread.join(60)
+    assert not thread.is_alive()
+    assert 'error' not in box, box.get('error')
+    result = box['result']
+    assert isinstance(result, RunResult)
+    summary = result.summary
+    assert summary['state'] == 'holding', summary
+    assert "OpenSees element: the element's connection failed" in summary['message'] or (
+        'OpenSees element: the element closed its connection without DIE' in summary['message'])
+    with pytest.raises(ConnectionRefusedError), socket.create_connection(('127.0.0.1', port), 2):
+        pass  # the listener is closed: a reconnect is refused
+    measured = committed_steps(out)  # step 0 at rest, then one per step (the last may be
+    assert measured >= 151           # measured but not committed by OpenSees)
+    twin = run_example('sdof_epp.py', tmp_path / 'twin.txt', '--element', 'numerical',
+                       '--steps', STEPS)
+    response = np.genfromtxt(out / 'response.csv', delimiter=',', names=True)
+    steps = len(response) - 1
+    assert steps in (measured - 1, measured - 2)
+    np.testing.assert_allclose(response[response.dtype.names[2]][1:], twin[:steps, 1],
+                               rtol=0, atol=1e-12)

@@ -53,6 +53,22 @@ def wait_listening(port: int, server: subprocess.Popen[str], timeout: float = 60
         time.sleep(0.05)
 
 
+def start_example(script: str, out: Path, *args: str) -> subprocess.Popen[str]:
+    """Start ``examples/opensees/<script>`` with ``args`` (its output in ``out``)."""
+    env = opensees_environment(dict(os.environ))
+    return subprocess.Popen([sys.executable, str(EXAMPLES / script), '--out', str(out), *args],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+
+
+def committed_steps(run: Path) -> int:
+    """Steps whose feedback is in the run's journal so far (as a crash would leave it)."""
+    try:
+        return (run / 'journal.jsonl').read_bytes().count(b'"k":"fb"')
+    except OSError:
+        return 0
+
+
 def run_example(script: str, out: Path, *args: str, timeout: float = 120.0
                 ) -> np.ndarray:
     """Run ``examples/opensees/<script>`` with ``args``; return its output table."""

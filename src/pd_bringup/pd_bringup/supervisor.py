@@ -54,6 +54,8 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from pd_common.config.files import read_text
+from pd_core.errors import PdIntegratorError
+from pd_core.run.resume import load_resumable
 
 from .operator import Operator
 from .plan import Child, LaunchPlan
@@ -386,6 +388,11 @@ class Supervisor:
         Or restore it held (``hold``: nothing moves before a person's resume).
         """
         what = f'pd_integrator died ({_describe_exit(code)})'
+        try:  # a run that cannot resume (a served OpenSees model) is not restarted
+            load_resumable(self.plan.out)
+        except PdIntegratorError as err:
+            self._log(f'run_test: {what}; not restarted: {err}')
+            return False
         if self.policy == 'abort' or integrator.restarts >= self.max_restarts:
             self._log(f'run_test: {what}; the record is intact up to its last committed step: '
                       f'resume with ./pd run --resume {self.plan.out}')

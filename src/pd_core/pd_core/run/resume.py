@@ -34,6 +34,7 @@ from pd_common.config import read_text
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StateOrigin, TestState
 
 from ..errors import ConfigError
+from ..schemes import SCHEMES
 from .definition import TestDefinition
 from .loop.epochs import EpochGuard
 from .record.bag import TOPIC_STATUS, RecordedRun, site_of
@@ -77,7 +78,9 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
     """The folder, test and record of a run that can be resumed.
 
     Raises:
-        ConfigError: no such run, no journal, or the test finished or was aborted.
+        ConfigError: no such run, no journal, the test finished or was aborted, or its steps
+            came from another program (a served OpenSees model: its resume is not
+            implemented).
     """
     directory = Path(run_dir)
     definition_file = directory / DEFINITION_JSON
@@ -93,6 +96,13 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
         msg = f'{definition_file}: cannot read the test definition ({err.strerror})'
         raise ConfigError(msg) from None
     definition = from_json(text, source=definition_file.name)
+    scheme = SCHEMES.get(definition.scheme)
+    if scheme is not None and scheme.external:
+        msg = (f'{directory}: a served run ({definition.scheme}) cannot be resumed: the '
+               'external program (OpenSees) would have to restart from the journal\'s last '
+               'committed step, which is not implemented; the record is complete '
+               f'(./pd recover {directory}); start the model again in a new run')
+        raise ConfigError(msg)
     record = load_run(directory / JOURNAL_FILE)
     last = record.statuses[-1][1] if record.statuses else None
     if last is not None and last.state not in RESUMABLE:

@@ -382,6 +382,7 @@ def replay_run(run: RecordedRun, source: str = 'record') -> TestSession:
     """
     definition = from_json(run.definition_json, source=Path(source).name)
     session = TestSession(definition)
+    session.replay_external(item for _, item in run.events if isinstance(item, Command))
     epochs = EpochGuard()  # as the dispatcher: a fresh specimen's answers were refused
     for _, item in run.events:
         if isinstance(item, Feedback):

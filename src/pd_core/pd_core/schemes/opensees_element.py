@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -85,6 +87,41 @@ class OpenSeesElement(Integrator):
         self._direction: np.ndarray | None = None
         self.held_iterations = 0
         self.serving: str = ''
+        self._recorded: deque[tuple[int, tuple[float, ...]]] | None = None
+        self._recorded_open: tuple[int, tuple[float, ...]] | None = None
+
+    def replay(self, commands: Iterable[tuple[int, int, tuple[float, ...]]]) -> None:
+        """Take the element's trials from a record, not from OpenSees (replay, recover).
+
+        ``commands`` are the recorded ``(step, iteration, target)`` of the test, in order
+        (re-sends are taken once). Each is a force request; a later step's first command
+        commits the step before it with its last target. OpenSees's committed velocity and
+        acceleration are not in the record: they are NaN. A step with no later command is not
+        known to be committed: the replay ends before it.
+        """
+        seen: set[tuple[int, int]] = set()
+        queue: deque[tuple[int, tuple[float, ...]]] = deque()
+        for step, iteration, target in commands:
+            if step >= 1 and (step, iteration) not in seen:
+                seen.add((step, iteration))
+                queue.append((step, tuple(target)))
+        self._recorded = queue
+        self._recorded_open = None
+
+    def _recorded_event(self, queue: deque[tuple[int, tuple[float, ...]]]
+                        ) -> tuple[str, Trial | None]:
+        unknown = (math.nan,) * self._n
+        opened = self._recorded_open
+        if opened is not None and (not queue or queue[0][0] > opened[0]):
+            if not queue:
+                return END, None
+            self._recorded_open = None
+            return COMMIT, Trial(opened[1], unknown, unknown, opened[0] * self._dt)
+        if not queue:
+            return END, None
+        self._recorded_open = queue.popleft()
+        step, target = self._recorded_open
+        return FORCE, Trial(target, unknown, unknown, step * self._dt)
 
     # -- the link -----------------------------------------------------------------------------
     def open(self) -> ElementLink:
@@ -123,6 +160,8 @@ class OpenSeesElement(Integrator):
         return stiffness
 
     def _next_event(self) -> tuple[str, Trial | None]:
+        if self._recorded is not None:
+            return self._recorded_event(self._recorded)
         link = self.open()
         try:
             if not link.connected:
@@ -217,6 +256,8 @@ class OpenSeesElement(Integrator):
             return
 
     def _answer(self, force: np.ndarray, displacement: np.ndarray) -> None:
+        if self._recorded is not None:
+            return  # a replay: OpenSees is not there
         assert self._link is not None
         try:
             self._link.answer_force(force.tolist(), displacement.tolist())

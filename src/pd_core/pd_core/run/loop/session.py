@@ -12,6 +12,7 @@ initial displacement, measure the initial restoring force r₀), then integratio
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -28,6 +29,7 @@ from ...errors import (
     ProtocolError,
 )
 from ...schemes import SchemeParameterError, make_integrator
+from ...schemes.opensees_element import OpenSeesElement
 from ..collapse import Collapse, CollapseMonitor
 from ..record.history import ResponseHistory
 from .protocol import StepProtocol, TimeoutAction, Verdict
@@ -122,6 +124,16 @@ class TestSession:
             self._setup_integrator()
 
     # -- public API ---------------------------------------------------------------------------
+    def replay_external(self, commands: Iterable[Command]) -> None:
+        """An external scheme (a served OpenSees model) takes its trials from ``commands``.
+
+        The recorded commands of the test, in order: the record is re-run without the
+        external program (``./pd replay``, ``./pd recover``). Other schemes ignore it.
+        """
+        if isinstance(self._integrator, OpenSeesElement):
+            self._integrator.replay((c.step, c.iteration, tuple(c.target_displacement))
+                                    for c in commands if c.test_id == self.definition.test_id)
+
     @property
     def total_steps(self) -> int:
         """Number of integration steps of the test."""
