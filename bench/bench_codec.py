@@ -119,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point."""
     parser = argparse.ArgumentParser(prog='bench_codec', description=__doc__.splitlines()[0])
     parser.add_argument('--quick', action='store_true', help='fewer calls')
-    args = parser.parse_args(argv)
+    parser.add_argument('--no-save', action='store_true', help='print only')
+    # ./pd bench passes its options to every bench script: the others' are not ours
+    args, _ = parser.parse_known_args(argv)
     count = 10_000 if args.quick else 50_000
     figures = {**codec_costs(count), **rclpy_costs(count)}
     print('one signed SDOF step message, record <-> CDR bytes (mean per call):')
@@ -130,8 +132,9 @@ def main(argv: list[str] | None = None) -> int:
         decode = figures[f'rclpy_{kind}_deserialize_us'] / figures[f'codec_{kind}_decode_us']
         print(f'  {kind}: the codec encodes {encode:.1f}x and decodes {decode:.1f}x as fast as '
               'rclpy')
-    merge_results(figures)
-    print(f'  written to {RESULTS}')
+    if not args.no_save:
+        merge_results(figures)
+        print(f'  written to {RESULTS}')
     return 0
 
 
