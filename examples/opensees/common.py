@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -54,8 +55,11 @@ def analysis(kind: str) -> None:
 
 
 def run(args: argparse.Namespace, nodes: list[int], elements: list[int],
-        dof: int = 1) -> None:
-    """``args.steps`` steps of 0.01 s; write time, the nodes' displacements, the forces."""
+        dof: int = 1, forces: Callable[[], list[float]] | None = None) -> None:
+    """``args.steps`` steps of 0.01 s; write time, the nodes' displacements, the forces.
+
+    The forces are each element's last basic force, then ``forces()`` if given.
+    """
     rows = []
     for _ in range(args.steps):
         if ops.analyze(1, 0.01) != 0:
@@ -64,6 +68,7 @@ def run(args: argparse.Namespace, nodes: list[int], elements: list[int],
         row = [ops.getTime()]
         row += [ops.nodeDisp(node, dof) for node in nodes]
         row += [ops.eleResponse(element, 'forces')[-1] for element in elements]
+        row += forces() if forces is not None else []
         rows.append(row)
     np.savetxt(args.out, np.array(rows), fmt='%.17g')
     ops.wipe()  # destroys the genericClient: it sends DIE, the test ends

@@ -19,13 +19,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-from pd_common.config import YAMLError, read_yaml_file
+from pd_common.config import SchemaError, read_test_file
 from pd_common.opensees import ElementProtocolError, check_bind
 from pd_common.resources import ResourceError, find_executable, share_file
+from pd_common.specimen import HYSTERESIS_MODELS
 
 PROG = 'element_server'
 SCHEME = 'opensees_element'
@@ -56,18 +56,16 @@ def check_test_file(path: Path) -> tuple[str, list[str]]:
     Raises:
         ServeError: The file cannot be read, is not served, or its address is refused.
     """
-    try:
-        raw = read_yaml_file(path, what='a test file')
-    except (YAMLError, OSError) as err:
-        msg = f'{path}: {err}'
-        raise ServeError(msg) from None
-    test = raw.get('test') if isinstance(raw, Mapping) else None
-    test = test if isinstance(test, Mapping) else {}
-    if test.get('scheme') != SCHEME:
+    try:  # the typed schema: one line with the dotted path of a refused value
+        test = read_test_file(path, hysteresis_models=tuple(HYSTERESIS_MODELS),
+                              broken_models=HYSTERESIS_MODELS.broken).model.test
+    except SchemaError as err:
+        raise ServeError(str(err)) from None
+    if test.scheme != SCHEME:
         msg = (f'{path}: test.scheme: must be {SCHEME} to serve an element, got '
-               f'{test.get("scheme")!r}')
+               f'{test.scheme!r}')
         raise ServeError(msg)
-    parameters: Mapping[str, Any] = test.get('scheme_parameters') or {}
+    parameters = test.scheme_parameters or {}
     host = str(parameters.get('host', '127.0.0.1'))
     allow = [a.strip() for a in str(parameters.get('allow', '')).split(',') if a.strip()]
     try:
@@ -75,7 +73,9 @@ def check_test_file(path: Path) -> tuple[str, list[str]]:
     except ElementProtocolError as err:
         msg = f'{path}: test.scheme_parameters.{err}'
         raise ServeError(msg) from None
-    return f'{host}:{parameters.get("port", 44000)}', warnings
+    port = parameters.get('port', 44000)
+    port = int(port) if isinstance(port, float) and port.is_integer() else port
+    return f'{host}:{port}', warnings
 
 
 def main(argv: Sequence[str] | None = None) -> int:
