@@ -23,9 +23,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from pd_common.config import SchemaError, read_test_file
-from pd_common.opensees import ElementProtocolError, check_bind
+from pd_common.opensees import ElementProtocolError, allow_list, check_bind
+from pd_common.registry import ParameterError, resolve_parameters
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.specimen import HYSTERESIS_MODELS
+from pd_core.schemes.opensees_element import OpenSeesElement
 
 PROG = 'element_server'
 SCHEME = 'opensees_element'
@@ -65,17 +67,15 @@ def check_test_file(path: Path) -> tuple[str, list[str]]:
         msg = (f'{path}: test.scheme: must be {SCHEME} to serve an element, got '
                f'{test.scheme!r}')
         raise ServeError(msg)
-    parameters = test.scheme_parameters or {}
-    host = str(parameters.get('host', '127.0.0.1'))
-    allow = [a.strip() for a in str(parameters.get('allow', '')).split(',') if a.strip()]
-    try:
-        warnings = check_bind(host, allow, parameters.get('allow_remote') is True)
-    except ElementProtocolError as err:
+    try:  # the scheme's own declarations: its defaults and bounds
+        parameters = resolve_parameters(OpenSeesElement.PARAMETERS, test.scheme_parameters or {})
+        host = str(parameters['host'])
+        warnings = check_bind(host, allow_list(str(parameters['allow'])),
+                              parameters['allow_remote'] is True)
+    except (ParameterError, ElementProtocolError) as err:
         msg = f'{path}: test.scheme_parameters.{err}'
         raise ServeError(msg) from None
-    port = parameters.get('port', 44000)
-    port = int(port) if isinstance(port, float) and port.is_integer() else port
-    return f'{host}:{port}', warnings
+    return f'{host}:{int(parameters["port"])}', warnings
 
 
 def main(argv: Sequence[str] | None = None) -> int:

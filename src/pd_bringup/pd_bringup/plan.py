@@ -18,7 +18,12 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pd_common.config import SchemaError, read_bridge_parameter_file, read_text
+from pd_common.config import (
+    SchemaError,
+    default_bridge_parameter_file,
+    read_bridge_parameter_file,
+    read_text,
+)
 from pd_common.config.schema_test_file import OpenSeesSite, SiteSettings
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_core.errors import PdIntegratorError
@@ -336,7 +341,7 @@ def site_commands(definition: TestDefinition, test_file: Path, mode: str,
     """
     if mode == 'none':
         return [], True
-    params = bridge_params or share_file('pd_actuator_bridge', 'config', 'bridge.yaml')
+    params = bridge_params or default_bridge_parameter_file()
     # Per site: name, namespace, actuator (DOF) names and its typed settings.
     sites: list[tuple[str, str, list[str], SiteSettings]]
     if definition.model is None:

@@ -32,6 +32,11 @@ class ElementLinkLostError(ElementProtocolError):
     """The element's connection closed (or timed out) without ``DIE``."""
 
 
+def allow_list(text: str) -> tuple[str, ...]:
+    """The client addresses of an ``allow`` setting (comma separated; blanks ignored)."""
+    return tuple(address.strip() for address in text.split(',') if address.strip())
+
+
 def check_bind(host: str, allow: Sequence[str], allow_remote: bool) -> list[str]:
     """Check the address to bind and the allow-list; returns the warnings to print.
 

@@ -37,7 +37,15 @@ from typing import Any
 
 import numpy as np
 
-from pd_common.opensees import COMMIT, END, FORCE, ElementLink, ElementProtocolError, Trial
+from pd_common.opensees import (
+    COMMIT,
+    END,
+    FORCE,
+    ElementLink,
+    ElementProtocolError,
+    Trial,
+    allow_list,
+)
 from pd_common.registry import Parameter
 
 from ..errors import AnalysisEndedError, IntegratorError
@@ -74,7 +82,7 @@ class OpenSeesElement(Integrator):
     def _apply_parameters(self, parameters: Any) -> None:
         self._port = int(parameters['port'])
         self._host = str(parameters['host'])
-        self._allow = tuple(a.strip() for a in str(parameters['allow']).split(',') if a.strip())
+        self._allow = allow_list(str(parameters['allow']))
         self._allow_remote = bool(parameters['allow_remote'])
         self._timeout = float(parameters['timeout'])
         self._forward_only_flag = bool(parameters['forward_only'])
