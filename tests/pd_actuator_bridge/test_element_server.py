@@ -8,6 +8,9 @@ from pathlib import Path
 import pytest
 
 from pd_actuator_bridge.element_server import ServeError, check_test_file, main
+from pd_core.run.record.journal import JOURNAL_FILE
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
 from support.paths import CONFIG
 
 
@@ -34,3 +37,24 @@ def test_a_refused_file_is_one_line_with_its_dotted_path(
     assert main([str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and message in err and 'Traceback' not in err
+
+
+@pytest.mark.parametrize(('args', 'message'), [
+    (['--resume', 'RUN', 'x.yaml'], '--resume: takes no test file, --out or --offline'),
+    (['--resume', 'RUN', '--offline'], '--resume: takes no test file, --out or --offline'),
+    (['--resume', 'NOWHERE'], 'not a run folder'),
+    (['--resume', 'RUN'], ("not a served run (scheme 'newmark_explicit'): continue it with "
+                           './pd run --resume')),
+])
+def test_resume_refuses_what_is_not_a_stopped_served_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str],
+        message: str) -> None:
+    run = tmp_path / 'RUN'
+    definition = load_test_file(CONFIG / 'default_test.yaml', overrides={'duration': 0.05})
+    run_offline(definition, run, figures=False)
+    status = (run / JOURNAL_FILE).read_text().splitlines()  # as a killed run leaves it
+    (run / JOURNAL_FILE).write_text('\n'.join(status[:-1]) + '\n')
+    args = [str(tmp_path / a) if a in ('RUN', 'NOWHERE') else a for a in args]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and message in err and 'Traceback' not in err, err

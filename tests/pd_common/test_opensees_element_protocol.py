@@ -10,6 +10,7 @@ from __future__ import annotations
 import socket
 import struct
 import threading
+import time
 
 import pytest
 
@@ -19,6 +20,7 @@ from pd_common.opensees import (
     FORCE,
     ElementExchange,
     ElementLink,
+    ElementLinkLostError,
     ElementProtocolError,
     check_bind,
     decode_size_message,
@@ -109,5 +111,29 @@ def test_a_malformed_message_closes_the_connection() -> None:
         link.next_event()
     assert not link.connected
     assert client.recv(1) == b''  # closed by the server, nothing was answered
+    client.close()
+    link.shutdown()
+
+
+def test_waiting_for_the_element_calls_idle_until_the_timeout() -> None:
+    """While the server waits (a connection, then a message), ``idle`` runs every half second
+    (a node's heartbeat) and the timeout still ends the wait."""
+    link = ElementLink('127.0.0.1', 0, timeout=1.6)
+    calls: list[float] = []
+    link.idle = lambda: calls.append(time.monotonic())
+    start = time.monotonic()
+    with pytest.raises(ElementLinkLostError, match=r'no OpenSees element connected within 1\.6 s'):
+        link.accept(lambda n: [[1.0]])
+    assert 1.5 <= time.monotonic() - start < 3.0
+    assert len(calls) >= 2
+    calls.clear()
+    client = socket.create_connection(('127.0.0.1', link.port))
+    client.sendall(encode_size_message(1))
+    link.accept(lambda n: [[1.0]])
+    start = time.monotonic()
+    with pytest.raises(ElementLinkLostError, match=r'no message within 1\.6 s'):
+        link.next_event()
+    assert 1.5 <= time.monotonic() - start < 3.0 and len(calls) >= 2
+    assert not link.connected
     client.close()
     link.shutdown()

@@ -13,14 +13,29 @@ import json
 import socket
 import threading
 import time
+from collections import deque
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pd_common.protocol import Command
+from pd_common.protocol import TestState as State
+from pd_core.errors import BagError
 from pd_core.run.bridge_limits import site_limits
-from pd_core.run.runner import RunResult, run_offline
+from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.session import TestSession as Session  # not a test class
+from pd_core.run.record.journal import JOURNAL_FILE, Journal
+from pd_core.run.resume import load_resumable
+from pd_core.run.runner import (
+    RunResult,
+    finish_outputs,
+    restore_dispatcher,
+    run_offline,
+    serve_queue,
+    site_servers,
+)
 from pd_core.run.test_file import load_test_file
 from support.element_client import (
     committed_steps,
@@ -168,3 +183,131 @@ def test_a_dropped_client_holds_the_test_with_a_complete_record(tmp_path: Path) 
     assert steps in (measured - 1, measured - 2)
     np.testing.assert_allclose(response[response.dtype.names[2]][1:], twin[:steps, 1],
                                rtol=0, atol=1e-12)
+
+
+def resume_served(folder: Path) -> tuple[threading.Thread, dict[str, object]]:
+    """Resume a stopped served run as the integrator node does, in a thread.
+
+    The simulated specimen is restored from the commands on record (a restored simulator);
+    the scheme waits for the model (started again from its beginning), the record is re-run
+    with it, then the operator's resume sends what the run owes and the test goes on.
+    """
+    box: dict[str, object] = {}
+
+    def target() -> None:
+        try:
+            directory, definition, record = load_resumable(folder)
+            servers = site_servers(definition)
+            for _, item in record.events:
+                if isinstance(item, Command):
+                    servers[''].handle(item.test_id, item.step, item.target_displacement,
+                                       iteration=item.iteration)
+            session = Session(definition)
+            element = session.served_element
+            assert element is not None
+            box['port'] = element.open().port
+            queue: deque[tuple[str, Command]] = deque()
+            with Journal(directory / JOURNAL_FILE, append=True) as journal:
+                dispatcher = StepDispatcher(session, lambda s, c: queue.append((s, c)), journal)
+                element.connect()
+                box['owed'] = restore_dispatcher(record, dispatcher, str(directory))
+                box['sent_while_restoring'] = len(queue)
+                box['restored'] = (session.state, session.committed_step)
+                dispatcher.resume()  # the operator's resume (the record ends held)
+                serve_queue(queue, servers, dispatcher)
+                journal.write_status(dispatcher.status(), time.time_ns())
+            finish_outputs(session, directory, wall_time=0.0, figures=False)
+            box['session'] = session
+        except BaseException as err:  # reported by the test
+            box['error'] = err
+        finally:
+            if 'session' in locals() and session.served_element is not None:
+                session.served_element.close()
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    return thread, box
+
+
+def dropped_run(tmp_path: Path, at: int) -> Path:
+    """A served SDOF run whose OpenSees process was killed after step ``at`` (it holds)."""
+    port = free_port()
+    out = tmp_path / 'run'
+    thread, box = serve(SERVE_EPP, port, out)
+    wait_port(port, thread)
+    client = start_example('sdof_epp.py', tmp_path / 'first.txt', '--element', 'generic',
+                           '--port', str(port), '--steps', STEPS)
+    deadline = time.monotonic() + 60
+    while committed_steps(out) < at:
+        assert client.poll() is None and time.monotonic() < deadline, f'no step {at}'
+        time.sleep(0.01)
+    client.kill()
+    client.wait(10)
+    thread.join(60)
+    result = box['result']
+    assert isinstance(result, RunResult) and result.summary['state'] == 'holding'
+    assert '--resume' in result.summary['message']  # the way on is named
+    return out
+
+
+def test_a_model_started_again_resumes_from_the_journal_and_ends_as_its_twin(
+        tmp_path: Path) -> None:
+    """openseespy killed mid-test, then started again from its beginning against the resumed
+    run: its steps on record are answered from the journal (nothing is commanded), the test
+    goes on from the last committed step, and the whole response is the twin's to round-off."""
+    out = dropped_run(tmp_path, 200)
+    recorded = committed_steps(out)
+    thread, box = resume_served(out)
+    deadline = time.monotonic() + 30
+    while 'port' not in box:
+        assert thread.is_alive() and time.monotonic() < deadline, box.get('error')
+        time.sleep(0.01)
+    wait_port(int(box['port']), thread)  # type: ignore[call-overload]
+    again = run_example('sdof_epp.py', tmp_path / 'again.txt', '--element', 'generic',
+                        '--port', str(box['port']), '--steps', STEPS)
+    thread.join(60)
+    assert 'error' not in box, box.get('error')
+    assert box['sent_while_restoring'] == 0
+    state, committed = box['restored']  # type: ignore[misc]
+    assert state is State.HOLDING and committed >= recorded - 3
+    owed = box['owed']
+    assert isinstance(owed, list) and len(owed) == 1
+    assert owed[0][1].step == committed + 1  # the first step past the record, not before
+    session = box['session']
+    assert isinstance(session, Session) and session.state is State.FINISHED
+    twin = run_example('sdof_epp.py', tmp_path / 'twin.txt', '--element', 'numerical',
+                       '--steps', STEPS)
+    assert np.abs(twin[:, 1]).max() > 0.032  # the column yields (d_y = 32 mm)
+    np.testing.assert_allclose(again[:, 1], twin[:, 1], rtol=0, atol=1e-12)
+    response = np.genfromtxt(out / 'response.csv', delimiter=',', names=True)
+    assert len(response) == int(STEPS) + 1
+    np.testing.assert_array_equal(response[response.dtype.names[2]][1:], again[:, 1])
+    # Every step was commanded once, but for the one owed at the drop (sent again).
+    steps = [json.loads(line)['step'] for line in
+             (out / JOURNAL_FILE).read_text(encoding='utf-8').splitlines()
+             if '"k":"cmd"' in line]
+    assert len(steps) - len(set(steps)) <= 1
+    assert sorted(set(steps)) == list(range(int(STEPS) + 1))
+
+
+def test_another_model_is_refused_at_its_first_trial_off_the_record(tmp_path: Path) -> None:
+    """A model that is not the run's (the record scaled by 1.5) reconnecting to a resumed run:
+    refused at its first trial that differs, nothing commanded, the journal unchanged."""
+    out = dropped_run(tmp_path, 120)
+    before = (out / JOURNAL_FILE).read_bytes()
+    thread, box = resume_served(out)
+    deadline = time.monotonic() + 30
+    while 'port' not in box:
+        assert thread.is_alive() and time.monotonic() < deadline, box.get('error')
+        time.sleep(0.01)
+    wait_port(int(box['port']), thread)  # type: ignore[call-overload]
+    other = start_example('sdof_epp.py', tmp_path / 'other.txt', '--element', 'generic',
+                          '--port', str(box['port']), '--steps', STEPS, '--scale', '1.5')
+    thread.join(60)
+    other.kill()
+    other.wait(10)
+    error = box.get('error')
+    assert isinstance(error, BagError), error
+    assert 'differs from the recomputed one' in str(error)
+    assert 'sent_while_restoring' not in box
+    assert (out / JOURNAL_FILE).read_bytes() == before

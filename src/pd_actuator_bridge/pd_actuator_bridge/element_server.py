@@ -9,6 +9,11 @@ journal, the bag and the run folder) or, with ``--offline``, in one process as `
 offline``. The element's model then runs unchanged but for its ``genericClient`` line; see
 ``docs/how-to/bring-your-opensees-model.md``.
 
+``./pd serve --resume RUN_DIR`` continues a stopped served run (as ``./pd run --resume``): the
+OpenSees model is started again from its beginning, its steps on record are checked against
+the journal and answered from it (nothing moves), and the test goes on from the journal's last
+committed step; a model whose trials differ from the record is refused.
+
 This shell holds no protocol: the wire format and the trial/commit exchange are in
 :mod:`pd_common.opensees`, the step mapping in the integrator's ``opensees_element`` scheme.
 Bad input is one line naming the key, exit status 2.
@@ -27,6 +32,8 @@ from pd_common.opensees import ElementProtocolError, allow_list, check_bind
 from pd_common.registry import ParameterError, resolve_parameters
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.specimen import HYSTERESIS_MODELS
+from pd_core.errors import PdIntegratorError
+from pd_core.run.resume import load_resumable
 from pd_core.schemes.opensees_element import OpenSeesElement
 
 PROG = 'element_server'
@@ -49,7 +56,34 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         '(as ./pd offline): the bridge\'s limits are checked in-process')
     parser.add_argument('--out', help='run folder (default: runs/<test_id>-<UTC time>)')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--resume', metavar='RUN_DIR', help='continue a stopped served run from '
+                        'its journal; then start the OpenSees model again, from its beginning: '
+                        'its recorded steps are answered from the journal, nothing moves before '
+                        'the first step past it')
     return parser.parse_args(argv)
+
+
+def check_resumed_run(args: argparse.Namespace) -> Path:
+    """The run folder of ``--resume``, checked to be a served run.
+
+    Raises:
+        ServeError: Options that do not go with it, or not a served run folder.
+    """
+    if args.test_file or args.out or args.offline:
+        msg = '--resume: takes no test file, --out or --offline (the run folder has them)'
+        raise ServeError(msg)
+    run_dir = Path(args.resume)
+    try:
+        _, definition, _ = load_resumable(run_dir)
+    except PdIntegratorError as err:
+        msg = f'--resume: {err}'
+        raise ServeError(msg) from None
+    scheme = definition.scheme
+    if scheme != SCHEME:
+        msg = (f'--resume: {run_dir}: not a served run (scheme {scheme!r}): continue it with '
+               f'./pd run --resume {run_dir}')
+        raise ServeError(msg)
+    return run_dir
 
 
 def check_test_file(path: Path) -> tuple[str, list[str]]:
@@ -81,6 +115,8 @@ def check_test_file(path: Path) -> tuple[str, list[str]]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Check, then run the served test (replaces this process)."""
     args = parse_args(argv)
+    if args.resume:
+        return resume(args)
     try:
         test_file = (Path(args.test_file) if args.test_file
                      else share_file('pd_integrator', 'config', DEFAULT_TEST))
@@ -97,6 +133,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = [str(tool), str(test_file)]
     if args.out:
         command += ['--out', args.out]
+    if args.no_figures:
+        command.append('--no-figures')
+    os.execv(command[0], command)
+    return 0  # not reached
+
+
+def resume(args: argparse.Namespace) -> int:
+    """Continue a stopped served run through ``run_test --resume`` (replaces this process)."""
+    try:
+        run_dir = check_resumed_run(args)
+        tool = find_executable('pd_bringup', 'run_test')
+    except (ServeError, ResourceError) as err:
+        print(f'{PROG}: error: {err}', file=sys.stderr)
+        return 2
+    print(f'{PROG}: resuming the served run {run_dir}: start the OpenSees model again, from '
+          'its beginning', flush=True)
+    command = [str(tool), '--resume', str(run_dir)]
     if args.no_figures:
         command.append('--no-figures')
     os.execv(command[0], command)

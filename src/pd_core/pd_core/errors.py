@@ -33,3 +33,11 @@ class BagError(PdIntegratorError):
 
 class AnalysisEndedError(IntegratorError):
     """An external integrator (OpenSees's ``genericClient``) ended the analysis: not a fault."""
+
+
+class ElementLinkError(IntegratorError):
+    """A served OpenSees element's connection failed or broke the protocol.
+
+    The listener is closed: the test goes on only from its record, with the model started
+    again (``./pd serve --resume RUN_DIR``).
+    """

@@ -83,7 +83,7 @@ from pd_common.ros import (
     run_node,
     stamp_from_ns,
 )
-from pd_core.errors import PdIntegratorError
+from pd_core.errors import BagError, IntegratorError, PdIntegratorError
 from pd_core.run.loop.dispatch import StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
 from pd_core.run.loop.session import TestSession
@@ -276,7 +276,7 @@ class IntegratorNode(Node):
             (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
             self.bag.write_definition(text, time.time_ns())
         else:  # the step loop as it was when the run stopped (nothing is sent)
-            self.owed = restore_dispatcher(self.record, self.dispatcher, str(self.directory))
+            self.owed = self._restore(self.record)
             last_t = max((t for _, t, _, _ in self.record.ordered), default=time.time_ns())
             self._gap = max(0.0, (time.time_ns() - last_t) / 1e9)
             self.get_logger().warning(
@@ -294,9 +294,38 @@ class IntegratorNode(Node):
         heartbeat = self._guard(self._heartbeat)
         # (a timer's callback takes no argument: rclpy would hand ``*args`` a TimerInfo)
         self.create_timer(HEARTBEAT_S, lambda: heartbeat())
+        element = self.session.served_element
+        if element is not None:  # waiting for OpenSees blocks the executor: beat meanwhile
+            element.idle = heartbeat
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
+    def _restore(self, record: RecordedRun) -> list[tuple[str, Command]]:
+        """The step loop as the record leaves it (nothing is sent); what it still owes.
+
+        A served run's OpenSees model is re-run from its beginning: it connects again and its
+        trials are checked against the record and answered from it.
+        """
+        element = self.session.served_element
+        if element is None:
+            return restore_dispatcher(record, self.dispatcher, str(self.directory))
+        address = element.open().port
+        self.get_logger().warning(
+            f'resuming a served run: start the OpenSees model again, from its beginning '
+            f'(port {address}): the steps on record are answered from the journal and '
+            'nothing moves before the first step past it')
+        try:
+            element.connect()
+            return restore_dispatcher(record, self.dispatcher, str(self.directory))
+        except IntegratorError as err:
+            msg = f'parameter resume_from: {err}'
+            raise PdIntegratorError(msg) from None
+        except BagError as err:
+            element.close()
+            msg = (f'parameter resume_from: the OpenSees model that connected is not this '
+                   f'run\'s: {err}')
+            raise PdIntegratorError(msg) from None
+
     def refusals(self) -> dict[str, dict[str, int]]:
         """Messages refused by authentication, by source and reason (for the summary)."""
         counts = {f'feedback[{site or "default"}]': dict(sender.reply_gate.refused)

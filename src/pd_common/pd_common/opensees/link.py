@@ -25,6 +25,8 @@ from .exchange import ElementExchange, Event
 LOG = logging.getLogger('pd.element_server')
 
 LOOPBACK = '127.0.0.1'
+#: Seconds between two calls of :attr:`ElementLink.idle` while waiting for the element.
+IDLE_INTERVAL = 0.5
 _QUICKACK: int | None = getattr(socket, 'TCP_QUICKACK', None)
 
 
@@ -78,6 +80,11 @@ class ElementLink:
         allow: Client addresses allowed besides loopback clients of a loopback bind.
         allow_remote: The explicit consent to bind a non-loopback address.
         timeout: Seconds to wait for a connection or a message.
+
+    Attributes:
+        idle: Called about every :data:`IDLE_INTERVAL` s while waiting for the element (its
+            connection or its next message), e.g. to keep a node's heartbeat going while
+            OpenSees builds its model; ``None``: not called.
     """
 
     def __init__(self, host: str = LOOPBACK, port: int = 0, allow: Sequence[str] = (),
@@ -99,6 +106,7 @@ class ElementLink:
         self._client: socket.socket | None = None
         self.exchange: ElementExchange | None = None
         self.exchange_seconds: list[float] = []
+        self.idle: Callable[[], None] | None = None
 
     @property
     def connected(self) -> bool:
@@ -126,16 +134,18 @@ class ElementLink:
             if remaining <= 0:
                 msg = f'no OpenSees element connected within {self.timeout:g} s'
                 raise ElementLinkLostError(msg)
-            self._listener.settimeout(remaining)
+            self._listener.settimeout(min(remaining, IDLE_INTERVAL))
             try:
                 client, (address, _) = self._listener.accept()
             except TimeoutError:
+                if self.idle is not None:
+                    self.idle()
                 continue
             if self._allowed(address):
                 break
             LOG.warning('element server: refused a connection from %s (not allowed)', address)
             client.close()
-        client.settimeout(self.timeout)
+        client.settimeout(min(self.timeout, IDLE_INTERVAL))
         client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._client = client
         try:
@@ -149,6 +159,7 @@ class ElementLink:
         assert self._client is not None
         chunks: list[bytes] = []
         got = 0
+        deadline = time.monotonic() + self.timeout
         while got < n:
             try:
                 if _QUICKACK is not None:  # acknowledge at once: the element's small writes
@@ -156,7 +167,14 @@ class ElementLink:
                     # against a delayed ACK (40 ms per exchange)
                     self._client.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
                 chunk = self._client.recv(n - got)
-            except OSError as err:  # a timeout or a reset
+            except TimeoutError:
+                if time.monotonic() < deadline:
+                    if self.idle is not None:
+                        self.idle()
+                    continue
+                msg = f'the element\'s connection failed: no message within {self.timeout:g} s'
+                raise ElementLinkLostError(msg) from None
+            except OSError as err:  # a reset
                 msg = f'the element\'s connection failed: {err}'
                 raise ElementLinkLostError(msg) from None
             if not chunk:

@@ -20,6 +20,12 @@ a check that refused holds the test; a person's stop on record (an e-stop or an 
 pause or hold, :class:`~pd_common.protocol.holds.PersonHolds`) or ``hold_on_resume`` waits for
 a person's signed ``resume``; a physical site waits for the operator's confirmation; a run
 that was running goes on; a run held or paused on record stays so.
+
+A served run (OpenSees integrates: the ``opensees_element`` scheme) is re-run the same way with
+the model itself: the restarted OpenSees script connects again and runs from its beginning;
+each trial it sends is checked against the recorded command and answered with the recorded
+force, so nothing moves until it reaches the journal's last committed step, and a model whose
+trials differ from the record is refused (:func:`.runner.restore_dispatcher`).
 """
 
 from __future__ import annotations
@@ -34,7 +40,6 @@ from pd_common.config import read_text
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StateOrigin, TestState
 
 from ..errors import ConfigError
-from ..schemes import SCHEMES
 from .definition import TestDefinition
 from .loop.epochs import EpochGuard
 from .record.bag import TOPIC_STATUS, RecordedRun, site_of
@@ -78,9 +83,7 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
     """The folder, test and record of a run that can be resumed.
 
     Raises:
-        ConfigError: no such run, no journal, the test finished or was aborted, or its steps
-            came from another program (a served OpenSees model: its resume is not
-            implemented).
+        ConfigError: no such run, no journal, or the test finished or was aborted.
     """
     directory = Path(run_dir)
     definition_file = directory / DEFINITION_JSON
@@ -96,13 +99,6 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
         msg = f'{definition_file}: cannot read the test definition ({err.strerror})'
         raise ConfigError(msg) from None
     definition = from_json(text, source=definition_file.name)
-    scheme = SCHEMES.get(definition.scheme)
-    if scheme is not None and scheme.external:
-        msg = (f'{directory}: a served run ({definition.scheme}) cannot be resumed: the '
-               'external program (OpenSees) would have to restart from the journal\'s last '
-               'committed step, which is not implemented; the record is complete '
-               f'(./pd recover {directory}); start the model again in a new run')
-        raise ConfigError(msg)
     record = load_run(directory / JOURNAL_FILE)
     last = record.statuses[-1][1] if record.statuses else None
     if last is not None and last.state not in RESUMABLE:

@@ -467,6 +467,8 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
             if owed is None:
                 msg = (f'{source}: recorded command for step {item.step} of {item.test_id!r} '
                        'is not one the restored run owes')
+                if session.state is TestState.HOLDING:  # e.g. a served model's link failed
+                    msg += f' (the restored run holds: {session.message})'
                 raise BagError(msg)
             if session.state in (TestState.HOLDING, TestState.PAUSED, TestState.INTERRUPTED):
                 dispatcher.resume()

@@ -32,7 +32,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
@@ -48,7 +48,7 @@ from pd_common.opensees import (
 )
 from pd_common.registry import Parameter
 
-from ..errors import AnalysisEndedError, IntegratorError
+from ..errors import AnalysisEndedError, ElementLinkError, IntegratorError
 from .base import COMMITTED, CORRECTED, ITERATING, PREDICTED, Integrator
 
 __all__ = ['OpenSeesElement']
@@ -95,6 +95,10 @@ class OpenSeesElement(Integrator):
         self._direction: np.ndarray | None = None
         self.held_iterations = 0
         self.serving: str = ''
+        #: Called about every half second while the server waits for the element (its
+        #: connection, its next message): a node's heartbeat goes on while OpenSees builds its
+        #: model or computes a step.
+        self.idle: Callable[[], None] | None = None
         self._recorded: deque[tuple[int, tuple[float, ...]]] | None = None
         self._recorded_open: tuple[int, tuple[float, ...]] | None = None
 
@@ -148,16 +152,31 @@ class OpenSeesElement(Integrator):
             for warning in self._link.warnings:
                 LOG.warning('%s', warning)
             self.serving = f'{self._host}:{self._link.port}'
+        self._link.idle = self.idle
         return self._link
+
+    def connect(self) -> None:
+        """Bind (once) and wait for the element's connection and size message.
+
+        Raises:
+            IntegratorError: The address is refused, no element connected within ``timeout``,
+                or its size message is refused (the listener is then closed).
+        """
+        link = self.open()
+        if not link.connected:
+            try:
+                link.accept(self._stiffness)
+            except ElementProtocolError as err:
+                raise self._fault(err) from None
 
     def close(self) -> None:
         """Close the connection and the listener (a later client is refused)."""
         if self._link is not None:
             self._link.shutdown()
 
-    def _fault(self, err: ElementProtocolError) -> IntegratorError:
+    def _fault(self, err: ElementProtocolError) -> ElementLinkError:
         self.close()
-        return IntegratorError(f'OpenSees element: {err}')
+        return ElementLinkError(f'OpenSees element: {err}')
 
     def _stiffness(self, n: int) -> list[list[float]]:
         if n != self._n:

@@ -24,6 +24,7 @@ from ...dynamics.stability import StabilityReport, check_stability, require_stab
 from ...errors import (
     AnalysisEndedError,
     ConfigError,
+    ElementLinkError,
     IntegratorError,
     PdIntegratorError,
     ProtocolError,
@@ -133,6 +134,12 @@ class TestSession:
         if isinstance(self._integrator, OpenSeesElement):
             self._integrator.replay((c.step, c.iteration, tuple(c.target_displacement))
                                     for c in commands if c.test_id == self.definition.test_id)
+
+    @property
+    def served_element(self) -> OpenSeesElement | None:
+        """The external scheme serving an OpenSees element, if the test is served."""
+        integrator = self._integrator
+        return integrator if isinstance(integrator, OpenSeesElement) else None
 
     @property
     def total_steps(self) -> int:
@@ -344,8 +351,13 @@ class TestSession:
         """
         if self._integrator is not None:
             self._integrator.revert_to_last_step()
-        self._failure = (f'step {step}: numerical failure ({error}); reverted to step '
-                         f'{self.committed_step}')
+        if isinstance(error, ElementLinkError):  # the served model's link: closed for good
+            self._failure = (f'step {step}: {error}; reverted to step {self.committed_step}; '
+                             'continue the test with ./pd serve --resume RUN_DIR and the '
+                             'model started again')
+        else:
+            self._failure = (f'step {step}: numerical failure ({error}); reverted to step '
+                             f'{self.committed_step}')
         self._hold(self._failure)
 
     def _plan_probe(self) -> None:
