@@ -148,18 +148,20 @@ def test_one_bay_frame_with_both_columns_in_one_element_equals_its_twin(
     assert len(response) == int(STEPS) + 1
 
 
-def test_a_dropped_client_holds_the_test_with_a_complete_record(tmp_path: Path) -> None:
-    """openseespy killed mid-test: the test holds with the reason, nothing more is commanded,
-    the record holds every committed step (the twin's first steps), a reconnect is refused."""
+def drop_client(tmp_path: Path, at: int) -> tuple[Path, int, RunResult]:
+    """Serve the SDOF test and kill openseespy once step ``at`` is on record.
+
+    Returns the run folder, the port and the run's result (the server ended by itself).
+    """
     port = free_port()
     out = tmp_path / 'run'
     thread, box = serve(SERVE_EPP, port, out)
     wait_port(port, thread)
-    client = start_example('sdof_epp.py', tmp_path / 'served.txt', '--element', 'generic',
+    client = start_example('sdof_epp.py', tmp_path / 'first.txt', '--element', 'generic',
                            '--port', str(port), '--steps', STEPS)
     deadline = time.monotonic() + 60
-    while committed_steps(out) < 150:
-        assert client.poll() is None and time.monotonic() < deadline, 'no step 150'
+    while committed_steps(out) < at:
+        assert client.poll() is None and time.monotonic() < deadline, f'no step {at}'
         time.sleep(0.01)
     client.kill()
     client.wait(10)
@@ -168,6 +170,13 @@ def test_a_dropped_client_holds_the_test_with_a_complete_record(tmp_path: Path) 
     assert 'error' not in box, box.get('error')
     result = box['result']
     assert isinstance(result, RunResult)
+    return out, port, result
+
+
+def test_a_dropped_client_holds_the_test_with_a_complete_record(tmp_path: Path) -> None:
+    """openseespy killed mid-test: the test holds with the reason, nothing more is commanded,
+    the record holds every committed step (the twin's first steps), a reconnect is refused."""
+    out, port, result = drop_client(tmp_path, 150)
     summary = result.summary
     assert summary['state'] == 'holding', summary
     assert "OpenSees element: the element's connection failed" in summary['message'] or (
@@ -231,23 +240,22 @@ def resume_served(folder: Path) -> tuple[threading.Thread, dict[str, object]]:
 
 def dropped_run(tmp_path: Path, at: int) -> Path:
     """A served SDOF run whose OpenSees process was killed after step ``at`` (it holds)."""
-    port = free_port()
-    out = tmp_path / 'run'
-    thread, box = serve(SERVE_EPP, port, out)
-    wait_port(port, thread)
-    client = start_example('sdof_epp.py', tmp_path / 'first.txt', '--element', 'generic',
-                           '--port', str(port), '--steps', STEPS)
-    deadline = time.monotonic() + 60
-    while committed_steps(out) < at:
-        assert client.poll() is None and time.monotonic() < deadline, f'no step {at}'
-        time.sleep(0.01)
-    client.kill()
-    client.wait(10)
-    thread.join(60)
-    result = box['result']
-    assert isinstance(result, RunResult) and result.summary['state'] == 'holding'
+    out, _, result = drop_client(tmp_path, at)
+    assert result.summary['state'] == 'holding'
     assert '--resume' in result.summary['message']  # the way on is named
     return out
+
+
+def resumed_port(thread: threading.Thread, box: dict[str, object]) -> int:
+    """The port the resumed run (:func:`resume_served`) listens on, once it listens."""
+    deadline = time.monotonic() + 30
+    while 'port' not in box:
+        assert thread.is_alive() and time.monotonic() < deadline, box.get('error')
+        time.sleep(0.01)
+    port = box['port']
+    assert isinstance(port, int)
+    wait_port(port, thread)
+    return port
 
 
 def test_a_model_started_again_resumes_from_the_journal_and_ends_as_its_twin(
@@ -258,13 +266,9 @@ def test_a_model_started_again_resumes_from_the_journal_and_ends_as_its_twin(
     out = dropped_run(tmp_path, 200)
     recorded = committed_steps(out)
     thread, box = resume_served(out)
-    deadline = time.monotonic() + 30
-    while 'port' not in box:
-        assert thread.is_alive() and time.monotonic() < deadline, box.get('error')
-        time.sleep(0.01)
-    wait_port(int(box['port']), thread)  # type: ignore[call-overload]
+    port = resumed_port(thread, box)
     again = run_example('sdof_epp.py', tmp_path / 'again.txt', '--element', 'generic',
-                        '--port', str(box['port']), '--steps', STEPS)
+                        '--port', str(port), '--steps', STEPS)
     thread.join(60)
     assert 'error' not in box, box.get('error')
     assert box['sent_while_restoring'] == 0
@@ -296,13 +300,9 @@ def test_another_model_is_refused_at_its_first_trial_off_the_record(tmp_path: Pa
     out = dropped_run(tmp_path, 120)
     before = (out / JOURNAL_FILE).read_bytes()
     thread, box = resume_served(out)
-    deadline = time.monotonic() + 30
-    while 'port' not in box:
-        assert thread.is_alive() and time.monotonic() < deadline, box.get('error')
-        time.sleep(0.01)
-    wait_port(int(box['port']), thread)  # type: ignore[call-overload]
+    port = resumed_port(thread, box)
     other = start_example('sdof_epp.py', tmp_path / 'other.txt', '--element', 'generic',
-                          '--port', str(box['port']), '--steps', STEPS, '--scale', '1.5')
+                          '--port', str(port), '--steps', STEPS, '--scale', '1.5')
     thread.join(60)
     other.kill()
     other.wait(10)

@@ -309,10 +309,10 @@ class IntegratorNode(Node):
         element = self.session.served_element
         if element is None:
             return restore_dispatcher(record, self.dispatcher, str(self.directory))
-        address = element.open().port
+        port = element.open().port
         self.get_logger().warning(
             f'resuming a served run: start the OpenSees model again, from its beginning '
-            f'(port {address}): the steps on record are answered from the journal and '
+            f'(port {port}): the steps on record are answered from the journal and '
             'nothing moves before the first step past it')
         try:
             element.connect()
