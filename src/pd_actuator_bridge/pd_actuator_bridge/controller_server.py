@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
 import socket
 import sys
 import threading
@@ -61,6 +60,7 @@ from pd_actuator_bridge.core.drivers.generic_tcp_protocol import (
     encode_daq,
     first_non_finite,
 )
+from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
 
 LOGGER = logging.getLogger('pd_actuator_bridge.controller_server')
 
@@ -417,12 +417,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f'controller_server: listening on {args.host}:{port}', flush=True)
     LOGGER.info('controller: %s', controller.describe())
 
-    stop_requested = threading.Event()
-
-    def on_signal(signum: int, _frame: object) -> None:
-        stop_requested.set()
-
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    stop_requested = StopFlag()
+    previous = stop_on_signals(stop_requested)
     try:
         while not server.wait(_POLL):
             if stop_requested.is_set():
@@ -430,8 +426,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 break
     finally:
         server.stop()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        restore_handlers(previous)
     if stop_requested.is_set():
         return 0
     return 0 if server.ended_by_client else 1

@@ -62,6 +62,8 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
+
 PROG = 'opensees_site'
 MODELS = ('epp', 'elastic', 'script')
 COMPLETED_MARK = 'successfully completed'
@@ -324,12 +326,8 @@ def run_supervisor(args: argparse.Namespace) -> int:
     forwarder.start()
     print(f'{PROG}: serving {describe(args)} on port {args.port}', flush=True)
 
-    stop = threading.Event()
-
-    def on_signal(signum: int, _frame: object) -> None:
-        stop.set()
-
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    stop = StopFlag()
+    previous = stop_on_signals(stop)
     gone_since: float | None = None
     reason = ''
     try:
@@ -348,8 +346,7 @@ def run_supervisor(args: argparse.Namespace) -> int:
             child.kill()
         child.wait()
         forwarder.join(2.0)
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        restore_handlers(previous)
     if stop.is_set():
         print(f'{PROG}: stopped on request', file=sys.stderr, flush=True)
         return 0

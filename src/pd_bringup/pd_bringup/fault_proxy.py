@@ -34,7 +34,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -56,6 +55,7 @@ from pd_common.ros import (
     init_with_stop_flag,
     run_node,
 )
+from pd_common.signals import StopFlag
 from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback
 
 from .faults import FaultInjector, FaultPlan, FaultPlanError
@@ -271,7 +271,7 @@ class FaultProxyNode(Node):
             self.get_logger().error(f'report_file {self.report_file}: {err}')
 
 
-def run(node: FaultProxyNode, executor: Executor, stop: threading.Event) -> None:
+def run(node: FaultProxyNode, executor: Executor, stop: StopFlag) -> None:
     """Forward until ``stop`` is set (or the context shuts down); write the final report."""
     wait = 0.0
     try:

@@ -40,7 +40,6 @@ import math
 import os
 import signal
 import sys
-import threading
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -52,6 +51,7 @@ from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
 from pd_common.config import TestFile, load_yaml
 from pd_common.resources import ResourceError, find_executable
 from pd_common.ros import events_executor, exit_process
+from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_common.units import format_quantity
 from pd_core.errors import PdIntegratorError
@@ -422,9 +422,8 @@ def main(argv: list[str] | None = None) -> int:
 def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | None,
                args: argparse.Namespace) -> int:
     """Start the processes, supervise them until the integrator ends, stop everything."""
-    stop = threading.Event()
-    previous = {number: signal.signal(number, lambda *_: stop.set())
-                for number in (signal.SIGINT, signal.SIGTERM)}
+    stop = StopFlag()
+    previous = stop_on_signals(stop)
     previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, _on_hangup(plan.out / LOG_FILE))
     ros = _OperatorNode(env, key)
     reported: list[bool] = []
@@ -453,8 +452,7 @@ def _supervise(plan: LaunchPlan, policy: str, env: dict[str, str], key: Key | No
     finally:
         supervisor.stop()
         ros.close()
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+        restore_handlers(previous)
     report()
     return code
 
@@ -497,7 +495,7 @@ class _OperatorNode:
         self.operator = Operator(self.node, key)
         self.closed = False
 
-    def spin_checked(self, stop: threading.Event) -> Any:
+    def spin_checked(self, stop: StopFlag) -> Any:
         def spin(seconds: float) -> None:
             if stop.is_set():
                 raise _InterruptedError

@@ -69,6 +69,7 @@ from pd_common.ros import (
     init_with_stop_flag,
     repeat_emergency_stop,
 )
+from pd_common.signals import StopFlag
 from pd_core.errors import BagError
 from pd_msgs.msg import StepCommand, StepFeedback
 
@@ -724,7 +725,7 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-async def serve(server: ConsoleServer, stop: threading.Event) -> None:
+async def serve(server: ConsoleServer, stop: StopFlag) -> None:
     """Serve on ``server.host`` and ``server.port`` until ``stop`` is set.
 
     Prints the address and the login token.
@@ -800,7 +801,7 @@ def main(args: list[str] | None = None) -> int:
         except (BagError, OSError) as err:
             print(f'console: error: {err}', file=sys.stderr)
             return 2
-        stop = threading.Event()
+        stop = StopFlag()
         server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir,
                                host=options.host or '127.0.0.1',
                                port=DEFAULT_PORT if options.port is None else options.port)

@@ -20,6 +20,8 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
+from pd_common.signals import StopFlag, stop_on_signals
+
 if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
@@ -63,17 +65,17 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
             return
 
 
-def init_with_stop_flag(args: list[str] | None = None) -> threading.Event:
+def init_with_stop_flag(args: list[str] | None = None) -> StopFlag:
     """``rclpy.init`` without rclpy's signal handlers.
 
     SIGINT and SIGTERM only set the returned flag, so a node that must end cleanly (write its
     record, publish its final status) does so from its own loop instead of being interrupted in the
-    middle of a write.
+    middle of a write. The flag takes no lock (:mod:`pd_common.signals`): a second signal
+    during the first one's handling cannot deadlock the process.
     """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, lambda *_: stop.set())
+    stop = StopFlag()
+    stop_on_signals(stop)
     return stop
 
 
