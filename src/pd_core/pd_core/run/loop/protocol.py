@@ -63,7 +63,10 @@ class StepProtocol:
     retries: int = 0
     attempts: int = 0
     ignored: dict[Verdict, int] = field(default_factory=dict)
-    _answered: set[tuple[str, int, int]] = field(default_factory=set)
+    # Per test id, the highest (step, iteration) answered: a test's keys are answered in order,
+    # so this one pair stands for every key answered before it (a set of every key answered grew
+    # by a tuple a step, about 130 bytes, over a long test).
+    _answered_through: dict[str, tuple[int, int]] = field(default_factory=dict)
     _last_answered: tuple[str, int, int] | None = None
 
     @property
@@ -101,7 +104,9 @@ class StepProtocol:
         classifying it a second time).
         """
         answered = (feedback.test_id, feedback.step, feedback.iteration)
-        self._answered.add(answered)
+        through = self._answered_through.get(feedback.test_id)
+        if through is None or through < answered[1:]:
+            self._answered_through[feedback.test_id] = answered[1:]
         self._last_answered = answered
         self.pending = None
 
@@ -114,7 +119,8 @@ class StepProtocol:
         pending = self.pending
         test_id, step, iteration = feedback.test_id, feedback.step, feedback.iteration
         answered = (test_id, step, iteration)
-        if answered in self._answered:
+        through = self._answered_through.get(test_id)
+        if through is not None and (step, iteration) <= through:
             return (Verdict.DUPLICATE if answered == self._last_answered
                     else Verdict.STALE)
         if pending is None:
