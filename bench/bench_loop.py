@@ -17,7 +17,9 @@ or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
    the same step).
 3. The floor: a raw two-process rclpy ping-pong of messages of the same size (``StepCommand``
    with one target, ``StepFeedback`` with one displacement and one force, reliable keep-all
-   QoS like the nodes), with the EventsExecutor (``spin_once`` loop) and, for comparison, the
+   QoS like the nodes), with the EventsExecutor (``spin_once`` loop) as message objects and as
+   raw CDR bytes (``raw=True`` subscriptions, ``publish(bytes)``: what the nodes' hot topics
+   do; the echo copies the step and target into a template reply) and, for comparison, the
    SingleThreadedExecutor.
 4. The goal (>= 2,000 steps/s through the graph) next to what was reached.
 5. Per registered integration scheme (``--schemes`` limits the set), the ROS-free core's
@@ -442,8 +444,23 @@ def on_command(message):
     publisher.publish(reply)
 
 
-node.create_subscription(StepCommand, '/bench/ping', on_command, qos)
-executor = EventsExecutor() if kind == 'events' else SingleThreadedExecutor()
+if kind == 'raw':  # the same messages as CDR bytes: the step and target copied, no objects
+    import struct
+    step_at, target_at, reply_step_at, measured_at, force_at = (
+        int(value) for value in sys.argv[3:8])
+    raw_reply = bytearray.fromhex(sys.argv[8])
+    double = struct.Struct('<d')
+
+    def on_command(data):
+        raw_reply[reply_step_at:reply_step_at + 8] = data[step_at:step_at + 8]
+        (target,) = double.unpack_from(data, target_at)
+        double.pack_into(raw_reply, measured_at, target)
+        double.pack_into(raw_reply, force_at, 312559.0 * target)
+        publisher.publish(bytes(raw_reply))
+
+
+node.create_subscription(StepCommand, '/bench/ping', on_command, qos, raw=kind == 'raw')
+executor = SingleThreadedExecutor() if kind == 'single' else EventsExecutor()
 executor.add_node(node)
 print('ready', flush=True)
 try:
@@ -456,6 +473,44 @@ finally:
     node.destroy_node()
     rclpy.try_shutdown()
 '''
+
+
+@dataclass(frozen=True)
+class RawLayout:
+    """The ping-pong's messages as CDR bytes and where the echoed fields sit in them."""
+
+    command: bytes
+    step_at: int
+    target_at: int
+    feedback: bytes
+    reply_step_at: int
+    measured_at: int
+    force_at: int
+
+    @classmethod
+    def of(cls, test_id: str) -> RawLayout:
+        """The layout of a one-DOF command and feedback (found with sentinel values)."""
+        import struct
+
+        from pd_common.protocol import Command, Feedback, encode_command, encode_feedback
+
+        step, target, force = 0x0102030405060708, 1.2345678e-3, 9.87654321e5
+        command = encode_command(Command(test_id, step, 0.0, ('top',), (target,)), 0)
+        feedback = encode_feedback(Feedback(test_id, step, (target,), (force,)), 0)
+
+        def at(data: bytes, value: bytes) -> int:
+            index = data.find(value)
+            assert index > 0 and data.find(value, index + 1) < 0, 'ambiguous sentinel'
+            return index
+
+        q, d = struct.Struct('<Q').pack, struct.Struct('<d').pack
+        return cls(command, at(command, q(step)), at(command, d(target)), feedback,
+                   at(feedback, q(step)), at(feedback, d(target)), at(feedback, d(force)))
+
+    def echo_arguments(self) -> list[str]:
+        """The echo subprocess's arguments after its kind and domain."""
+        return [str(self.step_at), str(self.target_at), str(self.reply_step_at),
+                str(self.measured_at), str(self.force_at), self.feedback.hex()]
 
 
 @dataclass
@@ -481,37 +536,56 @@ def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     before = shm_snapshot()
-    echo = subprocess.Popen([sys.executable, '-c', ECHO_SCRIPT, kind, str(domain_id)], env=env,
+    layout = RawLayout.of(test_id)
+    extra = layout.echo_arguments() if kind == 'raw' else []
+    echo = subprocess.Popen([sys.executable, '-c', ECHO_SCRIPT, kind, str(domain_id), *extra],
+                            env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain_id)
     node = rclpy.create_node('bench_ping', context=context)
-    executor = (EventsExecutor(context=context) if kind == 'events'
-                else SingleThreadedExecutor(context=context))
+    executor = (SingleThreadedExecutor(context=context) if kind == 'single'
+                else EventsExecutor(context=context))
+    raw = kind == 'raw'
     try:
+        import struct
+
         received: list[int] = [0]
         expected: list[int] = [-1]
+        step_of = struct.Struct('<Q')
+        double = struct.Struct('<d')
 
         def on_feedback(message: StepFeedback) -> None:
             if message.step == expected[0]:
                 received[0] = time.perf_counter_ns()
 
+        def on_raw_feedback(data: bytes) -> None:
+            if step_of.unpack_from(data, layout.reply_step_at)[0] == expected[0]:
+                received[0] = time.perf_counter_ns()
+
         publisher = node.create_publisher(StepCommand, '/bench/ping', qos)
-        node.create_subscription(StepFeedback, '/bench/pong', on_feedback, qos)
+        node.create_subscription(StepFeedback, '/bench/pong',
+                                 on_raw_feedback if raw else on_feedback, qos, raw=raw)
         executor.add_node(node)
         command = StepCommand()
         command.test_id = test_id
         command.dof_names = ['top']
         command.target_displacement = [0.0]
+        raw_command = bytearray(layout.command)
 
         def round_trip(step: int, timeout: float) -> int | None:
             expected[0] = step
             received[0] = 0
-            command.step = step
-            command.target_displacement = [1e-6 * (step % 1000)]
             sent = time.perf_counter_ns()
-            publisher.publish(command)
+            if raw:
+                step_of.pack_into(raw_command, layout.step_at, step)
+                double.pack_into(raw_command, layout.target_at, 1e-6 * (step % 1000))
+                publisher.publish(bytes(raw_command))
+            else:
+                command.step = step
+                command.target_displacement = [1e-6 * (step % 1000)]
+                publisher.publish(command)
             deadline = time.monotonic() + timeout
             while not received[0]:
                 executor.spin_once(timeout_sec=0.05)
@@ -554,10 +628,13 @@ def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
         remove_stale_segments(before, domain_id)
 
 
-def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> Row | None:
-    """EventsExecutor and SingleThreadedExecutor ping-pongs; returns the events row."""
-    events_row = None
+def bench_ping(table: Table, domain_id: int, count: int, test_id: str
+               ) -> tuple[Row | None, Row | None]:
+    """Ping-pongs: EventsExecutor with message objects and as raw CDR bytes, and the
+    SingleThreadedExecutor; returns the two EventsExecutor rows (objects, raw)."""
+    rows: dict[str, Row] = {}
     for kind, label in (('events', 'EventsExecutor (spin_once loop)'),
+                        ('raw', 'EventsExecutor, raw CDR bytes'),
                         ('single', 'SingleThreadedExecutor')):
         try:
             result = _ping(kind, domain_id, count, test_id)
@@ -576,9 +653,8 @@ def bench_ping(table: Table, domain_id: int, count: int, test_id: str) -> Row | 
                   median_us=statistics.median(samples) * 1e6,
                   p99_us=percentile(samples, 99) * 1e6, note=note)
         table.add(row)
-        if kind == 'events':
-            events_row = row
-    return events_row
+        rows[kind] = row
+    return rows.get('events'), rows.get('raw')
 
 
 # -- 5. schemes (ROS-free core) -----------------------------------------------------------
@@ -913,27 +989,35 @@ def _handle_stop_signals() -> None:
     signal.signal(signal.SIGTERM, _raise_interrupt)
 
 
-GOAL_FIGURES = {'graph_direct_over_floor': '<= 1.3', 'graph_bridge_over_floor': '<= 1.3',
-                'graph_direct_p99_ms': '< 1',
-                'graph_protocol_work_over_floor': '<= 0.3 leaves DDS at the floor'}
+# Issue 33's goals (the floors: the same run's message-object and raw-bytes ping-pongs).
+GOAL_FIGURES = {'graph_direct_over_floor': '<= 1.0', 'graph_bridge_over_floor': '<= 1.0',
+                'graph_direct_over_raw_floor': '<= 1.3', 'graph_bridge_over_raw_floor': '<= 1.3',
+                'graph_direct_p99_ms': '<= 0.8',
+                'graph_protocol_work_over_floor': '(reported)',
+                'graph_protocol_work_over_raw_floor': '<= 0.2'}
 HOPS = {'direct': 1, 'bridge': 2}  # raw round trips a step needs: direct 1, bridge 2
 
 
-def goal_figures(graphs: dict[str, Row | None], floor: Row | None) -> dict[str, float]:
-    """Issue 13 goal 1's figures for ``bench/results.json`` (the ones this run measured).
+def goal_figures(graphs: dict[str, Row | None], floor: Row | None,
+                 raw_floor: Row | None = None) -> dict[str, float]:
+    """The loop's goal figures for ``bench/results.json`` (the ones this run measured).
 
     ``graph_<site>_over_floor``: the graph's time per step (wall / steps) over the same run's
-    raw EventsExecutor ping-pong median round trip times the hops a step needs;
+    EventsExecutor ping-pong median round trip (message objects) times the hops a step needs;
+    ``graph_<site>_over_raw_floor``: the same over the raw-bytes ping-pong;
     ``graph_direct_p99_ms``: the direct graph's p99 step round trip.
     """
     figures: dict[str, float] = {}
-    floor_us = floor.median_us if floor is not None else None
+    floors = {'floor': floor.median_us if floor is not None else None,
+              'raw_floor': raw_floor.median_us if raw_floor is not None else None}
     for site, hops in HOPS.items():
         row = graphs.get(site)
         if row is None or not row.rate:
             continue
-        if floor_us:
-            figures[f'graph_{site}_over_floor'] = round(1e6 / row.rate / (hops * floor_us), 3)
+        for name, floor_us in floors.items():
+            if floor_us:
+                figures[f'graph_{site}_over_{name}'] = round(
+                    1e6 / row.rate / (hops * floor_us), 3)
         if site == 'direct' and row.p99_us is not None:
             figures['graph_direct_p99_ms'] = round(row.p99_us / 1e3, 4)
     return figures
@@ -967,6 +1051,7 @@ def main(argv: list[str] | None = None) -> int:
     shm_before = shm_snapshot()
     graphs: dict[str, Row | None] = {}
     floor_row: Row | None = None
+    raw_row: Row | None = None
     offline_s: float | None = None
     scheme_bench: SchemeBench | None = None
     interrupted = False
@@ -980,8 +1065,9 @@ def main(argv: list[str] | None = None) -> int:
                     f'graph {site}', args.verbose, table,
                     lambda site=site: bench_graph(table, site, param_args, args.domain_id,
                                                   work, timeout, graph_runs))
-            floor_row = _timed('ping-pong', args.verbose, table,
-                           lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
+            floor_row, raw_row = _timed(
+                'ping-pong', args.verbose, table,
+                lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
             if schemes:
                 scheme_bench = _timed('schemes', args.verbose, table,
                                       lambda: bench_schemes(schemes, overrides, args.verbose))
@@ -1001,12 +1087,15 @@ def main(argv: list[str] | None = None) -> int:
     if floor is not None:
         table.add(Row('4 goal', 'floor: 1 raw round trip per step', floor, unit='steps/s',
                       note='direct: 1 round trip per step; bridge: 2 (about half this)'))
-    figures = goal_figures(graphs, floor_row)
+    figures = goal_figures(graphs, floor_row, raw_row)
     if offline_s is not None and floor_row is not None and floor_row.median_us:
         # What the goal leaves for the protocol: a step at 1.3 x the floor has 0.3 x the floor
         # for everything but DDS; this is what the protocol's own work takes, without DDS.
         work_us, how = protocol_work_us(offline_s * 1e6)
         figures['graph_protocol_work_over_floor'] = round(work_us / floor_row.median_us, 3)
+        if raw_row is not None and raw_row.median_us:
+            figures['graph_protocol_work_over_raw_floor'] = round(
+                work_us / raw_row.median_us, 3)
         table.add(Row('4 goal', 'protocol work per step (no DDS)', 1e6 / work_us,
                       note=f'{work_us:.0f} us/step: {how}'))
     for name, value in figures.items():

@@ -8,6 +8,7 @@ ROS-free run's byte for byte, and every refused attempt must be counted by reaso
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -181,6 +182,12 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                                               signature=rogue.sign(feedback_payload(forged))))
         for message in captured_feedback * 2:  # replays of genuine signed feedback
             feedback.publish(message)
+        # malformed: a test id beyond its bound (the raw readers refuse it as the conversion
+        # did, counted, never taken nor crashing the node)
+        commands.publish(command_message(dataclasses.replace(hijack, test_id='x' * 1000)))
+        feedback.publish(feedback_message(Feedback(test_id='x' * 1000, step=last.step + 1,
+                                                   measured_displacement=(0.0,),
+                                                   restoring_force=(0.0,))))
         for command in ('abort', 'pause', 'resume'):
             for signer in (None, rogue):
                 control = Control(command=command, stamp=time.time())
@@ -238,7 +245,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
 
     repeat_until(observer, attack,
                  lambda: all(reason in bridge_statuses[-1].refused_by_reason
-                             for reason in ('unsigned', 'wrong_key', 'replayed')),
+                             for reason in ('unsigned', 'wrong_key', 'replayed', 'malformed')),
                  lambda: 'the bridge to name every refusal; its statuses said '
                  + repr([(s.state, s.message, s.refused_by_reason)
                          for s in bridge_statuses[-4:]]))
@@ -280,6 +287,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert side['node'] == '/pd/pd_actuator_bridge'
     assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
     assert refused['feedback[default]']['unsigned'] >= 10
+    assert refused['malformed']['malformed'] >= 1  # (the malformed feedback)
     assert {'unsigned', 'wrong_key'} <= set(refused['test_control'])
     # Every move that reached the specimen (that the observer heard) was a target the
     # owner's integrator sent (its bag); none of the rogue's.

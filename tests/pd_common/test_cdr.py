@@ -56,6 +56,8 @@ from pd_common.protocol import (
     feedback_from_message,
     offer_from_message,
     signature_from_message,
+    signed_from_bytes,
+    signed_from_message,
     stamp_ns_of,
     status_from_message,
 )
@@ -564,3 +566,21 @@ def test_what_cdr_cannot_carry_is_refused(record: Any, stamp_ns: int, match: str
     encode = cdr.encode_command if isinstance(record, Command) else cdr.encode_feedback
     with pytest.raises(cdr.CdrEncodeError, match=match):
         encode(record, stamp_ns)
+
+
+@pytest.mark.parametrize('name', ['command', 'feedback'])
+def test_signed_from_bytes_is_the_raw_subscriptions_reading(name: str) -> None:
+    """A raw subscription's reading of rclpy's bytes is signed_from_message's of the message;
+    bytes beyond a bound or truncated read as malformed (``None``), never raise."""
+    kind = KINDS[name]
+    decode = cdr.decode_command if name == 'command' else cdr.decode_feedback
+    message = kind.to_message(SAMPLES[name], 5, SIGNED)
+    data = serialize_message(message)
+    assert bits(signed_from_bytes(decode, data)) == bits(
+        signed_from_message(kind.from_message, message))
+    too_long = dataclasses.replace(SAMPLES[name], test_id='x' * 1000)
+    long_message = kind.to_message(too_long, 5, SIGNED)
+    assert signed_from_message(kind.from_message, long_message) is None
+    assert signed_from_bytes(decode, serialize_message(long_message)) is None
+    end = len(kind.encode(SAMPLES[name], 5, SIGNED))  # (rclpy's bytes may run on past it)
+    assert signed_from_bytes(decode, data[:end - 3]) is None

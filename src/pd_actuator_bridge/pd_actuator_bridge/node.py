@@ -78,7 +78,6 @@ import json
 import os
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -113,8 +112,10 @@ from pd_common.protocol import (
     StepKey,
     TestState,
     clip_reason,
-    command_from_message,
     control_from_message,
+    decode_command,
+    encode_feedback,
+    signed_from_bytes,
     signed_from_message,
     untag,
 )
@@ -130,7 +131,6 @@ from pd_common.ros import (
     RefusalLog,
     SessionReceiver,
     declare_key,
-    feedback_message,
     new_epoch,
     now_stamp,
     run_node,
@@ -239,7 +239,6 @@ class ActuatorBridgeNode(LifecycleNode):
         self.limits: SafetyLimits | None = None
         self._command_sub: Any = None
         self._feedback_pub: Any = None
-        self._feedback = StepFeedback()
         self._test_id = ''
         self._step = 0
         self._last_status: tuple[int, str] = (TestStatus.STATE_IDLE, 'unconfigured')
@@ -351,8 +350,9 @@ class ActuatorBridgeNode(LifecycleNode):
             # Active, but no session is offered (so nothing can move) until it is.
             self.get_logger().info(f'active; waiting for {driver.waiting_for()}')
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
+        # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
         self._command_sub = self.create_subscription(StepCommand, 'step_command',
-                                                     self._on_command, STEP_QOS)
+                                                     self._on_command, STEP_QOS, raw=True)
         self._accept_when_ready = True  # check_driver offers a session once the driver is
         limits = self.limits
         assert limits is not None
@@ -542,10 +542,9 @@ class ActuatorBridgeNode(LifecycleNode):
         state, message = self._last_status
         self.publish_status(state, message)
 
-    def _well_formed(self, convert: Callable[[Any], Item], message: Any, source: str
+    def _well_formed(self, signed: tuple[Item, Signature] | None, source: str
                      ) -> tuple[Item, Signature] | None:
-        """A message's item and signature; ``None`` (counted, reported) if it is malformed."""
-        signed = signed_from_message(convert, message)
+        """A message's item and signature, read; ``None`` is counted and reported (malformed)."""
         if signed is None:
             self._malformed += 1
             self._refused(Refusal.MALFORMED, Signature(), source)
@@ -567,9 +566,8 @@ class ActuatorBridgeNode(LifecycleNode):
             reply, test_id=untag(reply.test_id),
             epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
             state_origin=driver.state_origin if driver is not None else self.receiver.origin)
-        self._feedback_pub.publish(feedback_message(
-            feedback, message=self._feedback,
-            signature=self.receiver.sign(feedback, self._request)))
+        self._feedback_pub.publish(encode_feedback(
+            feedback, time.time_ns(), self.receiver.sign(feedback, self._request)))
         if reply.status is FeedbackStatus.OK:
             self.receiver.set_state(reply.measured_displacement, reply.restoring_force)
             # The state behind the bridge (a restarted specimen node's epoch) for its offer.
@@ -628,11 +626,11 @@ class ActuatorBridgeNode(LifecycleNode):
         self._trajectory_pub.publish(message)
 
     # -- callbacks ----------------------------------------------------------------------------
-    def _on_command(self, message: StepCommand) -> None:
+    def _on_command(self, data: bytes) -> None:
         bridge = self.bridge
         if bridge is None:
             return
-        signed = self._well_formed(command_from_message, message, 'step_command')
+        signed = self._well_formed(signed_from_bytes(decode_command, data), 'step_command')
         if signed is None:
             return
         command, signature = signed
@@ -641,19 +639,18 @@ class ActuatorBridgeNode(LifecycleNode):
             self._refused(reason, signature, 'step_command')
             return
         self._request = signature
-        self._test_id, self._step = message.test_id, message.step
-        key = StepKey(message.step, message.iteration)  # the bridge core orders steps by it
+        self._test_id, self._step = command.test_id, command.step
+        key = StepKey(command.step, command.iteration)  # the bridge core orders steps by it
         # (the same test file run again by a new integrator: a new run, not stale steps)
-        run = self._runs.tag(message.test_id, key, signature.session)
-        self._target = (run, key, tuple(message.target_displacement.tolist()))
+        run = self._runs.tag(command.test_id, key, signature.session)
+        self._target = (run, key, command.target_displacement)
         was_holding = bridge.state == 'holding'
         driver = self.driver
         if driver is not None:
             driver.set_test_id(run)  # a forwarding driver keys its moves like the command
         reply = bridge.handle_command(
-            run, key, tuple(message.target_displacement.tolist()),
-            control_mode=tuple(int(mode) for mode in message.control_mode),
-            target_force=tuple(float(force) for force in message.target_force))
+            run, key, command.target_displacement, control_mode=command.control_mode,
+            target_force=command.target_force)
         if reply is None and driver is not None and bridge.in_flight == (run, key):
             driver.repeat()  # a re-sent command: ask the controller again, no new motion
         if reply is not None:
@@ -793,7 +790,8 @@ class ActuatorBridgeNode(LifecycleNode):
         return response
 
     def _on_control(self, message: Any) -> None:
-        signed = self._well_formed(control_from_message, message, 'bridge/control')
+        signed = self._well_formed(signed_from_message(control_from_message, message),
+                                   'bridge/control')
         if signed is None:
             return
         control, signature = signed

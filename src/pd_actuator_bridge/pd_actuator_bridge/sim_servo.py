@@ -43,10 +43,11 @@ from pd_common.protocol import (
     Command,
     FeedbackStatus,
     StateOrigin,
-    feedback_from_message,
-    signature_from_message,
+    decode_feedback,
+    encode_command,
+    signed_from_bytes,
 )
-from pd_common.ros import STEP_QOS, SessionSender, command_message
+from pd_common.ros import STEP_QOS, SessionSender
 from pd_msgs.msg import StepCommand, StepFeedback
 
 from .core import (
@@ -90,13 +91,12 @@ class SimServoDriver(ActuatorDriver):
         self._publisher = node.create_publisher(StepCommand, f'{namespace}/step_command',
                                                 STEP_QOS)
         self._subscription = node.create_subscription(
-            StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS)
+            StepFeedback, f'{namespace}/step_feedback', self._on_feedback, STEP_QOS, raw=True)
         self._position = [0.0] * n_dof
         self._offered_force: list[float] | None = None
         self._in_flight: tuple[Any, tuple[str, int, int]] | None = None  # (step, move key)
         self._move_test_id = ''
         self._move: Command | None = None
-        self._message = StepCommand()
         self._sent_at = 0.0
         self.on_fault: Callable[[str], None] | None = None
 
@@ -231,8 +231,8 @@ class SimServoDriver(ActuatorDriver):
         """Re-send the move in flight, signed anew (the specimen answers it without moving)."""
         if self._move is not None and self._in_flight is not None:
             self._sent_at = time.monotonic()
-            self._publisher.publish(command_message(self._move, message=self._message,
-                                                    signature=self._sender.sign(self._move)))
+            self._publisher.publish(encode_command(self._move, time.time_ns(),
+                                                   self._sender.sign(self._move)))
 
     def hold(self) -> None:
         """Stop: forget the move in flight; the specimen stays where it is."""
@@ -253,25 +253,27 @@ class SimServoDriver(ActuatorDriver):
         self._node.destroy_publisher(self._publisher)
         self._node.destroy_subscription(self._subscription)
 
-    def _on_feedback(self, message: StepFeedback) -> None:
+    def _on_feedback(self, data: bytes) -> None:
         """Report the specimen's answer to the move in flight (ignore anything else)."""
-        if self._in_flight is None or (
-                message.test_id, message.step, message.iteration) != self._in_flight[1]:
+        signed = signed_from_bytes(decode_feedback, data)
+        if self._in_flight is None or signed is None:  # (malformed: not an answer)
             return
-        if self._sender.admit(feedback_from_message(message),
-                              signature_from_message(message.signature)) is not None:
+        feedback, signature = signed
+        if (feedback.test_id, feedback.step, feedback.iteration) != self._in_flight[1]:
+            return
+        if self._sender.admit(feedback, signature) is not None:
             return  # not the specimen's genuine answer (counted): the move stays in flight
-        self._specimen_epoch = message.epoch
-        self._specimen_origin = StateOrigin(message.state_origin)
+        self._specimen_epoch = feedback.epoch
+        self._specimen_origin = feedback.state_origin
         step = self._in_flight[0]
         self._in_flight = None
-        if message.status != FeedbackStatus.OK:
+        if feedback.status is not FeedbackStatus.OK:
             if self.on_fault is not None:
-                self.on_fault(f'specimen fault at step {step}: {message.message}')
+                self.on_fault(f'specimen fault at step {step}: {feedback.message}')
             return
-        self._position = list(message.measured_displacement)
-        self._emit(ActuatorMeasurement(step, tuple(message.measured_displacement),
-                                       tuple(message.restoring_force)))
+        self._position = list(feedback.measured_displacement)
+        self._emit(ActuatorMeasurement(step, tuple(feedback.measured_displacement),
+                                       tuple(feedback.restoring_force)))
 
 
 def make_sim_servo_driver(context: DriverContext) -> SimServoDriver:

@@ -53,8 +53,9 @@ from pd_common.config import SchemaError, default_bridge_parameter_file, read_br
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Status,
-    command_from_message,
-    feedback_from_message,
+    decode_command,
+    decode_feedback,
+    signed_from_bytes,
     site_topic,
     site_topic_name,
 )
@@ -193,24 +194,27 @@ class ConsoleNode(Node):
             return
         self._sites.add(site)
 
-        def on_command(message: Any) -> None:
-            command = command_from_message(message)
-            with self.lock:
-                self.model.on_command(site, command)
+        def on_command(data: bytes) -> None:
+            signed = signed_from_bytes(decode_command, data)
+            if signed is not None:  # (a malformed one is the receivers' to refuse)
+                with self.lock:
+                    self.model.on_command(site, signed[0])
 
-        def on_feedback(message: Any) -> None:
-            feedback = feedback_from_message(message)
-            with self.lock:
-                self.model.on_feedback(site, feedback)
+        def on_feedback(data: bytes) -> None:
+            signed = signed_from_bytes(decode_feedback, data)
+            if signed is not None:
+                with self.lock:
+                    self.model.on_feedback(site, signed[0])
 
         def on_bridge(status: Status) -> None:
             with self.lock:
                 self.model.on_bridge_status(site, status)
 
+        # The hot topics as CDR bytes, read without message objects (pd_common.protocol.cdr).
         self.create_subscription(StepCommand, site_topic(site, 'step_command'), on_command,
-                                 STEP_QOS)
+                                 STEP_QOS, raw=True)
         self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'), on_feedback,
-                                 STEP_QOS)
+                                 STEP_QOS, raw=True)
         self.controls.watch(site_topic_name(site, 'bridge/status'), on_bridge)
 
     def _on_status(self, status: Status) -> None:

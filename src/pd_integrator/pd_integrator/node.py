@@ -26,7 +26,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import shutil
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -59,8 +58,10 @@ from pd_common.protocol import (
     TestState,
     clip_reason,
     control_from_message,
-    feedback_from_message,
+    decode_feedback,
+    encode_command,
     signature_from_message,
+    signed_from_bytes,
     signed_from_message,
     site_topic,
     site_topic_name,
@@ -74,15 +75,14 @@ from pd_common.ros import (
     Announcer,
     RefusalLog,
     SessionSender,
-    command_message,
     declare_key,
     exit_process,
     init_with_stop_flag,
     now_stamp,
     read_status,
     run_node,
-    stamp_from_ns,
 )
+from pd_common.signals import StopFlag
 from pd_core.errors import BagError, IntegratorError, PdIntegratorError
 from pd_core.run.loop.dispatch import StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
@@ -139,13 +139,31 @@ _OVERRIDE_DESCRIPTIONS = {
 }
 
 
-def round_trip_statistics(samples: list[float]) -> dict[str, float]:
-    """Median, p99 and max of the command → feedback round trips [ms] (re-sends included)."""
-    if not samples:
-        return {'count': 0}
-    values = np.array(samples) * 1e3
-    return {'count': int(values.size), 'median_ms': float(np.median(values)),
-            'p99_ms': float(np.percentile(values, 99)), 'max_ms': float(values.max())}
+class RoundTrips:
+    """The command → feedback round trips of a test [s], in an array allocated at the start.
+
+    Sized for one round trip a step (and written at once, so no page is first touched during
+    the test); iterations beyond that double it. A list of floats grew by 32 bytes a step.
+    """
+
+    def __init__(self, capacity: int) -> None:
+        self._values = np.full(max(int(capacity), 16), 0.0)
+        self.count = 0
+
+    def add(self, seconds: float) -> None:
+        """Record one round trip."""
+        if self.count == self._values.size:
+            self._values = np.concatenate([self._values, np.full(self._values.size, 0.0)])
+        self._values[self.count] = seconds
+        self.count += 1
+
+    def statistics(self) -> dict[str, float]:
+        """Median, p99 and max of the round trips [ms] (re-sends included)."""
+        if not self.count:
+            return {'count': 0}
+        values = self._values[:self.count] * 1e3
+        return {'count': int(values.size), 'median_ms': float(np.median(values)),
+                'p99_ms': float(np.percentile(values, 99)), 'max_ms': float(values.max())}
 
 
 class IntegratorNode(Node):
@@ -249,10 +267,11 @@ class IntegratorNode(Node):
         for site in self.dispatcher.sites:
             self._command_pubs[site] = self.create_publisher(
                 StepCommand, site_topic(site, 'step_command'), STEP_QOS)
+            # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
             self._feedback_subs[site] = self.create_subscription(
                 StepFeedback, site_topic(site, 'step_feedback'),
-                self._guard(lambda message, site=site: self._on_feedback(site, message)),
-                STEP_QOS)
+                self._guard(lambda data, site=site: self._on_feedback(site, data)),
+                STEP_QOS, raw=True)
             status_topic = site_topic_name(site, 'bridge/status')
             trajectory_topic = site_topic_name(site, 'bridge/trajectory')
             self.create_subscription(
@@ -285,9 +304,9 @@ class IntegratorNode(Node):
                 f'{self._gap:.1f} s since the last record')
         self.bag.flush()
         self._definition_pub.publish(String(data=text))
-        self._command_message = StepCommand()
         self._sent_at = 0.0
-        self._round_trips: list[float] = []  # s, step sent -> its (assembled) feedback accepted
+        # s, step sent -> its (assembled) feedback accepted
+        self._round_trips = RoundTrips(len(self.session.history.ground_acceleration))
         self._last_state: TestState | None = None
         self._started = 0.0
         self._figure_worker: FigureWorker | None = None
@@ -402,10 +421,9 @@ class IntegratorNode(Node):
         self.bag.write_event(str(event['what']), time.time_ns(), **info)
         self.bag.persist()
 
-    def _well_formed(self, convert: Callable[[Any], Item], message: Any, topic: str
+    def _well_formed(self, signed: tuple[Item, Signature] | None, topic: str
                      ) -> tuple[Item, Signature] | None:
-        """A message's item and signature; ``None`` (counted, reported) if it is malformed."""
-        signed = signed_from_message(convert, message)
+        """A message's item and signature, read; ``None`` is counted and reported (malformed)."""
         if signed is None:
             self._malformed += 1
             self._refusal_log(Refusal.MALFORMED, Signature(), self.resolve_topic_name(topic))
@@ -418,8 +436,7 @@ class IntegratorNode(Node):
     def _publish_command(self, site: str, command: Command) -> Signature:
         """Sign and publish one site command; restart the feedback timer."""
         signature = self.senders[site].sign(command)
-        self._command_pubs[site].publish(command_message(
-            command, stamp_from_ns(time.time_ns()), self._command_message, signature))
+        self._command_pubs[site].publish(encode_command(command, time.time_ns(), signature))
         self._sent_at = time.monotonic()
         return signature
 
@@ -553,12 +570,12 @@ class IntegratorNode(Node):
             self.dispatcher.resume()
 
     # -- callbacks ----------------------------------------------------------------------------
-    def _on_feedback(self, site: str, message: StepFeedback) -> None:
+    def _on_feedback(self, site: str, data: bytes) -> None:
         received = time.monotonic()
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        signed = self._well_formed(feedback_from_message, message,
+        signed = self._well_formed(signed_from_bytes(decode_feedback, data),
                                    site_topic(site, 'step_feedback'))
         if signed is None:
             return
@@ -574,7 +591,7 @@ class IntegratorNode(Node):
         self.steering.after_feedback(feedback, was)
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):
-            self._round_trips.append(received - sent_at)
+            self._round_trips.add(received - sent_at)
         if self.session.state is not TestState.RUNNING:
             self.publish_status()
         elif (line := self.meter.update(max(self.session.committed_step, 0))) is not None:
@@ -613,7 +630,8 @@ class IntegratorNode(Node):
         self.publish_status()
 
     def _on_control(self, message: Any) -> None:
-        signed = self._well_formed(control_from_message, message, 'test_control')
+        signed = self._well_formed(signed_from_message(control_from_message, message),
+                                   'test_control')
         if signed is None:
             return
         control, signature = signed
@@ -679,7 +697,7 @@ class IntegratorNode(Node):
                 mode='graph', figure_worker=worker, before_summary=self._journal_to_bag,
                 run_events=events,
                 restarts=sum(event['what'] in ('restart', 'resumed') for event in events),
-                step_round_trip=round_trip_statistics(self._round_trips),
+                step_round_trip=self._round_trips.statistics(),
                 site_protocol=self.dispatcher.coordinator.summary(),
                 authentication={'enabled': self.key is not None,
                                 'key_id': self.key.key_id if self.key else None,
@@ -751,7 +769,7 @@ def _describe(node: IntegratorNode) -> None:
         logger.info('initial stiffness: measured by a probe before the test')
 
 
-def run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
+def run(node: IntegratorNode, executor: Executor, stop: StopFlag) -> int:
     """Wait for the specimen side, run the test, write the outputs; returns the exit code.
 
     ``stop`` (set by SIGINT/SIGTERM) interrupts the test cleanly: the final status is
@@ -773,7 +791,7 @@ def _spin(node: IntegratorNode, executor: Executor, timeout_sec: float) -> None:
         raise node.record_error
 
 
-def _run(node: IntegratorNode, executor: Executor, stop: threading.Event) -> int:
+def _run(node: IntegratorNode, executor: Executor, stop: StopFlag) -> int:
     _describe(node)
     deadline = time.monotonic() + node.session.definition.protocol.start_timeout
     # A resumed run is never aborted for want of its specimen side: it stays resumable.

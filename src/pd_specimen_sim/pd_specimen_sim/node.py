@@ -34,20 +34,23 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+import time
 from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
-from pd_common.auth import AuthError
+from pd_common.auth import AuthError, Refusal
 from pd_common.protocol import (
     FeedbackStatus,
     RunTags,
+    Signature,
     StateOrigin,
     StepKey,
-    command_from_message,
-    signature_from_message,
+    decode_command,
+    encode_feedback,
+    signed_from_bytes,
 )
 from pd_common.ros import (
     OFFER_REFRESH_S,
@@ -56,7 +59,6 @@ from pd_common.ros import (
     RefusalLog,
     SessionReceiver,
     declare_key,
-    feedback_message,
     new_epoch,
     run_node,
     spin_until_shutdown,
@@ -104,8 +106,9 @@ class SpecimenSimNode(Node):
         self.receiver.publish_offer()
         self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
-        self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS)
-        self._feedback = StepFeedback()
+        # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
+        self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS,
+                                 raw=True)
         self._runs = RunTags()
         self.get_logger().info(f'simulated specimen ready: {len(dof_names)} DOF '
                                f'({", ".join(dof_names)}) on '
@@ -137,9 +140,14 @@ class SpecimenSimNode(Node):
         if self.record is not None:
             self.record.close()
 
-    def _on_command(self, message: StepCommand) -> None:
-        command = command_from_message(message)
-        signature = signature_from_message(message.signature)
+    def _on_command(self, data: bytes) -> None:
+        signed = signed_from_bytes(decode_command, data)
+        if signed is None:  # malformed: counted and reported, nothing moves, no answer
+            self.receiver.gate.refused[Refusal.MALFORMED.value] += 1
+            self._refusal_log(Refusal.MALFORMED, Signature(),
+                              self.resolve_topic_name('step_command'))
+            return
+        command, signature = signed
         reason = self.receiver.admit(command, signature)
         if reason is not None:  # not obeyed: nothing moves, no answer
             self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
@@ -162,9 +170,8 @@ class SpecimenSimNode(Node):
         answer = dataclasses.replace(answer, test_id=command.test_id, epoch=self.epoch,
                                      state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
-        self._feedback_pub.publish(feedback_message(answer, message=self._feedback,
-                                                    signature=self.receiver.sign(answer,
-                                                                                 signature)))
+        self._feedback_pub.publish(encode_feedback(answer, time.time_ns(),
+                                                   self.receiver.sign(answer, signature)))
         if answer.status is not FeedbackStatus.OK:
             self.get_logger().error(f'step {answer.step}: {answer.message}')
 

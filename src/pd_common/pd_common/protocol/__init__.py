@@ -23,6 +23,7 @@ from .cdr import (
     encode_session_start,
     encode_signature,
     encode_status,
+    signed_from_bytes,
 )
 from .controls import (
     ACKNOWLEDGED,
@@ -137,6 +138,7 @@ __all__ = [
     'operator_name',
     'parse_acknowledgement',
     'signature_from_message',
+    'signed_from_bytes',
     'signed_from_message',
     'site_topic',
     'site_topic_name',

@@ -58,7 +58,7 @@ __all__ = ['ENCAPSULATION', 'CdrDecodeError', 'CdrEncodeError', 'Decoded', 'deco
            'decode_control', 'decode_feedback', 'decode_offer', 'decode_session_start',
            'decode_signature', 'decode_status', 'encode_command', 'encode_control',
            'encode_feedback', 'encode_offer', 'encode_session_start', 'encode_signature',
-           'encode_status']
+           'encode_status', 'signed_from_bytes']
 
 #: The encapsulation header of plain CDR, little-endian (what rclpy writes).
 ENCAPSULATION = b'\x00\x01\x00\x00'
@@ -625,3 +625,18 @@ def decode_signature(data: bytes) -> Signature:
             beyond its bound.
     """
     return _decoding('Signature', data, _parse_signature)
+
+
+def signed_from_bytes(decode: Callable[[bytes], Decoded[Item]], data: bytes
+                      ) -> tuple[Item, Signature] | None:
+    """A signed message's record and signature read from its CDR bytes (``decode(data)``).
+
+    Or ``None`` when the bytes are malformed or a field is beyond its bound: what
+    :func:`~.convert.signed_from_message` answers for the message rclpy would have made of them
+    (a raw subscription's reading of a hot topic).
+    """
+    try:
+        decoded = decode(data)
+    except MalformedMessageError:
+        return None
+    return decoded.record, decoded.signature
