@@ -27,7 +27,7 @@ import sys
 
 from _message_costs import per_call_us
 from _results import RESULTS, merge_results
-from pd_common.auth import Signer, command_payload, feedback_payload, new_key, sign_reply
+from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
 from pd_common.protocol import (
     Command,
     Feedback,
@@ -53,8 +53,11 @@ def messages() -> tuple[Command, Feedback, Signature, Signature]:
     feedback = Feedback(test_id=command.test_id, step=1234,
                         measured_displacement=(0.0123456789,), restoring_force=(-3859.05,),
                         epoch='0123456789abcdef')
-    command_signature = Signer(key).sign(command_payload(command))
-    feedback_signature = sign_reply(key, feedback_payload(feedback), command_signature)
+    _, command_signature = Signer(key).sign_wire(
+        WIRE_COMMAND, lambda bare: encode_command(command, STAMP_NS, bare))
+    _, feedback_signature = sign_wire_reply(
+        key, WIRE_FEEDBACK, lambda bare: encode_feedback(feedback, STAMP_NS, bare),
+        command_signature)
     return command, feedback, command_signature, feedback_signature
 
 

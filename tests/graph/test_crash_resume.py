@@ -250,7 +250,7 @@ def test_a_restarted_bridge_limits_increments_from_the_measured_position(
     from pd_common.auth import Signer
     from pd_common.protocol import Command, FeedbackStatus
     from pd_common.protocol.convert import feedback_from_message
-    from pd_common.ros import SessionSender, command_message
+    from pd_common.ros import SessionSender
     from pd_msgs.msg import StepCommand, StepFeedback
 
     test_file = write_test_file(tmp_path / 'walk.yaml', test__id='graph-walk')
@@ -281,7 +281,7 @@ def test_a_restarted_bridge_limits_increments_from_the_measured_position(
     def move(step: int, target: float) -> Any:
         command = Command(test_id='graph-walk', step=step, test_time=0.0, dof_names=('top',),
                           target_displacement=(target,))
-        commands.publish(command_message(command, signature=sender.sign(command)))
+        commands.publish(sender.encode(command, time.time_ns())[0])
         spin_until(observer, lambda: any(a.step == step for a in answers), 15.0,
                    f'the answer to step {step}')
         return next(a for a in answers if a.step == step)

@@ -28,8 +28,15 @@ from test_graph import (
     write_test_file,
 )
 
-from pd_common.auth import Signer, command_payload, control_payload, feedback_payload, new_key
-from pd_common.protocol import Command, Control, Feedback
+from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, control_payload, new_key
+from pd_common.protocol import (
+    Command,
+    Control,
+    Feedback,
+    decode_command,
+    encode_command,
+    encode_feedback,
+)
 from pd_common.ros import command_message, control_message, feedback_message
 from pd_core.run.record.bag import read_bag
 from pd_core.run.runner import run_offline
@@ -45,10 +52,18 @@ def rogue_commands(signer: Signer | None, test_id: str, start: float, count: int
     for i in range(count):
         command = Command(test_id=test_id, step=step + i, test_time=0.0, dof_names=('top',),
                           target_displacement=(start + 0.02 * (i + 1),))
-        signature = signer.sign(command_payload(command)) if signer is not None else None
-        messages.append(command_message(command, signature=signature) if signature
-                        else command_message(command))
+        messages.append(command_message(command) if signer is None
+                        else signed_bytes(signer, command))
     return messages
+
+
+def signed_bytes(signer: Signer, item: Command | Feedback) -> bytes:
+    """``item`` as its sender would send it, signed with ``signer``'s key (bytes to publish)."""
+    if isinstance(item, Command):
+        return signer.sign_wire(WIRE_COMMAND,
+                                lambda bare: encode_command(item, time.time_ns(), bare))[0]
+    return signer.sign_wire(WIRE_FEEDBACK,
+                            lambda bare: encode_feedback(item, time.time_ns(), bare))[0]
 
 
 def repeat_until(observer: Any, send: Callable[[], None], predicate: Callable[[], bool],
@@ -90,9 +105,11 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     genuine_feedback: list[Any] = []
     observer.create_subscription(StepCommand, '/pd/specimen/step_command',
                                  lambda m: moves.append(tuple(m.target_displacement)), 1000)
-    observer.create_subscription(StepCommand, '/pd/step_command', genuine_commands.append, 1000)
+    # (the genuine messages as their bytes: what a rogue on the domain records and replays)
+    observer.create_subscription(StepCommand, '/pd/step_command', genuine_commands.append, 1000,
+                                 raw=True)
     observer.create_subscription(StepFeedback, '/pd/step_feedback', genuine_feedback.append,
-                                 1000)
+                                 1000, raw=True)
     observer.create_subscription(TestStatus, '/pd/test_status', statuses.append, latched_qos())
     observer.create_subscription(TestStatus, '/pd/bridge/status', bridge_statuses.append,
                                  latched_qos())
@@ -164,7 +181,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                'the owner\'s pause')
     captured_commands = list(genuine_commands[-5:])
     captured_feedback = list(genuine_feedback[-5:])
-    last = captured_commands[-1]
+    last = decode_command(captured_commands[-1]).record
     hijack = Command(test_id=last.test_id, step=last.step + 1, test_time=0.0,
                      dof_names=('top',),
                      target_displacement=(float(last.target_displacement[0]) + 0.015,))
@@ -173,13 +190,12 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
         for message in captured_commands * 3:  # replays of genuine signed commands
             commands.publish(message)
         commands.publish(command_message(hijack))
-        commands.publish(command_message(hijack, signature=rogue.sign(command_payload(hijack))))
+        commands.publish(signed_bytes(rogue, hijack))
         for step in range(last.step + 1, last.step + 11):  # forged forces for the next steps
             forged = Feedback(test_id=last.test_id, step=step, measured_displacement=(0.0,),
                               restoring_force=(0.0,))
             feedback.publish(feedback_message(forged))
-            feedback.publish(feedback_message(forged,
-                                              signature=rogue.sign(feedback_payload(forged))))
+            feedback.publish(signed_bytes(rogue, forged))
         for message in captured_feedback * 2:  # replays of genuine signed feedback
             feedback.publish(message)
         # malformed: a test id beyond its bound (the raw readers refuse it as the conversion

@@ -8,11 +8,14 @@ import hmac
 import os
 import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from pd_common.auth import (
+    WIRE_COMMAND,
+    WIRE_FEEDBACK,
     CommandGate,
     ControlGate,
     Key,
@@ -31,18 +34,26 @@ from pd_common.auth import (
     new_key,
     offer_payload,
     session_start_payload,
+    sign_wire_reply,
     status_payload,
     verify_mac,
 )
 from pd_common.protocol import (
     Command,
     Control,
+    Decoded,
     Feedback,
     FeedbackStatus,
     Offer,
     SessionStart,
     Signature,
     Status,
+    covered_part,
+    decode_command,
+    decode_feedback,
+    encode_command,
+    encode_feedback,
+    signed_from_bytes,
 )
 from pd_common.protocol import TestState as State
 
@@ -93,15 +104,59 @@ def test_a_missing_key_file_says_how_to_make_one(tmp_path: Path) -> None:
 
 
 # -- MACs ----------------------------------------------------------------------------------------
-def test_the_mac_is_hmac_sha256_of_the_canonical_fields() -> None:
+def sent_command(signer: Signer, command: Command = COMMAND, stamp_ns: int = 5
+                 ) -> Decoded[Command]:
+    """``command`` as the integrator sends it (signed as its bytes), as a receiver reads it."""
+    data, _ = signer.sign_wire(WIRE_COMMAND,
+                               lambda signature: encode_command(command, stamp_ns, signature))
+    return decode_command(data)
+
+
+def sent_reply(key: Key, request: Signature, feedback: Feedback = FEEDBACK, stamp_ns: int = 6
+               ) -> Decoded[Feedback]:
+    """``feedback`` as a receiver answers ``request``, as the sender reads it."""
+    data, _ = sign_wire_reply(key, WIRE_FEEDBACK,
+                              lambda signature: encode_feedback(feedback, stamp_ns, signature),
+                              request)
+    return decode_feedback(data)
+
+
+def covered_with(decoded: Decoded[Any], record: Any) -> bytes:
+    """The bytes a MAC covers of ``record`` sent with ``decoded``'s stamp and signature."""
+    encode = encode_command if isinstance(record, Command) else encode_feedback
+    bare = dataclasses.replace(decoded.signature, mac=b'')
+    return covered_part(encode(record, decoded.stamp_ns, bare))
+
+
+def test_a_step_message_mac_is_hmac_sha256_of_its_bytes() -> None:
     key = new_key()
     signer = Signer(key, session='ab' * 16)
-    payload = command_payload(COMMAND)
+    data, signature = signer.sign_wire(
+        WIRE_COMMAND, lambda bare: encode_command(COMMAND, 5, bare))
+    decoded = decode_command(data)
+    assert decoded.signature == signature
+    assert (signature.key_id, signature.session, signature.sequence) == (
+        key.key_id, signer.session, 1)
+    # the tag of the type, then the bytes through the sequence: the MAC's count and the MAC
+    # close them
+    assert data == decoded.covered + struct.pack('<I', 32) + signature.mac
+    assert decoded.covered.endswith(struct.pack('<Q', 1))
+    tag = b'pd-wire\x00pd_msgs/msg/StepCommand\x00'
+    assert signature.mac == hmac.new(key.secret, tag + decoded.covered, hashlib.sha256).digest()
+    assert verify_mac(key, command_payload(decoded.covered), signature) is None
+    assert sent_command(signer).signature.sequence == 2
+    # the same bytes under the other type's tag do not pass
+    assert verify_mac(key, feedback_payload(decoded.covered), signature) is Refusal.FORGED
+
+
+def test_the_mac_of_a_control_is_hmac_sha256_of_the_canonical_fields() -> None:
+    key = new_key()
+    signer = Signer(key, session='ab' * 16)
+    payload = control_payload(Control(command='pause', stamp=1.5))
     signature = signer.sign(payload)
     trailer = canonical('', (key.key_id, signer.session, 1))[5:]  # the fields after the kind
     expected = hmac.new(key.secret, payload + trailer, hashlib.sha256).digest()
     assert signature.mac == expected
-    assert (signature.session, signature.sequence) == (signer.session, 1)
     assert signer.sign(payload).sequence == 2
     assert verify_mac(key, payload, signature) is None
 
@@ -113,9 +168,10 @@ def test_the_mac_is_hmac_sha256_of_the_canonical_fields() -> None:
 ])
 def test_changing_any_command_field_makes_it_a_forgery(change: dict) -> None:
     key = new_key()
-    signature = Signer(key).sign(command_payload(COMMAND))
+    sent = sent_command(Signer(key))
     altered = dataclasses.replace(COMMAND, **change)
-    assert verify_mac(key, command_payload(altered), signature) is Refusal.FORGED
+    assert verify_mac(key, command_payload(covered_with(sent, altered)),
+                      sent.signature) is Refusal.FORGED
 
 
 @pytest.mark.parametrize('change', [
@@ -124,23 +180,68 @@ def test_changing_any_command_field_makes_it_a_forgery(change: dict) -> None:
 ])
 def test_changing_any_feedback_field_makes_it_a_forgery(change: dict) -> None:
     key = new_key()
-    signature = Signer(key).sign(feedback_payload(FEEDBACK))
+    sent = sent_reply(key, sent_command(Signer(key)).signature)
     altered = dataclasses.replace(FEEDBACK, **change)
-    assert verify_mac(key, feedback_payload(altered), signature) is Refusal.FORGED
+    assert verify_mac(key, feedback_payload(covered_with(sent, altered)),
+                      sent.signature) is Refusal.FORGED
 
 
-def test_session_sequence_and_key_id_are_authenticated_too() -> None:
+def test_stamp_session_sequence_and_key_id_are_authenticated_too() -> None:
     key = new_key()
-    payload = command_payload(COMMAND)
-    signature = Signer(key).sign(payload)
-    for change in ({'session': 'cd' * 16}, {'sequence': 2}):
-        assert verify_mac(key, payload, dataclasses.replace(signature, **change)) \
-            is Refusal.FORGED
+    sent = sent_command(Signer(key))
+    assert verify_mac(key, command_payload(sent.covered), sent.signature) is None
+    bare = dataclasses.replace(sent.signature, mac=b'')
+    for stamp_ns, signature in ((sent.stamp_ns + 1, bare),
+                                (sent.stamp_ns, dataclasses.replace(bare, session='cd' * 16)),
+                                (sent.stamp_ns, dataclasses.replace(bare, sequence=2))):
+        covered = covered_part(encode_command(COMMAND, stamp_ns, signature))
+        # (the receiver reads the session and sequence from the bytes it checks)
+        claimed = dataclasses.replace(signature, mac=sent.signature.mac)
+        assert verify_mac(key, command_payload(covered), claimed) is Refusal.FORGED
     other = new_key()
-    assert verify_mac(other, payload, signature) is Refusal.WRONG_KEY
-    forged_id = dataclasses.replace(signature, key_id=other.key_id)
-    assert verify_mac(other, payload, forged_id) is Refusal.FORGED
-    assert verify_mac(key, payload, Signature()) is Refusal.UNSIGNED
+    assert verify_mac(other, command_payload(sent.covered), sent.signature) \
+        is Refusal.WRONG_KEY
+    forged_id = dataclasses.replace(bare, key_id=other.key_id)
+    covered = covered_part(encode_command(COMMAND, sent.stamp_ns, forged_id))
+    assert verify_mac(other, command_payload(covered),
+                      dataclasses.replace(forged_id, mac=sent.signature.mac)) is Refusal.FORGED
+    assert verify_mac(key, command_payload(sent.covered), Signature()) is Refusal.UNSIGNED
+
+
+@pytest.mark.parametrize('kind', ['command', 'feedback', 'mixed command'])
+def test_every_byte_flipped_of_a_signed_step_message_is_refused(kind: str) -> None:
+    """Each byte of the bytes that travel, flipped (each bit, and all bits): the message no
+    longer decodes (refused as malformed) or its MAC fails. Nothing passes."""
+    key = new_key()
+    signer = Signer(key)
+    gate = CommandGate(key)
+    request = open_session(gate, key)
+    if kind == 'feedback':
+        data, _ = sign_wire_reply(key, WIRE_FEEDBACK,
+                                  lambda bare: encode_feedback(FEEDBACK, 6, bare),
+                                  sent_command(signer).signature)
+        decode: Any = decode_feedback
+        payload: Any = feedback_payload
+    else:
+        command = COMMAND if kind == 'command' else dataclasses.replace(
+            COMMAND, control_mode=(0, 1), target_force=(0.0, 2.5e4))
+        data, _ = request.sign_wire(WIRE_COMMAND,
+                                    lambda bare: encode_command(command, 5, bare))
+        decode, payload = decode_command, command_payload
+    genuine = decode(data)
+    assert verify_mac(key, payload(genuine.covered), genuine.signature) is None
+    passed = []
+    for index in range(len(data)):
+        for mask in (0x01, 0x02, 0x04, 0x08, 0x10, 0x20, 0x40, 0x80, 0xff):
+            damaged = bytearray(data)
+            damaged[index] ^= mask
+            read = signed_from_bytes(decode, bytes(damaged))
+            if read is not None and verify_mac(key, payload(read.covered),
+                                               read.signature) is None:
+                passed.append((index, mask))
+    assert passed == []
+    if kind != 'feedback':  # and the gate still takes the genuine one (none was admitted)
+        assert gate.admit(payload(genuine.covered), genuine.signature) is None
 
 
 def test_the_canonical_encoding_is_unambiguous() -> None:
@@ -160,22 +261,26 @@ def open_session(gate: CommandGate, key: Key) -> Signer:
     return signer
 
 
+def admit(gate: CommandGate, sent: Decoded[Command]) -> Refusal | None:
+    return gate.admit(command_payload(sent.covered), sent.signature)
+
+
 def test_commands_are_admitted_only_in_the_session_a_signed_start_opened() -> None:
     key = new_key()
     gate = CommandGate(key)
-    payload = command_payload(COMMAND)
     rogue = Signer(key)  # even a key holder needs a session start first
-    assert gate.admit(payload, rogue.sign(payload)) is Refusal.NO_SESSION
+    assert admit(gate, sent_command(rogue)) is Refusal.NO_SESSION
     signer = open_session(gate, key)
-    first = signer.sign(payload)
-    assert gate.admit(payload, first) is None
-    assert gate.admit(payload, first) is Refusal.REPLAYED          # the same message again
-    assert gate.admit(payload, rogue.sign(payload)) is Refusal.FOREIGN_SESSION
-    assert gate.admit(payload, Signature()) is Refusal.UNSIGNED
-    assert gate.admit(payload, Signer(new_key()).sign(payload)) is Refusal.WRONG_KEY
-    assert gate.admit(command_payload(dataclasses.replace(COMMAND, step=8)),
-                      signer.sign(payload)) is Refusal.FORGED
-    assert gate.admit(payload, signer.sign(payload)) is None       # the next one is fine
+    first = sent_command(signer)
+    assert admit(gate, first) is None
+    assert admit(gate, first) is Refusal.REPLAYED          # the same message again
+    assert admit(gate, sent_command(rogue)) is Refusal.FOREIGN_SESSION
+    assert gate.admit(command_payload(first.covered), Signature()) is Refusal.UNSIGNED
+    assert admit(gate, sent_command(Signer(new_key()))) is Refusal.WRONG_KEY
+    nxt = sent_command(signer)
+    assert gate.admit(command_payload(covered_with(nxt, dataclasses.replace(COMMAND, step=8))),
+                      nxt.signature) is Refusal.FORGED
+    assert admit(gate, sent_command(signer)) is None       # the next one is fine
     assert gate.refused == {'no_session': 1, 'replayed': 1, 'foreign_session': 1,
                             'unsigned': 1, 'wrong_key': 1, 'forged': 1}
 
@@ -200,22 +305,27 @@ def test_replies_must_be_for_the_senders_session_with_increasing_sequence() -> N
     key = new_key()
     mine, other = Signer(key), Signer(key)
     gate = ReplyGate(key, mine.session)
-    payload = feedback_payload(FEEDBACK)
-    reply = Signer(key, session=mine.session)
-    signature = reply.sign(payload)
-    assert gate.admit(payload, signature) is None
-    assert gate.admit(payload, signature) is Refusal.REPLAYED
-    assert gate.admit(payload, other.sign(payload)) is Refusal.FOREIGN_SESSION
-    forged = feedback_payload(dataclasses.replace(FEEDBACK, restoring_force=(0.0, 0.0)))
-    assert gate.admit(forged, reply.sign(payload)) is Refusal.FORGED
+
+    def admit_reply(reply: Decoded[Feedback]) -> Refusal | None:
+        return gate.admit(feedback_payload(reply.covered), reply.signature)
+
+    first = sent_reply(key, sent_command(mine).signature)
+    assert admit_reply(first) is None
+    assert admit_reply(first) is Refusal.REPLAYED
+    assert admit_reply(sent_reply(key, sent_command(other).signature)) \
+        is Refusal.FOREIGN_SESSION
+    nxt = sent_reply(key, sent_command(mine).signature)
+    forged = covered_with(nxt, dataclasses.replace(FEEDBACK, restoring_force=(0.0, 0.0)))
+    assert gate.admit(feedback_payload(forged), nxt.signature) is Refusal.FORGED
+    assert admit_reply(nxt) is None
 
 
 def test_without_a_key_every_gate_admits_everything() -> None:
-    payload = command_payload(COMMAND)
+    payload = command_payload(encode_command(COMMAND, 5))
     assert CommandGate(None).admit(payload, Signature()) is None
     assert ReplyGate(None, 's').admit(payload, Signature()) is None
     assert ControlGate(None).admit(Control(command='abort'), Signature(), 'any') is None
-    assert StatusGate(None).admit('/pd/test_status', payload, Signature(), 0) is None
+    assert StatusGate(None).admit('/pd/test_status', b'', Signature(), 0) is None
 
 
 # -- controls ------------------------------------------------------------------------------------

@@ -3,14 +3,23 @@ the command, its message, its signature, the journal and the bag."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import struct
 from pathlib import Path
 
 import pytest
 
-from pd_common.auth import Signer, command_payload, new_key, verify_mac
-from pd_common.auth.signing import canonical
-from pd_common.protocol import Command, ControlMode, Signature, command_from_message
+from pd_common.auth import WIRE_COMMAND, Signer, command_payload, new_key, verify_mac
+from pd_common.protocol import (
+    Command,
+    ControlMode,
+    Signature,
+    command_from_message,
+    covered_part,
+    decode_command,
+    encode_command,
+)
 from pd_common.ros import command_message
 from pd_core.run.record.bag import BagRecorder, read_bag
 from pd_core.run.record.journal import Journal, read_journal_records
@@ -46,10 +55,14 @@ def test_inconsistent_modes_are_named(modes: tuple[int, ...], forces: tuple[floa
     assert error is not None and expected in error
 
 
-def test_a_plain_command_signs_the_same_bytes_as_before() -> None:
+def test_a_plain_command_carries_no_modes_nor_forces() -> None:
     plain = Command(test_id='t', step=2, test_time=0.04, dof_names=('a',),
                     target_displacement=(0.25,), iteration=1)
-    assert command_payload(plain) == canonical('StepCommand', ('t', 2, 1, 0.04, ('a',), (0.25,)))
+    data = encode_command(plain, 5)
+    # the two empty arrays (control_mode, target_force) right after the target: 4-byte counts 0
+    target_end = data.index(struct.pack('<d', 0.25)) + 8
+    assert data[target_end:target_end + 8] == bytes(8)
+    assert decode_command(data).record == plain
 
 
 @pytest.mark.parametrize('changed', [
@@ -59,13 +72,16 @@ def test_a_plain_command_signs_the_same_bytes_as_before() -> None:
 ])
 def test_the_signature_covers_modes_and_forces(changed: dict[str, object]) -> None:
     key = new_key()
-    signature = Signer(key).sign(command_payload(MIXED))
-    assert verify_mac(key, command_payload(MIXED), signature) is None
+    data, signature = Signer(key).sign_wire(WIRE_COMMAND,
+                                            lambda bare: encode_command(MIXED, 5, bare))
+    sent = decode_command(data)
+    assert verify_mac(key, command_payload(sent.covered), signature) is None
     fields = {**MIXED.__dict__, **changed}
     if changed == {'control_mode': ()}:
         fields['target_force'] = ()
     tampered = Command(**fields)  # type: ignore[arg-type]
-    assert verify_mac(key, command_payload(tampered), signature) is not None
+    covered = covered_part(encode_command(tampered, 5, dataclasses.replace(signature, mac=b'')))
+    assert verify_mac(key, command_payload(covered), signature) is not None
 
 
 def test_modes_round_trip_through_the_message_the_journal_and_the_bag(tmp_path: Path) -> None:

@@ -114,7 +114,6 @@ from pd_common.protocol import (
     clip_reason,
     control_from_message,
     decode_command,
-    encode_feedback,
     signed_from_bytes,
     signed_from_message,
     untag,
@@ -153,7 +152,7 @@ from .core import (
     make_driver,
 )
 
-Item = TypeVar('Item')
+Signed = TypeVar('Signed')  # a message read with its signature
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
 #: Seconds between two log lines about emergency stops received while one is latched.
@@ -542,8 +541,7 @@ class ActuatorBridgeNode(LifecycleNode):
         state, message = self._last_status
         self.publish_status(state, message)
 
-    def _well_formed(self, signed: tuple[Item, Signature] | None, source: str
-                     ) -> tuple[Item, Signature] | None:
+    def _well_formed(self, signed: Signed | None, source: str) -> Signed | None:
         """A message's item and signature, read; ``None`` is counted and reported (malformed)."""
         if signed is None:
             self._malformed += 1
@@ -566,8 +564,8 @@ class ActuatorBridgeNode(LifecycleNode):
             reply, test_id=untag(reply.test_id),
             epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
             state_origin=driver.state_origin if driver is not None else self.receiver.origin)
-        self._feedback_pub.publish(encode_feedback(
-            feedback, time.time_ns(), self.receiver.sign(feedback, self._request)))
+        self._feedback_pub.publish(self.receiver.encode_reply(feedback, time.time_ns(),
+                                                              self._request))
         if reply.status is FeedbackStatus.OK:
             self.receiver.set_state(reply.measured_displacement, reply.restoring_force)
             # The state behind the bridge (a restarted specimen node's epoch) for its offer.
@@ -630,11 +628,11 @@ class ActuatorBridgeNode(LifecycleNode):
         bridge = self.bridge
         if bridge is None:
             return
-        signed = self._well_formed(signed_from_bytes(decode_command, data), 'step_command')
-        if signed is None:
+        decoded = self._well_formed(signed_from_bytes(decode_command, data), 'step_command')
+        if decoded is None:
             return
-        command, signature = signed
-        reason = self.receiver.admit(command, signature)
+        command, signature = decoded.record, decoded.signature
+        reason = self.receiver.admit(decoded)
         if reason is not None:  # never moves on a message it cannot authenticate
             self._refused(reason, signature, 'step_command')
             return

@@ -44,7 +44,6 @@ from pd_common.protocol import (
     FeedbackStatus,
     StateOrigin,
     decode_feedback,
-    encode_command,
     signed_from_bytes,
 )
 from pd_common.ros import STEP_QOS, SessionSender
@@ -231,8 +230,7 @@ class SimServoDriver(ActuatorDriver):
         """Re-send the move in flight, signed anew (the specimen answers it without moving)."""
         if self._move is not None and self._in_flight is not None:
             self._sent_at = time.monotonic()
-            self._publisher.publish(encode_command(self._move, time.time_ns(),
-                                                   self._sender.sign(self._move)))
+            self._publisher.publish(self._sender.encode(self._move, time.time_ns())[0])
 
     def hold(self) -> None:
         """Stop: forget the move in flight; the specimen stays where it is."""
@@ -255,13 +253,13 @@ class SimServoDriver(ActuatorDriver):
 
     def _on_feedback(self, data: bytes) -> None:
         """Report the specimen's answer to the move in flight (ignore anything else)."""
-        signed = signed_from_bytes(decode_feedback, data)
-        if self._in_flight is None or signed is None:  # (malformed: not an answer)
+        decoded = signed_from_bytes(decode_feedback, data)
+        if self._in_flight is None or decoded is None:  # (malformed: not an answer)
             return
-        feedback, signature = signed
+        feedback = decoded.record
         if (feedback.test_id, feedback.step, feedback.iteration) != self._in_flight[1]:
             return
-        if self._sender.admit(feedback, signature) is not None:
+        if self._sender.admit(decoded) is not None:
             return  # not the specimen's genuine answer (counted): the move stays in flight
         self._specimen_epoch = feedback.epoch
         self._specimen_origin = feedback.state_origin

@@ -198,13 +198,13 @@ class ConsoleNode(Node):
             signed = signed_from_bytes(decode_command, data)
             if signed is not None:  # (a malformed one is the receivers' to refuse)
                 with self.lock:
-                    self.model.on_command(site, signed[0])
+                    self.model.on_command(site, signed.record)
 
         def on_feedback(data: bytes) -> None:
             signed = signed_from_bytes(decode_feedback, data)
             if signed is not None:
                 with self.lock:
-                    self.model.on_feedback(site, signed[0])
+                    self.model.on_feedback(site, signed.record)
 
         def on_bridge(status: Status) -> None:
             with self.lock:

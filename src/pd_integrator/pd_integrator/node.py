@@ -59,7 +59,6 @@ from pd_common.protocol import (
     clip_reason,
     control_from_message,
     decode_feedback,
-    encode_command,
     signature_from_message,
     signed_from_bytes,
     signed_from_message,
@@ -111,7 +110,7 @@ from pd_core.run.test_file import PARAMETER_PATHS, load_test_file
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Control as ControlMessage
 
-Item = TypeVar('Item')
+Signed = TypeVar('Signed')  # a message read with its signature
 
 #: Seconds between two checks of the feedback timeout and of the sites' sessions in the run
 #: loop (a few steps' time; the timeouts themselves are seconds).
@@ -421,8 +420,7 @@ class IntegratorNode(Node):
         self.bag.write_event(str(event['what']), time.time_ns(), **info)
         self.bag.persist()
 
-    def _well_formed(self, signed: tuple[Item, Signature] | None, topic: str
-                     ) -> tuple[Item, Signature] | None:
+    def _well_formed(self, signed: Signed | None, topic: str) -> Signed | None:
         """A message's item and signature, read; ``None`` is counted and reported (malformed)."""
         if signed is None:
             self._malformed += 1
@@ -435,8 +433,9 @@ class IntegratorNode(Node):
 
     def _publish_command(self, site: str, command: Command) -> Signature:
         """Sign and publish one site command; restart the feedback timer."""
-        signature = self.senders[site].sign(command)
-        self._command_pubs[site].publish(encode_command(command, time.time_ns(), signature))
+        # (stamped as the dispatcher records it: the record holds the bytes that went out)
+        data, signature = self.senders[site].encode(command, self.dispatcher.send_stamp_ns)
+        self._command_pubs[site].publish(data)
         self._sent_at = time.monotonic()
         return signature
 
@@ -575,19 +574,19 @@ class IntegratorNode(Node):
         sent_at = self._sent_at
         committed = self.session.history.n_committed
         pending = self.session.protocol.pending
-        signed = self._well_formed(signed_from_bytes(decode_feedback, data),
-                                   site_topic(site, 'step_feedback'))
-        if signed is None:
+        decoded = self._well_formed(signed_from_bytes(decode_feedback, data),
+                                    site_topic(site, 'step_feedback'))
+        if decoded is None:
             return
-        feedback, signature = signed
-        reason = self.senders[site].admit(feedback, signature)
+        feedback, signature = decoded.record, decoded.signature
+        reason = self.senders[site].admit(decoded)
         if reason is not None:  # unsigned, forged, replayed or of another session: not taken
             self._refusal_log(reason, signature, self.resolve_topic_name(
                 site_topic(site, 'step_feedback')))
             self.publish_status()
             return
         was = self.session.state
-        self.dispatcher.on_feedback(site, feedback, signature)
+        self.dispatcher.on_feedback(site, feedback, signature, decoded.stamp_ns)
         self.steering.after_feedback(feedback, was)
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):

@@ -49,7 +49,6 @@ from pd_common.protocol import (
     StateOrigin,
     StepKey,
     decode_command,
-    encode_feedback,
     signed_from_bytes,
 )
 from pd_common.ros import (
@@ -141,14 +140,14 @@ class SpecimenSimNode(Node):
             self.record.close()
 
     def _on_command(self, data: bytes) -> None:
-        signed = signed_from_bytes(decode_command, data)
-        if signed is None:  # malformed: counted and reported, nothing moves, no answer
+        decoded = signed_from_bytes(decode_command, data)
+        if decoded is None:  # malformed: counted and reported, nothing moves, no answer
             self.receiver.gate.refused[Refusal.MALFORMED.value] += 1
             self._refusal_log(Refusal.MALFORMED, Signature(),
                               self.resolve_topic_name('step_command'))
             return
-        command, signature = signed
-        reason = self.receiver.admit(command, signature)
+        command, signature = decoded.record, decoded.signature
+        reason = self.receiver.admit(decoded)
         if reason is not None:  # not obeyed: nothing moves, no answer
             self._refusal_log(reason, signature, self.resolve_topic_name('step_command'))
             return
@@ -170,8 +169,8 @@ class SpecimenSimNode(Node):
         answer = dataclasses.replace(answer, test_id=command.test_id, epoch=self.epoch,
                                      state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
-        self._feedback_pub.publish(encode_feedback(answer, time.time_ns(),
-                                                   self.receiver.sign(answer, signature)))
+        self._feedback_pub.publish(self.receiver.encode_reply(answer, time.time_ns(),
+                                                              signature))
         if answer.status is not FeedbackStatus.OK:
             self.get_logger().error(f'step {answer.step}: {answer.message}')
 

@@ -40,19 +40,25 @@ from .payloads import (
     status_payload,
 )
 from .signing import (
+    WIRE_COMMAND,
+    WIRE_FEEDBACK,
     Refusal,
     Signer,
+    WirePayload,
     canonical,
     mac_of,
     new_session,
-    sign_reply,
+    sign_wire_reply,
     verify_mac,
+    wire_mac,
 )
 
 __all__ = [
     'DEFAULT_CONTROL_WINDOW',
     'KEY_BYTES',
     'KEY_FILE_ENV',
+    'WIRE_COMMAND',
+    'WIRE_FEEDBACK',
     'AuthError',
     'CommandGate',
     'ControlGate',
@@ -62,6 +68,7 @@ __all__ = [
     'ReplyGate',
     'Signer',
     'StatusGate',
+    'WirePayload',
     'canonical',
     'command_payload',
     'control_payload',
@@ -77,7 +84,8 @@ __all__ = [
     'offer_payload',
     'operator_key_path',
     'session_start_payload',
-    'sign_reply',
+    'sign_wire_reply',
     'status_payload',
     'verify_mac',
+    'wire_mac',
 ]

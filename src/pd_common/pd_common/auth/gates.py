@@ -29,7 +29,7 @@ from ..protocol.messages import Control
 from ..protocol.signature import Signature
 from .keys import Key
 from .payloads import control_payload
-from .signing import Refusal, new_session, verify_mac
+from .signing import Refusal, WirePayload, new_session, verify_mac
 
 __all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate', 'StatusGate',
            'describe_refusals', 'merge_refusals']
@@ -61,7 +61,7 @@ class _Gate:
         self.last_refusal = (reason, signature.key_id)
         return reason
 
-    def _check_mac(self, payload: bytes, signature: Signature) -> Refusal | None:
+    def _check_mac(self, payload: bytes | WirePayload, signature: Signature) -> Refusal | None:
         assert self.key is not None
         reason = verify_mac(self.key, payload, signature)
         return self._refuse(reason, signature) if reason is not None else None
@@ -101,7 +101,7 @@ class CommandGate(_Gate):
         self.last_sequence = 0
         self.challenge = new_session()
 
-    def admit(self, payload: bytes, signature: Signature) -> Refusal | None:
+    def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the command may be obeyed; else why not (counted)."""
         if self.key is None:
             return None
@@ -126,7 +126,7 @@ class ReplyGate(_Gate):
         self.session = session
         self.last_sequence = 0
 
-    def admit(self, payload: bytes, signature: Signature) -> Refusal | None:
+    def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the reply is genuine and new; else why not (counted)."""
         if self.key is None:
             return None

@@ -1,42 +1,35 @@
-"""The fields each signed message kind authenticates, in a fixed order.
+"""What each signed message kind authenticates.
 
-A MAC covers every field that matters: for a command the test id, the step and iteration,
-the test time, the DOF names and the targets (and, under mixed control, each DOF's control
-mode and target force); for feedback the same key fields, the measured
-displacements and forces, the status and its message, the answering node's epoch and state
-origin; for a control the command, the receiving node, its test and instance session, the
-sender, the reason and the stamp; for a session start the test id and the receiver's
-challenge; for a status and a session offer every field and the time it was published.
+A step command and a step feedback are signed as the bytes that travel: the MAC covers their
+CDR bytes through the signature's sequence, every field included (header stamp, test id, step
+and iteration, targets or measurements, status, epoch, ...; :class:`~.signing.WirePayload`).
+The other kinds are signed over the fields that matter, in a fixed order: for a control the
+command, the receiving node, its test and instance session, the sender, the reason and the
+stamp; for a session start the test id and the receiver's challenge; for a status and a
+session offer every field and the time it was published.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-from ..protocol.messages import Command, Control, Feedback, Offer, SessionStart, Status
-from .signing import canonical
+from ..protocol.messages import Control, Offer, SessionStart, Status
+from .signing import WIRE_COMMAND, WIRE_FEEDBACK, WirePayload, canonical
 
 __all__ = ['command_payload', 'control_payload', 'feedback_payload', 'offer_payload',
            'session_start_payload', 'status_payload']
 
 
-def command_payload(command: Command) -> bytes:
-    """The authenticated bytes of a step command."""
-    fields: tuple[Any, ...] = (
-        command.test_id, command.step, command.iteration, float(command.test_time),
-        tuple(command.dof_names), tuple(command.target_displacement))
-    if command.control_mode or command.target_force:  # mixed control: the modes and forces too
-        fields += (tuple(int(mode) for mode in command.control_mode),
-                   tuple(float(force) for force in command.target_force))
-    return canonical('StepCommand', fields)
+def command_payload(covered: bytes) -> WirePayload:
+    """The authenticated bytes of a step command: its covered CDR bytes.
+
+    (:attr:`pd_common.protocol.cdr.Decoded.covered` of the bytes that arrived, or
+    :func:`~pd_common.protocol.cdr.covered_part` of the bytes encoded with an empty MAC.)
+    """
+    return WirePayload(WIRE_COMMAND, covered)
 
 
-def feedback_payload(feedback: Feedback) -> bytes:
-    """The authenticated bytes of a step feedback."""
-    return canonical('StepFeedback', (
-        feedback.test_id, feedback.step, feedback.iteration,
-        tuple(feedback.measured_displacement), tuple(feedback.restoring_force),
-        int(feedback.status), feedback.message, feedback.epoch, int(feedback.state_origin)))
+def feedback_payload(covered: bytes) -> WirePayload:
+    """The authenticated bytes of a step feedback: its covered CDR bytes."""
+    return WirePayload(WIRE_FEEDBACK, covered)
 
 
 def control_payload(control: Control) -> bytes:

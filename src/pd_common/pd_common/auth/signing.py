@@ -1,13 +1,20 @@
-"""Message authentication codes over the fields that matter (HMAC-SHA256, Python's ``hmac``).
+"""Message authentication codes (HMAC-SHA256, Python's ``hmac``).
 
 Every signed message carries a :class:`Signature`: the key id, a *session* nonce (random, per
 sender and run), a strictly increasing *sequence* number within that session, and the MAC.
-The MAC covers a canonical encoding of the message's kind, every field that matters, the key
-id, the session and the sequence, so changing any of them (a target, a force, a status, the
-step, the session or the sequence) invalidates it.
+Changing anything the MAC covers (a target, a force, a status, the step, the session or the
+sequence) invalidates it.
 
-The canonical encoding is unambiguous: each value is tagged and length-prefixed, integers are
-64-bit, floats are their exact IEEE-754 bits (``-0.0`` and ``0.0`` differ, NaN is its bits).
+The step messages (command and feedback, the hot path) are signed as the bytes that travel: the
+MAC covers a tag naming the message type and the message's CDR bytes from the first byte through
+the signature's sequence (:class:`WirePayload`, :func:`pd_common.protocol.cdr.covered_part`),
+one HMAC over one buffer, nothing encoded again; a receiver checks the bytes that arrived.
+
+The other signed messages (controls, session starts and offers, statuses) are signed over a
+canonical encoding of their kind and the fields that matter, then the key id, session and
+sequence (:func:`canonical`). It is unambiguous: each value is tagged and length-prefixed,
+integers are 64-bit, floats are their exact IEEE-754 bits (``-0.0`` and ``0.0`` differ, NaN is
+its bits).
 """
 
 from __future__ import annotations
@@ -16,14 +23,20 @@ import functools
 import hmac
 import secrets
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from enum import Enum
-from typing import SupportsFloat
+from typing import NamedTuple, SupportsFloat
 
+from ..protocol.cdr import covered_part, seal
 from ..protocol.signature import Signature
 from .keys import Key
 
-__all__ = ['Refusal', 'Signer', 'canonical', 'mac_of', 'new_session', 'sign_reply', 'verify_mac']
+__all__ = ['WIRE_COMMAND', 'WIRE_FEEDBACK', 'Refusal', 'Signer', 'WirePayload', 'canonical',
+           'mac_of', 'new_session', 'sign_wire_reply', 'verify_mac', 'wire_mac']
+
+#: The message types signed as their bytes (:class:`WirePayload`'s ``kind``).
+WIRE_COMMAND = 'pd_msgs/msg/StepCommand'
+WIRE_FEEDBACK = 'pd_msgs/msg/StepFeedback'
 
 Value = str | int | float | bytes | Sequence[str] | Sequence[float] | Sequence[int]
 
@@ -95,6 +108,35 @@ def _encode(value: Value, out: list[bytes]) -> None:
             _encode(item if isinstance(item, (str, int, float)) else float(item), out)
 
 
+class WirePayload(NamedTuple):
+    """What the MAC of a message signed as its bytes covers.
+
+    Attributes:
+        kind: the message type (:data:`WIRE_COMMAND`, :data:`WIRE_FEEDBACK`): a MAC made for
+            one type never passes for another.
+        covered: the message's CDR bytes from the first byte through the signature's sequence
+            (key id, session and sequence are inside: nothing is appended).
+    """
+
+    kind: str
+    covered: bytes
+
+
+@functools.lru_cache(maxsize=16)
+def _wire_keyed(secret: bytes, kind: str) -> hmac.HMAC:
+    # the key's pads and the type tag already hashed: one update of the bytes per message
+    mac = hmac.new(secret, digestmod='sha256')
+    mac.update(b'pd-wire\x00' + kind.encode('ascii') + b'\x00')
+    return mac
+
+
+def wire_mac(key: Key, payload: WirePayload) -> bytes:
+    """The MAC of a message signed as its bytes."""
+    mac = _wire_keyed(key.secret, payload.kind).copy()
+    mac.update(payload.covered)
+    return mac.digest()
+
+
 def canonical(kind: str, fields: Iterable[Value]) -> bytes:
     """The unambiguous byte string of a message ``kind`` and its ``fields``, in order."""
     out: list[bytes] = [_encode_str(kind)]
@@ -121,13 +163,20 @@ def mac_of(key: Key, payload: bytes, session: str, sequence: int) -> bytes:
     return mac.digest()
 
 
-def verify_mac(key: Key, payload: bytes, signature: Signature) -> Refusal | None:
-    """``None`` if ``signature`` authenticates ``payload`` with ``key``; else why not."""
+def verify_mac(key: Key, payload: bytes | WirePayload, signature: Signature) -> Refusal | None:
+    """``None`` if ``signature`` authenticates ``payload`` with ``key``; else why not.
+
+    ``payload``: a :func:`canonical` encoding, or the bytes of a message signed as its bytes
+    (whose key id, session and sequence are inside them).
+    """
     if not signature.signed:
         return Refusal.UNSIGNED
     if not hmac.compare_digest(signature.key_id, key.key_id):
         return Refusal.WRONG_KEY
-    expected = mac_of(key, payload, signature.session, signature.sequence)
+    if isinstance(payload, WirePayload):
+        expected = wire_mac(key, payload)
+    else:
+        expected = mac_of(key, payload, signature.session, signature.sequence)
     if not hmac.compare_digest(expected, signature.mac):
         return Refusal.FORGED
     return None
@@ -152,13 +201,33 @@ class Signer:
         return Signature(key_id=self.key.key_id, session=self.session, sequence=self.sequence,
                          mac=mac_of(self.key, payload, self.session, self.sequence))
 
+    def sign_wire(self, kind: str, encode: Callable[[Signature], bytes]
+                  ) -> tuple[bytes, Signature]:
+        """The bytes of the next message signed as its bytes, and its signature.
 
-def sign_reply(key: Key, payload: bytes, request: Signature) -> Signature:
-    """The signature of a reply to ``request``: in the requester's session, with its sequence.
+        ``encode(signature)`` makes the message's CDR bytes with ``signature`` (its MAC empty);
+        the MAC over them (:class:`WirePayload`) then closes them. The sequence advances.
+        """
+        self.sequence += 1
+        return _sign_wire(self.key, kind, encode, self.session, self.sequence)
 
-    A reply (step feedback) is bound to the command it answers: the requester admits it only
-    in its own session and only with a sequence higher than any reply it took before, so a
-    recorded reply cannot be played again, and a forged one cannot be made without the key.
+
+def _sign_wire(key: Key, kind: str, encode: Callable[[Signature], bytes], session: str,
+               sequence: int) -> tuple[bytes, Signature]:
+    covered = covered_part(encode(Signature(key_id=key.key_id, session=session,
+                                            sequence=sequence)))
+    mac = wire_mac(key, WirePayload(kind, covered))
+    return seal(covered, mac), Signature(key_id=key.key_id, session=session, sequence=sequence,
+                                         mac=mac)
+
+
+def sign_wire_reply(key: Key, kind: str, encode: Callable[[Signature], bytes],
+                    request: Signature) -> tuple[bytes, Signature]:
+    """The bytes of a reply signed as its bytes, and its signature.
+
+    A reply (step feedback) is bound to the command it answers: signed in the requester's
+    session with the request's sequence, the requester admits it only in its own session and
+    only with a sequence higher than any reply it took before, so a recorded reply cannot be
+    played again, and a forged one cannot be made without the key.
     """
-    return Signature(key_id=key.key_id, session=request.session, sequence=request.sequence,
-                     mac=mac_of(key, payload, request.session, request.sequence))
+    return _sign_wire(key, kind, encode, request.session, request.sequence)

@@ -9,6 +9,7 @@ from .cdr import (
     CdrDecodeError,
     CdrEncodeError,
     Decoded,
+    covered_part,
     decode_command,
     decode_control,
     decode_feedback,
@@ -23,6 +24,7 @@ from .cdr import (
     encode_session_start,
     encode_signature,
     encode_status,
+    seal,
     signed_from_bytes,
 )
 from .controls import (
@@ -117,6 +119,7 @@ __all__ = [
     'command_from_message',
     'control_from_message',
     'control_problem',
+    'covered_part',
     'decode_command',
     'decode_control',
     'decode_feedback',
@@ -137,6 +140,7 @@ __all__ = [
     'offer_from_message',
     'operator_name',
     'parse_acknowledgement',
+    'seal',
     'signature_from_message',
     'signed_from_bytes',
     'signed_from_message',

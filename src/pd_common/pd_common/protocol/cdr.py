@@ -54,11 +54,29 @@ from .messages import (
 )
 from .signature import Signature
 
-__all__ = ['ENCAPSULATION', 'CdrDecodeError', 'CdrEncodeError', 'Decoded', 'decode_command',
-           'decode_control', 'decode_feedback', 'decode_offer', 'decode_session_start',
-           'decode_signature', 'decode_status', 'encode_command', 'encode_control',
-           'encode_feedback', 'encode_offer', 'encode_session_start', 'encode_signature',
-           'encode_status', 'signed_from_bytes']
+__all__ = [
+    'ENCAPSULATION',
+    'CdrDecodeError',
+    'CdrEncodeError',
+    'Decoded',
+    'covered_part',
+    'decode_command',
+    'decode_control',
+    'decode_feedback',
+    'decode_offer',
+    'decode_session_start',
+    'decode_signature',
+    'decode_status',
+    'encode_command',
+    'encode_control',
+    'encode_feedback',
+    'encode_offer',
+    'encode_session_start',
+    'encode_signature',
+    'encode_status',
+    'seal',
+    'signed_from_bytes',
+]
 
 #: The encapsulation header of plain CDR, little-endian (what rclpy writes).
 ENCAPSULATION = b'\x00\x01\x00\x00'
@@ -97,17 +115,20 @@ class CdrDecodeError(MalformedMessageError):
 
 
 class Decoded(NamedTuple, Generic[Item]):
-    """A decoded message: its record, its header stamp and its signature.
+    """A decoded message: its record, its header stamp, its signature and the signed bytes.
 
     Attributes:
         record: the protocol's record (as :mod:`.convert` makes it of the message).
         stamp_ns: the header stamp, ns since the epoch.
         signature: the message's signature (unsigned: an empty key id and MAC).
+        covered: the bytes a MAC over the message covers (:func:`covered_part`): from the
+            first byte through the signature's ``sequence``, as they arrived.
     """
 
     record: Item
     stamp_ns: int
     signature: Signature
+    covered: bytes = b''
 
 
 # -- encoding -------------------------------------------------------------------------------
@@ -421,7 +442,8 @@ def _get_signature(data: bytes, pos: int) -> tuple[Signature, int]:
     key_id, pos = _get_string(data, pos, 'signature.key_id', MAX_NAME)
     session, pos = _get_string(data, pos, 'signature.session', MAX_NAME)
     (sequence,), pos = _get_aligned8(data, pos, _U64)
-    mac, pos = _get_octets(data, pos, 'signature.mac', _MAX_MAC)
+    mac, _ = _get_octets(data, pos, 'signature.mac', _MAX_MAC)
+    # (the position of the MAC's count: where the bytes a MAC covers end)
     return Signature(key_id=key_id, session=session, sequence=int(sequence), mac=mac), pos
 
 
@@ -441,13 +463,13 @@ def _parse_command(data: bytes) -> Decoded[Command]:
     displacement, pos = _get_doubles(data, pos, 'target_displacement')
     modes, pos = _get_octets(data, pos, 'control_mode', MAX_ARRAY)
     force, pos = _get_doubles(data, pos, 'target_force')
-    signature, _ = _get_signature(data, pos)
+    signature, signed_end = _get_signature(data, pos)
     command = Command(test_id=test_id, step=int(step),
                       test_time=float(test_time),
                       dof_names=dof_names, target_displacement=displacement,
                       iteration=int(iteration),
                       control_mode=tuple(modes), target_force=force)
-    return Decoded(command, stamp_ns, signature)
+    return Decoded(command, stamp_ns, signature, data[:signed_end])
 
 
 def decode_command(data: bytes) -> Decoded[Command]:
@@ -470,13 +492,13 @@ def _parse_feedback(data: bytes) -> Decoded[Feedback]:
     message, pos = _get_string(data, pos + 1, 'message', MAX_TEXT)
     epoch, pos = _get_string(data, pos, 'epoch', MAX_NAME)
     origin = _STATE_ORIGIN.get(_get_byte(data, pos), StateOrigin.FRESH)
-    signature, _ = _get_signature(data, pos + 1)
+    signature, signed_end = _get_signature(data, pos + 1)
     feedback = Feedback(test_id=test_id, step=int(step),
                         measured_displacement=displacement, restoring_force=force,
                         status=status, message=message,
                         iteration=int(iteration),
                         epoch=epoch, state_origin=origin)
-    return Decoded(feedback, stamp_ns, signature)
+    return Decoded(feedback, stamp_ns, signature, data[:signed_end])
 
 
 def decode_feedback(data: bytes) -> Decoded[Feedback]:
@@ -506,7 +528,7 @@ def _parse_status(data: bytes) -> Decoded[Status]:
     emergency_stop = _get_bool(data, pos, 'emergency_stop')
     operator_hold = _get_bool(data, pos + 1, 'operator_hold')
     acknowledged, pos = _get_string(data, pos + 2, 'acknowledged', MAX_TEXT)
-    signature, _ = _get_signature(data, pos)
+    signature, signed_end = _get_signature(data, pos)
     step, total_steps, omega_dt, retries, ignored = counts
     status = Status(test_id=test_id, state=state, step=int(step),
                     total_steps=int(total_steps),
@@ -517,7 +539,7 @@ def _parse_status(data: bytes) -> Decoded[Status]:
                     refused_by_reason=refused_by_reason, node=node, session=session,
                     emergency_stop=emergency_stop, operator_hold=operator_hold,
                     acknowledged=acknowledged)
-    return Decoded(status, stamp_ns, signature)
+    return Decoded(status, stamp_ns, signature, data[:signed_end])
 
 
 def decode_status(data: bytes) -> Decoded[Status]:
@@ -545,14 +567,14 @@ def _parse_offer(data: bytes) -> Decoded[Offer]:
     position, pos = _get_doubles(data, pos, 'position')
     force, pos = _get_doubles(data, pos, 'force')
     configuration, pos = _get_string(data, pos, 'configuration', MAX_TEXT)
-    signature, _ = _get_signature(data, pos)
+    signature, signed_end = _get_signature(data, pos)
     offer = Offer(stamp_ns=stamp_ns, node=node, challenge=challenge,
                   active_session=active_session, authenticated=authenticated, epoch=epoch,
                   state_origin=origin,
                   restored=(restored_test_id, int(restored_step),
                             int(restored_iteration)),
                   position=position, force=force, configuration=configuration)
-    return Decoded(offer, stamp_ns, signature)
+    return Decoded(offer, stamp_ns, signature, data[:signed_end])
 
 
 def decode_offer(data: bytes) -> Decoded[Offer]:
@@ -573,12 +595,12 @@ def _parse_control(data: bytes) -> Decoded[Control]:
         texts.append(text)
     reason, pos = _get_string(data, pos, 'reason', MAX_REASON)
     (stamp,), pos = _get_aligned8(data, pos, _F64)
-    signature, _ = _get_signature(data, pos)
+    signature, signed_end = _get_signature(data, pos)
     command, target, test_id, session, sender = texts
     control = Control(command=command, target=target, reason=reason,
                       stamp=float(stamp),
                       test_id=test_id, session=session, sender=sender)
-    return Decoded(control, stamp_ns, signature)
+    return Decoded(control, stamp_ns, signature, data[:signed_end])
 
 
 def decode_control(data: bytes) -> Decoded[Control]:
@@ -595,8 +617,9 @@ def _parse_session_start(data: bytes) -> Decoded[SessionStart]:
     stamp_ns, pos = _get_header(data)
     test_id, pos = _get_string(data, pos, 'test_id', MAX_NAME)
     challenge, pos = _get_string(data, pos, 'challenge', MAX_NAME)
-    signature, _ = _get_signature(data, pos)
-    return Decoded(SessionStart(test_id=test_id, challenge=challenge), stamp_ns, signature)
+    signature, signed_end = _get_signature(data, pos)
+    return Decoded(SessionStart(test_id=test_id, challenge=challenge), stamp_ns, signature,
+                   data[:signed_end])
 
 
 def decode_session_start(data: bytes) -> Decoded[SessionStart]:
@@ -627,16 +650,41 @@ def decode_signature(data: bytes) -> Signature:
     return _decoding('Signature', data, _parse_signature)
 
 
+_EMPTY_MAC = _U32.pack(0)
+
+
+def covered_part(unsigned: bytes) -> bytes:
+    """The bytes a MAC covers of a message encoded with an empty MAC.
+
+    Everything but the empty MAC's count (the last four bytes): the encapsulation header, the
+    header stamp, every field, and the signature's key id, session and sequence. A decoded
+    message's :attr:`Decoded.covered` is the same part of the bytes that arrived.
+
+    Raises:
+        CdrEncodeError: the bytes do not end with an empty MAC.
+    """
+    if unsigned[-4:] != _EMPTY_MAC:
+        msg = 'a message to sign must be encoded with an empty MAC'
+        raise CdrEncodeError(msg)
+    return unsigned[:-4]
+
+
+def seal(covered: bytes, mac: bytes) -> bytes:
+    """The whole message: its covered part (:func:`covered_part`) closed by ``mac``."""
+    return b''.join((covered, _U32.pack(len(mac)), mac))
+
+
 def signed_from_bytes(decode: Callable[[bytes], Decoded[Item]], data: bytes
-                      ) -> tuple[Item, Signature] | None:
-    """A signed message's record and signature read from its CDR bytes (``decode(data)``).
+                      ) -> Decoded[Item] | None:
+    """A signed message read from its CDR bytes (``decode(data)``).
+
+    Its record, stamp, signature and the bytes its MAC covers.
 
     Or ``None`` when the bytes are malformed or a field is beyond its bound: what
     :func:`~.convert.signed_from_message` answers for the message rclpy would have made of them
     (a raw subscription's reading of a hot topic).
     """
     try:
-        decoded = decode(data)
+        return decode(data)
     except MalformedMessageError:
         return None
-    return decoded.record, decoded.signature

@@ -27,8 +27,9 @@ from pd_msgs.msg import SessionStart as SessionStartMessage
 from ..auth.gates import CommandGate, ReplyGate, StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import command_payload, feedback_payload, session_start_payload
-from ..auth.signing import Refusal, Signer, sign_reply
+from ..auth.signing import WIRE_COMMAND, WIRE_FEEDBACK, Refusal, Signer, sign_wire_reply
 from ..protocol.bounds import MAX_NAME, MalformedMessageError, check_text, clip_reason
+from ..protocol.cdr import Decoded, encode_command, encode_feedback
 from ..protocol.convert import signature_from_message
 from ..protocol.messages import Command, Feedback, Offer, SessionStart, StateOrigin, StepKey
 from ..protocol.signature import Signature
@@ -168,15 +169,21 @@ class SessionReceiver:
         self.accepting = accepting
         self.close()
 
-    def admit(self, command: Command, signature: Signature) -> Refusal | None:
-        """``None`` if ``command`` may be obeyed."""
-        return self.gate.admit(command_payload(command), signature)
+    def admit(self, command: Decoded[Command]) -> Refusal | None:
+        """``None`` if the command (as its bytes arrived, decoded) may be obeyed."""
+        return self.gate.admit(command_payload(command.covered), command.signature)
 
-    def sign(self, feedback: Feedback, request: Signature) -> Signature:
-        """The signature of ``feedback`` answering the command signed ``request``."""
+    def encode_reply(self, feedback: Feedback, stamp_ns: int, request: Signature) -> bytes:
+        """The bytes of ``feedback`` answering the command signed ``request``, signed as sent.
+
+        Unsigned without a key or for an unsigned request.
+        """
         if self.key is None or not request.signed:
-            return _UNSIGNED
-        return sign_reply(self.key, feedback_payload(feedback), request)
+            return encode_feedback(feedback, stamp_ns)
+        data, _ = sign_wire_reply(
+            self.key, WIRE_FEEDBACK,
+            lambda signature: encode_feedback(feedback, stamp_ns, signature), request)
+        return data
 
     def _on_start(self, message: Any) -> None:
         try:
@@ -281,15 +288,22 @@ class SessionSender:
         """Whether a receiver has offered a session (its offer arrived)."""
         return self.offer is not None
 
-    def sign(self, command: Command) -> Signature:
-        """The signature of the next command (unsigned without a key)."""
-        if self._signer is None:
-            return _UNSIGNED
-        return self._signer.sign(command_payload(command))
+    def encode(self, command: Command, stamp_ns: int) -> tuple[bytes, Signature]:
+        """The bytes of the next command, signed as sent, and their signature.
 
-    def admit(self, feedback: Feedback, signature: Signature) -> Refusal | None:
-        """``None`` if the reply is genuine, for this session, and new."""
-        return self.reply_gate.admit(feedback_payload(feedback), signature)
+        Unsigned without a key.
+        """
+        if self._signer is None:
+            return encode_command(command, stamp_ns), _UNSIGNED
+        return self._signer.sign_wire(
+            WIRE_COMMAND, lambda signature: encode_command(command, stamp_ns, signature))
+
+    def admit(self, feedback: Decoded[Feedback]) -> Refusal | None:
+        """``None`` if the reply is genuine, for this session, and new.
+
+        ``feedback``: the reply as its bytes arrived, decoded.
+        """
+        return self.reply_gate.admit(feedback_payload(feedback.covered), feedback.signature)
 
     def reopen(self) -> None:
         """A process of the test restarted.

@@ -69,6 +69,8 @@ class StepDispatcher:
         self.send = send
         self.bag = bag
         self._clock = clock
+        #: When the commands being sent left [ns]: their record's time stamp (see _send_batch).
+        self.send_stamp_ns = 0
         self.epochs = EpochGuard()
         self._epochs_noted = 0
         self._topics = {site: (site_topic_name(site, 'step_command'),
@@ -98,14 +100,17 @@ class StepDispatcher:
         self._flush(self._next_batch())
 
     def on_feedback(self, site: str, feedback: Feedback,
-                    signature: Signature | None = None) -> Verdict:
-        """One site's feedback: advance the test if the step is complete; send what follows."""
+                    signature: Signature | None = None, stamp_ns: int | None = None) -> Verdict:
+        """One site's feedback: advance the test if the step is complete; send what follows.
+
+        ``stamp_ns``: the feedback's header stamp (recorded with it: its signature covers it).
+        """
         received = self._clock()
         # (no epoch: nothing to check, as EpochGuard.check finds)
         reason = self.epochs.check(site, feedback) if feedback.epoch else None
         if reason is not None:  # a fresh specimen replaced the one the test drove
             refuse_fresh_state(self.session, reason)
-            self._record_feedback(site, feedback, received, signature)
+            self._record_feedback(site, feedback, received, signature, stamp_ns)
             self._note_epochs()
             if self.bag is not None:
                 self.bag.flush()
@@ -117,7 +122,7 @@ class StepDispatcher:
             # Holding, paused or finished: the site's answer is not taken (as the session
             # itself does); the held step is re-sent to every site on resume.
             self.session.protocol.ignore(Verdict.UNEXPECTED)
-            self._record_feedback(site, feedback, received, signature)
+            self._record_feedback(site, feedback, received, signature, stamp_ns)
             return Verdict.UNEXPECTED
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
@@ -125,7 +130,7 @@ class StepDispatcher:
             if passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
-        self._record_feedback(site, feedback, received, signature)
+        self._record_feedback(site, feedback, received, signature, stamp_ns)
         if assembled is not None and not passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
         if batch and self.bag is not None:
@@ -214,7 +219,13 @@ class StepDispatcher:
         return batch
 
     def _send_batch(self, batch: list[_BatchItem]) -> list[Signature | None]:
-        """Send the batch's site commands; their signatures, in order."""
+        """Send the batch's site commands; their signatures, in order.
+
+        They are recorded at :attr:`send_stamp_ns`, taken before the first leaves: a sender that
+        stamps its messages stamps them with it (the integrator), so the record holds the bytes
+        that went out.
+        """
+        self.send_stamp_ns = self._clock()
         return [self.send(site, site_command)
                 for _, site_commands in batch for site, site_command in site_commands]
 
@@ -227,7 +238,7 @@ class StepDispatcher:
                       ) -> None:
         if self.bag is None:
             return
-        t_ns = self._clock()
+        t_ns = self.send_stamp_ns
         passthrough = self.coordinator.passthrough
         sent = iter(signatures)
         for item, site_commands in batch:
@@ -240,19 +251,19 @@ class StepDispatcher:
                 self._record(self._topics[site][0], site_command, t_ns, next(sent, None))
 
     def _record_feedback(self, site: str, feedback: Feedback, t_ns: int,
-                         signature: Signature | None) -> None:
+                         signature: Signature | None, stamp_ns: int | None) -> None:
         topics = self._topics.get(site)
         if topics is not None:
-            self._record(topics[1], feedback, t_ns, signature)
+            self._record(topics[1], feedback, t_ns, signature, stamp_ns)
 
     def _record(self, topic: str, item: Command | Feedback, t_ns: int,
-                signature: Signature | None = None) -> None:
+                signature: Signature | None = None, stamp_ns: int | None = None) -> None:
         if self.bag is None:
             return
         if isinstance(item, Command):
             self.bag.write_command(item, t_ns, topic, signature)
         else:
-            self.bag.write_feedback(item, t_ns, topic, signature)
+            self.bag.write_feedback(item, t_ns, topic, signature, stamp_ns)
 
 
 def refuse_fresh_state(session: TestSession, reason: str) -> None:

@@ -50,6 +50,7 @@ from pd_common.protocol import (
     command_from_message,
     feedback_from_message,
     signature_from_message,
+    stamp_ns_of,
     status_from_message,
 )
 
@@ -250,10 +251,15 @@ class BagRecorder:
             mac=np.frombuffer(signature.mac, dtype=np.uint8))
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None) -> None:
-        """Record a step command (with the signature it went out with, if any)."""
+                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a step command (with the signature it went out with, if any).
+
+        ``stamp_ns``: its header stamp (default ``t_ns``): with the one it went out with, the
+        bag holds the bytes that went out.
+        """
         self._write(topic, t_ns, self._store.types[MSG_COMMAND](
-            header=_stamp(self._store, t_ns), test_id=command.test_id, step=command.step,
+            header=_stamp(self._store, t_ns if stamp_ns is None else stamp_ns),
+            test_id=command.test_id, step=command.step,
             iteration=command.iteration, test_time=command.test_time,
             dof_names=list(command.dof_names),
             target_displacement=np.array(command.target_displacement, dtype=np.float64),
@@ -262,10 +268,11 @@ class BagRecorder:
             signature=self._signature(signature)))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None) -> None:
-        """Record a step feedback (with the signature it came with, if any)."""
+                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a step feedback (with the signature and header stamp it came with)."""
         self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
-            header=_stamp(self._store, t_ns), test_id=feedback.test_id, step=feedback.step,
+            header=_stamp(self._store, t_ns if stamp_ns is None else stamp_ns),
+            test_id=feedback.test_id, step=feedback.step,
             iteration=feedback.iteration,
             measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
             restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
@@ -299,6 +306,8 @@ class RecordedRun:
         site_events: per site of a substructured test, ``(t_ns, item)`` of its own stream.
         signatures: the signature of each item of ``events`` (unsigned ones empty).
         site_signatures: the same for ``site_events``.
+        stamps: the header stamp of each item of ``events`` (what its signature covers).
+        site_stamps: the same for ``site_events``.
         ordered: every command, feedback and integrator status as ``(topic, t_ns, item,
             signature)``, in recorded order across all topics (what a resume re-runs).
         notes: what reading found worth saying (e.g. a journal's last record cut short).
@@ -314,6 +323,8 @@ class RecordedRun:
     site_events: dict[str, list[tuple[int, Command | Feedback]]] = field(default_factory=dict)
     signatures: list[Signature] = field(default_factory=list)
     site_signatures: dict[str, list[Signature]] = field(default_factory=dict)
+    stamps: list[int] = field(default_factory=list)
+    site_stamps: dict[str, list[int]] = field(default_factory=dict)
     ordered: list[tuple[str, int, Command | Feedback | Status, Signature]] = field(
         default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -336,16 +347,17 @@ class RunIndex:
     def __init__(self) -> None:
         self._definition: str | None = None
         self._run = RecordedRun(definition_json='')
-        self._messages: list[tuple[str, int, Command | Feedback, Signature]] = []
+        self._messages: list[tuple[str, int, Command | Feedback, Signature, int]] = []
 
     def definition(self, text: str) -> None:
         """The recorded definition (the first one counts)."""
         self._definition = self._definition or text
 
     def message(self, topic: str, t_ns: int, item: Command | Feedback,
-                signature: Signature) -> None:
-        """A command or feedback on ``topic``."""
-        self._messages.append((topic, t_ns, item, signature))
+                signature: Signature, stamp_ns: int | None = None) -> None:
+        """A command or feedback on ``topic`` (``stamp_ns``: its header stamp, default t)."""
+        self._messages.append((topic, t_ns, item, signature,
+                               t_ns if stamp_ns is None else stamp_ns))
         self._run.ordered.append((topic, t_ns, item, signature))
 
     def status(self, topic: str, t_ns: int, status: Status) -> None:
@@ -378,14 +390,16 @@ class RunIndex:
         structured = any(topic == TOPIC_STRUCTURE_COMMAND for topic, *_ in self._messages)
         main_topics = ((TOPIC_STRUCTURE_COMMAND, TOPIC_STRUCTURE_FEEDBACK) if structured
                        else (TOPIC_COMMAND, TOPIC_FEEDBACK))
-        for topic, t_ns, item, signature in self._messages:
+        for topic, t_ns, item, signature, stamp_ns in self._messages:
             if topic in main_topics:
                 run.events.append((t_ns, item))
                 run.signatures.append(signature)
+                run.stamps.append(stamp_ns)
             else:
                 site = site_of(topic)
                 run.site_events.setdefault(site, []).append((t_ns, item))
                 run.site_signatures.setdefault(site, []).append(signature)
+                run.site_stamps.setdefault(site, []).append(stamp_ns)
         return run
 
 
@@ -421,7 +435,8 @@ def read_bag(path: str | Path) -> RecordedRun:
                             else feedback_from_message(message))
                     signature = signature_from_message(
                         message.signature)  # type: ignore[attr-defined]  # rosbags: ``object``
-                    index.message(topic, t_ns, item, signature)
+                    index.message(topic, t_ns, item, signature,
+                                  stamp_ns_of(message))
                 elif msgtype == MSG_TRAJECTORY:
                     index.trajectory(t_ns, message)
                 else:

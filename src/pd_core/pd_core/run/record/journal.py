@@ -87,13 +87,13 @@ class RunRecorder(Protocol):
         """Record the test definition."""
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None) -> None:
-        """Record a command sent to a site."""
+                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a command sent to a site (``stamp_ns``: its header stamp, if not ``t_ns``)."""
 
     def write_feedback(self, feedback: Feedback, t_ns: int,
                        topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None) -> None:
-        """Record a site's feedback."""
+                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a site's feedback (``stamp_ns``: its header stamp, if not ``t_ns``)."""
 
     def write_status(self, status: Status, t_ns: int, *,
                      topic: str = TOPIC_STATUS) -> None:
@@ -201,8 +201,8 @@ class Journal:
         self._add({'k': 'def', 't': t_ns, 'json': text})
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None) -> None:
-        """Record a command (with its signature)."""
+                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a command (with its signature; its header stamp ``hs`` if not ``t_ns``)."""
         record = {'k': 'cmd', 't': t_ns, 'topic': topic, 'id': command.test_id,
                   'step': command.step, 'it': command.iteration,
                   'time': float(command.test_time), 'dofs': list(command.dof_names),
@@ -210,17 +210,26 @@ class Journal:
         if command.control_mode or command.target_force:  # mixed control only
             record['mode'] = [int(mode) for mode in command.control_mode]
             record['fx'] = _floats(command.target_force)
+        if stamp_ns is not None and stamp_ns != t_ns:
+            record['hs'] = stamp_ns
         self._add(record)
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None) -> None:
-        """Record a feedback (with its signature)."""
-        self._add({'k': 'fb', 't': t_ns, 'topic': topic, 'id': feedback.test_id,
-                   'step': feedback.step, 'it': feedback.iteration,
-                   'xm': _floats(feedback.measured_displacement),
-                   'r': _floats(feedback.restoring_force), 'status': int(feedback.status),
-                   'msg': feedback.message, 'epoch': feedback.epoch,
-                   'origin': int(feedback.state_origin), 'sig': _signature(signature)})
+                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+        """Record a feedback (with its signature; its header stamp ``hs`` if not ``t_ns``).
+
+        The header stamp is the sender's (the bytes a signature covers hold it): with it the
+        bag holds the message as it arrived, and ``./pd replay --key`` checks it.
+        """
+        record = {'k': 'fb', 't': t_ns, 'topic': topic, 'id': feedback.test_id,
+                  'step': feedback.step, 'it': feedback.iteration,
+                  'xm': _floats(feedback.measured_displacement),
+                  'r': _floats(feedback.restoring_force), 'status': int(feedback.status),
+                  'msg': feedback.message, 'epoch': feedback.epoch,
+                  'origin': int(feedback.state_origin), 'sig': _signature(signature)}
+        if stamp_ns is not None and stamp_ns != t_ns:
+            record['hs'] = stamp_ns
+        self._add(record)
 
     def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
         """Record a status (the integrator's, or a bridge's on its topic)."""
@@ -336,6 +345,7 @@ class JournalRecord:
     topic: str
     item: Any
     signature: Signature
+    stamp_ns: int = 0  # a command's or feedback's header stamp (t_ns unless recorded apart)
 
 
 def _status(record: dict[str, Any]) -> Status:
@@ -419,7 +429,8 @@ def _record(raw: Any) -> JournalRecord:
         item = base64.b64decode(_text(raw['cdr'], 'cdr'), validate=True)
     else:
         item = raw
-    return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature)
+    return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature,
+                         stamp_ns=_integer(raw.get('hs', t_ns), 'hs'))
 
 
 def iter_journal_records(path: str | Path, notes: list[str] | None = None
@@ -502,7 +513,8 @@ def read_journal(path: str | Path) -> RecordedRun:
         if record.kind == 'def':
             index.definition(record.item)
         elif record.kind in ('cmd', 'fb'):
-            index.message(record.topic, record.t_ns, record.item, record.signature)
+            index.message(record.topic, record.t_ns, record.item, record.signature,
+                          record.stamp_ns)
         elif record.kind == 'st':
             index.status(record.topic, record.t_ns, record.item)
         elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
@@ -566,10 +578,11 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
             if record.kind == 'def':
                 recorder.write_definition(record.item, record.t_ns)
             elif record.kind == 'cmd':
-                recorder.write_command(record.item, record.t_ns, record.topic, record.signature)
+                recorder.write_command(record.item, record.t_ns, record.topic, record.signature,
+                                       record.stamp_ns)
             elif record.kind == 'fb':
                 recorder.write_feedback(record.item, record.t_ns, record.topic,
-                                        record.signature)
+                                        record.signature, record.stamp_ns)
             elif record.kind == 'st':
                 recorder.write_status(record.item, record.t_ns, topic=record.topic)
             elif record.kind == 'raw':

@@ -1,10 +1,11 @@
 """Checking the authentication codes recorded in a run's bag (``./pd replay --key``).
 
 Every command the integrator sent and every feedback it took went through the site's topics
-with a MAC (:mod:`pd_common.auth`); the bag records them with their signatures. With the key,
-each one can be checked again: a bag whose commands or feedback were altered after the test
-(or that mixes streams of another key) shows it. The key is needed only for this check; the
-replay itself does not need it.
+with a MAC over their bytes (:mod:`pd_common.auth`); the bag records them with their header
+stamps and signatures, so their bytes are made again exactly (:mod:`pd_common.protocol.cdr`)
+and each MAC can be checked again with the key: a bag whose commands or feedback were altered
+after the test (or that mixes streams of another key) shows it. The key is needed only for this
+check; the replay itself does not need it.
 """
 
 from __future__ import annotations
@@ -14,7 +15,15 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from pd_common.auth import Key, command_payload, feedback_payload, verify_mac
-from pd_common.protocol import Command, Feedback, Signature
+from pd_common.protocol import (
+    CdrEncodeError,
+    Command,
+    Feedback,
+    Signature,
+    covered_part,
+    encode_command,
+    encode_feedback,
+)
 
 if TYPE_CHECKING:
     from .bag import RecordedRun
@@ -49,25 +58,34 @@ class SignatureCheck:
                 'unsigned': self.unsigned}
 
 
-def _streams(run: RecordedRun) -> Iterable[tuple[Command | Feedback, Signature]]:
-    """The messages that went over the sites' topics, with their signatures."""
+def _streams(run: RecordedRun) -> Iterable[tuple[Command | Feedback, Signature, int]]:
+    """The messages that went over the sites' topics, with their signatures and stamps."""
     if run.site_events:  # a substructured test: the structure stream is internal, unsigned
         for site, events in run.site_events.items():
             yield from zip((item for _, item in events), run.site_signatures[site],
-                           strict=True)
+                           run.site_stamps[site], strict=True)
     else:
-        yield from zip((item for _, item in run.events), run.signatures, strict=True)
+        yield from zip((item for _, item in run.events), run.signatures, run.stamps,
+                       strict=True)
 
 
 def check_signatures(run: RecordedRun, key: Key) -> SignatureCheck:
     """Check the MAC of every recorded command and feedback with ``key``."""
     verified = failed = unsigned = 0
-    for item, signature in _streams(run):
+    for item, signature, stamp_ns in _streams(run):
         if not signature.signed:
             unsigned += 1
             continue
-        payload = (command_payload(item) if isinstance(item, Command)
-                   else feedback_payload(item))
+        # the bytes it travelled as, up to its MAC (the recorded MAC left out)
+        bare = Signature(signature.key_id, signature.session, signature.sequence)
+        try:
+            if isinstance(item, Command):
+                payload = command_payload(covered_part(encode_command(item, stamp_ns, bare)))
+            else:
+                payload = feedback_payload(covered_part(encode_feedback(item, stamp_ns, bare)))
+        except CdrEncodeError:
+            failed += 1
+            continue
         if verify_mac(key, payload, signature) is None:
             verified += 1
         else:
