@@ -374,7 +374,7 @@ def test_header_frame_id_is_read_and_dropped() -> None:
     command = Command('t', 3, 0.25, ('top',), (0.01,))
     message = ros_messages.command_message(command, ros_messages.stamp_from_ns(7))
     message.header.frame_id = 'wörld'
-    assert cdr.decode_command(serialize_message(message)) == (command, 7, Signature())
+    assert cdr.decode_command(serialize_message(message))[:3] == (command, 7, Signature())
 
 
 # -- the documented layout, by hand -------------------------------------------------------------
@@ -403,7 +403,7 @@ def test_command_layout_by_hand() -> None:
         '02000000 aabb',                           # 104: signature.mac (2 bytes): 110 bytes
     )))
     assert cdr.encode_command(command, 1_000_000_002, signature) == expected
-    assert cdr.decode_command(expected) == (command, 1_000_000_002, signature)
+    assert cdr.decode_command(expected)[:3] == (command, 1_000_000_002, signature)
 
 
 def test_feedback_layout_by_hand() -> None:
@@ -431,7 +431,7 @@ def test_feedback_layout_by_hand() -> None:
         '00000000',                                  # 112: signature.mac: 0 (116 bytes)
     )))
     assert cdr.encode_feedback(feedback, 0) == expected
-    assert cdr.decode_feedback(expected) == (feedback, 0, Signature())
+    assert cdr.decode_feedback(expected)[:3] == (feedback, 0, Signature())
 
 
 # -- refusals -------------------------------------------------------------------------------
