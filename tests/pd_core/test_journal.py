@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rosbags.highlevel import AnyReader
 
+from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
 from pd_common.protocol import (
     Command,
     Feedback,
@@ -24,6 +26,8 @@ from pd_common.protocol import (
     Signature,
     StateOrigin,
     Status,
+    encode_command,
+    encode_feedback,
 )
 from pd_common.protocol import TestState as State
 from pd_core.errors import BagError
@@ -517,3 +521,35 @@ def test_a_cut_journal_converts_and_replays_up_to_its_last_step(tmp_path: Path,
     assert session.protocol.pending.step == 201
     assert_same_history(offline.session.history, session.history, 201)
     assert TOPIC_FEEDBACK in {topic for topic, *_ in run.ordered}
+
+
+def test_the_bag_holds_each_step_message_as_the_bytes_that_travelled(tmp_path: Path) -> None:
+    """A signed command and feedback journalled with their header stamps: the bag written from
+    the journal holds exactly the bytes the codec sent (rosbags reads them back), and a record
+    CDR cannot carry (a NUL in a damaged journal's message) is a one-line BagError."""
+    key = new_key()
+    command = Command('t', 4, 0.04, ('top',), (0.0125,))
+    feedback = Feedback('t', 4, (0.0124,), (-3859.05,), epoch='ab' * 8)
+    sent, signature = Signer(key).sign_wire(
+        WIRE_COMMAND, lambda bare: encode_command(command, 1_000, bare))
+    answer, reply = sign_wire_reply(
+        key, WIRE_FEEDBACK, lambda bare: encode_feedback(feedback, 1_500, bare), signature)
+    with Journal(tmp_path / 'journal.jsonl') as journal:
+        journal.write_definition('{}', 500)
+        journal.write_command(command, 1_000, signature=signature)
+        journal.write_feedback(feedback, 2_000, signature=reply, stamp_ns=1_500)
+    journal_to_bag(tmp_path / 'journal.jsonl', tmp_path / 'bag')
+    with AnyReader([tmp_path / 'bag']) as reader:
+        stored = {connection.topic: (t_ns, bytes(data))
+                  for connection, t_ns, data in reader.messages()
+                  if connection.topic in (TOPIC_COMMAND, TOPIC_FEEDBACK)}
+    assert stored == {TOPIC_COMMAND: (1_000, sent), TOPIC_FEEDBACK: (2_000, answer)}
+
+    lines = (tmp_path / 'journal.jsonl').read_text(encoding='utf-8').splitlines()
+    damaged = [line.replace('"msg":""', '"msg":"a\\u0000b"') for line in lines]
+    assert damaged != lines
+    (tmp_path / 'damaged.jsonl').write_text('\n'.join(damaged) + '\n', encoding='utf-8')
+    with pytest.raises(BagError, match='step_feedback') as info:
+        journal_to_bag(tmp_path / 'damaged.jsonl', tmp_path / 'bag2')
+    assert '\n' not in str(info.value)
+    assert not (tmp_path / 'bag2').exists()

@@ -33,21 +33,25 @@ from __future__ import annotations
 import functools
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-import numpy as np
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from pd_common.protocol import (
+    CdrEncodeError,
     Command,
     Feedback,
     Signature,
     Status,
     command_from_message,
+    encode_command,
+    encode_feedback,
+    encode_status,
     feedback_from_message,
     signature_from_message,
     stamp_ns_of,
@@ -138,13 +142,6 @@ def typestore() -> Typestore:
         types.update(get_types_from_msg(text, f'pd_msgs/msg/{name}'))
     store.register(types)
     return store
-
-
-def _stamp(store: Typestore, t_ns: int) -> Any:
-    time_type = store.types['builtin_interfaces/msg/Time']
-    header_type = store.types['std_msgs/msg/Header']
-    return header_type(stamp=time_type(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000),
-                       frame_id='')
 
 
 class BagRecorder:
@@ -244,11 +241,14 @@ class BagRecorder:
         text = json.dumps({'what': what, **info}, sort_keys=True)
         self._write(TOPIC_EVENTS, t_ns, self._store.types[MSG_STRING](data=text))
 
-    def _signature(self, signature: Signature | None) -> Any:
-        signature = signature or _UNSIGNED
-        return self._store.types[MSG_SIGNATURE](
-            key_id=signature.key_id, session=signature.session, sequence=signature.sequence,
-            mac=np.frombuffer(signature.mac, dtype=np.uint8))
+    def _write_encoded(self, topic: str, t_ns: int, encode: Callable[[], bytes]) -> None:
+        """Record a message the protocol's codec encodes (the bytes rclpy and rosbags make)."""
+        try:
+            data = encode()
+        except CdrEncodeError as err:
+            msg = f'{self.path}: {topic}: {err}'
+            raise BagError(msg) from None
+        self.write_raw(topic, t_ns, data)
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
@@ -257,39 +257,18 @@ class BagRecorder:
         ``stamp_ns``: its header stamp (default ``t_ns``): with the one it went out with, the
         bag holds the bytes that went out.
         """
-        self._write(topic, t_ns, self._store.types[MSG_COMMAND](
-            header=_stamp(self._store, t_ns if stamp_ns is None else stamp_ns),
-            test_id=command.test_id, step=command.step,
-            iteration=command.iteration, test_time=command.test_time,
-            dof_names=list(command.dof_names),
-            target_displacement=np.array(command.target_displacement, dtype=np.float64),
-            control_mode=np.array(command.control_mode, dtype=np.uint8),
-            target_force=np.array(command.target_force, dtype=np.float64),
-            signature=self._signature(signature)))
+        self._write_encoded(topic, t_ns, lambda: encode_command(
+            command, t_ns if stamp_ns is None else stamp_ns, signature or _UNSIGNED))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
                        signature: Signature | None = None, stamp_ns: int | None = None) -> None:
         """Record a step feedback (with the signature and header stamp it came with)."""
-        self._write(topic, t_ns, self._store.types[MSG_FEEDBACK](
-            header=_stamp(self._store, t_ns if stamp_ns is None else stamp_ns),
-            test_id=feedback.test_id, step=feedback.step,
-            iteration=feedback.iteration,
-            measured_displacement=np.array(feedback.measured_displacement, dtype=np.float64),
-            restoring_force=np.array(feedback.restoring_force, dtype=np.float64),
-            status=int(feedback.status), message=feedback.message, epoch=feedback.epoch,
-            state_origin=int(feedback.state_origin), signature=self._signature(signature)))
+        self._write_encoded(topic, t_ns, lambda: encode_feedback(
+            feedback, t_ns if stamp_ns is None else stamp_ns, signature or _UNSIGNED))
 
     def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
         """Record a test status (the integrator's, or the bridge's on its own topic)."""
-        self._write(topic, t_ns, self._store.types[MSG_STATUS](
-            header=_stamp(self._store, t_ns), test_id=status.test_id, state=int(status.state),
-            step=status.step, total_steps=status.total_steps, omega_dt=status.omega_dt,
-            retries=status.retries, ignored_messages=status.ignored_messages,
-            message=status.message, refused_messages=status.refused_messages,
-            refused_by_reason=status.refused_by_reason, node=status.node,
-            session=status.session, emergency_stop=status.emergency_stop,
-            operator_hold=status.operator_hold, acknowledged=status.acknowledged,
-            signature=self._signature(None)))
+        self._write_encoded(topic, t_ns, lambda: encode_status(status, t_ns))
 
 
 @dataclass
