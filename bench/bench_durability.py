@@ -134,7 +134,8 @@ RECOVER = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrato
 REPEATS = 3
 SOAK_STEPS = 100_000
 QUICK_SOAK_STEPS = 10_000
-GRAPH_SOAK_STEPS = 10_000
+GRAPH_SOAK_STEPS = 100_000  # issue 33: the RSS slope and the rate over 1e5 steps
+QUICK_GRAPH_SOAK_STEPS = 10_000
 RECOVERY_CUT_DEFAULT = 0.5  # fraction of the default test's journal kept (then half a line)
 RECOVERY_CUT_SOAK = 0.9  # the same for the soak's journal
 START_STEP = 1000  # the graph soak's "start" RSS sample: the first after this step was reported
@@ -1160,8 +1161,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--no-recovery', action='store_true', help='skip the recovery')
     parser.add_argument('--graph-soak', action='store_true',
                         help='also soak the node graph (run_test --site bridge)')
-    parser.add_argument('--graph-steps', type=int, default=GRAPH_SOAK_STEPS,
-                        help=f'steps of the graph soak (default {GRAPH_SOAK_STEPS:,})')
+    parser.add_argument('--graph-steps', type=int, default=None,
+                        help=f'steps of the graph soak (default {GRAPH_SOAK_STEPS:,}; '
+                        f'{QUICK_GRAPH_SOAK_STEPS:,} with --quick)')
     parser.add_argument('--domain-id', type=int, default=65,
                         help='ROS_DOMAIN_ID of the graph soak (default 65)')
     parser.add_argument('--keep', metavar='DIR', default=None,
@@ -1172,6 +1174,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         parser.error('--domain-id: expected 0..232')
     if args.steps is not None and args.steps < 100:
         parser.error('--steps: expected at least 100')
+    if args.graph_steps is None:
+        args.graph_steps = QUICK_GRAPH_SOAK_STEPS if args.quick else GRAPH_SOAK_STEPS
     if args.graph_steps < 100:
         parser.error('--graph-steps: expected at least 100')
     return args
