@@ -75,7 +75,7 @@ def one_run(mode: str, test_file: Path, env: dict[str, str], work: Path, index: 
         if mode != 'none':
             log = (work / f'console-{mode}-{index}.log').open('wb')
             console = subprocess.Popen(
-                [str(INSTALL / 'pd_integrator' / 'lib' / 'pd_integrator' / 'console'),
+                [str(INSTALL / 'pd_console' / 'lib' / 'pd_console' / 'console'),
                  '--port', '0'], env=env, stdout=log, stderr=subprocess.STDOUT,
                 start_new_session=True)
             deadline = time.monotonic() + 20.0
