@@ -128,6 +128,7 @@ from bench_loop import (
     shm_snapshot,
     stop_process,
 )
+from pd_core.run.record.journal import JOURNAL_FILE as JOURNAL_NAME
 
 LAUNCHER = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
 RECOVER = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / 'recover'
@@ -136,7 +137,7 @@ SOAK_STEPS = 100_000
 QUICK_SOAK_STEPS = 10_000
 GRAPH_SOAK_STEPS = 100_000  # issue 33: the RSS slope and the rate over 1e5 steps
 QUICK_GRAPH_SOAK_STEPS = 10_000
-RECOVERY_CUT_DEFAULT = 0.5  # fraction of the default test's journal kept (then half a line)
+RECOVERY_CUT_DEFAULT = 0.5  # fraction of the default test's journal kept (then half a record)
 RECOVERY_CUT_SOAK = 0.9  # the same for the soak's journal
 START_STEP = 1000  # the graph soak's "start" RSS sample: the first after this step was reported
 SAMPLE_PERIOD = 0.5  # s between the graph soak's RSS samples
@@ -315,11 +316,11 @@ def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
     definition = load_test_file(DEFAULT_TEST, overrides)
     work = work / 'core'
     work.mkdir()
-    kept = work / 'journal-kept.jsonl'
+    kept = work / 'journal-kept.pdj'
     variants: dict[str, Callable[[Path], Any] | None] = {
         'none': None,
-        'journal': lambda path: Journal(path.with_suffix('.jsonl'), sync_interval=1.0).open(),
-        'fsync_every_step': lambda path: Journal(path.with_suffix('.jsonl'),
+        'journal': lambda path: Journal(path.with_suffix('.pdj'), sync_interval=1.0).open(),
+        'fsync_every_step': lambda path: Journal(path.with_suffix('.pdj'),
                                                  sync_interval=0.0).open(),
         'bag_recorder': lambda path: BagRecorder(path.with_suffix('.bag')).open(),
     }
@@ -333,7 +334,7 @@ def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
             elapsed, steps, count = step_loop(definition, make)
             times[name].append(elapsed)
             syncs[name].append(count)
-            journal = path.with_suffix('.jsonl')
+            journal = path.with_suffix('.pdj')
             if name == 'journal' and not kept.exists():
                 journal.rename(kept)
             _remove(journal)
@@ -576,7 +577,7 @@ def bench_soak(table: Table, steps: int, work: Path) -> tuple[Figures, Path | No
                   f'{_mb(report["rss_end_kb"]):.1f} MB after it')
 
     # The journal and the bag read back.
-    journal = out / 'journal.jsonl'
+    journal = out / JOURNAL_NAME
     bag = out / 'bag'
     figures['soak_journal_mb'] = _size(journal) / 1e6 if journal.is_file() else None
     figures['soak_bag_mb'] = _size(bag) / 1e6 if bag.is_dir() else None
@@ -628,29 +629,32 @@ class KilledRun:
 
     folder: Path
     kept_bytes: int
-    cut_line_bytes: int  # bytes of the last, cut line kept
+    cut_line_bytes: int  # bytes of the last, torn record kept
     committed: int  # the step of the last complete feedback record
 
 
 def make_killed_run(run_dir: Path, folder: Path, fraction: float) -> KilledRun:
     """A new run folder with the start of ``run_dir``'s journal, cut in the middle of a line
     (the first after ``fraction`` of the file), its ``test_definition.json``, and no bag."""
-    data = (run_dir / 'journal.jsonl').read_bytes()
-    start = data.index(b'\n', int(len(data) * fraction)) + 1
-    end = data.index(b'\n', start)
+    from pd_common.protocol import decode_feedback
+    from pd_core.run.record.journal_format import RecordKind, iter_frames
+
+    journal = run_dir / JOURNAL_NAME
+    data = journal.read_bytes()
+    committed = -1
+    start = end = len(data)
+    for record in iter_frames(journal):
+        if record.offset >= int(len(data) * fraction):
+            start, end = record.offset, record.end
+            break
+        if record.kind is RecordKind.FEEDBACK:
+            committed = decode_feedback(record.payload).record.step
     cut = start + max(1, (end - start) // 2)
     folder.mkdir(parents=True)
-    (folder / 'journal.jsonl').write_bytes(data[:cut])
+    (folder / JOURNAL_NAME).write_bytes(data[:cut])
     definition = run_dir / 'test_definition.json'
     if definition.is_file():
         shutil.copy(definition, folder / definition.name)
-    committed = -1
-    for line in reversed(data[:start].split(b'\n')):
-        if b'"fb"' in line:
-            record = json.loads(line)
-            if record.get('k') == 'fb':
-                committed = int(record['step'])
-                break
     return KilledRun(folder, cut, cut - start, committed)
 
 
@@ -710,7 +714,7 @@ def bench_recovery(table: Table, work: Path, overrides: dict[str, Any],
     table.add(section, f'recover_run, default test cut at {RECOVERY_CUT_DEFAULT:.0%}',
               f'{best * 1e3:.0f} ms',
               f'{steps:,} committed steps ({best / max(steps, 1) * 1e6:.0f} us/step; the cut '
-              f'line kept {killed.cut_line_bytes} B); bag + response.csv + summary, no '
+              f'record kept {killed.cut_line_bytes} B); bag + response.csv + summary, no '
               f'figures; in this process, best of {REPEATS} (all: '
               f'{", ".join(f"{t * 1e3:.0f}" for t in times)} ms)')
 
@@ -884,7 +888,7 @@ def run_soak(test: Path, out: Path, domain_id: int, timeout: float) -> SoakRun:
     """``run_test TEST --out OUT --no-figures`` (site bridge), sampled every SAMPLE_PERIOD."""
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     log_path = out.with_suffix('.log')
-    journal = out / 'journal.jsonl'
+    journal = out / JOURNAL_NAME
     samples: list[Sample] = []
     log = IntegratorLog()
     names: dict[int, str] = {}
@@ -1081,7 +1085,7 @@ def bench_graph_soak(table: Table, steps: int, domain_id: int, work: Path) -> Fi
 
     # The bag, the journal, the replay.
     bag = out / 'bag'
-    journal = out / 'journal.jsonl'
+    journal = out / JOURNAL_NAME
     figures['graph_soak_bag_mb'] = _size(bag) / 1e6 if bag.exists() else None
     figures['graph_soak_journal_mb'] = _size(journal) / 1e6 if journal.exists() else None
     figures['graph_soak_journal_bytes_per_step'] = (_size(journal) / done

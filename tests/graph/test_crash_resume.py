@@ -37,6 +37,7 @@ from test_graph import (
 
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
+from support import journals
 
 pytestmark = pytest.mark.graph
 
@@ -88,10 +89,7 @@ def child_of(launcher: subprocess.Popen[bytes], kind: str) -> int:
 
 def committed_steps(out: Path) -> int:
     """Steps whose feedback is in the journal so far (the file as a crash would leave it)."""
-    try:
-        return (out / 'journal.jsonl').read_bytes().count(b'"k":"fb"')
-    except OSError:
-        return 0
+    return journals.committed_steps(out / 'journal.pdj')
 
 
 def wait_for_step(out: Path, step: int, launcher: subprocess.Popen[bytes],

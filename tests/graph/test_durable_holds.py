@@ -30,6 +30,7 @@ from test_graph import (
 
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
+from support import journals
 
 pytestmark = pytest.mark.graph
 
@@ -54,11 +55,7 @@ def long_reference(long_test: Path, tmp_path_factory: pytest.TempPathFactory) ->
 def committed_steps(out: Path) -> int:
     """Steps committed so far: the OK feedback in the journal (a refusal, such as an
     emergency stop's fault, commits nothing)."""
-    try:
-        lines = (out / 'journal.jsonl').read_bytes().splitlines()
-    except OSError:
-        return 0
-    return sum(b'"k":"fb"' in line and b'"status":0' in line for line in lines)
+    return journals.committed_steps(out / 'journal.pdj', ok_only=True)
 
 
 class Watch:
@@ -294,5 +291,5 @@ def test_a_full_disk_ends_the_test_in_one_line(processes: Processes, tmp_path: P
     log = processes.log('integrator')
     assert 'Traceback' not in log and 'FATAL' not in log, log[-3000:]
     errors = [line for line in log.splitlines() if '[ERROR]' in line]
-    assert len(errors) == 1 and 'journal.jsonl: cannot write the journal' in errors[0]
+    assert len(errors) == 1 and 'journal.pdj: cannot write the journal' in errors[0]
     assert f'./pd recover {out}' in errors[0]

@@ -297,7 +297,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert {'unsigned', 'wrong_key'} <= set(refused['bridge_status'])
     # The forged statuses never entered the record as the bridge's (or the test's) own, and
     # the summary names the driver and the limits actually in force.
-    assert b'rogue status' not in (out / 'journal.jsonl').read_bytes()
+    assert b'rogue status' not in (out / 'journal.pdj').read_bytes()
     side = summary['specimen_side']['default']
     assert side['driver'] == 'sim_servo' and side['limits']['max_displacement'] == 0.25
     assert side['node'] == '/pd/pd_actuator_bridge'

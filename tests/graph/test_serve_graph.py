@@ -96,7 +96,7 @@ def test_served_through_the_graph_equals_the_twin(processes: Processes, tmp_path
     np.testing.assert_allclose(served, reference, rtol=0, atol=1e-9 * 4e4)
     np.testing.assert_allclose(served[:, 1], reference[:, 1], rtol=0, atol=1e-12)
     # The run folder is ./pd run's.
-    assert (out / 'bag').is_dir() and (out / 'journal.jsonl').is_file()
+    assert (out / 'bag').is_dir() and (out / 'journal.pdj').is_file()
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'finished', summary
     assert summary['steps'] == STEPS

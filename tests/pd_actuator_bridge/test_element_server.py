@@ -11,6 +11,7 @@ from pd_actuator_bridge.element_server import ServeError, check_test_file, main
 from pd_core.run.record.journal import JOURNAL_FILE
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
+from support import journals
 from support.paths import CONFIG
 
 
@@ -52,8 +53,8 @@ def test_resume_refuses_what_is_not_a_stopped_served_run(
     run = tmp_path / 'RUN'
     definition = load_test_file(CONFIG / 'default_test.yaml', overrides={'duration': 0.05})
     run_offline(definition, run, figures=False)
-    status = (run / JOURNAL_FILE).read_text().splitlines()  # as a killed run leaves it
-    (run / JOURNAL_FILE).write_text('\n'.join(status[:-1]) + '\n')
+    kept = journals.records(run / JOURNAL_FILE)  # as a killed run leaves it: no last status
+    journals.cut(run / JOURNAL_FILE, run / JOURNAL_FILE, len(kept) - 1)
     args = [str(tmp_path / a) if a in ('RUN', 'NOWHERE') else a for a in args]
     assert main(args) == 2
     err = capsys.readouterr().err

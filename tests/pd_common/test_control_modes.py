@@ -89,9 +89,9 @@ def test_modes_round_trip_through_the_message_the_journal_and_the_bag(tmp_path: 
     assert list(message.control_mode) == [0, 1]
     assert command_from_message(message) == MIXED
 
-    with Journal(tmp_path / 'journal.jsonl') as journal:
+    with Journal(tmp_path / 'journal.pdj') as journal:
         journal.write_command(MIXED, 1, signature=Signature())
-    records, _ = read_journal_records(tmp_path / 'journal.jsonl')
+    records, _ = read_journal_records(tmp_path / 'journal.pdj')
     assert records[-1].item == MIXED
 
     with BagRecorder(tmp_path / 'bag') as recorder:

@@ -213,7 +213,7 @@ def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_finished_run_feeds_the_same_model(finished_run: Path) -> None:
     model = ConsoleModel(Clock())
-    for path in (finished_run, finished_run / 'bag', finished_run / 'journal.jsonl'):
+    for path in (finished_run, finished_run / 'bag', finished_run / 'journal.pdj'):
         model = ConsoleModel(Clock())
         assert load_run_folder(path, model) == finished_run
     frame = model.frame()

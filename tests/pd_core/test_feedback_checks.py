@@ -24,6 +24,7 @@ from pd_core.run.loop.session import TestSession as Session  # not a test class
 from pd_core.run.record.journal import JOURNAL_FILE, Journal
 from pd_core.run.runner import load_run, replay_run
 from pd_core.run.test_file import from_dict, from_json, load_test_file
+from support import journals
 from support.paths import REPO, TWO_SITES
 
 M = 2543.4
@@ -388,10 +389,11 @@ def test_a_refused_answer_is_recorded_and_replays_the_same(tmp_path: Path,
     assert replayed.state is State.FINISHED
     assert_same_history(replayed, uninterrupted)
     # Cut right after the refused answer, the record replays to the hold and its reason.
-    lines = path.read_text(encoding='utf-8').split('\n')
-    index = next(i for i, line in enumerate(lines) if '"xm":[' + repr(far[0]) in line)
-    cut = tmp_path / 'cut.jsonl'
-    cut.write_text('\n'.join(lines[:index + 1]) + '\n', encoding='utf-8')
+    records = journals.records(path)
+    index = next(i for i, record in enumerate(records)
+                 if record.kind == 'fb' and record.item.measured_displacement == far)
+    cut = tmp_path / 'cut.pdj'
+    journals.cut(path, cut, index + 1)
     held = replay_run(load_run(cut))
     assert held.state is State.HOLDING
     assert held.message == reason

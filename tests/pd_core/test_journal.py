@@ -10,12 +10,15 @@ from __future__ import annotations
 import json
 import math
 import shutil
+import struct
+import zlib
 from collections import deque
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
 from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
@@ -26,8 +29,11 @@ from pd_common.protocol import (
     Signature,
     StateOrigin,
     Status,
+    decode_command,
+    decode_feedback,
     encode_command,
     encode_feedback,
+    encode_status,
 )
 from pd_common.protocol import TestState as State
 from pd_core.errors import BagError
@@ -51,21 +57,28 @@ from pd_core.run.runner import (
     site_servers,
 )
 from pd_core.run.test_file import load_test_file
+from support import journals
 from support.paths import DEFAULT_TEST
 
 DURATION = 3.0  # 300 steps: the specimen yields at step 180 (its state matters)
 STEPS = 300
 
 
-def lines_of(path: Path) -> list[str]:
-    """The journal's lines (the last, empty one after the final newline left out)."""
-    text = path.read_text(encoding='utf-8')
-    assert text.endswith('\n')
-    return text.split('\n')[:-1]
+def by_the_doc(path: Path) -> list[tuple[str, int, str, bytes, int]]:
+    """A journal's records parsed from its documented layout (each CRC checked):
+    ``(kind, t_ns, topic, payload, offset)``."""
+    return [(r.kind, r.t_ns, r.topic, r.payload, r.offset) for r in journals.records(path)]
 
 
 def kinds(path: Path) -> list[str]:
-    return [json.loads(line)['k'] for line in lines_of(path)]
+    return [kind for kind, *_ in by_the_doc(path)]
+
+
+def records_by_the_doc(path: Path, kind: str) -> list[Any]:
+    """The commands (``cmd``) or feedback (``fb``) of a journal, decoded by the codec."""
+    decode = {'cmd': decode_command, 'fb': decode_feedback}[kind]
+    return [decode(payload).record for name, _, _, payload, _ in by_the_doc(path)
+            if name == kind]
 
 
 def assert_same_history(a: Any, b: Any, rows: int | None = None) -> None:
@@ -106,11 +119,23 @@ def test_records_round_trip_exactly(tmp_path: Path) -> None:
         journal.write_status(status, 14, topic='/pd/bridge/status')
         journal.write_raw('/pd/bridge/trajectory', 15, b'\x00\x01\xffraw')
         journal.write_event('resumed', 16, committed_step=6, sites=['site default: ok'])
-        assert journal.records == 8  # the header, then seven records
+        assert journal.records == 7
     records, note = read_journal_records(path)
     assert note == ''
     assert [r.kind for r in records] == ['def', 'cmd', 'fb', 'st', 'st', 'raw', 'ev']
     assert [r.t_ns for r in records] == [10, 11, 12, 13, 14, 15, 16]
+    # On disk as documented: each message's CDR bytes, the rest JSON text.
+    assert [(kind, t_ns, topic) for kind, t_ns, topic, *_ in by_the_doc(path)] == [
+        ('def', 10, ''), ('cmd', 11, TOPIC_COMMAND), ('fb', 12, '/pd/lab1/step_feedback'),
+        ('st', 13, TOPIC_STATUS), ('st', 14, '/pd/bridge/status'),
+        ('raw', 15, '/pd/bridge/trajectory'), ('ev', 16, '')]
+    payloads = [payload for *_, payload, _ in by_the_doc(path)]
+    assert payloads[:6] == [b'{"x": 1}', encode_command(command, 11, signature),
+                            encode_feedback(feedback, 12), encode_status(status, 13),
+                            encode_status(status, 14), b'\x00\x01\xffraw']
+    assert json.loads(payloads[6]) == {'what': 'resumed', 'committed_step': 6,
+                                       'sites': ['site default: ok']}
+    assert [r.data for r in records] == payloads
     assert records[0].item == '{"x": 1}'
     assert records[1].item == command
     assert records[1].topic == TOPIC_COMMAND
@@ -145,7 +170,9 @@ def test_unsigned_signature_is_not_recorded(tmp_path: Path) -> None:
                       target_displacement=(0.0,))
     with Journal(path) as journal:
         journal.write_command(command, 1, signature=Signature(key_id='lab'))  # no mac
-    assert json.loads(lines_of(path)[1])['sig'] is None
+    (record,), _ = read_journal_records(path)
+    assert record.signature == Signature()
+    assert record.data == encode_command(command, 1)
 
 
 def test_events_kept_and_read_back(tmp_path: Path) -> None:
@@ -200,7 +227,8 @@ def test_append_continues_without_a_second_header(tmp_path: Path) -> None:
         journal.write_event('first', 2)
     with Journal(path, append=True) as journal:
         journal.write_event('resumed', 3)
-    assert kinds(path) == ['journal', 'def', 'ev', 'ev']
+    assert kinds(path) == ['def', 'ev', 'ev']
+    assert path.read_bytes().count(b'PDJ') == 1
     records, note = read_journal_records(path)
     assert note == ''
     assert [r.item['what'] for r in records if r.kind == 'ev'] == ['first', 'resumed']
@@ -213,18 +241,29 @@ def test_append_to_a_missing_journal_creates_it(tmp_path: Path) -> None:
     assert kinds(path) == ['ev']
 
 
-def test_nothing_reaches_the_file_before_a_flush(tmp_path: Path) -> None:
+def test_a_journal_cut_in_its_header_is_begun_again_on_append(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    path.write_bytes(b'\x89PDJ\r')  # killed as the run began
+    records, note = read_journal_records(path)
+    assert records == []
+    assert note == f'ignored the header of {JOURNAL_FILE}, cut short (5 bytes)'
+    with Journal(path, append=True) as journal:
+        journal.write_event('resumed', 3)
+    assert kinds(path) == ['ev']
+
+
+def test_no_record_reaches_the_file_before_a_flush(tmp_path: Path) -> None:
     path = tmp_path / JOURNAL_FILE
     journal = Journal(path).open()
     try:
         journal.write_definition('{}', 1)
-        assert path.read_bytes() == b''
+        assert path.read_bytes() == b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 2, 0)
         journal.flush()
-        assert kinds(path) == ['journal', 'def']
+        assert kinds(path) == ['def']
         journal.write_event('x', 2)
-        assert kinds(path) == ['journal', 'def']
+        assert kinds(path) == ['def']
         journal.flush()
-        assert kinds(path) == ['journal', 'def', 'ev']
+        assert kinds(path) == ['def', 'ev']
     finally:
         journal.close()
 
@@ -302,8 +341,7 @@ def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) ->
     on_disk_when_sent: list[tuple[int, int]] = []
 
     def send(site: str, command: Command) -> None:
-        answered = [json.loads(line)['step'] for line in
-                    path.read_text(encoding='utf-8').splitlines() if '"k":"fb"' in line]
+        answered = [feedback.step for feedback in records_by_the_doc(path, 'fb')]
         on_disk_when_sent.append((command.step, answered[-1] if answered else -1))
         queue.append((site, command))
 
@@ -342,18 +380,16 @@ def test_every_committed_step_is_on_disk_while_the_writer_runs(tmp_path: Path,
             step = session.committed_step
             # A second reader, while the writer is alive and the file still open: the
             # feedback that committed the step, then the next command (one flush).
-            text = path.read_text(encoding='utf-8')
-            assert text.endswith('\n')
-            tail = [json.loads(line) for line in text.split('\n')[-3:-1]]
+            tail = by_the_doc(path)[-2:]
             written = tail[-2] if session.protocol.pending is not None else tail[-1]
-            assert (written['k'], written['step']) == ('fb', step)
-            assert tuple(written['r']) == answer.restoring_force
+            assert written[0] == 'fb'
+            assert decode_feedback(written[3]).record == answer
             if session.protocol.pending is not None:
-                assert tail[-1]['k'] == 'cmd'
-                assert tuple(tail[-1]['x']) == session.protocol.pending.target_displacement
-                assert tail[-1]['step'] == step + 1
+                assert tail[-1][0] == 'cmd'
+                assert decode_command(tail[-1][3]).record == session.protocol.pending
+                assert session.protocol.pending.step == step + 1
             if step in (0, 150, 181, 240):  # a killed run: the copy replays to its last step
-                copy = tmp_path / f'copy-{step}.jsonl'
+                copy = tmp_path / f'copy-{step}.pdj'
                 shutil.copyfile(path, copy)
                 replayed = replay_run(read_journal(copy), str(copy))
                 assert replayed.committed_step == step
@@ -376,50 +412,129 @@ def _small_journal(path: Path) -> None:
                                           target_displacement=(0.001 * step,)), 10 + step)
 
 
-@pytest.mark.parametrize('cut', [2, 5, 17, 40])
-def test_a_cut_last_line_is_ignored_and_reported(tmp_path: Path, cut: int) -> None:
+def _last_record_size(path: Path) -> int:
+    *_, (_, _, _, _, offset) = by_the_doc(path)
+    return path.stat().st_size - offset
+
+
+def _rewrite_record(path: Path, number: int, body: bytes | None = None, *,
+                    crc: int | None = None, length: int | None = None) -> int:
+    """Replace record ``number`` (1: the first) with ``body`` (its CRC recomputed unless
+    given); its offset."""
+    data = bytearray(path.read_bytes())
+    offset = by_the_doc(path)[number - 1][4]
+    old_length = struct.unpack_from('<I', data, offset)[0]
+    body = bytes(data[offset + 8:offset + 8 + old_length]) if body is None else body
+    prefix = struct.pack('<II', len(body) if length is None else length,
+                         zlib.crc32(body) if crc is None else crc)
+    data[offset:offset + 8 + old_length] = prefix + body
+    path.write_bytes(bytes(data))
+    return offset
+
+
+@pytest.mark.parametrize('cut', [1, 5, 8, 9, 17, 40])
+def test_a_torn_last_record_is_ignored_and_reported(tmp_path: Path, cut: int) -> None:
     path = tmp_path / JOURNAL_FILE
     _small_journal(path)
-    last_line = lines_of(path)[-1]
-    assert len(last_line) > cut
-    size = path.stat().st_size
+    size = _last_record_size(path)
+    assert size > cut
     with path.open('r+b') as stream:
-        stream.truncate(size - cut)
+        stream.truncate(path.stat().st_size - cut)
     records, note = read_journal_records(path)
     assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3]
-    assert note == (f'ignored the last record of {JOURNAL_FILE}, cut short '
-                    f'({len(last_line) + 1 - cut} bytes)')
+    assert note == (f'ignored the last record of {JOURNAL_FILE}, cut short (byte '
+                    f'{path.stat().st_size - size + cut}: {size - cut} bytes)')
     run = read_journal(path)
     assert run.notes == [note]
     assert [c.step for c in run.commands] == [0, 1, 2, 3]
 
 
-def test_a_last_line_missing_only_its_newline_is_complete(tmp_path: Path) -> None:
+@pytest.mark.parametrize('tail', ['zeros', 'flipped'])
+def test_a_last_record_a_power_loss_left_unwritten_is_ignored(tmp_path: Path,
+                                                              tail: str) -> None:
+    """A power loss can leave a file's last blocks zero-filled, or hold old bytes: the last
+    record's CRC fails with nothing but zeros after it."""
     path = tmp_path / JOURNAL_FILE
     _small_journal(path)
-    with path.open('r+b') as stream:
-        stream.truncate(path.stat().st_size - 1)
+    data = bytearray(path.read_bytes())
+    size = _last_record_size(path)
+    if tail == 'zeros':
+        data[len(data) - size + 8:] = bytes(size - 8) + bytes(4096)
+    else:
+        data[-3] ^= 0x10
+    path.write_bytes(bytes(data))
     records, note = read_journal_records(path)
-    assert note == ''
-    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3, 4]
+    assert [r.item.step for r in records if r.kind == 'cmd'] == [0, 1, 2, 3]
+    assert note.startswith(f'ignored the last record of {JOURNAL_FILE}, CRC mismatch (byte ')
 
 
-@pytest.mark.parametrize('bad', ['{"k":"cmd","t":1,"id":"t"', 'garbage', '{"k":"cmd","t":3}',
-                                 ('{"k":"fb","t":3,"id":"t","step":1,"it":0,"xm":[0.0],'
-                                 '"r":[0.0],"status":7,"msg":""}')])
-def test_a_corrupted_middle_line_is_an_error_naming_it(tmp_path: Path, bad: str) -> None:
+def _damage(path: Path, how: str) -> int:
+    """Record 4 (the third command) damaged ``how``; its offset."""
+    if how == 'flipped byte':
+        data = bytearray(path.read_bytes())
+        offset = by_the_doc(path)[3][4]
+        data[offset + 30] ^= 0x01
+        path.write_bytes(bytes(data))
+        return offset
+    if how == 'bad length':
+        return _rewrite_record(path, 4, length=3)
+    if how == 'unknown kind':
+        return _rewrite_record(path, 4, struct.pack('<BBHq', 9, 0, 0, 13) + b'x')
+    if how == 'topic past its end':
+        return _rewrite_record(path, 4, struct.pack('<BBHq', 2, 0, 500, 13) + b'x')
+    if how == 'not a command':  # CRC right, bytes no StepCommand
+        return _rewrite_record(path, 4, struct.pack('<BBHq', 2, 0, 0, 13) + b'\x00\x01\x00')
+    assert how == 'event not JSON'
+    return _rewrite_record(path, 4, struct.pack('<BBHq', 6, 0, 0, 13) + b'{"what"')
+
+
+@pytest.mark.parametrize(('how', 'reason'), [
+    ('flipped byte', 'damaged (CRC mismatch)'),
+    ('bad length', 'damaged (a length of 3 bytes)'),
+    ('unknown kind', 'malformed (kind 9)'),
+    ('topic past its end', 'malformed (a topic of 500 bytes)'),
+    ('not a command', 'malformed cmd record ('),
+    ('event not JSON', 'malformed ev record ('),
+])
+def test_a_damaged_record_before_the_end_is_an_error_naming_it(tmp_path: Path, how: str,
+                                                               reason: str) -> None:
     path = tmp_path / JOURNAL_FILE
     _small_journal(path)
-    lines = lines_of(path)
-    lines[3] = bad
-    path.write_text('\n'.join(lines) + '\n', encoding='utf-8')
+    offset = _damage(path, how)
     with pytest.raises(BagError) as error:
         read_journal_records(path)
     message = str(error.value)
-    assert message.startswith(f'{path}: line 4: malformed journal record (')
+    assert message.startswith(f'{path}: record 4 at byte {offset}: {reason}')
     assert '\n' not in message
-    with pytest.raises(BagError, match='line 4: malformed'):
+    with pytest.raises(BagError, match=f'record 4 at byte {offset}'):
         load_run(path)
+    if 'malformed (' in reason or 'damaged' in reason:  # framing: no append after it
+        before = path.read_bytes()
+        with pytest.raises(BagError, match='record 4'):
+            Journal(path, append=True).open()
+        assert path.read_bytes() == before
+
+
+@pytest.mark.parametrize(('content', 'reason'), [
+    (b'{"k":"journal","version":1}\n',
+     'not a journal of this version (a JSON-lines journal of an earlier version)'),
+    (b'PK\x03\x04' + bytes(40), 'not a journal of this version (no journal header)'),
+    (b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 3, 0),
+     'journal format version 3; this version reads 2'),
+])
+def test_a_file_that_is_no_journal_of_this_version_is_one_line(tmp_path: Path, content: bytes,
+                                                               reason: str) -> None:
+    path = tmp_path / JOURNAL_FILE
+    path.write_bytes(content)
+    with pytest.raises(BagError) as error:
+        read_journal_records(path)
+    assert str(error.value) == f'{path}: {reason}'
+
+
+def test_a_run_folder_with_an_earlier_versions_journal_says_so(tmp_path: Path) -> None:
+    (tmp_path / 'journal.jsonl').write_text('{"k":"journal","version":1}\n', encoding='utf-8')
+    with pytest.raises(BagError, match=r'journal\.jsonl\) is of an earlier version'):
+        load_run(tmp_path)
 
 
 def test_an_unreadable_journal_is_an_error(tmp_path: Path) -> None:
@@ -428,21 +543,23 @@ def test_an_unreadable_journal_is_an_error(tmp_path: Path) -> None:
         read_journal_records(path)
 
 
-@pytest.mark.parametrize(('cut', 'steps'), [
-    (9, [0, 1, 2, 3]),        # cut in the middle of the last line: that line is dropped
-    (1, [0, 1, 2, 3, 4]),     # only its newline missing: the line is kept
-])
-def test_appending_to_a_cut_journal_keeps_it_readable(tmp_path: Path, cut: int,
-                                                      steps: list[int]) -> None:
-    """A resumed run appends to a journal a crash cut at its end."""
+@pytest.mark.parametrize('cut', [9, 1, 'zeros'])
+def test_appending_to_a_torn_journal_keeps_it_readable(tmp_path: Path,
+                                                       cut: int | str) -> None:
+    """A resumed run appends to a journal a crash tore at its end: the torn record goes."""
     path = tmp_path / JOURNAL_FILE
     _small_journal(path)
-    with path.open('r+b') as stream:
-        stream.truncate(path.stat().st_size - cut)
+    if cut == 'zeros':
+        with path.open('ab') as stream:
+            stream.write(bytes(8192))
+    else:
+        with path.open('r+b') as stream:
+            stream.truncate(path.stat().st_size - int(cut))
     with Journal(path, append=True) as journal:
         journal.write_event('resumed', 99)
     records, note = read_journal_records(path)
     assert note == ''
+    steps = [0, 1, 2, 3, 4] if cut == 'zeros' else [0, 1, 2, 3]
     assert [r.item.step for r in records if r.kind == 'cmd'] == steps
     assert records[-1].kind == 'ev'
     assert records[-1].item['what'] == 'resumed'
@@ -451,7 +568,7 @@ def test_appending_to_a_cut_journal_keeps_it_readable(tmp_path: Path, cut: int,
 # -- the bag ----------------------------------------------------------------------------------
 def test_offline_journal_holds_the_whole_run(offline: Any) -> None:
     path = offline.directory / JOURNAL_FILE
-    assert kinds(path)[:3] == ['journal', 'def', 'st']
+    assert kinds(path)[:2] == ['def', 'st']
     run = read_journal(path)
     assert run.notes == []
     assert [c.step for c in run.commands] == list(range(STEPS + 1))
@@ -467,7 +584,7 @@ def test_journal_to_bag_replays_to_the_offline_response(tmp_path: Path, offline:
     journal = offline.directory / JOURNAL_FILE
     bag = tmp_path / 'bag'
     count = journal_to_bag(journal, bag)
-    assert count == len(lines_of(journal)) - 1  # every record but the header
+    assert count == len(by_the_doc(journal))
     assert (bag / 'metadata.yaml').is_file()
     from_bag = load_run(bag)
     from_journal = load_run(journal)
@@ -505,16 +622,16 @@ def test_load_run_reads_the_journal_of_a_folder_without_a_bag(tmp_path: Path,
 
 def test_a_cut_journal_converts_and_replays_up_to_its_last_step(tmp_path: Path,
                                                                offline: Any) -> None:
-    lines = lines_of(offline.directory / JOURNAL_FILE)
-    # The feedback of step 200 and the command of step 201 (one flush), then half a line.
-    index = next(i for i, line in enumerate(lines)
-                 if json.loads(line)['k'] == 'fb' and json.loads(line)['step'] == 200)
+    source = offline.directory / JOURNAL_FILE
+    records = by_the_doc(source)
+    # The feedback of step 200 and the command of step 201 (one flush), then half a record.
+    index = next(i for i, (kind, _, _, payload, _) in enumerate(records)
+                 if kind == 'fb' and decode_feedback(payload).record.step == 200)
     path = tmp_path / JOURNAL_FILE
-    path.write_text('\n'.join(lines[:index + 2]) + '\n' + lines[index + 2][:25],
-                    encoding='utf-8')
+    path.write_bytes(source.read_bytes()[:records[index + 2][4] + 25])
     run = read_journal(path)
     assert len(run.notes) == 1
-    assert journal_to_bag(path, tmp_path / 'bag') == index + 1
+    assert journal_to_bag(path, tmp_path / 'bag') == index + 2
     session = replay_run(load_run(tmp_path / 'bag'))
     assert session.committed_step == 200
     assert session.protocol.pending is not None
@@ -534,22 +651,52 @@ def test_the_bag_holds_each_step_message_as_the_bytes_that_travelled(tmp_path: P
         WIRE_COMMAND, lambda bare: encode_command(command, 1_000, bare))
     answer, reply = sign_wire_reply(
         key, WIRE_FEEDBACK, lambda bare: encode_feedback(feedback, 1_500, bare), signature)
-    with Journal(tmp_path / 'journal.jsonl') as journal:
+    # As it arrived: a sender's own padding bytes (covered by its MAC) are kept.
+    arrived = bytearray(answer)
+    arrived[-1] = 0x5A  # the CDR's trailing padding: no field reads it
+    assert decode_feedback(bytes(arrived)).record == feedback
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
         journal.write_definition('{}', 500)
         journal.write_command(command, 1_000, signature=signature)
         journal.write_feedback(feedback, 2_000, signature=reply, stamp_ns=1_500)
-    journal_to_bag(tmp_path / 'journal.jsonl', tmp_path / 'bag')
+        journal.write_feedback(feedback, 2_500, signature=reply, stamp_ns=1_500,
+                               data=bytes(arrived))
+    assert [payload for kind, *_, payload, _ in by_the_doc(path) if kind != 'def'] == [
+        sent, answer, bytes(arrived)]
+    journal_to_bag(path, tmp_path / 'bag')
     with AnyReader([tmp_path / 'bag']) as reader:
-        stored = {connection.topic: (t_ns, bytes(data))
+        stored = [(connection.topic, t_ns, bytes(data))
                   for connection, t_ns, data in reader.messages()
-                  if connection.topic in (TOPIC_COMMAND, TOPIC_FEEDBACK)}
-    assert stored == {TOPIC_COMMAND: (1_000, sent), TOPIC_FEEDBACK: (2_000, answer)}
+                  if connection.topic in (TOPIC_COMMAND, TOPIC_FEEDBACK)]
+    assert stored == [(TOPIC_COMMAND, 1_000, sent), (TOPIC_FEEDBACK, 2_000, answer),
+                      (TOPIC_FEEDBACK, 2_500, bytes(arrived))]
 
-    lines = (tmp_path / 'journal.jsonl').read_text(encoding='utf-8').splitlines()
-    damaged = [line.replace('"msg":""', '"msg":"a\\u0000b"') for line in lines]
-    assert damaged != lines
-    (tmp_path / 'damaged.jsonl').write_text('\n'.join(damaged) + '\n', encoding='utf-8')
-    with pytest.raises(BagError, match='step_feedback') as info:
-        journal_to_bag(tmp_path / 'damaged.jsonl', tmp_path / 'bag2')
-    assert '\n' not in str(info.value)
-    assert not (tmp_path / 'bag2').exists()
+
+def test_a_record_cdr_cannot_carry_is_one_line_and_nothing_written(tmp_path: Path) -> None:
+    path = tmp_path / JOURNAL_FILE
+    command = Command('t\x00x', 4, 0.04, ('top',), (0.0125,))  # a NUL in a CDR string
+    with Journal(path) as journal:
+        journal.write_definition('{}', 500)
+        with pytest.raises(BagError, match='step_command') as info:
+            journal.write_command(command, 1_000)
+        assert '\n' not in str(info.value)
+    assert kinds(path) == ['def']
+
+
+def test_the_bag_is_read_by_the_mcap_library_with_its_checks(offline: Any) -> None:
+    """An independent MCAP reader (the format's reference library) validates the bag's CRCs
+    and summary and finds every message the journal holds, bytes identical."""
+    journal = [(topic, t_ns, payload) for kind, t_ns, topic, payload, _ in
+               by_the_doc(offline.directory / JOURNAL_FILE) if kind in ('cmd', 'fb', 'st')]
+    (mcap_file,) = (offline.directory / 'bag').glob('*.mcap')
+    with mcap_file.open('rb') as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        stored = [(channel.topic, message.log_time, message.data)
+                  for _, channel, message in reader.iter_messages(log_time_order=False)
+                  if channel.topic in (TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS)]
+        summary = reader.get_summary()
+    assert stored == journal
+    assert summary is not None
+    assert summary.statistics is not None
+    assert summary.statistics.message_count >= len(journal)

@@ -37,6 +37,7 @@ from pd_core.run.runner import (
     site_servers,
 )
 from pd_core.run.test_file import load_test_file
+from support import journals
 from support.element_client import (
     committed_steps,
     free_port,
@@ -114,7 +115,7 @@ def test_sdof_equals_its_elastic_pp_twin(tmp_path: Path, integrator: str) -> Non
     response = np.genfromtxt(result.directory / 'response.csv', delimiter=',', names=True)
     assert len(response) == int(STEPS) + 1
     np.testing.assert_array_equal(response[response.dtype.names[2]][1:], served[:, 1])
-    assert (result.directory / 'journal.jsonl').exists()
+    assert (result.directory / 'journal.pdj').exists()
     assert (result.directory / 'bag').is_dir()
     json.loads((result.directory / 'summary.json').read_text())
 
@@ -287,9 +288,8 @@ def test_a_model_started_again_resumes_from_the_journal_and_ends_as_its_twin(
     assert len(response) == int(STEPS) + 1
     np.testing.assert_array_equal(response[response.dtype.names[2]][1:], again[:, 1])
     # Every step was commanded once, but for the one owed at the drop (sent again).
-    steps = [json.loads(line)['step'] for line in
-             (out / JOURNAL_FILE).read_text(encoding='utf-8').splitlines()
-             if '"k":"cmd"' in line]
+    steps = [record.item.step for record in journals.records(out / JOURNAL_FILE)
+             if record.kind == 'cmd']
     assert len(steps) - len(set(steps)) <= 1
     assert sorted(set(steps)) == list(range(int(STEPS) + 1))
 

@@ -6,6 +6,7 @@ the same test: its ``response.csv`` bytes (17 significant digits: the floats exa
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import time
@@ -22,6 +23,10 @@ from pd_common.protocol import (
     Signature,
     StateOrigin,
     Status,
+    decode_command,
+    decode_feedback,
+    encode_command,
+    encode_feedback,
 )
 from pd_common.protocol import TestState as State
 from pd_common.specimen import SpecimenServer
@@ -51,6 +56,7 @@ from pd_core.run.runner import (
     site_servers,
 )
 from pd_core.run.test_file import load_test_file
+from support import journals
 from support.paths import CONFIG
 
 DEFAULT_TEST = CONFIG / 'default_test.yaml'
@@ -59,47 +65,40 @@ STRUCTURE = '/pd/structure/'
 
 
 # -- helpers ----------------------------------------------------------------------------------
-def journal_lines(directory: Path) -> list[str]:
-    text = (directory / JOURNAL_FILE).read_text(encoding='utf-8')
-    assert text.endswith('\n')
-    return text.split('\n')[:-1]
+def journal_lines(directory: Path) -> list[journals.Record]:
+    """The records of a run's journal (read by its documented layout)."""
+    return journals.records(directory / JOURNAL_FILE)
 
 
-def line_index(lines: list[str], kind: str, step: int, topic: str | None = None,
+def line_index(lines: list[journals.Record], kind: str, step: int, topic: str | None = None,
                test_id_suffix: str = '') -> int:
     """The index of the record of ``kind`` for ``step`` (on ``topic``, if given)."""
-    for index, line in enumerate(lines):
-        raw = json.loads(line)
-        if (raw['k'] == kind and raw['step'] == step and raw['id'].endswith(test_id_suffix)
-                and (topic is None or raw['topic'] == topic)):
+    for index, record in enumerate(lines):
+        if record.kind != kind:
+            continue
+        item = record.item
+        if (item.step == step and item.test_id.endswith(test_id_suffix)
+                and (topic is None or record.topic == topic)):
             return index
     raise AssertionError(f'no {kind} record for step {step}')
 
 
 def cut_run(reference: Path, folder: Path, keep: int, partial: int = 0) -> Path:
-    """A run folder as a crash leaves it: the first ``keep`` journal lines, then ``partial``
-    bytes of the next one (a line cut short); no bag, no outputs."""
-    lines = journal_lines(reference)
+    """A run folder as a crash leaves it: the first ``keep`` journal records, then
+    ``partial`` bytes of the next one (a record torn); no bag, no outputs."""
     folder.mkdir(parents=True)
     shutil.copyfile(reference / DEFINITION_JSON, folder / DEFINITION_JSON)
-    text = '\n'.join(lines[:keep]) + '\n'
-    if partial:
-        text += lines[keep][:partial]
-    (folder / JOURNAL_FILE).write_text(text, encoding='utf-8')
+    journals.cut(reference / JOURNAL_FILE, folder / JOURNAL_FILE, keep, partial)
     return folder
 
 
-def served(lines: list[str]) -> dict[str, list[Command]]:
+def served(lines: list[journals.Record]) -> dict[str, list[Command]]:
     """Per site, the commands a specimen served (what its state file would hold)."""
     out: dict[str, list[Command]] = {}
-    for line in lines:
-        raw = json.loads(line)
-        if raw['k'] != 'cmd' or raw['topic'].startswith(STRUCTURE):
+    for record in lines:
+        if record.kind != 'cmd' or record.topic.startswith(STRUCTURE):
             continue
-        out.setdefault(site_of(raw['topic']), []).append(Command(
-            test_id=raw['id'], step=raw['step'], test_time=raw['time'],
-            dof_names=tuple(raw['dofs']), target_displacement=tuple(raw['x']),
-            iteration=raw['it']))
+        out.setdefault(site_of(record.topic), []).append(record.item)
     return out
 
 
@@ -320,11 +319,13 @@ def test_load_resumable_errors_name_the_file(tmp_path: Path, reference: Any) -> 
         load_resumable(folder)
     assert _one_line(error).startswith(f'{DEFINITION_JSON}: test definition is not valid JSON')
     folder = cut_run(reference.directory, tmp_path / 'bad-journal', 20)
-    text = '\n'.join([*lines[:5], '{"k": "cmd"', *lines[6:20]]) + '\n'
-    (folder / JOURNAL_FILE).write_text(text, encoding='utf-8')
+    damaged = bytearray((folder / JOURNAL_FILE).read_bytes())
+    damaged[lines[5].offset + 30] ^= 0x01
+    (folder / JOURNAL_FILE).write_bytes(bytes(damaged))
     with pytest.raises(PdIntegratorError) as failure:
         load_resumable(folder)
-    assert _one_line(failure).startswith(f'{folder / JOURNAL_FILE}: line 6: malformed journal')
+    assert _one_line(failure).startswith(
+        f'{folder / JOURNAL_FILE}: record 6 at byte {lines[5].offset}: damaged (CRC mismatch)')
 
 
 def test_load_resumable_takes_a_killed_run(tmp_path: Path, reference: Any) -> None:
@@ -536,7 +537,7 @@ def test_resumed_two_site_run_gives_the_uninterrupted_response(tmp_path: Path,
     """Cut after lab1 answered step 60 and before lab3 did: only lab3 is owed."""
     lines = journal_lines(two_sites.directory)
     keep = line_index(lines, 'fb', 60, topic='/pd/lab1/step_feedback') + 1
-    assert json.loads(lines[keep])['topic'] == '/pd/lab3/step_feedback'
+    assert lines[keep].topic == '/pd/lab3/step_feedback'
     folder = cut_run(two_sites.directory, tmp_path / 'run', keep)
     commands = served(lines[:keep])
     servers = restored_servers(two_sites.session.definition, commands)
@@ -569,16 +570,20 @@ def _altered(reference: Any, tmp_path: Path, kind: str, step: int, key: str,
              delta: float) -> Path:
     lines = journal_lines(reference.directory)
     index = line_index(lines, kind, step)
-    raw = json.loads(lines[index])
-    raw[key] = [raw[key][0] + delta]
-    lines[index] = json.dumps(raw)
-    path = tmp_path / f'{kind}-{step}.jsonl'
-    path.write_text('\n'.join(lines[:line_index(lines, 'fb', 150) + 2]) + '\n',
-                    encoding='utf-8')
+    record = lines[index]
+    decoded = (decode_command if kind == 'cmd' else decode_feedback)(record.payload)
+    value = getattr(decoded.record, key)
+    altered = dataclasses.replace(decoded.record, **{key: (value[0] + delta, *value[1:])})
+    encode = encode_command if kind == 'cmd' else encode_feedback
+    lines[index] = record._replace(payload=encode(altered, decoded.stamp_ns,  # type: ignore[arg-type]
+                                                  decoded.signature))
+    path = tmp_path / f'{kind}-{step}.pdj'
+    journals.write(path, lines[:line_index(lines, 'fb', 150) + 2])
     return path
 
 
-@pytest.mark.parametrize(('kind', 'key', 'delta'), [('cmd', 'x', 1e-15), ('fb', 'r', 1e-6)])
+@pytest.mark.parametrize(('kind', 'key', 'delta'), [('cmd', 'target_displacement', 1e-15),
+                                                   ('fb', 'restoring_force', 1e-6)])
 def test_restore_dispatcher_refuses_a_record_that_does_not_recompute(
         tmp_path: Path, reference: Any, kind: str, key: str, delta: float) -> None:
     path = _altered(reference, tmp_path, kind, 100, key, delta)
@@ -594,8 +599,7 @@ def test_restore_dispatcher_refuses_a_command_nothing_owes(tmp_path: Path,
                                                            reference: Any) -> None:
     lines = journal_lines(reference.directory)
     path = tmp_path / JOURNAL_FILE
-    path.write_text('\n'.join([*lines, lines[line_index(lines, 'cmd', 300)]]) + '\n',
-                    encoding='utf-8')
+    journals.write(path, [*lines, lines[line_index(lines, 'cmd', 300)]])
     dispatcher = StepDispatcher(Session(reference.session.definition), lambda s, c: None)
     with pytest.raises(BagError, match=r'step 300 .* is not one the restored run owes'):
         restore_dispatcher(load_run(path), dispatcher, 'x')
@@ -610,7 +614,7 @@ def test_restore_dispatcher_sets_send_and_bag_back(tmp_path: Path, reference: An
         restore_dispatcher(load_run(reference.directory / JOURNAL_FILE), dispatcher)
         assert dispatcher.send is send
         assert dispatcher.bag is journal
-        assert journal.records == 1  # only the header: nothing recorded while restoring
+        assert journal.records == 0  # nothing recorded while restoring
 
 
 def test_recover_run_writes_the_outputs_so_far(tmp_path: Path, reference: Any) -> None:
@@ -645,7 +649,7 @@ def test_recover_run_writes_the_outputs_so_far(tmp_path: Path, reference: Any) -
 
 
 def test_recover_run_needs_a_journal(tmp_path: Path) -> None:
-    with pytest.raises(BagError, match=r'no journal\.jsonl: nothing to recover from'):
+    with pytest.raises(BagError, match=r'no journal\.pdj: nothing to recover from'):
         recover_run(tmp_path)
 
 

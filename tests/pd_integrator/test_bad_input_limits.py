@@ -24,6 +24,7 @@ from pathlib import Path
 
 import pytest
 
+from support import journals
 from support.paths import DEFAULT_TEST, INSTALL
 
 #: The modules of the entry points (when the workspace is not installed).
@@ -215,36 +216,46 @@ def test_a_test_file_that_is_not_utf8_is_one_line_naming_it(tmp_path: Path, prog
 
 
 # -- 5. damaged run folders and journals --------------------------------------------------
+_EVENT = 6
+#: Damaged journals (by the documented layout) and what the line says after the file's name.
 JOURNALS = {
-    'garbage': (b'hello, not a journal\n', r'Expecting value'),
-    'not-utf8': (b'\xff\xfe garbage \x80\n', r'not UTF-8 text: byte 0xff at column 1'),
-    'deep': (b'[' * 100_000 + b']' * 100_000 + b'\n', r'JSON nested too deep'),
-    'a-list': (b'[1, 2]\n', r'a JSON list, not an object'),
-    'overflow': (b'{"k": "cmd", "t": 1e999}\n{"k": "st"}\n', r'cannot convert float infinity'),
+    'garbage': (b'hello, not a journal\n',
+                r'not a journal of this version \(no journal header\)'),
+    'not-utf8': (journals.HEADER + journals.frame(1, 1, b'', b'\xff\xfe garbage \x80'),
+                 r'record 1 at byte 16: malformed def record \(.*can.t decode byte 0xff.*\)'),
+    'deep': (journals.HEADER + journals.frame(_EVENT, 1, b'', b'[' * 100_000 + b']' * 100_000),
+             r'record 1 at byte 16: malformed ev record \(JSON nested too deep\)'),
+    'a-list': (journals.HEADER + journals.frame(_EVENT, 1, b'', b'[1, 2]'),
+               r'record 1 at byte 16: malformed ev record \(not an event: .*\)'),
+    'no-command': (journals.HEADER + journals.frame(2, 1, b'/pd/step_command',
+                                                    b'\x00\x01\x00\x00' + b'\xff' * 12),
+                   r'record 1 at byte 16: malformed cmd record \(.+\)'),
+    'crc': (journals.HEADER + journals.frame(_EVENT, 1, b'', b'{"what": "x"}')[:-1] + b'y'
+            + journals.frame(_EVENT, 2, b'', b'{"what": "y"}'),
+            r'record 1 at byte 16: damaged \(CRC mismatch\)'),
 }
 
 
 @pytest.mark.parametrize(('program', 'journal'), [
     *((program, journal) for program in ('console', 'recover', 'replay')
-      for journal in ('not-utf8', 'deep')),
-    *(('replay', journal) for journal in ('garbage', 'a-list', 'overflow'))])
-def test_a_damaged_journal_is_one_line_naming_the_line(tmp_path: Path, program: str,
-                                                       journal: str) -> None:
+      for journal in ('not-utf8', 'deep', 'crc')),
+    *(('replay', journal) for journal in ('garbage', 'a-list', 'no-command'))])
+def test_a_damaged_journal_is_one_line_naming_the_record(tmp_path: Path, program: str,
+                                                         journal: str) -> None:
     content, reason = JOURNALS[journal]
     folder = tmp_path / 'run'
     folder.mkdir()
-    (folder / 'journal.jsonl').write_bytes(content)
+    (folder / 'journal.pdj').write_bytes(content)
     args = ['--port', '0'] if program == 'console' else ['--no-figures']
     result = run(program, 'run', *args, cwd=tmp_path)
-    refused(result, program, rf'run/journal\.jsonl: line 1: malformed journal record \(.*'
-                             rf'{reason}.*\)$')
-    assert sorted(p.name for p in folder.iterdir()) == ['journal.jsonl']  # no bag, no output
+    refused(result, program, rf'run/journal\.pdj: {reason}$')
+    assert sorted(p.name for p in folder.iterdir()) == ['journal.pdj']  # no bag, no output
 
 
 @pytest.mark.parametrize(('program', 'message'), [
     ('replay', r'loop: a symbolic link loop$'),
-    ('recover', r'loop: no journal\.jsonl: nothing to recover from$'),
-    ('console', r'loop: no complete bag and no journal \(journal\.jsonl\): not a run folder$'),
+    ('recover', r'loop: no journal\.pdj: nothing to recover from$'),
+    ('console', r'loop: no complete bag and no journal \(journal\.pdj\): not a run folder$'),
 ], ids=['replay', 'recover', 'console'])
 def test_a_run_folder_that_is_a_symbolic_link_loop_is_one_line(tmp_path: Path, program: str,
                                                                message: str) -> None:
@@ -258,7 +269,7 @@ def test_a_journal_that_is_a_fifo_or_a_device_never_hangs(tmp_path: Path, fifo: 
     for target in (fifo, Path('/dev/zero')):
         folder = tmp_path / f'run-{target.name}'
         folder.mkdir()
-        (folder / 'journal.jsonl').symlink_to(target)
+        (folder / 'journal.pdj').symlink_to(target)
         refused(run('replay', folder.name, '--no-figures', cwd=tmp_path), 'replay',
                 rf'{folder.name}: no complete bag and no journal')
 
@@ -351,7 +362,7 @@ def test_offline_whose_journal_cannot_grow_says_how_to_recover(tmp_path: Path) -
     out = tmp_path / 'out'
     result = run('offline', '--out', str(out), '--quiet', '--no-figures', cwd=tmp_path,
                  limit_file_size=100_000)
-    refused(result, 'offline', rf'{out}/journal\.jsonl: cannot write the journal \(File too '
+    refused(result, 'offline', rf'{out}/journal\.pdj: cannot write the journal \(File too '
                                rf'large\); the run stops, .*: once there is room, ./pd recover '
                                rf'{out} rebuilds its outputs$', code=1)
     assert not (out / 'bag').exists()

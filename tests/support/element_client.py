@@ -18,6 +18,7 @@ import numpy as np
 
 from pd_actuator_bridge.opensees_site import opensees_environment
 
+from . import journals
 from .paths import REPO
 
 EXAMPLES = REPO / 'examples' / 'opensees'
@@ -63,10 +64,7 @@ def start_example(script: str, out: Path, *args: str) -> subprocess.Popen[str]:
 
 def committed_steps(run: Path) -> int:
     """Steps whose feedback is in the run's journal so far (as a crash would leave it)."""
-    try:
-        return (run / 'journal.jsonl').read_bytes().count(b'"k":"fb"')
-    except OSError:
-        return 0
+    return journals.committed_steps(run / 'journal.pdj')
 
 
 def run_example(script: str, out: Path, *args: str, timeout: float = 120.0

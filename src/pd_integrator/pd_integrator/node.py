@@ -586,7 +586,7 @@ class IntegratorNode(Node):
             self.publish_status()
             return
         was = self.session.state
-        self.dispatcher.on_feedback(site, feedback, signature, decoded.stamp_ns)
+        self.dispatcher.on_feedback(site, feedback, signature, decoded.stamp_ns, data)
         self.steering.after_feedback(feedback, was)
         if (self.session.history.n_committed != committed
                 or (pending is not None and self.session.protocol.pending is not pending)):

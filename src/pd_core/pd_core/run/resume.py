@@ -43,7 +43,8 @@ from ..errors import ConfigError
 from .definition import TestDefinition
 from .loop.epochs import EpochGuard
 from .record.bag import TOPIC_STATUS, RecordedRun, site_of
-from .record.journal import JOURNAL_FILE, MAX_LINE_BYTES
+from .record.journal import JOURNAL_FILE
+from .record.journal_format import MAX_RECORD_BYTES
 from .runner import DEFINITION_JSON, load_run
 from .test_file import from_json
 
@@ -94,7 +95,7 @@ def load_resumable(run_dir: str | Path) -> tuple[Path, TestDefinition, RecordedR
         msg = f'{directory}: no {JOURNAL_FILE} (a run recorded before journals cannot resume)'
         raise ConfigError(msg)
     try:  # a regular file, bounded, UTF-8: a damaged one is one line, never a hang
-        text = read_text(definition_file, limit=MAX_LINE_BYTES, what='a test definition')
+        text = read_text(definition_file, limit=MAX_RECORD_BYTES, what='a test definition')
     except OSError as err:
         msg = f'{definition_file}: cannot read the test definition ({err.strerror})'
         raise ConfigError(msg) from None

@@ -44,7 +44,13 @@ from .loop.session import TestSession
 from .record.actuators import ActuatorHistory, actuator_history, write_actuator_outputs
 from .record.bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
 from .record.energy import energy_balance
-from .record.journal import JOURNAL_FILE, Journal, journal_to_bag, read_journal
+from .record.journal import (
+    JOURNAL_FILE,
+    LEGACY_JOURNAL_FILE,
+    Journal,
+    journal_to_bag,
+    read_journal,
+)
 from .record.outputs import (
     draw_run_figures,
     summarize,
@@ -364,6 +370,10 @@ def load_run(path: str | Path) -> RecordedRun:
     journal = run_dir / JOURNAL_FILE
     if journal.is_file():
         return read_journal(journal)
+    if (run_dir / LEGACY_JOURNAL_FILE).is_file():
+        msg = (f'{path}: its journal ({LEGACY_JOURNAL_FILE}) is of an earlier version (JSON '
+               'lines): recover or replay it with that version')
+        raise BagError(msg)
     msg = f'{path}: no complete bag and no journal ({JOURNAL_FILE}): not a run folder'
     raise BagError(msg)
 

@@ -100,17 +100,19 @@ class StepDispatcher:
         self._flush(self._next_batch())
 
     def on_feedback(self, site: str, feedback: Feedback,
-                    signature: Signature | None = None, stamp_ns: int | None = None) -> Verdict:
+                    signature: Signature | None = None, stamp_ns: int | None = None,
+                    data: bytes | None = None) -> Verdict:
         """One site's feedback: advance the test if the step is complete; send what follows.
 
-        ``stamp_ns``: the feedback's header stamp (recorded with it: its signature covers it).
+        ``stamp_ns``: the feedback's header stamp (recorded with it: its signature covers it);
+        ``data``: its bytes as they arrived (recorded as they are), if it came as bytes.
         """
         received = self._clock()
         # (no epoch: nothing to check, as EpochGuard.check finds)
         reason = self.epochs.check(site, feedback) if feedback.epoch else None
         if reason is not None:  # a fresh specimen replaced the one the test drove
             refuse_fresh_state(self.session, reason)
-            self._record_feedback(site, feedback, received, signature, stamp_ns)
+            self._record_feedback(site, feedback, received, signature, stamp_ns, data)
             self._note_epochs()
             if self.bag is not None:
                 self.bag.flush()
@@ -122,7 +124,7 @@ class StepDispatcher:
             # Holding, paused or finished: the site's answer is not taken (as the session
             # itself does); the held step is re-sent to every site on resume.
             self.session.protocol.ignore(Verdict.UNEXPECTED)
-            self._record_feedback(site, feedback, received, signature, stamp_ns)
+            self._record_feedback(site, feedback, received, signature, stamp_ns, data)
             return Verdict.UNEXPECTED
         verdict, assembled = self.coordinator.on_feedback(site, feedback)
         if assembled is not None:
@@ -130,7 +132,7 @@ class StepDispatcher:
             if passthrough:
                 verdict = session_verdict
         batch = self._next_batch()
-        self._record_feedback(site, feedback, received, signature, stamp_ns)
+        self._record_feedback(site, feedback, received, signature, stamp_ns, data)
         if assembled is not None and not passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
         if batch and self.bag is not None:
@@ -251,19 +253,21 @@ class StepDispatcher:
                 self._record(self._topics[site][0], site_command, t_ns, next(sent, None))
 
     def _record_feedback(self, site: str, feedback: Feedback, t_ns: int,
-                         signature: Signature | None, stamp_ns: int | None) -> None:
+                         signature: Signature | None, stamp_ns: int | None,
+                         data: bytes | None = None) -> None:
         topics = self._topics.get(site)
         if topics is not None:
-            self._record(topics[1], feedback, t_ns, signature, stamp_ns)
+            self._record(topics[1], feedback, t_ns, signature, stamp_ns, data)
 
     def _record(self, topic: str, item: Command | Feedback, t_ns: int,
-                signature: Signature | None = None, stamp_ns: int | None = None) -> None:
+                signature: Signature | None = None, stamp_ns: int | None = None,
+                data: bytes | None = None) -> None:
         if self.bag is None:
             return
         if isinstance(item, Command):
             self.bag.write_command(item, t_ns, topic, signature)
         else:
-            self.bag.write_feedback(item, t_ns, topic, signature, stamp_ns)
+            self.bag.write_feedback(item, t_ns, topic, signature, stamp_ns, data)
 
 
 def refuse_fresh_state(session: TestSession, reason: str) -> None:

@@ -261,8 +261,15 @@ class BagRecorder:
             command, t_ns if stamp_ns is None else stamp_ns, signature or _UNSIGNED))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a step feedback (with the signature and header stamp it came with)."""
+                       signature: Signature | None = None, stamp_ns: int | None = None,
+                       data: bytes | None = None) -> None:
+        """Record a step feedback: its bytes as they arrived (``data``), else encoded.
+
+        Encoded with the signature and header stamp it came with.
+        """
+        if data is not None:
+            self.write_raw(topic, t_ns, data)
+            return
         self._write_encoded(topic, t_ns, lambda: encode_feedback(
             feedback, t_ns if stamp_ns is None else stamp_ns, signature or _UNSIGNED))
 

@@ -3,8 +3,8 @@
 A pseudo-dynamic test on a real specimen cannot be repeated, so its record must not depend on
 the recording process ending well. While a test runs, everything the bag will hold (the
 definition, every command sent and feedback received with their signatures, every status,
-the actuator trajectories) is appended to ``journal.jsonl`` in the run folder, one JSON record
-per line, in the order the integrator saw it:
+the actuator trajectories) is appended to ``journal.pdj`` in the run folder, one record per
+message, in the order the integrator saw it:
 
 * after every step (the feedback that committed it and the next command) the new records are
   written to the operating system: a process killed at any moment (SIGKILL) loses nothing
@@ -12,27 +12,30 @@ per line, in the order the integrator saw it:
 * at most every ``sync_interval`` seconds (default 1 s) the file is also ``fsync``-ed: a power
   loss loses at most that window.
 
-When the test ends the journal is converted to the run's rosbag2 (MCAP) bag
-(:func:`journal_to_bag`); after a crash ``./pd recover RUN`` (or ``./pd replay`` and
-``./pd run --resume``, which read the journal directly) does the same. The floats are written
-with ``repr`` (exact round trip): a journal and its bag give the same history bit for bit. A
-last line cut by the crash is ignored (and reported).
+A record holds a message as it travels: a step command or feedback is its CDR bytes, signature
+included (the feedback as it arrived), a status its CDR bytes; the definition and the events
+are JSON text. Each record is length-prefixed, with a CRC-32 (:mod:`.journal_format` gives the
+layout byte by byte). When the test ends the journal is converted to the run's rosbag2 (MCAP)
+bag (:func:`journal_to_bag`) as a copy of those bytes; after a crash ``./pd recover RUN`` (or
+``./pd replay`` and ``./pd run --resume``, which read the journal directly) does the same. A
+journal and its bag give the same history bit for bit. A last record torn by the crash is
+ignored (and reported).
 
 Reading a journal ends with its records or one line (:class:`~..errors.BagError`) naming the
-file and the line: only a regular file is read (a FIFO or a device is refused before), a line
-is at most :data:`MAX_LINE_BYTES`, and a line that is not UTF-8, not JSON (or JSON nested
-deeper than its decoder recurses), not an object or not a record of its kind is malformed. A
-journal or bag that cannot be written (a full disk) raises :class:`RecordWriteError`: one
-line with what to do (``./pd recover``); the journal is closed, what reached the disk stays
-readable, and no half-written bag is left.
+file and the record: only a regular file is read (a FIFO or a device is refused before), a
+record is at most :data:`~.journal_format.MAX_RECORD_BYTES`, and a record whose CRC fails
+before the end, or whose bytes are not a message of its kind, is an error. A journal or bag
+that cannot be written (a full disk) raises :class:`RecordWriteError`: one line with what to
+do (``./pd recover``); the journal is closed, what reached the disk stays readable, and no
+half-written bag is left.
 
-Record kinds (``k``): ``def`` (the resolved definition), ``cmd``, ``fb``, ``st`` (a status),
-``raw`` (a serialised message, base64), ``ev`` (an event: resumed, restarted, ...).
+Record kinds: ``def`` (the resolved definition), ``cmd``, ``fb``, ``st`` (a status), ``raw``
+(another serialised message, as an actuator trajectory), ``ev`` (an event: resumed,
+restarted, ...).
 """
 
 from __future__ import annotations
 
-import base64
 import json
 import os
 import shutil
@@ -42,16 +45,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Protocol
 
-from pd_common.config import open_regular_file
-from pd_common.jsonl import end_last_line
 from pd_common.protocol import (
+    CdrDecodeError,
+    CdrEncodeError,
     Command,
     Feedback,
-    FeedbackStatus,
     Signature,
-    StateOrigin,
     Status,
-    TestState,
+    decode_command,
+    decode_feedback,
+    decode_status,
+    encode_command,
+    encode_feedback,
+    encode_status,
 )
 
 from ...errors import BagError
@@ -65,19 +71,23 @@ from .bag import (
     RunIndex,
     typestore,
 )
+from .journal_format import HEADER, Frame, RecordKind, frame, iter_frames, records_end
 
-__all__ = ['JOURNAL_FILE', 'MAX_LINE_BYTES', 'Journal', 'JournalRecord', 'RecordWriteError',
-           'RunRecorder', 'iter_journal_records', 'journal_to_bag', 'read_journal',
-           'read_journal_records']
+__all__ = ['JOURNAL_FILE', 'LEGACY_JOURNAL_FILE', 'Journal', 'JournalRecord',
+           'RecordWriteError', 'RunRecorder', 'iter_journal_records', 'journal_to_bag',
+           'read_journal', 'read_journal_records']
 
 #: The journal's file name in a run folder.
-JOURNAL_FILE = 'journal.jsonl'
-#: The longest line read back (the definition's line holds the whole record, inlined: a few
-#: MB for the longest records; a longer line is no record of this project's).
-MAX_LINE_BYTES = 256 * 2**20
-_VERSION = 1
-#: One encoder for every record (``json.dumps`` with these options builds one per call).
-_ENCODE = json.JSONEncoder(separators=(',', ':'), allow_nan=True).encode
+JOURNAL_FILE = 'journal.pdj'
+#: The journal of a run recorded by an earlier version (JSON lines; not read by this one).
+LEGACY_JOURNAL_FILE = 'journal.jsonl'
+_UNSIGNED = Signature()
+_MAX_TOPIC_BYTES = 0xFFFF
+_KIND_NAMES = {RecordKind.DEFINITION: 'def', RecordKind.COMMAND: 'cmd',
+               RecordKind.FEEDBACK: 'fb', RecordKind.STATUS: 'st', RecordKind.RAW: 'raw',
+               RecordKind.EVENT: 'ev'}
+#: The bytes a bag records as they are in the journal.
+_COPIED = (RecordKind.COMMAND, RecordKind.FEEDBACK, RecordKind.STATUS, RecordKind.RAW)
 
 
 class RunRecorder(Protocol):
@@ -92,8 +102,12 @@ class RunRecorder(Protocol):
 
     def write_feedback(self, feedback: Feedback, t_ns: int,
                        topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a site's feedback (``stamp_ns``: its header stamp, if not ``t_ns``)."""
+                       signature: Signature | None = None, stamp_ns: int | None = None,
+                       data: bytes | None = None) -> None:
+        """Record a site's feedback (``stamp_ns``: its header stamp, if not ``t_ns``).
+
+        ``data``: its CDR bytes as they arrived (else encoded of the rest).
+        """
 
     def write_status(self, status: Status, t_ns: int, *,
                      topic: str = TOPIC_STATUS) -> None:
@@ -119,31 +133,19 @@ class RecordWriteError(BagError):
     """
 
 
-def _signature(signature: Signature | None) -> list[Any] | None:
-    if signature is None or not signature.signed:
-        return None
-    return [signature.key_id, signature.session, signature.sequence, signature.mac.hex()]
-
-
-def _unsignature(value: Any) -> Signature:
-    if not value:
-        return Signature()
-    key_id, session, sequence, mac = value
-    return Signature(key_id=key_id, session=session, sequence=int(sequence),
-                     mac=bytes.fromhex(mac))
-
-
-def _floats(values: Any) -> list[float]:
-    return [float(x) for x in values]
+def _signed(signature: Signature | None) -> Signature:
+    """A message's signature as recorded: none unless it has a MAC."""
+    return signature if signature is not None and signature.signed else _UNSIGNED
 
 
 class Journal:
-    """Appends a run's records to ``journal.jsonl``; durable per step (see the module).
+    """Appends a run's records to ``journal.pdj``; durable per step (see the module).
 
     Args:
         path: the journal file (created, or appended to when ``append``).
         sync_interval: most seconds between two ``fsync`` calls (0: every flush).
-        append: continue an existing journal (a resumed run).
+        append: continue an existing journal (a resumed run): a record a crash tore at its
+            end is cut off first.
         clock: monotonic clock for the sync interval.
     """
 
@@ -153,8 +155,9 @@ class Journal:
         self.sync_interval = sync_interval
         self._append = append
         self._clock = clock
-        self._file: IO[str] | None = None
-        self._pending: list[str] = []
+        self._file: IO[bytes] | None = None
+        self._pending: list[bytes] = []
+        self._topics: dict[str, bytes] = {}
         self._synced = 0.0
         self.records = 0
         self.events: list[dict[str, Any]] = []
@@ -163,17 +166,18 @@ class Journal:
         """Create (or reopen for appending) the journal.
 
         Raises:
-            BagError: it exists (and ``append`` is false), or cannot be written.
+            BagError: it exists (and ``append`` is false), is damaged before its end (when
+                appending), or cannot be written.
         """
         if self._file is not None:
             return self
         try:
-            if self._append:
-                end_last_line(self.path)
-                self._file = self.path.open('a', encoding='utf-8')
+            if self._append and self.path.exists():
+                self._file = self._reopen()
             else:
-                self._file = self.path.open('x', encoding='utf-8')
-                self._add({'k': 'journal', 'version': _VERSION})
+                self._file = self.path.open('xb')
+                self._file.write(HEADER)
+                self._file.flush()  # a journal on disk is one from its first byte
         except FileExistsError:
             msg = f'{self.path}: a journal exists already (resume the run, or use a new folder)'
             raise BagError(msg) from None
@@ -183,6 +187,22 @@ class Journal:
         self._synced = self._clock()
         return self
 
+    def _reopen(self) -> IO[bytes]:
+        """The journal opened at the end of its last complete record (a torn one cut off)."""
+        end = records_end(self.path)
+        file = self.path.open('r+b')
+        try:
+            if end == 0:  # not even its header: a run killed as it began
+                file.truncate(0)
+                file.write(HEADER)
+            elif file.seek(0, os.SEEK_END) > end:
+                file.truncate(end)
+            file.seek(0, os.SEEK_END)
+        except BaseException:
+            file.close()
+            raise
+        return file
+
     def __enter__(self) -> Journal:
         """Open the journal."""
         return self.open()
@@ -191,66 +211,72 @@ class Journal:
         """Close the journal."""
         self.close()
 
-    def _add(self, record: dict[str, Any]) -> None:
-        self._pending.append(_ENCODE(record))
+    def _add(self, kind: RecordKind, t_ns: int, topic: str, payload: bytes) -> None:
+        raw_topic = self._topics.get(topic)
+        if raw_topic is None:
+            raw_topic = topic.encode('utf-8')
+            if len(raw_topic) > _MAX_TOPIC_BYTES:
+                msg = f'{self.path}: a topic name of {len(raw_topic)} bytes: too long to record'
+                raise BagError(msg)
+            self._topics[topic] = raw_topic
+        self._pending.append(frame(kind, t_ns, raw_topic, payload))
         self.records += 1
+
+    def _cdr(self, topic: str, encode: Callable[[], bytes]) -> bytes:
+        """A message's CDR bytes (a value CDR cannot carry: one line naming the topic)."""
+        try:
+            return encode()
+        except CdrEncodeError as err:
+            msg = f'{self.path}: {topic}: {err}'
+            raise BagError(msg) from None
 
     # -- records --------------------------------------------------------------------------
     def write_definition(self, text: str, t_ns: int) -> None:
         """Record the resolved test definition (JSON text)."""
-        self._add({'k': 'def', 't': t_ns, 'json': text})
+        self._add(RecordKind.DEFINITION, t_ns, '', text.encode('utf-8'))
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a command (with its signature; its header stamp ``hs`` if not ``t_ns``)."""
-        record = {'k': 'cmd', 't': t_ns, 'topic': topic, 'id': command.test_id,
-                  'step': command.step, 'it': command.iteration,
-                  'time': float(command.test_time), 'dofs': list(command.dof_names),
-                  'x': _floats(command.target_displacement), 'sig': _signature(signature)}
-        if command.control_mode or command.target_force:  # mixed control only
-            record['mode'] = [int(mode) for mode in command.control_mode]
-            record['fx'] = _floats(command.target_force)
-        if stamp_ns is not None and stamp_ns != t_ns:
-            record['hs'] = stamp_ns
-        self._add(record)
+        """Record a command: its CDR bytes with its signature and header stamp (``t_ns``).
+
+        The bytes that went out: the integrator stamps and signs what it sends with the codec
+        that writes them here (see :attr:`.StepDispatcher.send_stamp_ns`).
+        """
+        stamp = t_ns if stamp_ns is None else stamp_ns
+        self._add(RecordKind.COMMAND, t_ns, topic, self._cdr(topic, lambda: encode_command(
+            command, stamp, _signed(signature))))
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
-                       signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a feedback (with its signature; its header stamp ``hs`` if not ``t_ns``).
+                       signature: Signature | None = None, stamp_ns: int | None = None,
+                       data: bytes | None = None) -> None:
+        """Record a feedback: the CDR bytes it arrived as (``data``), else encoded.
 
-        The header stamp is the sender's (the bytes a signature covers hold it): with it the
-        bag holds the message as it arrived, and ``./pd replay --key`` checks it.
+        Encoded of the record, its signature and its header stamp (default ``t_ns``) when
+        ``data`` is not given (a run in one process). Either way the bytes a signature
+        covers: ``./pd replay --key`` checks them.
         """
-        record = {'k': 'fb', 't': t_ns, 'topic': topic, 'id': feedback.test_id,
-                  'step': feedback.step, 'it': feedback.iteration,
-                  'xm': _floats(feedback.measured_displacement),
-                  'r': _floats(feedback.restoring_force), 'status': int(feedback.status),
-                  'msg': feedback.message, 'epoch': feedback.epoch,
-                  'origin': int(feedback.state_origin), 'sig': _signature(signature)}
-        if stamp_ns is not None and stamp_ns != t_ns:
-            record['hs'] = stamp_ns
-        self._add(record)
+        if data is None:
+            stamp = t_ns if stamp_ns is None else stamp_ns
+            data = self._cdr(topic, lambda: encode_feedback(feedback, stamp,
+                                                            _signed(signature)))
+        self._add(RecordKind.FEEDBACK, t_ns, topic, data)
 
     def write_status(self, status: Status, t_ns: int, *, topic: str = TOPIC_STATUS) -> None:
         """Record a status (the integrator's, or a bridge's on its topic)."""
-        self._add({'k': 'st', 't': t_ns, 'topic': topic, 'id': status.test_id,
-                   'state': int(status.state), 'step': status.step,
-                   'total': status.total_steps, 'omega_dt': float(status.omega_dt),
-                   'retries': status.retries, 'ignored': status.ignored_messages,
-                   'msg': status.message, 'refused': status.refused_messages,
-                   'refused_by': status.refused_by_reason, **_status_extras(status)})
+        self._add(RecordKind.STATUS, t_ns, topic,
+                  self._cdr(topic, lambda: encode_status(status, t_ns)))
 
     def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
         """Record an already serialised (CDR) message (e.g. an actuator trajectory)."""
-        self._add({'k': 'raw', 't': t_ns, 'topic': topic,
-                   'cdr': base64.b64encode(data).decode('ascii')})
+        self._add(RecordKind.RAW, t_ns, topic, bytes(data))
 
     def write_event(self, what: str, t_ns: int, **info: Any) -> None:
         """Record an event of the run (resumed, a process restarted, ...).
 
         Kept in :attr:`events` too.
         """
-        self._add({'k': 'ev', 't': t_ns, 'what': what, **info})
+        text = json.dumps({'what': what, **info}, sort_keys=True)
+        self._add(RecordKind.EVENT, t_ns, '', text.encode('utf-8'))
         self.events.append({'what': what, **info, 't_ns': t_ns})
 
     # -- durability ---------------------------------------------------------------------------
@@ -267,7 +293,7 @@ class Journal:
         if file is None or not self._pending:
             return
         try:
-            file.write('\n'.join(self._pending) + '\n')
+            file.write(b''.join(self._pending))
             self._pending.clear()
             file.flush()
             if not sync:
@@ -338,162 +364,91 @@ class Journal:
 
 @dataclass(frozen=True)
 class JournalRecord:
-    """One record read back: its kind, and the item it holds."""
+    """One record read back: its kind, and the item it holds.
+
+    Attributes:
+        kind: ``def``, ``cmd``, ``fb``, ``st``, ``raw`` or ``ev``.
+        t_ns: its time [ns since the epoch] (the bag's log time).
+        topic: its topic ('' for a definition or an event).
+        item: a :class:`Command`, :class:`Feedback`, :class:`Status`, the definition's JSON
+            text, an event's object (with its ``what``) or a raw record's bytes.
+        signature: a command's or feedback's signature (unsigned for the rest).
+        stamp_ns: a command's or feedback's header stamp (``t_ns`` for the rest).
+        data: the record's payload as it is on disk (a message's CDR bytes; JSON text).
+    """
 
     kind: str
     t_ns: int
     topic: str
     item: Any
     signature: Signature
-    stamp_ns: int = 0  # a command's or feedback's header stamp (t_ns unless recorded apart)
+    stamp_ns: int = 0
+    data: bytes = b''
 
 
-def _status(record: dict[str, Any]) -> Status:
-    try:
-        state = TestState(record['state'])
-    except ValueError:
-        state = TestState.IDLE
-    return Status(test_id=record['id'], state=state, step=record['step'],
-                  total_steps=record['total'], omega_dt=record['omega_dt'],
-                  retries=record['retries'], ignored_messages=record['ignored'],
-                  message=record['msg'], refused_messages=record.get('refused', 0),
-                  refused_by_reason=record.get('refused_by', ''), node=record.get('node', ''),
-                  session=record.get('session', ''),
-                  emergency_stop=bool(record.get('estop', False)),
-                  operator_hold=bool(record.get('oper', False)),
-                  acknowledged=record.get('ack', ''))
-
-
-def _status_extras(status: Status) -> dict[str, Any]:
-    """The fields of a node's status that only some statuses set (kept out of the rest)."""
-    extras: dict[str, Any] = {}
-    for name, value in (('node', status.node), ('session', status.session),
-                        ('estop', status.emergency_stop), ('oper', status.operator_hold),
-                        ('ack', status.acknowledged)):
-        if value:
-            extras[name] = value
-    return extras
-
-
-def _text(value: Any, name: str) -> str:
-    """A record's string field (a ``TypeError`` otherwise: the record is malformed)."""
-    if not isinstance(value, str):
-        msg = f'{name} is not a string'
-        raise TypeError(msg)
-    return value
-
-
-def _integer(value: Any, name: str) -> int:
-    """A record's integer field (a ``TypeError`` otherwise: the record is malformed)."""
-    if isinstance(value, bool) or not isinstance(value, int):
-        msg = f'{name} is not an integer'
-        raise TypeError(msg)
-    return value
-
-
-def _record(raw: Any) -> JournalRecord:
-    """One record of its JSON object.
+def _record(record: Frame) -> JournalRecord:
+    """One record of its frame.
 
     Raises:
-        ValueError, KeyError, TypeError, ArithmeticError: not a record of its kind.
+        CdrDecodeError, ValueError, TypeError, RecursionError: not a record of its kind.
     """
-    if not isinstance(raw, dict):
-        msg = f'a JSON {type(raw).__name__}, not an object'
-        raise TypeError(msg)
-    kind = _text(raw['k'], 'k')
-    t_ns = int(raw.get('t', 0))
-    topic = _text(raw.get('topic', ''), 'topic')
-    signature = _unsignature(raw.get('sig'))
+    kind, t_ns, payload = record.kind, record.t_ns, record.payload
+    signature, stamp_ns = _UNSIGNED, t_ns
     item: Any
-    if kind == 'cmd':
-        item = Command(test_id=_text(raw['id'], 'id'), step=_integer(raw['step'], 'step'),
-                       test_time=float(raw['time']),
-                       dof_names=tuple(_text(name, 'dofs') for name in raw['dofs']),
-                       target_displacement=tuple(_floats(raw['x'])),
-                       iteration=_integer(raw['it'], 'it'),
-                       control_mode=tuple(_integer(mode, 'mode') for mode in raw.get('mode', ())),
-                       target_force=tuple(_floats(raw.get('fx', ()))))
-    elif kind == 'fb':
-        item = Feedback(test_id=_text(raw['id'], 'id'), step=_integer(raw['step'], 'step'),
-                        measured_displacement=tuple(_floats(raw['xm'])),
-                        restoring_force=tuple(_floats(raw['r'])),
-                        status=FeedbackStatus(raw['status']), message=_text(raw['msg'], 'msg'),
-                        iteration=_integer(raw['it'], 'it'),
-                        epoch=_text(raw.get('epoch', ''), 'epoch'),
-                        state_origin=StateOrigin(raw.get('origin', 0)))
-    elif kind == 'st':
-        item = _status(raw)
-    elif kind == 'def':
-        item = _text(raw['json'], 'json')
-    elif kind == 'raw':
-        item = base64.b64decode(_text(raw['cdr'], 'cdr'), validate=True)
+    if kind is RecordKind.COMMAND:
+        item, stamp_ns, signature, _ = decode_command(payload)
+    elif kind is RecordKind.FEEDBACK:
+        item, stamp_ns, signature, _ = decode_feedback(payload)
+    elif kind is RecordKind.STATUS:
+        item = decode_status(payload).record
+    elif kind is RecordKind.DEFINITION:
+        item = payload.decode('utf-8')
+    elif kind is RecordKind.EVENT:
+        item = json.loads(payload.decode('utf-8'))
+        if not isinstance(item, dict) or not isinstance(item.get('what'), str):
+            msg = 'not an event: a JSON object with its "what"'
+            raise TypeError(msg)
     else:
-        item = raw
-    return JournalRecord(kind=kind, t_ns=t_ns, topic=topic, item=item, signature=signature,
-                         stamp_ns=_integer(raw.get('hs', t_ns), 'hs'))
+        item = payload
+    return JournalRecord(kind=_KIND_NAMES[kind], t_ns=t_ns, topic=record.topic, item=item,
+                         signature=signature, stamp_ns=stamp_ns, data=payload)
 
 
 def iter_journal_records(path: str | Path, notes: list[str] | None = None
                          ) -> Iterator[JournalRecord]:
     """The complete records of a journal.
 
-    One at a time (a long run's journal is never held in memory whole); a last line a crash cut
-    short is skipped and described in ``notes``.
+    One at a time (a long run's journal is never held in memory whole); a last record a
+    crash tore is skipped and described in ``notes``.
 
     Raises:
-        BagError: the file cannot be read, or a complete line is malformed.
+        BagError: the file cannot be read, is not a journal, or a record before its end is
+            damaged or malformed.
     """
-    path = Path(path)
+    for record in iter_frames(path, notes):
+        yield _decoded(record, path)
+
+
+def _decoded(record: Frame, path: str | Path) -> JournalRecord:
+    """:func:`_record`, or one line naming the journal and the record.
+
+    Raises:
+        BagError: the record's bytes are not a record of its kind.
+    """
     try:
-        with open_regular_file(path) as file:
-            number = 0
-            while data := file.readline(MAX_LINE_BYTES + 1):
-                number += 1
-                if len(data) > MAX_LINE_BYTES:
-                    msg = (f'{path}: line {number}: longer than {MAX_LINE_BYTES // 2**20} MiB: '
-                           'not a journal record')
-                    raise BagError(msg)
-                cut = not data.endswith(b'\n')  # only the very last line can lack it
-                data = data.rstrip(b'\n')
-                if not data:
-                    continue
-                try:
-                    line = data.decode('utf-8')
-                    raw = json.loads(line)
-                    if isinstance(raw, dict) and raw.get('k') == 'journal':
-                        continue
-                    record = _record(raw)
-                except (ValueError, KeyError, TypeError, ArithmeticError,
-                        RecursionError) as err:
-                    if cut:  # the line a crash cut short
-                        if notes is not None:
-                            notes.append(f'ignored the last record of {path.name}, cut short '
-                                         f'({len(data)} bytes)')
-                        return
-                    msg = f'{path}: line {number}: malformed journal record ({_reason(err)})'
-                    raise BagError(msg) from None
-                yield record
-    except OSError as err:
-        msg = f'{path}: cannot read the journal ({err.strerror or type(err).__name__})'
+        return _record(record)
+    except (CdrDecodeError, ValueError, TypeError, RecursionError) as err:
+        reason = 'JSON nested too deep' if isinstance(err, RecursionError) else str(err)
+        msg = (f'{path}: record {record.number} at byte {record.offset}: malformed '
+               f'{_KIND_NAMES[record.kind]} record ({reason})')
         raise BagError(msg) from None
-
-
-def _reason(err: Exception) -> str:
-    """Why a line is not a record, in a few words."""
-    if isinstance(err, UnicodeDecodeError):
-        return f'not UTF-8 text: byte 0x{err.object[err.start]:02x} at column {err.start + 1}'
-    if isinstance(err, RecursionError):
-        return 'JSON nested too deep'
-    if isinstance(err, KeyError):
-        return f'no {err}'
-    return str(err)
 
 
 def read_journal_records(path: str | Path) -> tuple[list[JournalRecord], str]:
     """Every complete record of a journal, and a note ('' or what was ignored at its end).
 
     Raises:
-        BagError: the file cannot be read, or a record before the last line is malformed.
+        BagError: as :func:`iter_journal_records`.
     """
     notes: list[str] = []
     records = list(iter_journal_records(path, notes))
@@ -520,7 +475,7 @@ def read_journal(path: str | Path) -> RecordedRun:
         elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
             index.trajectory(record.t_ns, _trajectory(store, record, path))
         elif record.kind == 'ev':
-            index.event(record.t_ns, _event(record.item))
+            index.event(record.t_ns, dict(record.item))
     run = index.result(str(path))
     run.notes = notes
     return run
@@ -570,29 +525,20 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
 
 
 def _write_bag(journal: str | Path, bag: Path) -> int:
-    """:func:`journal_to_bag` into ``bag`` (created); the records written."""
+    """:func:`journal_to_bag` into ``bag`` (created); the records written.
+
+    A message's bytes are copied as they are (the record's CRC vouches for them); the
+    definition and the events become ``std_msgs/msg/String`` messages.
+    """
     count = 0
     with BagRecorder(bag) as recorder:
-        for record in iter_journal_records(journal):
+        for record in iter_frames(journal):
             count += 1
-            if record.kind == 'def':
-                recorder.write_definition(record.item, record.t_ns)
-            elif record.kind == 'cmd':
-                recorder.write_command(record.item, record.t_ns, record.topic, record.signature,
-                                       record.stamp_ns)
-            elif record.kind == 'fb':
-                recorder.write_feedback(record.item, record.t_ns, record.topic,
-                                        record.signature, record.stamp_ns)
-            elif record.kind == 'st':
-                recorder.write_status(record.item, record.t_ns, topic=record.topic)
-            elif record.kind == 'raw':
-                recorder.write_raw(record.topic, record.t_ns, record.item)
-            elif record.kind == 'ev':
-                event = _event(record.item)
-                recorder.write_event(event.pop('what', 'event'), record.t_ns, **event)
+            if record.kind in _COPIED:
+                recorder.write_raw(record.topic, record.t_ns, record.payload)
+            elif record.kind is RecordKind.DEFINITION:
+                recorder.write_definition(_decoded(record, journal).item, record.t_ns)
+            else:
+                event = dict(_decoded(record, journal).item)
+                recorder.write_event(event.pop('what'), record.t_ns, **event)
     return count
-
-
-def _event(raw: dict[str, Any]) -> dict[str, Any]:
-    """An event record's content (its kind and time stamp left out)."""
-    return {key: value for key, value in raw.items() if key not in ('k', 't')}
