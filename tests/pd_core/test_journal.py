@@ -51,6 +51,7 @@ from pd_core.run.record.journal import (
 from pd_core.run.runner import (
     load_run,
     rebuild_outputs,
+    recover_run,
     replay_run,
     run_offline,
     serve_queue,
@@ -533,8 +534,9 @@ def test_a_file_that_is_no_journal_of_this_version_is_one_line(tmp_path: Path, c
 
 def test_a_run_folder_with_an_earlier_versions_journal_says_so(tmp_path: Path) -> None:
     (tmp_path / 'journal.jsonl').write_text('{"k":"journal","version":1}\n', encoding='utf-8')
-    with pytest.raises(BagError, match=r'journal\.jsonl\) is of an earlier version'):
-        load_run(tmp_path)
+    for read in (load_run, recover_run):
+        with pytest.raises(BagError, match=r'journal\.jsonl\) is of an earlier version'):
+            read(tmp_path)
 
 
 def test_an_unreadable_journal_is_an_error(tmp_path: Path) -> None:

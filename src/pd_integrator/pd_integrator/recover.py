@@ -20,7 +20,7 @@ from pd_core.run.runner import recover_run
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns 0 on success, 2 if the folder cannot be recovered."""
     parser = argparse.ArgumentParser(prog='recover', description=__doc__.splitlines()[0])
-    parser.add_argument('run_dir', help='the run folder (with its journal.jsonl)')
+    parser.add_argument('run_dir', help='the run folder (with its journal.pdj)')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
     args = parser.parse_args(argv)
     try:

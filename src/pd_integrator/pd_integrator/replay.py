@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     """
     parser = argparse.ArgumentParser(prog='replay', description=__doc__.splitlines()[0])
     parser.add_argument('bag', help="the run's bag folder (e.g. runs/<run>/bag), its run "
-                        'folder or its journal.jsonl')
+                        'folder or its journal.pdj')
     parser.add_argument('--out', help='output folder (default: <run folder>/replay)')
     parser.add_argument('--no-figures', action='store_true', help='skip the PNG figures')
     parser.add_argument('--key', help="the test's key file: check the recorded signatures")

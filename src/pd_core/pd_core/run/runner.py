@@ -370,12 +370,21 @@ def load_run(path: str | Path) -> RecordedRun:
     journal = run_dir / JOURNAL_FILE
     if journal.is_file():
         return read_journal(journal)
-    if (run_dir / LEGACY_JOURNAL_FILE).is_file():
-        msg = (f'{path}: its journal ({LEGACY_JOURNAL_FILE}) is of an earlier version (JSON '
-               'lines): recover or replay it with that version')
-        raise BagError(msg)
+    _refuse_legacy_journal(run_dir)
     msg = f'{path}: no complete bag and no journal ({JOURNAL_FILE}): not a run folder'
     raise BagError(msg)
+
+
+def _refuse_legacy_journal(run_dir: Path) -> None:
+    """One line for a run folder an earlier version recorded (a JSON-lines journal).
+
+    Raises:
+        BagError: ``run_dir`` holds such a journal.
+    """
+    if (run_dir / LEGACY_JOURNAL_FILE).is_file():
+        msg = (f'{run_dir}: its journal ({LEGACY_JOURNAL_FILE}) is of an earlier version (JSON '
+               'lines): recover or replay it with that version')
+        raise BagError(msg)
 
 
 def replay_bag(bag_path: str | Path) -> TestSession:
@@ -559,6 +568,7 @@ def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
     run_dir = Path(run_dir)
     journal = run_dir / JOURNAL_FILE
     if not journal.is_file():
+        _refuse_legacy_journal(run_dir)
         msg = f'{run_dir}: no {JOURNAL_FILE}: nothing to recover from'
         raise BagError(msg)
     bag = run_dir / BAG_DIRECTORY
