@@ -37,7 +37,7 @@ from pd_common.protocol import (
 )
 from pd_common.protocol import TestState as State
 from pd_core.errors import BagError
-from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.session import TestSession as Session  # not a test class
 from pd_core.run.record import journal as journal_module
 from pd_core.run.record.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, read_bag
@@ -702,3 +702,31 @@ def test_the_bag_is_read_by_the_mcap_library_with_its_checks(offline: Any) -> No
     assert summary is not None
     assert summary.statistics is not None
     assert summary.statistics.message_count >= len(journal)
+
+
+def test_the_dispatcher_journals_each_command_as_the_bytes_it_went_out_as(
+        tmp_path: Path) -> None:
+    """A sender that returns what it sent (:class:`Sent`): the journal keeps those bytes,
+    not an encoding of its own (its header stamp, 7 ns, is not the record's time: an
+    encoding of the journal's own would hold the record's time)."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': 0.05})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    queue: deque[tuple[str, Command]] = deque()
+    went: list[bytes] = []
+
+    def send(site: str, command: Command) -> Sent:
+        data = encode_command(command, 7)
+        went.append(data)
+        queue.append((site, command))
+        return Sent(Signature(), data)
+
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        dispatcher = StepDispatcher(session, send, journal)
+        dispatcher.start()
+        assert serve_queue(queue, {'': server}, dispatcher)
+    kept = [(t_ns, payload) for kind, t_ns, _, payload, _ in by_the_doc(path) if kind == 'cmd']
+    assert len(kept) == 6
+    assert [payload for _, payload in kept] == went
+    assert all(t_ns > 7 for t_ns, _ in kept)

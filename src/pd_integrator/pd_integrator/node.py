@@ -83,7 +83,7 @@ from pd_common.ros import (
 )
 from pd_common.signals import StopFlag
 from pd_core.errors import BagError, IntegratorError, PdIntegratorError
-from pd_core.run.loop.dispatch import StepDispatcher
+from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
 from pd_core.run.loop.session import TestSession
 from pd_core.run.loop.steering import Steering
@@ -431,13 +431,13 @@ class IntegratorNode(Node):
     def _on_refused_offer(self, reason: Refusal, signature: Signature, topic: str) -> None:
         self._refusal_log(reason, signature, topic)
 
-    def _publish_command(self, site: str, command: Command) -> Signature:
+    def _publish_command(self, site: str, command: Command) -> Sent:
         """Sign and publish one site command; restart the feedback timer."""
         # (stamped as the dispatcher records it: the record holds the bytes that went out)
         data, signature = self.senders[site].encode(command, self.dispatcher.send_stamp_ns)
         self._command_pubs[site].publish(data)
         self._sent_at = time.monotonic()
-        return signature
+        return Sent(signature, data)
 
     def _site_ready(self, site: str) -> bool:
         """Whether ``site`` listens, talks back and obeys this test's signed session."""

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from pd_common.protocol import (
     Command,
@@ -38,11 +38,19 @@ if TYPE_CHECKING:
     from ..record.journal import RunRecorder
     from .session import TestSession
 
-__all__ = ['SendFunction', 'StepDispatcher', 'refuse_fresh_state']
+__all__ = ['SendFunction', 'Sent', 'StepDispatcher', 'refuse_fresh_state']
 
-SendFunction = Callable[[str, Command], Signature | None]
-"""``send(site, command)``: deliver a site command (publish it, or call a specimen); returns the
-signature it went out with (``None``: unsigned), which the bag records with the command."""
+class Sent(NamedTuple):
+    """A command as it went out: its signature and its bytes (the journal keeps them)."""
+
+    signature: Signature
+    data: bytes
+
+
+SendFunction = Callable[[str, Command], Sent | Signature | None]
+"""``send(site, command)``: deliver a site command (publish it, or call a specimen); returns
+what it went out as (:class:`Sent`), or its signature (``None``: unsigned), which the record
+keeps with the command."""
 
 #: One item of a batch: a structure command and its site commands, or the feedback of a step
 #: completed at once (a fully numerical model: no site commands).
@@ -220,8 +228,8 @@ class StepDispatcher:
                 break
         return batch
 
-    def _send_batch(self, batch: list[_BatchItem]) -> list[Signature | None]:
-        """Send the batch's site commands; their signatures, in order.
+    def _send_batch(self, batch: list[_BatchItem]) -> list[Sent | Signature | None]:
+        """Send the batch's site commands; what each went out as, in order.
 
         They are recorded at :attr:`send_stamp_ns`, taken before the first leaves: a sender that
         stamps its messages stamps them with it (the integrator), so the record holds the bytes
@@ -236,7 +244,7 @@ class StepDispatcher:
         if self.bag is not None:
             self.bag.flush()
 
-    def _record_batch(self, batch: list[_BatchItem], signatures: list[Signature | None]
+    def _record_batch(self, batch: list[_BatchItem], signatures: list[Sent | Signature | None]
                       ) -> None:
         if self.bag is None:
             return
@@ -250,7 +258,12 @@ class StepDispatcher:
             if not passthrough:
                 self._record(TOPIC_STRUCTURE_COMMAND, item, t_ns)
             for site, site_command in site_commands:
-                self._record(self._topics[site][0], site_command, t_ns, next(sent, None))
+                went = next(sent, None)
+                if isinstance(went, Sent):
+                    self._record(self._topics[site][0], site_command, t_ns, went.signature,
+                                 data=went.data)
+                else:
+                    self._record(self._topics[site][0], site_command, t_ns, went)
 
     def _record_feedback(self, site: str, feedback: Feedback, t_ns: int,
                          signature: Signature | None, stamp_ns: int | None,
@@ -265,7 +278,7 @@ class StepDispatcher:
         if self.bag is None:
             return
         if isinstance(item, Command):
-            self.bag.write_command(item, t_ns, topic, signature)
+            self.bag.write_command(item, t_ns, topic, signature, data=data)
         else:
             self.bag.write_feedback(item, t_ns, topic, signature, stamp_ns, data)
 

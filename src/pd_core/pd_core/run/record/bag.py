@@ -251,12 +251,17 @@ class BagRecorder:
         self.write_raw(topic, t_ns, data)
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a step command (with the signature it went out with, if any).
+                      signature: Signature | None = None, stamp_ns: int | None = None,
+                      data: bytes | None = None) -> None:
+        """Record a step command: its bytes as they went out (``data``), else encoded.
 
-        ``stamp_ns``: its header stamp (default ``t_ns``): with the one it went out with, the
-        bag holds the bytes that went out.
+        Encoded with the signature it went out with, if any, and ``stamp_ns``, its header
+        stamp (default ``t_ns``): with the one it went out with, the bag holds the bytes that
+        went out.
         """
+        if data is not None:
+            self.write_raw(topic, t_ns, data)
+            return
         self._write_encoded(topic, t_ns, lambda: encode_command(
             command, t_ns if stamp_ns is None else stamp_ns, signature or _UNSIGNED))
 

@@ -97,8 +97,12 @@ class RunRecorder(Protocol):
         """Record the test definition."""
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a command sent to a site (``stamp_ns``: its header stamp, if not ``t_ns``)."""
+                      signature: Signature | None = None, stamp_ns: int | None = None,
+                      data: bytes | None = None) -> None:
+        """Record a command sent to a site (``stamp_ns``: its header stamp, if not ``t_ns``).
+
+        ``data``: its CDR bytes as they went out (else encoded of the rest).
+        """
 
     def write_feedback(self, feedback: Feedback, t_ns: int,
                        topic: str = TOPIC_FEEDBACK,
@@ -236,15 +240,19 @@ class Journal:
         self._add(RecordKind.DEFINITION, t_ns, '', text.encode('utf-8'))
 
     def write_command(self, command: Command, t_ns: int, topic: str = TOPIC_COMMAND,
-                      signature: Signature | None = None, stamp_ns: int | None = None) -> None:
-        """Record a command: its CDR bytes with its signature and header stamp (``t_ns``).
+                      signature: Signature | None = None, stamp_ns: int | None = None,
+                      data: bytes | None = None) -> None:
+        """Record a command: the CDR bytes it went out as (``data``), else encoded.
 
-        The bytes that went out: the integrator stamps and signs what it sends with the codec
-        that writes them here (see :attr:`.StepDispatcher.send_stamp_ns`).
+        Encoded of the record, its signature and its header stamp (default ``t_ns``) when
+        ``data`` is not given (a run in one process): the bytes the integrator would send, as
+        it stamps what it sends with the time the dispatcher records
+        (:attr:`.StepDispatcher.send_stamp_ns`).
         """
-        stamp = t_ns if stamp_ns is None else stamp_ns
-        self._add(RecordKind.COMMAND, t_ns, topic, self._cdr(topic, lambda: encode_command(
-            command, stamp, _signed(signature))))
+        if data is None:
+            stamp = t_ns if stamp_ns is None else stamp_ns
+            data = self._cdr(topic, lambda: encode_command(command, stamp, _signed(signature)))
+        self._add(RecordKind.COMMAND, t_ns, topic, data)
 
     def write_feedback(self, feedback: Feedback, t_ns: int, topic: str = TOPIC_FEEDBACK,
                        signature: Signature | None = None, stamp_ns: int | None = None,
