@@ -1042,17 +1042,20 @@ def bench_graph_soak(table: Table, steps: int, domain_id: int, work: Path) -> Fi
                if (s.wall < finished if finished is not None else not s.converting)]
     loop_end = looping[-1] if looping else None
     if begin is not None and end is not None:
-        for name in sorted(set(begin.memory) | set(end.memory)):
-            if name not in begin.memory or name not in end.memory:
+        for name in sorted({name for s in samples for name in s.memory}):
+            # Each node's own last sample: the bridge and the simulator stop before the
+            # integrator has written the bag, so the run's last sample has no row for them.
+            final = next((s for s in reversed(samples) if name in s.memory), None)
+            if name not in begin.memory or final is None:
                 continue
-            rss0, rss1 = _mb(begin.memory[name][0]), _mb(end.memory[name][0])
+            rss0, rss1 = _mb(begin.memory[name][0]), _mb(final.memory[name][0])
             peak = _mb(max(s.memory[name][1] for s in samples if name in s.memory))
             figures[f'graph_soak_rss_start_mb_{name}'] = rss0
             figures[f'graph_soak_rss_end_mb_{name}'] = rss1
             figures[f'graph_soak_rss_growth_mb_{name}'] = rss1 - rss0
             figures[f'graph_soak_rss_peak_mb_{name}'] = peak
-            note = (f'start: t {begin.t:.0f} s (step {begin.step:,}); end: t {end.t:.0f} s '
-                    f'(last sample before exit); peak (VmHWM) {peak:.1f} MB')
+            note = (f'start: t {begin.t:.0f} s (step {begin.step:,}); end: t {final.t:.0f} s '
+                    f'(its last sample before it exited); peak (VmHWM) {peak:.1f} MB')
             if name == 'pd_integrator' and loop_end is not None and loop_end is not end:
                 rss_loop = _mb(loop_end.memory[name][0])
                 figures['graph_soak_rss_loop_end_mb_pd_integrator'] = rss_loop
