@@ -128,7 +128,6 @@ from bench_loop import (
     shm_snapshot,
     stop_process,
 )
-from pd_core.run.record.journal import JOURNAL_FILE as JOURNAL_NAME
 
 LAUNCHER = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
 RECOVER = REPO / 'ros2_ws' / 'install' / 'pd_integrator' / 'lib' / 'pd_integrator' / 'recover'
@@ -206,6 +205,14 @@ def _memory_kb(pid: int) -> tuple[int, int] | None:
     if 'VmRSS' not in values:
         return None  # a zombie
     return values['VmRSS'], values.get('VmHWM', values['VmRSS'])
+
+
+def _journal_name() -> str:
+    """The journal's file name in a run folder (pd_core imported when needed, as elsewhere
+    here: ``--help`` needs no workspace)."""
+    from pd_core.run.record.journal import JOURNAL_FILE
+
+    return JOURNAL_FILE
 
 
 def _mb(kb: float) -> float:
@@ -577,7 +584,7 @@ def bench_soak(table: Table, steps: int, work: Path) -> tuple[Figures, Path | No
                   f'{_mb(report["rss_end_kb"]):.1f} MB after it')
 
     # The journal and the bag read back.
-    journal = out / JOURNAL_NAME
+    journal = out / _journal_name()
     bag = out / 'bag'
     figures['soak_journal_mb'] = _size(journal) / 1e6 if journal.is_file() else None
     figures['soak_bag_mb'] = _size(bag) / 1e6 if bag.is_dir() else None
@@ -639,7 +646,7 @@ def make_killed_run(run_dir: Path, folder: Path, fraction: float) -> KilledRun:
     from pd_common.protocol import decode_feedback
     from pd_core.run.record.journal_format import RecordKind, iter_frames
 
-    journal = run_dir / JOURNAL_NAME
+    journal = run_dir / _journal_name()
     data = journal.read_bytes()
     committed = -1
     start = end = len(data)
@@ -651,7 +658,7 @@ def make_killed_run(run_dir: Path, folder: Path, fraction: float) -> KilledRun:
             committed = decode_feedback(record.payload).record.step
     cut = start + max(1, (end - start) // 2)
     folder.mkdir(parents=True)
-    (folder / JOURNAL_NAME).write_bytes(data[:cut])
+    (folder / _journal_name()).write_bytes(data[:cut])
     definition = run_dir / 'test_definition.json'
     if definition.is_file():
         shutil.copy(definition, folder / definition.name)
@@ -888,7 +895,7 @@ def run_soak(test: Path, out: Path, domain_id: int, timeout: float) -> SoakRun:
     """``run_test TEST --out OUT --no-figures`` (site bridge), sampled every SAMPLE_PERIOD."""
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     log_path = out.with_suffix('.log')
-    journal = out / JOURNAL_NAME
+    journal = out / _journal_name()
     samples: list[Sample] = []
     log = IntegratorLog()
     names: dict[int, str] = {}
@@ -1088,7 +1095,7 @@ def bench_graph_soak(table: Table, steps: int, domain_id: int, work: Path) -> Fi
 
     # The bag, the journal, the replay.
     bag = out / 'bag'
-    journal = out / JOURNAL_NAME
+    journal = out / _journal_name()
     figures['graph_soak_bag_mb'] = _size(bag) / 1e6 if bag.exists() else None
     figures['graph_soak_journal_mb'] = _size(journal) / 1e6 if journal.exists() else None
     figures['graph_soak_journal_bytes_per_step'] = (_size(journal) / done
