@@ -31,11 +31,13 @@ setup(
             'offline = pd_integrator.offline:main',
             'replay = pd_integrator.replay:main',
             'recover = pd_integrator.recover:main',
+            'journal = pd_integrator.journal:main',
         ],
         'pd.commands': [
             'offline = pd_integrator.commands:OFFLINE',
             'replay = pd_integrator.commands:REPLAY',
             'recover = pd_integrator.commands:RECOVER',
+            'journal = pd_integrator.commands:JOURNAL',
         ],
     },
 )

@@ -31,6 +31,7 @@ from support.paths import DEFAULT_TEST, INSTALL
 MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline',
            'pretest': 'pd_pretest.pretest', 'replay': 'pd_integrator.replay',
            'recover': 'pd_integrator.recover', 'console': 'pd_console.console',
+           'journal': 'pd_integrator.journal',
            'rths_benchmark': 'pd_rths_benchmark.rths_benchmark'}
 #: Seconds a refusal may take (a process start with numpy and scipy is about one).
 PROMPT = 10.0
@@ -237,7 +238,7 @@ JOURNALS = {
 
 
 @pytest.mark.parametrize(('program', 'journal'), [
-    *((program, journal) for program in ('console', 'recover', 'replay')
+    *((program, journal) for program in ('console', 'recover', 'replay', 'journal')
       for journal in ('not-utf8', 'deep', 'crc')),
     *(('replay', journal) for journal in ('garbage', 'a-list', 'no-command'))])
 def test_a_damaged_journal_is_one_line_naming_the_record(tmp_path: Path, program: str,
@@ -246,7 +247,7 @@ def test_a_damaged_journal_is_one_line_naming_the_record(tmp_path: Path, program
     folder = tmp_path / 'run'
     folder.mkdir()
     (folder / 'journal.pdj').write_bytes(content)
-    args = ['--port', '0'] if program == 'console' else ['--no-figures']
+    args = {'console': ['--port', '0'], 'journal': []}.get(program, ['--no-figures'])
     result = run(program, 'run', *args, cwd=tmp_path)
     refused(result, program, rf'run/journal\.pdj: {reason}$')
     assert sorted(p.name for p in folder.iterdir()) == ['journal.pdj']  # no bag, no output

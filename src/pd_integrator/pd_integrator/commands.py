@@ -18,3 +18,6 @@ REPLAY = CliCommand('replay', "rebuild a run's outputs from its bag alone", 'BAG
                     PACKAGE, order=20)
 RECOVER = CliCommand('recover', "rebuild a stopped run's outputs from its journal (a crash, "
                      'a full disk)', 'RUN_FOLDER', PACKAGE, order=21)
+JOURNAL = CliCommand('journal', "print a run's journal: one line per record (--json: one "
+                     'JSON object), e.g. the last command a killed run sent',
+                     'RUN [--tail N] [--kind cmd,fb] [--json]', PACKAGE, order=22)
