@@ -83,11 +83,12 @@ MSG_TRAJECTORY = 'pd_msgs/msg/ActuatorTrajectory'
 MSG_STRING = 'std_msgs/msg/String'
 MSG_SIGNATURE = 'pd_msgs/msg/Signature'
 
+#: The fixed topics, the step's first: the writer looks a message's connection up in a list.
 _TOPICS = {
-    TOPIC_DEFINITION: MSG_STRING,
     TOPIC_COMMAND: MSG_COMMAND,
     TOPIC_FEEDBACK: MSG_FEEDBACK,
     TOPIC_STATUS: MSG_STATUS,
+    TOPIC_DEFINITION: MSG_STRING,
     TOPIC_BRIDGE_STATUS: MSG_STATUS,
     TOPIC_TRAJECTORY: MSG_TRAJECTORY,
     TOPIC_EVENTS: MSG_STRING,
