@@ -1,6 +1,7 @@
 """Append-only JSON-lines files that survive a crash.
 
-The journal, a simulator's state file, a bridge's record.
+A simulated specimen's state file, a bridge's record (the run's journal is binary:
+``pd_core.run.record.journal_format``).
 """
 
 from __future__ import annotations
