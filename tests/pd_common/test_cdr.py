@@ -598,3 +598,20 @@ def test_only_bytes_encoded_with_an_empty_mac_can_be_signed() -> None:
         cdr.covered_part(cdr.encode_command(SAMPLES['command'], 5, SIGNED))
     unsigned = cdr.encode_command(SAMPLES['command'], 5)
     assert cdr.covered_part(unsigned) == unsigned[:-4]
+
+
+def test_a_string_read_before_is_checked_again_where_it_does_not_fit() -> None:
+    """The decoder keeps the strings it read (a test's id, a session come in every message):
+    the same bytes declared longer than what is left, or read under a tighter limit, are
+    refused as if never seen."""
+    get_string, error = cdr._get_string, cdr.CdrDecodeError  # (the decoder's string reader)
+    assert get_string(b'\x02\x00\x00\x00a\x00', 0, 'f', 10) == ('a', 6)
+    assert get_string(b'\x02\x00\x00\x00a\x00', 0, 'f', 10) == ('a', 6)  # (kept)
+    with pytest.raises(error, match='string of 5 bytes where 2 are left'):
+        get_string(b'\x05\x00\x00\x00a\x00', 0, 'f', 10)
+    six = b'\x07\x00\x00\x00abcdef\x00'
+    assert get_string(six, 0, 'f', 10) == ('abcdef', 11)
+    with pytest.raises(MalformedMessageError, match=r'6 characters \(at most 3\)'):
+        get_string(six, 0, 'f', 3)
+    with pytest.raises(error, match='not terminated'):
+        get_string(b'\x02\x00\x00\x00ab', 0, 'f', 10)

@@ -354,11 +354,34 @@ def encode_signature(signature: Signature) -> bytes:
 # Positions count from the start of the bytes (the encapsulation header included), so the same
 # alignment arithmetic as in encoding holds. Each reader returns its value and the next position.
 
+#: Per character limit, the strings read already (their bytes, NUL included): a test's id,
+#: DOF names, epoch, key id and session come in every message. Bounded: emptied when full.
+_READ_STRINGS: dict[int, dict[bytes, str]] = {}
+_READ_STRINGS_MAX = 256
+
+
 def _get_string(data: bytes, pos: int, field: str, limit: int) -> tuple[str, int]:
     pos += -pos & 3
     (size,) = _U32.unpack_from(data, pos)
     pos += 4
     end = pos + size
+    raw = data[pos:end]
+    known = _READ_STRINGS.get(limit)
+    if known is None:
+        known = _READ_STRINGS.setdefault(limit, {})
+    text = known.get(raw)
+    if text is not None and len(raw) == size:  # the same bytes passed the checks below
+        return text, end
+    text = _checked_string(data, pos, end, size, field, limit)
+    if len(known) >= _READ_STRINGS_MAX:
+        known.clear()
+    known[raw] = text
+    return text, end
+
+
+def _checked_string(data: bytes, pos: int, end: int, size: int, field: str,
+                    limit: int) -> str:
+    """The string of ``size`` bytes at ``pos`` (NUL included), checked."""
     if size == 0 or end > len(data):
         msg = f'{field}: string of {size} bytes where {len(data) - pos} are left'
         raise CdrDecodeError(msg)
@@ -372,7 +395,7 @@ def _get_string(data: bytes, pos: int, field: str, limit: int) -> tuple[str, int
     if len(text) > limit:
         msg = f'{field}: {len(text)} characters (at most {limit})'
         raise MalformedMessageError(msg)
-    return text, end
+    return text
 
 
 def _get_count(data: bytes, pos: int, field: str, size: int, limit: int) -> tuple[int, int]:
