@@ -72,6 +72,7 @@ from .plan import (
     attach_realtime_reports,
     discovery_profile,
     insert_fault_proxies,
+    parse_cpus,
     site_commands,
     with_key,
 )
@@ -144,6 +145,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help='seconds a live node may say nothing (no status, no session offer)'
                         f' before it is reported as hung and the test held (default '
                         f'{HUNG_TIMEOUT:g}; 0: off)')
+    parser.add_argument('--cpus', action='append', default=[], metavar='KIND=CPUS',
+                        help='run the processes of a kind (integrator, bridge, simulator, '
+                        'opensees, proxy) on these CPUs (0, 0,2, 1-3); repeatable. E.g. a '
+                        'real-time test: --cpus integrator=0 --cpus bridge=1 (recorded: '
+                        '--resume places them again)')
     return parser.parse_args(argv)
 
 
@@ -250,7 +256,8 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     plan = LaunchPlan(test_id=definition.test_id, n_steps=definition.n_steps, out=out,
                       site_mode=args.site, physical=physical, key_file=key_file,
                       environment=rig.environment({}), children=children,
-                      integrator=with_key(integrator, key_file), figures=not args.no_figures)
+                      integrator=with_key(integrator, key_file), figures=not args.no_figures,
+                      cpus=parse_cpus(args.cpus))
     servers = check_specimens(plan, document)
     if definition.needs_probe:
         check_probe(plan, definition, test_file, servers)
@@ -305,6 +312,15 @@ def plan_resumed_run(args: argparse.Namespace) -> LaunchPlan:
             load_key(plan.key_file)
         except AuthError as err:
             raise LaunchError(str(err)) from None
+    if args.cpus:  # placed anew
+        plan.cpus = parse_cpus(args.cpus)
+    else:  # as recorded, if this machine has those CPUs
+        try:
+            parse_cpus([f'{kind}={",".join(map(str, cpus))}' for kind, cpus in plan.cpus.items()])
+        except LaunchError as err:
+            msg = (f'{run_dir / LAUNCH_FILE}: {str(err).removeprefix("--cpus ")} (place them '
+                   'anew with --cpus)')
+            raise LaunchError(msg) from None
     return plan
 
 

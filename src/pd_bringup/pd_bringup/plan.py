@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import socket
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -32,11 +33,11 @@ from pd_core.run.definition import TestDefinition
 from .faults import FaultPlanError, attach_reports, proxy_command
 from .reports import add_to_summary, read_reports
 
-__all__ = ['BEHIND', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'SIMULATED_DRIVERS', 'Child',
-           'LaunchError', 'LaunchPlan', 'attach_fault_reports', 'attach_realtime_reports',
-           'bridge_driver', 'bridge_record_file', 'discovery_profile',
-           'fault_report_name', 'insert_fault_proxies', 'opensees_command',
-           'realtime_report_name', 'site_commands', 'with_key']
+__all__ = ['BEHIND', 'CPU_KINDS', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'SIMULATED_DRIVERS',
+           'Child', 'LaunchError', 'LaunchPlan', 'attach_fault_reports',
+           'attach_realtime_reports', 'bridge_driver', 'bridge_record_file',
+           'discovery_profile', 'fault_report_name', 'insert_fault_proxies', 'opensees_command',
+           'parse_cpus', 'realtime_report_name', 'site_commands', 'with_key']
 
 #: The plan's file name in a run folder.
 LAUNCH_FILE = 'launch.json'
@@ -111,6 +112,8 @@ class LaunchPlan:
         integrator: the integrator's command line for a new run (its ``resume_from`` form is
             made from it).
         figures: whether figures are written.
+        cpus: the CPUs each kind of process runs on (``run_test --cpus``): a kind
+            (``integrator``, ``bridge``, ...) and its CPU numbers; a kind not named runs on any.
     """
 
     test_id: str
@@ -124,6 +127,7 @@ class LaunchPlan:
     integrator: list[str]
     figures: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
+    cpus: dict[str, list[int]] = field(default_factory=dict)
 
     def save(self) -> Path:
         """Write ``launch.json`` into the run folder (created); its path.
@@ -275,6 +279,58 @@ def _check_types(plan: LaunchPlan) -> None:
     if not all(isinstance(child.state_file, str) for child in plan.children):
         msg = 'children: a state_file is not a path'
         raise TypeError(msg)
+    if not isinstance(plan.cpus, dict) or not all(
+            isinstance(kind, str) and isinstance(cpus, list)
+            and all(isinstance(cpu, int) and not isinstance(cpu, bool) for cpu in cpus)
+            for kind, cpus in plan.cpus.items()):
+        msg = 'cpus: not CPU numbers per kind of process'
+        raise TypeError(msg)
+
+
+#: The kinds of process ``--cpus`` places.
+CPU_KINDS = ('integrator', 'bridge', 'simulator', 'opensees', 'proxy')
+
+
+def parse_cpus(items: list[str], available: set[int] | None = None) -> dict[str, list[int]]:
+    """``--cpus KIND=CPUS`` options: the CPUs of each kind of process (``0``, ``0,2``, ``1-3``).
+
+    Args:
+        items: the options' values.
+        available: the CPUs this process may use (default: its affinity).
+
+    Raises:
+        LaunchError: an unknown kind, a kind named twice, or CPUs that are not numbers this
+            machine lets the test use (one line naming the option).
+    """
+    if available is None:
+        available = os.sched_getaffinity(0)
+    placed: dict[str, list[int]] = {}
+    for item in items:
+        kind, _, text = item.partition('=')
+        kind = kind.strip()
+        if kind not in CPU_KINDS:
+            msg = f'--cpus {item}: {kind!r} is not a kind of process ({", ".join(CPU_KINDS)})'
+            raise LaunchError(msg)
+        if kind in placed:
+            msg = f'--cpus {item}: {kind} is placed twice'
+            raise LaunchError(msg)
+        cpus: set[int] = set()
+        try:
+            for part in text.split(','):
+                first, _, last = part.strip().partition('-')
+                cpus.update(range(int(first), int(last or first) + 1))
+        except ValueError:
+            cpus.clear()
+        if not cpus:
+            msg = f'--cpus {item}: {text!r} is not a list of CPUs (e.g. 0, 0,2 or 1-3)'
+            raise LaunchError(msg)
+        missing = sorted(cpus - available)
+        if missing:
+            msg = (f'--cpus {item}: CPU {", ".join(map(str, missing))} not available (this '
+                   f'test may use {", ".join(map(str, sorted(available)))})')
+            raise LaunchError(msg)
+        placed[kind] = sorted(cpus)
+    return placed
 
 
 def discovery_profile(env: dict[str, str]) -> dict[str, str]:

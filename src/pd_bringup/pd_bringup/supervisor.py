@@ -146,9 +146,21 @@ def recorded_processes(run_dir: Path) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
-def _die_with_parent(parent: int) -> Callable[[], None]:
-    """A ``preexec_fn``: SIGTERM when the launcher dies (Linux), or exit if it already did."""
+def _child_setup(parent: int | None, cpus: list[int] | None) -> Callable[[], None] | None:
+    """A ``preexec_fn``: the child on ``cpus``, and it ends with the launcher ``parent``.
+
+    On ``cpus`` if given: set before the node starts, so every thread it makes runs on them.
+    Unless ``parent`` is ``None``: SIGTERM when the launcher dies (Linux), or exit if it
+    already did. ``None`` when there is nothing to do.
+    """
+    if parent is None and not cpus:
+        return None
+
     def setup() -> None:
+        if cpus:
+            os.sched_setaffinity(0, cpus)
+        if parent is None:
+            return
         try:
             libc = ctypes.CDLL('libc.so.6', use_errno=True)
             libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
@@ -227,13 +239,16 @@ class Supervisor:
             operator.watch_status('/pd/test_status')
 
     # -- processes --------------------------------------------------------------------------
-    def _spawn(self, command: list[str], *, outlive: bool = False) -> subprocess.Popen[bytes]:
-        """Start ``command`` in a session of its own.
+    def _spawn(self, command: list[str], kind: str, *, outlive: bool = False
+               ) -> subprocess.Popen[bytes]:
+        """Start ``command`` (a process of ``kind``) in a session of its own.
 
-        It dies with the launcher unless ``outlive`` (the specimen side under ``hold``).
+        On the CPUs the plan gives its kind, if any. It dies with the launcher unless
+        ``outlive`` (the specimen side under ``hold``).
         """
+        setup = _child_setup(None if outlive else os.getpid(), self.plan.cpus.get(kind))
         return subprocess.Popen(command, start_new_session=True, env=self.env,
-                                preexec_fn=None if outlive else _die_with_parent(os.getpid()))
+                                preexec_fn=setup)
 
     @property
     def _outlive(self) -> bool:
@@ -252,7 +267,8 @@ class Supervisor:
                 self._log(f'run_test: {child.name} is still running (pid {process.pid}): '
                           'adopted, not started again')
             self.children.append(_Running(
-                child, process or self._spawn(child.command, outlive=self._outlive),
+                child, process or self._spawn(child.command, child.kind,
+                                              outlive=self._outlive),
                 time.monotonic()))
         self._save_processes()
         self._start_integrator(resume=resume, note=note, confirm=confirm)
@@ -293,7 +309,8 @@ class Supervisor:
                                                held=held)
         child = Child('pd_integrator', 'integrator', '', '/pd', command)
         spawned_at = time.time()
-        self.integrator = _Running(child, self._spawn(command), time.monotonic(), restarts,
+        self.integrator = _Running(child, self._spawn(command, 'integrator'), time.monotonic(),
+                                   restarts,
                                    spawned_at=spawned_at)
 
     def stop(self) -> None:
@@ -435,7 +452,7 @@ class Supervisor:
                  if item.child.namespace in self.operator.offers else '')
         self._log(f'run_test: {what}; the test holds; restarting it with its state '
                   f'({item.restarts + 1}/{self.max_restarts})')
-        item.process = self._spawn(item.child.command, outlive=self._outlive)
+        item.process = self._spawn(item.child.command, item.child.kind, outlive=self._outlive)
         item.restarts += 1
         item.started = time.monotonic()
         item.hung = False
