@@ -14,7 +14,10 @@ four controller ticks a step) in real time, the actuator ticked against
    answers each measurement in the ticking thread and sets the next target at once;
 2. **through the graph** — ``run_test --site bridge`` with the bridge's ``transfer_system``
    driver on ``clock: realtime`` (integrator and bridge separate processes over DDS); its
-   statistics from the run folder's ``rths-lab1.json`` (written by the driver).
+   statistics from the run folder's ``rths-lab1.json`` (written by the driver). Twice: with
+   the processes placed as a real-time test should be, ``--cpus integrator=0 --cpus
+   bridge=1`` (the bridge's ticking thread alone on its CPU, never waiting to be woken; on a
+   machine with two CPUs or more), and left to the scheduler.
 
 A *missed deadline* is a tick started more than one controller period late; the *slow-down
 fraction* the share of ticks at less than the full rate (the target of the step was late: the
@@ -24,7 +27,8 @@ and 1 s of zeros.
 Figures (printed, and merged into ``bench/results.json``; other keys are kept):
 ``rths_inprocess_p99_tick_us``, ``rths_inprocess_missed_deadlines``,
 ``rths_inprocess_slowdown_fraction``, ``rths_graph_p99_step_ms``,
-``rths_graph_missed_deadlines``, ``rths_graph_slowdown_fraction``.
+``rths_graph_missed_deadlines``, ``rths_graph_missed_fraction``, ``rths_graph_slowdown_fraction``
+(placed, as a real-time test runs), ``rths_graph_unplaced_*`` (the same, not placed).
 """
 
 from __future__ import annotations
@@ -68,6 +72,9 @@ RECORD = REPO / 'src' / 'pd_integrator' / 'data' / 'ground_motions' / (
     'elcentro_1940_ns_chopra.csv')
 LAUNCHER = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
 DT_INT = 1.0 / 1024.0
+#: How a real-time test places its processes (two CPUs or more): the bridge's ticking thread
+#: alone on CPU 1, the integrator on CPU 0.
+PLACED = ('integrator=0', 'bridge=1')
 PADDING, QUICK_PADDING, QUICK_SECONDS = 5.0, 1.0, 5.0
 
 
@@ -135,9 +142,12 @@ def in_process(raw: dict[str, Any]) -> tuple[RealtimeStatistics, TestSession, fl
     return loop.statistics(), session, time.perf_counter() - start
 
 
-def graph(raw: dict[str, Any], domain_id: int, directory: Path, timeout: float
-          ) -> tuple[dict[str, Any] | None, dict[str, Any] | None, str]:
-    """``run_test --site bridge`` with the realtime driver; (report, summary, log tail)."""
+def graph(raw: dict[str, Any], domain_id: int, directory: Path, timeout: float,
+          cpus: tuple[str, ...] = ()) -> tuple[dict[str, Any] | None, dict[str, Any] | None, str]:
+    """``run_test --site bridge`` with the realtime driver; (report, summary, log tail).
+
+    ``cpus``: ``--cpus`` options of ``run_test``.
+    """
     test_file = directory / 'vrths_realtime.yaml'
     test_file.write_text(yaml.safe_dump(raw), encoding='utf-8')
     out = directory / 'graph'
@@ -148,7 +158,8 @@ def graph(raw: dict[str, Any], domain_id: int, directory: Path, timeout: float
     with log.open('wb') as sink:
         process = subprocess.Popen(
             [str(LAUNCHER), str(test_file), '--site', 'bridge', '--out', str(out),
-             '--no-figures'], stdout=sink, stderr=subprocess.STDOUT, env=env,
+             '--no-figures', *(option for item in cpus for option in ('--cpus', item))],
+            stdout=sink, stderr=subprocess.STDOUT, env=env,
             start_new_session=True)
         try:
             process.wait(timeout=timeout)
@@ -206,21 +217,26 @@ def main() -> None:
         'rths_inprocess_missed_deadlines': statistics.missed_deadlines,
         'rths_inprocess_slowdown_fraction': round(statistics.slowdown_fraction, 6),
     }
-    if not args.no_graph:
+    placed = PLACED if len(os.sched_getaffinity(0)) >= 2 else ()
+    runs = [('graph', 'rths_graph', placed), ('unplaced', 'rths_graph_unplaced', ())]
+    for label, prefix, cpus in runs if not args.no_graph else ():
         with tempfile.TemporaryDirectory(prefix='bench_rths_') as temporary:
             report, summary, tail = graph(benchmark_file(args.quick, clock='realtime'),
                                           args.domain_id, Path(temporary),
-                                          timeout=duration * 4 + 120.0)
+                                          timeout=duration * 4 + 120.0, cpus=cpus)
         if report is None or 'ticks' not in report:
-            print(f'graph: no realtime report; the run said:\n{tail}')
-        else:
-            state = summary.get('state', '?') if summary else 'no summary'
-            print(_line('graph', report) + f'  {state}')
-            figures.update({
-                'rths_graph_p99_step_ms': round(float(report['step_p99_ms']), 4),
-                'rths_graph_missed_deadlines': int(report['missed_deadlines']),
-                'rths_graph_slowdown_fraction': round(float(report['slowdown_fraction']), 6),
-            })
+            print(f'{label}: no realtime report; the run said:\n{tail}')
+            continue
+        state = summary.get('state', '?') if summary else 'no summary'
+        where = ' '.join(f'--cpus {item}' for item in cpus) or 'not placed'
+        print(_line(label, report) + f'  {state}; {where}')
+        figures.update({
+            f'{prefix}_p99_step_ms': round(float(report['step_p99_ms']), 4),
+            f'{prefix}_missed_deadlines': int(report['missed_deadlines']),
+            f'{prefix}_missed_fraction': round(int(report['missed_deadlines'])
+                                               / max(int(report['ticks']), 1), 6),
+            f'{prefix}_slowdown_fraction': round(float(report['slowdown_fraction']), 6),
+        })
     for key, value in figures.items():
         print(f'{key} = {value}')
     if not args.no_save:
