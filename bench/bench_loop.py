@@ -14,7 +14,9 @@ or ``./pd bench``. It is a measurement, not a test: it asserts nothing. Figures:
    makes single runs noisy): steps/s (``summary.json``: steps / wall_time) and
    the median/p99 step round trip (``summary.json`` ``step_round_trip``, or, when the key is
    absent, from the bag: accepted feedback log time minus the log time of the last command of
-   the same step).
+   the same step). Then ``--site direct`` placed (``run_test --cpus integrator=0 --cpus
+   simulator=0``: the two processes that wake each other every step on one CPU)
+   [``graph_direct_placed_steps_per_s``, ``graph_direct_placed_p99_ms``].
 3. The floor: a raw two-process rclpy ping-pong of messages of the same size (``StepCommand``
    with one target, ``StepFeedback`` with one displacement and one force, reliable keep-all
    QoS like the nodes), with the EventsExecutor (``spin_once`` loop) as message objects and as
@@ -347,14 +349,14 @@ def _round_trips_from_bag(bag: Path) -> list[float]:
 
 
 def graph_run(site: str, param_args: list[str], domain_id: int, out: Path,
-              timeout: float) -> Row:
+              timeout: float, label: str = '') -> Row:
     """One run of ``run_test --site SITE`` (its own process group); its figures as a row."""
     launcher = REPO / 'ros2_ws' / 'install' / 'pd_bringup' / 'lib' / 'pd_bringup' / 'run_test'
     log = out.with_suffix('.log')
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     command = [str(launcher), '--site', site, '--out', str(out), '--no-figures', *param_args]
-    label = f'graph --site {site}'
+    label = label or f'graph --site {site}'
     before = shm_snapshot()
     start = time.perf_counter()
     with log.open('wb') as sink:
@@ -402,10 +404,11 @@ def graph_run(site: str, param_args: list[str], domain_id: int, out: Path,
 
 
 def bench_graph(table: Table, site: str, param_args: list[str], domain_id: int, work: Path,
-                timeout: float, runs: int) -> Row | None:
+                timeout: float, runs: int, label: str = '') -> Row | None:
     """Best (highest steps/s) of ``runs`` launcher runs; its row (None: all failed)."""
-    rows = [graph_run(site, param_args, domain_id, work / f'graph-{site}-{index}', timeout)
-            for index in range(runs)]
+    tag = '-placed' if label else ''
+    rows = [graph_run(site, param_args, domain_id, work / f'graph-{site}{tag}-{index}',
+                      timeout, label) for index in range(runs)]
     done = [row for row in rows if row.rate is not None]
     if not done:
         table.add(rows[-1])
@@ -993,9 +996,14 @@ def _handle_stop_signals() -> None:
 GOAL_FIGURES = {'graph_direct_over_floor': '<= 1.0', 'graph_bridge_over_floor': '<= 1.0',
                 'graph_direct_over_raw_floor': '<= 1.3', 'graph_bridge_over_raw_floor': '<= 1.3',
                 'graph_direct_p99_ms': '<= 0.8',
+                'graph_direct_placed_steps_per_s': '(reported)',
+                'graph_direct_placed_p99_ms': '<= 0.8 (placed)',
                 'graph_protocol_work_over_floor': '(reported)',
                 'graph_protocol_work_over_raw_floor': '<= 0.2'}
 HOPS = {'direct': 1, 'bridge': 2}  # raw round trips a step needs: direct 1, bridge 2
+#: ``run_test --cpus`` of the placed direct run: the integrator and the simulator, which wake
+#: each other every step, on one CPU (no wake-up of another, idle CPU per message).
+PLACED = ('integrator=0', 'simulator=0')
 
 
 def goal_figures(graphs: dict[str, Row | None], floor: Row | None,
@@ -1020,6 +1028,11 @@ def goal_figures(graphs: dict[str, Row | None], floor: Row | None,
                     1e6 / row.rate / (hops * floor_us), 3)
         if site == 'direct' and row.p99_us is not None:
             figures['graph_direct_p99_ms'] = round(row.p99_us / 1e3, 4)
+    placed = graphs.get('direct_placed')
+    if placed is not None and placed.rate:
+        figures['graph_direct_placed_steps_per_s'] = round(placed.rate, 1)
+        if placed.p99_us is not None:
+            figures['graph_direct_placed_p99_ms'] = round(placed.p99_us / 1e3, 4)
     return figures
 
 
@@ -1065,6 +1078,12 @@ def main(argv: list[str] | None = None) -> int:
                     f'graph {site}', args.verbose, table,
                     lambda site=site: bench_graph(table, site, param_args, args.domain_id,
                                                   work, timeout, graph_runs))
+            placement = [option for item in PLACED for option in ('--cpus', item)]
+            graphs['direct_placed'] = _timed(
+                'graph direct placed', args.verbose, table,
+                lambda: bench_graph(table, 'direct', [*param_args, *placement],
+                                    args.domain_id, work, timeout, graph_runs,
+                                    label='graph --site direct, placed'))
             floor_row, raw_row = _timed(
                 'ping-pong', args.verbose, table,
                 lambda: bench_ping(table, args.domain_id, pings, definition.test_id))
