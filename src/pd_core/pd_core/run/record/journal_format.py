@@ -64,6 +64,7 @@ _BODY = struct.Struct('<BxHq')     # kind, reserved, topic length, t_ns
 #: MB for the longest; a longer one is no record of this project's).
 MAX_RECORD_BYTES = 256 * 2**20
 _ZERO_CHUNK = 1 << 20
+_BLOCK = 1 << 20  # read at a time
 
 
 class RecordKind(IntEnum):
@@ -77,7 +78,9 @@ class RecordKind(IntEnum):
     EVENT = 6       #: an event of the run (JSON object)
 
 
-_KINDS = {int(kind): kind for kind in RecordKind}
+_BY_CODE = {int(kind): kind for kind in RecordKind}
+_KIND_CODES: tuple[RecordKind | None, ...] = tuple(_BY_CODE.get(code) for code in range(256))
+_FIXED = _PREFIX.size + _BODY.size  # bytes before a record's topic
 
 
 class Frame(NamedTuple):
@@ -138,51 +141,127 @@ def _frames(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Fra
     if version != VERSION:
         msg = f'{path}: journal format version {version}; this version reads {VERSION}'
         raise BagError(msg)
-    offset = _HEADER.size
-    number = 0
+    yield from _records(file, path, notes)
+
+
+def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Frame]:
+    """The records after the header, read a block at a time.
+
+    The loop is the reading's cost: what is rare (a block's end, a fault, a new topic) is out
+    of its way.
+    """
+    read = file.read
+    unpack_prefix = _PREFIX.unpack_from
+    unpack_body = _BODY.unpack_from
+    crc32 = zlib.crc32
+    kinds = _KIND_CODES
+    new = tuple.__new__  # a NamedTuple's own __new__ is a Python function
     topics: dict[bytes, str] = {}
-    while prefix := read(_PREFIX.size):
+    prefix, smallest, largest, fixed = _PREFIX.size, _BODY.size, MAX_RECORD_BYTES, _FIXED
+    base = _HEADER.size  # the file offset of buf[0]
+    buf = b''
+    view = memoryview(buf)
+    size = pos = number = 0
+    while True:
         number += 1
-        fault = ''
-        body = b''
-        if len(prefix) < _PREFIX.size:
-            fault = 'cut short'
+        if size - pos >= prefix:
+            length, crc = unpack_prefix(buf, pos)
+            end = pos + prefix + length
         else:
-            length, crc = _PREFIX.unpack(prefix)
-            if length < _BODY.size or length > MAX_RECORD_BYTES:
-                fault = f'a length of {length} bytes'
-            else:
-                body = read(length)
-                if len(body) < length:
-                    fault = 'cut short'
-                elif zlib.crc32(body) != crc:
-                    fault = 'CRC mismatch'
-        if fault:
-            if fault == 'cut short' or _only_zeros(file):
-                if notes is not None:
-                    notes.append(f'ignored the last record of {path.name}, {fault} (byte '
-                                 f'{offset}: {len(prefix) + len(body)} bytes)')
+            length = end = -1
+        if end > size or length < smallest or length > largest:
+            # a block's end, or a fault: read on, then look again
+            missing = prefix + length - (size - pos) if smallest <= length <= largest else 0
+            base += pos
+            buf = buf[pos:] + read(max(_BLOCK, missing))
+            view = memoryview(buf)
+            size = len(buf)
+            pos = 0
+            if not buf:
                 return
-            msg = f'{path}: record {number} at byte {offset}: damaged ({fault})'
-            raise BagError(msg)
-        kind_code, topic_length, t_ns = _BODY.unpack_from(body)
-        kind = _KINDS.get(kind_code)
-        end = _BODY.size + topic_length
-        if kind is None or end > len(body):
-            what = f'kind {kind_code}' if kind is None else f'a topic of {topic_length} bytes'
-            msg = f'{path}: record {number} at byte {offset}: malformed ({what})'
-            raise BagError(msg)
-        raw_topic = body[_BODY.size:end]
-        topic = topics.get(raw_topic)
-        if topic is None:
-            try:
-                topic = topics[raw_topic] = raw_topic.decode('utf-8')
-            except UnicodeDecodeError:
-                msg = f'{path}: record {number} at byte {offset}: malformed (topic not UTF-8)'
-                raise BagError(msg) from None
-        following = offset + _PREFIX.size + len(body)
-        yield Frame(kind, t_ns, topic, body[end:], offset, following, number)
-        offset = following
+            if _fault(buf, file, path, base, number, notes):
+                return
+            length, crc = unpack_prefix(buf, pos)
+            end = prefix + length
+        if crc32(view[pos + prefix:end]) != crc:
+            _torn_or_damaged('CRC mismatch', end - pos, buf[end:], file, path, base + pos,
+                             number, notes)
+            return
+        kind_code, topic_length, t_ns = unpack_body(buf, pos + prefix)
+        payload_start = pos + fixed + topic_length
+        topic = topics.get(buf[pos + fixed:payload_start])
+        kind = kinds[kind_code]
+        if topic is None or kind is None or payload_start > end:
+            kind, topic = _kind_and_topic(buf, pos, topics, f'{path}: record {number} at '
+                                                            f'byte {base + pos}: malformed')
+        yield new(Frame, (kind, t_ns, topic, buf[payload_start:end], base + pos, base + end,
+                          number))
+        pos = end
+
+
+def _fault(buf: bytes, file: BinaryIO, path: Path, offset: int, number: int,
+           notes: list[str] | None) -> bool:
+    """Whether the record at the start of ``buf`` is torn or damaged (a torn one noted).
+
+    ``buf`` holds all that is left of the file if the record is cut short.
+
+    Raises:
+        BagError: the record is damaged and not the journal's last.
+    """
+    if len(buf) >= _PREFIX.size:
+        length, _ = _PREFIX.unpack_from(buf)
+        if length < _BODY.size or length > MAX_RECORD_BYTES:
+            _torn_or_damaged(f'a length of {length} bytes', _PREFIX.size, buf[_PREFIX.size:],
+                             file, path, offset, number, notes)
+            return True
+        if len(buf) >= _PREFIX.size + length:
+            return False
+    _torn_or_damaged('cut short', len(buf), b'', file, path, offset, number, notes)
+    return True
+
+
+def _torn_or_damaged(what: str, size: int, after: bytes, file: BinaryIO, path: Path,
+                     offset: int, number: int, notes: list[str] | None) -> None:
+    """Note a torn end, or raise for a damaged record.
+
+    A record cut short, or with nothing but zero bytes after it (``after``, then the rest of
+    ``file``) is a torn end, reported in ``notes``; another is damaged.
+
+    Raises:
+        BagError: the record is damaged.
+    """
+    if what == 'cut short' or (after.count(0) == len(after) and _only_zeros(file)):
+        if notes is not None:
+            notes.append(f'ignored the last record of {path.name}, {what} (byte {offset}: '
+                         f'{size} bytes)')
+        return
+    msg = f'{path}: record {number} at byte {offset}: damaged ({what})'
+    raise BagError(msg)
+
+
+def _kind_and_topic(buf: bytes, pos: int, topics: dict[bytes, str],
+                    malformed: str) -> tuple[RecordKind, str]:
+    """The kind and topic of the (whole, CRC-checked) record at ``pos``.
+
+    A new topic is decoded and remembered in ``topics``.
+
+    Raises:
+        BagError: an unknown kind, a topic longer than the record, or not UTF-8.
+    """
+    length, _ = _PREFIX.unpack_from(buf, pos)
+    kind_code, topic_length, _ = _BODY.unpack_from(buf, pos + _PREFIX.size)
+    kind = _KIND_CODES[kind_code]
+    if kind is None or _BODY.size + topic_length > length:
+        what = f'kind {kind_code}' if kind is None else f'a topic of {topic_length} bytes'
+        msg = f'{malformed} ({what})'
+        raise BagError(msg)
+    raw = buf[pos + _FIXED:pos + _FIXED + topic_length]
+    try:
+        topic = topics[raw] = raw.decode('utf-8')
+    except UnicodeDecodeError:
+        msg = f'{malformed} (topic not UTF-8)'
+        raise BagError(msg) from None
+    return kind, topic
 
 
 def records_end(path: str | Path, notes: list[str] | None = None) -> int:
