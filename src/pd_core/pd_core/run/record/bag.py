@@ -39,7 +39,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from pd_common.protocol import (
@@ -59,11 +58,11 @@ from pd_common.protocol import (
 )
 
 from ...errors import BagError
+from .bag_writer import BagWriter, Topic
 
 _UNSIGNED = Signature()
 
 if TYPE_CHECKING:
-    from rosbags.interfaces import Connection
     from rosbags.typesys.store import Typestore
 
 TOPIC_DEFINITION = '/pd/test_definition'
@@ -133,6 +132,14 @@ def msg_directory() -> Path:
 
 
 @functools.cache
+def bag_topic(topic: str, msgtype: str) -> Topic:
+    """A bag topic with its type's definition and hash (from :func:`typestore`)."""
+    store = typestore()
+    definition, _ = store.generate_msgdef(msgtype, ros_version=2)
+    return Topic(topic, msgtype, definition, store.hash_rihs01(msgtype))
+
+
+@functools.cache
 def typestore() -> Typestore:
     """A ROS 2 Kilted typestore with the ``pd_msgs`` types registered."""
     store = get_typestore(Stores.ROS2_KILTED)
@@ -154,10 +161,9 @@ class BagRecorder:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self._writer: Writer | None = None
-        self._connections: dict[str, Connection] = {}
+        self._writer: BagWriter | None = None
+        self._channels: dict[str, int] = {}
         self._store = typestore()
-        self.counts: dict[str, int] = dict.fromkeys(_TOPICS, 0)
 
     def open(self) -> BagRecorder:
         """Create the bag.
@@ -170,23 +176,22 @@ class BagRecorder:
         if self.path.exists():
             msg = f'{self.path}: bag exists already, not overwriting'
             raise BagError(msg)
-        writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        writer = BagWriter(self.path)
         try:
             writer.open()
-            for topic, msgtype in _TOPICS.items():
-                self._connections[topic] = writer.add_connection(topic, msgtype,
-                                                                 typestore=self._store)
-        except Exception as err:
-            msg = f'{self.path}: cannot create the bag ({err})'
-            raise BagError(msg) from err
+        except OSError as err:
+            msg = f'{self.path}: cannot create the bag ({err.strerror or type(err).__name__})'
+            raise BagError(msg) from None
         self._writer = writer
+        for topic, msgtype in _TOPICS.items():
+            self._channels[topic] = writer.add_topic(bag_topic(topic, msgtype))
         return self
 
     def close(self) -> None:
-        """Finish the bag (writes its metadata)."""
-        if self._writer is not None:
-            self._writer.close()
-            self._writer = None
+        """Finish the bag (writes its summary and its metadata)."""
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            writer.close()
 
     def __enter__(self) -> BagRecorder:
         """Open the bag."""
@@ -199,39 +204,38 @@ class BagRecorder:
         """Close the bag."""
         self.close()
 
-    def _connection(self, topic: str) -> Connection:
-        """The connection of ``topic`` (per-site topics are added on first use)."""
-        connection = self._connections.get(topic)
-        if connection is not None:
-            return connection
+    @property
+    def writer(self) -> BagWriter:
+        """The bag's writer (to copy many messages: ``writer.write(channel, t_ns, data)``)."""
         if self._writer is None:
             msg = f'{self.path}: bag is not open'
             raise BagError(msg)
+        return self._writer
+
+    def channel(self, topic: str) -> int:
+        """The channel of ``topic`` (per-site topics are added on first use).
+
+        Raises:
+            BagError: the bag is not open, or ``topic`` is not one of a run's bag.
+        """
+        channel = self._channels.get(topic)
+        if channel is not None:
+            return channel
         msgtype = _message_type(topic)
         if msgtype is None:
             msg = f'{self.path}: {topic}: not a topic of a run bag'
             raise BagError(msg)
-        connection = self._writer.add_connection(topic, msgtype, typestore=self._store)
-        self._connections[topic] = connection
-        self.counts[topic] = 0
-        return connection
+        channel = self._channels[topic] = self.writer.add_topic(bag_topic(topic, msgtype))
+        return channel
 
     def _write(self, topic: str, t_ns: int, message: Any) -> None:
-        if self._writer is None:
-            msg = f'{self.path}: bag is not open'
-            raise BagError(msg)
-        connection = self._connection(topic)
-        data = self._store.serialize_cdr(message, connection.msgtype)
-        self._writer.write(connection, t_ns, data)
-        self.counts[topic] += 1
+        msgtype = _message_type(topic)
+        assert msgtype is not None
+        self.write_raw(topic, t_ns, self._store.serialize_cdr(message, msgtype))
 
-    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+    def write_raw(self, topic: str, t_ns: int, data: bytes | memoryview) -> None:
         """Record an already serialized (CDR) message of one of the bag's topics."""
-        if self._writer is None:
-            msg = f'{self.path}: bag is not open'
-            raise BagError(msg)
-        self._writer.write(self._connection(topic), t_ns, data)
-        self.counts[topic] += 1
+        self.writer.write(self.channel(topic), t_ns, data)
 
     def write_definition(self, text: str, t_ns: int) -> None:
         """Record the resolved test definition (JSON)."""

@@ -540,10 +540,15 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
     """
     count = 0
     with BagRecorder(bag) as recorder:
+        write = recorder.writer.write
+        channels: dict[str, int] = {}
         for record in iter_frames(journal):
             count += 1
-            if record.kind in _COPIED:
-                recorder.write_raw(record.topic, record.t_ns, record.payload)
+            kind, t_ns, topic, payload, _, _, _ = record
+            if kind in _COPIED:
+                channel = channels.get(topic) or channels.setdefault(topic,
+                                                                     recorder.channel(topic))
+                write(channel, t_ns, payload)
             elif record.kind is RecordKind.DEFINITION:
                 recorder.write_definition(_decoded(record, journal).item, record.t_ns)
             else:
