@@ -16,13 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from pd_bringup.launcher import parse_args, plan_new_run, plan_resumed_run
-from pd_bringup.plan import LaunchError, LaunchPlan, parse_cpus
+from pd_bringup.launcher import parse_args, plan_resumed_run
+from pd_bringup.plan import LaunchError, parse_cpus
 from pd_bringup.supervisor import _child_setup
-from pd_core.run.loop.session import TestSession as Session
-from pd_core.run.record.journal import JOURNAL_FILE, Journal
-from pd_core.run.runner import DEFINITION_JSON
 from support.paths import CONFIG
+from support.run_folders import stopped_run
 
 DEFAULT = CONFIG / 'default_test.yaml'
 AVAILABLE = {0, 1, 2, 3}
@@ -63,23 +61,10 @@ def test_a_started_process_runs_on_its_cpus() -> None:
     assert _child_setup(None, None) is None  # nothing to do: no preexec_fn at all
 
 
-def _stopped_run(out: Path, *cpus: str) -> LaunchPlan:
-    args = [str(DEFAULT), '--out', str(out), '--no-authentication']
-    for item in cpus:
-        args += ['--cpus', item]
-    plan, definition, _ = plan_new_run(parse_args(args))
-    plan.save()
-    text = definition.to_json()
-    (out / DEFINITION_JSON).write_text(text, encoding='utf-8')
-    with Journal(out / JOURNAL_FILE) as journal:
-        journal.write_definition(text, 1)
-        journal.write_status(Session(definition).status(), 2)
-    return plan
-
-
 def test_the_placement_is_recorded_and_resumed(tmp_path: Path) -> None:
     cpu = min(os.sched_getaffinity(0))
-    plan = _stopped_run(tmp_path / 'run', f'integrator={cpu}', f'bridge={cpu}')
+    plan = stopped_run(tmp_path / 'run', DEFAULT, '--cpus', f'integrator={cpu}',
+                       '--cpus', f'bridge={cpu}')
     assert plan.cpus == {'integrator': [cpu], 'bridge': [cpu]}
     recorded = json.loads((tmp_path / 'run' / 'launch.json').read_text(encoding='utf-8'))
     assert recorded['cpus'] == {'integrator': [cpu], 'bridge': [cpu]}
@@ -91,7 +76,7 @@ def test_the_placement_is_recorded_and_resumed(tmp_path: Path) -> None:
 
 
 def test_a_recorded_cpu_this_machine_lacks_is_one_line_on_resume(tmp_path: Path) -> None:
-    _stopped_run(tmp_path / 'run')
+    stopped_run(tmp_path / 'run', DEFAULT)
     path = tmp_path / 'run' / 'launch.json'
     data = json.loads(path.read_text(encoding='utf-8'))
     absent = max(os.sched_getaffinity(0)) + 1

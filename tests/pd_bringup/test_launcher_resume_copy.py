@@ -15,30 +15,14 @@ from pathlib import Path
 
 import pytest
 
-from pd_bringup.launcher import parse_args, plan_new_run, plan_resumed_run
+from pd_bringup.launcher import parse_args, plan_resumed_run
 from pd_bringup.plan import LaunchError, LaunchPlan
-from pd_core.run.loop.session import TestSession as Session
-from pd_core.run.record.journal import JOURNAL_FILE, Journal
-from pd_core.run.runner import DEFINITION_JSON
 from support.paths import CONFIG
+from support.run_folders import stopped_run
 
 DEFAULT = CONFIG / 'default_test.yaml'
 SITES = CONFIG / 'three_story_two_sites.yaml'
 FAULTS = 'drop=0.1,seed=3'
-
-
-def stopped_run(out: Path, test_file: Path) -> LaunchPlan:
-    """A run folder of ``run_test`` stopped before its first step (resumable): its plan (with
-    fault proxies), its definition and its journal."""
-    plan, definition, _ = plan_new_run(parse_args(
-        [str(test_file), '--out', str(out), '--no-authentication', '--faults', FAULTS]))
-    plan.save()
-    text = definition.to_json()
-    (out / DEFINITION_JSON).write_text(text, encoding='utf-8')
-    with Journal(out / JOURNAL_FILE) as journal:
-        journal.write_definition(text, 1)
-        journal.write_status(Session(definition).status(), 2)
-    return plan
 
 
 def every_path(plan: LaunchPlan) -> list[str]:
@@ -54,7 +38,7 @@ def every_path(plan: LaunchPlan) -> list[str]:
 def test_a_run_folder_elsewhere_resumes_where_it_is(tmp_path: Path, test_file: Path,
                                                     how: str) -> None:
     original = tmp_path / 'runs' / 'first'
-    started = stopped_run(original, test_file)
+    started = stopped_run(original, test_file, '--faults', FAULTS)
     before = every_path(started)
     old = str(original.resolve())
     assert sum(old in item for item in before) >= 4  # state files, records, reports, output
@@ -82,7 +66,7 @@ def test_a_run_folder_elsewhere_resumes_where_it_is(tmp_path: Path, test_file: P
 def test_a_relative_folder_resumes_from_where_it_is_given(tmp_path: Path,
                                                           monkeypatch: pytest.MonkeyPatch
                                                           ) -> None:
-    stopped_run(tmp_path / 'first', DEFAULT)
+    stopped_run(tmp_path / 'first', DEFAULT, '--faults', FAULTS)
     shutil.copytree(tmp_path / 'first', tmp_path / 'other' / 'copy')
     monkeypatch.chdir(tmp_path / 'other')
     plan = plan_resumed_run(parse_args(['--resume', 'copy']))
@@ -94,7 +78,7 @@ def test_a_relative_folder_resumes_from_where_it_is_given(tmp_path: Path,
 
 
 def test_the_folder_it_started_in_is_kept_as_it_was(tmp_path: Path) -> None:
-    plan = stopped_run(tmp_path / 'run', DEFAULT)
+    plan = stopped_run(tmp_path / 'run', DEFAULT, '--faults', FAULTS)
     again = LaunchPlan.load(tmp_path / 'run')
     assert again.integrator == plan.integrator
     assert again.children == plan.children
@@ -109,7 +93,7 @@ def test_the_folder_it_started_in_is_kept_as_it_was(tmp_path: Path) -> None:
 ], ids=['not-utf8', 'deep', 'a-list', 'incomplete', 'fifo'])
 def test_a_damaged_launch_plan_is_one_line(tmp_path: Path, content: bytes | None,
                                            reason: str) -> None:
-    stopped_run(tmp_path / 'run', DEFAULT)
+    stopped_run(tmp_path / 'run', DEFAULT, '--faults', FAULTS)
     path = tmp_path / 'run' / 'launch.json'
     path.unlink()
     if content is None:
@@ -125,7 +109,7 @@ def test_a_damaged_launch_plan_is_one_line(tmp_path: Path, content: bytes | None
 
 
 def test_a_plan_whose_commands_are_not_command_lines_is_refused(tmp_path: Path) -> None:
-    stopped_run(tmp_path / 'run', DEFAULT)
+    stopped_run(tmp_path / 'run', DEFAULT, '--faults', FAULTS)
     path = tmp_path / 'run' / 'launch.json'
     path.write_text(path.read_text(encoding='utf-8').replace(
         '"integrator": [', '"integrator": [1, '), encoding='utf-8')
