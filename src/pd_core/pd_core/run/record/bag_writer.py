@@ -25,6 +25,7 @@ from array import array
 from pathlib import Path
 from typing import Any, BinaryIO, NamedTuple
 
+import numpy as np
 import yaml
 
 __all__ = ['CHUNK_BYTES', 'BagWriter', 'Topic']
@@ -88,13 +89,11 @@ class BagWriter:
         self._topics: list[Topic] = []
         self._schemas: dict[str, int] = {}   # msgtype: schema id
         self._channel_of: dict[str, int] = {}
-        self.counts: list[int] = [0]          # per channel id (0: none)
+        self.counts: list[int] = [0]          # messages per channel id (0: none), closed chunks
         self._offset = 0
         self._chunk: list[bytes | memoryview] = []
         self._chunk_size = 0
-        self._chunk_start = _NO_TIME
-        self._chunk_end = 0
-        self._index: list[array[int]] = [array('Q')]  # per channel: (log time, offset) pairs
+        self._index = array('q')  # the chunk's messages: channel, log time, offset, ...
         self._chunk_indexes: list[bytes] = []
         self._start = _NO_TIME
         self._end = 0
@@ -148,7 +147,6 @@ class BagWriter:
         self._topics.append(topic)
         self._channel_of[topic.name] = channel
         self.counts.append(0)
-        self._index.append(array('Q'))
         return channel
 
     def channel(self, name: str) -> int | None:
@@ -169,25 +167,21 @@ class BagWriter:
     def write(self, channel: int, t_ns: int, data: bytes | memoryview) -> None:
         """Add one message (its CDR bytes) to a channel, logged and published at ``t_ns``."""
         size = len(data)
-        sequence = self.counts[channel]
-        self.counts[channel] = sequence + 1
-        self._index[channel].extend((t_ns, self._chunk_size))
-        self._chunk += (_MESSAGE.pack(_OP_MESSAGE, _MESSAGE_FIXED + size, channel,
-                                      sequence & 0xFFFFFFFF, t_ns, t_ns), data)
-        self._chunk_size += _MESSAGE.size + size
-        if t_ns < self._chunk_start:
-            self._chunk_start = t_ns
-        if t_ns > self._chunk_end:
-            self._chunk_end = t_ns
+        offset = self._chunk_size
+        self._index.extend((channel, t_ns, offset))
+        # (sequence 0, as rosbags and rosbag2 record it: the log time orders a channel)
+        self._chunk += (_MESSAGE.pack(_OP_MESSAGE, _MESSAGE_FIXED + size, channel, 0, t_ns,
+                                      t_ns), data)
+        self._chunk_size = offset + _MESSAGE.size + size
         if self._chunk_size >= CHUNK_BYTES:
             self._close_chunk()
 
     def _close_chunk(self) -> None:
         """Write the chunk in progress and its message indexes; index it."""
         records = b''.join(self._chunk)
-        start, end = self._chunk_start, self._chunk_end
-        if start == _NO_TIME:  # topics only, no message
-            start = end = 0
+        index = np.frombuffer(self._index, dtype=np.int64).reshape(-1, 3)
+        channels, times = index[:, 0], index[:, 1]
+        start, end = (int(times.min()), int(times.max())) if len(times) else (0, 0)
         chunk_offset = self._offset
         head = (struct.pack('<QQQI', start, end, len(records), zlib.crc32(records))
                 + _string('') + _U64.pack(len(records)))
@@ -195,24 +189,24 @@ class BagWriter:
         self._emit(records)
         chunk_length = self._offset - chunk_offset
         offsets = b''
-        for channel, pairs in enumerate(self._index):
-            if pairs:
-                offsets += _U16.pack(channel) + _U64.pack(self._offset)
-                body = pairs.tobytes() if _LITTLE else _swapped(pairs)
-                self._emit(_record(_OP_MESSAGE_INDEX,
-                                   _U16.pack(channel) + _U32.pack(len(body)) + body))
-                self._index[channel] = array('Q')
+        counts = np.bincount(channels, minlength=len(self.counts))
+        for channel in np.flatnonzero(counts):
+            offsets += _U16.pack(channel) + _U64.pack(self._offset)
+            body = index[channels == channel, 1:].astype('<u8').tobytes()  # time, offset
+            self._emit(_record(_OP_MESSAGE_INDEX,
+                               _U16.pack(channel) + _U32.pack(len(body)) + body))
+            self.counts[channel] += int(counts[channel])
         self._chunk_indexes.append(
             struct.pack('<QQQQ', start, end, chunk_offset, chunk_length)
             + _U32.pack(len(offsets)) + offsets
             + _U64.pack(self._offset - chunk_offset - chunk_length) + _string('')
             + struct.pack('<QQ', len(records), len(records)))
-        if start or end:
+        if len(times):
             self._start = min(self._start, start)
             self._end = max(self._end, end)
         self._chunk = []
         self._chunk_size = 0
-        self._chunk_start, self._chunk_end = _NO_TIME, 0
+        self._index = array('q')
 
     # -- the end --------------------------------------------------------------------------
     def close(self) -> None:
@@ -309,10 +303,3 @@ class BagWriter:
         }
 
 
-_LITTLE = array('Q', [1]).tobytes()[0] == 1
-
-
-def _swapped(pairs: array[int]) -> bytes:
-    copy = array('Q', pairs)
-    copy.byteswap()
-    return copy.tobytes()
