@@ -7,7 +7,9 @@ builds from it, and decodes such bytes into the records :mod:`.convert` makes of
 (the same bounds, the same readings of unknown codes). The layouts are precompiled
 (:class:`struct.Struct` for the fixed parts and for ``float64[]`` of each length in use: the
 records hold tuples, which struct packs and unpacks 2-7 times faster than numpy converts them up
-to 64 values; a numpy array in a record is written with numpy).
+to 64 values; a numpy array in a record is written with numpy). A step command's and a step
+feedback's whole layout is compiled per *shape* (their strings, array lengths and modes, the
+same step after step): see ``_Layout``.
 
 The format is plain CDR (XCDR1), little-endian: a 4-byte encapsulation header
 ``00 01 00 00``, then the fields in the order of the ``.msg`` file. Each primitive is aligned
