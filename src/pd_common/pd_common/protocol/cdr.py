@@ -9,7 +9,7 @@ builds from it, and decodes such bytes into the records :mod:`.convert` makes of
 records hold tuples, which struct packs and unpacks 2-7 times faster than numpy converts them up
 to 64 values; a numpy array in a record is written with numpy). A step command's and a step
 feedback's whole layout is compiled per *shape* (their strings, array lengths and modes, the
-same step after step): see ``_Layout``.
+same step after step): see :mod:`.cdr_shapes`.
 
 The format is plain CDR (XCDR1), little-endian: a 4-byte encapsulation header
 ``00 01 00 00``, then the fields in the order of the ``.msg`` file. Each primitive is aligned
@@ -36,14 +36,45 @@ integer out of its field's range, a string with a NUL character or a lone surrog
 from __future__ import annotations
 
 import functools
-import operator
 import struct
 from collections.abc import Callable, Sequence
-from typing import Any, Generic, NamedTuple, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
 from .bounds import MAX_ARRAY, MAX_NAME, MAX_REASON, MAX_TEXT, MalformedMessageError
+from .cdr_parts import (
+    ENCAPSULATION,
+    FEEDBACK_STATUS,
+    NS,
+    PAD,
+    STATE_ORIGIN,
+    STEP,
+    STEP_TIME,
+    U32,
+    CdrDecodeError,
+    CdrEncodeError,
+    Decoded,
+    Item,
+    string_bytes,
+)
+from .cdr_shapes import (
+    COMMAND_READERS,
+    COMMAND_SHAPES,
+    FEEDBACK_READERS,
+    FEEDBACK_SHAPES,
+    command_key,
+    command_reader,
+    command_shape,
+    encode_shaped,
+    feedback_key,
+    feedback_reader,
+    feedback_shape,
+    learn,
+    pack_command,
+    pack_feedback,
+    read_shaped,
+)
 from .messages import (
     Command,
     Control,
@@ -81,58 +112,23 @@ __all__ = [
     'signed_from_bytes',
 ]
 
-#: The encapsulation header of plain CDR, little-endian (what rclpy writes).
-ENCAPSULATION = b'\x00\x01\x00\x00'
 #: Bytes of a MAC array accepted (as :func:`~.convert.signature_from_message`).
 _MAX_MAC = 64
 
-Item = TypeVar('Item')
 Result = TypeVar('Result')
 
 _UNSIGNED = Signature()
-_NS = 1_000_000_000
 
 # Fixed parts, each starting at its own alignment (the comments give their fields).
-_PAD = tuple(bytes(size) for size in range(8))  # alignment padding of 0..7 bytes
-_U32 = struct.Struct('<I')
 _U64 = struct.Struct('<Q')
 _F64 = struct.Struct('<d')
 _HEADER_EMPTY_FRAME = struct.Struct('<iII')   # sec, nanosec, frame_id length 1 (then its NUL)
 _TIME = struct.Struct('<iI')                  # sec, nanosec
-_STEP_TIME = struct.Struct('<QI4xd')          # StepCommand: step, iteration, test_time
-_STEP = struct.Struct('<QI')                  # StepFeedback: step, iteration
 _STATUS_COUNTS = struct.Struct('<QQdII')      # TestStatus: step .. ignored_messages
 _RESTORED = struct.Struct('<QI')              # SessionOffer: restored_step, restored_iteration
 _BYTE = struct.Struct('<B')
 
-_FEEDBACK_STATUS = {int(status): status for status in FeedbackStatus}
-_STATE_ORIGIN = {int(origin): origin for origin in StateOrigin}
 _TEST_STATE = {int(state): state for state in TestState}
-
-
-class CdrEncodeError(ValueError):
-    """A record holds a value its CDR field cannot carry (out of range, a NUL, a surrogate)."""
-
-
-class CdrDecodeError(MalformedMessageError):
-    """Bytes that are not a well-formed CDR message of the expected type."""
-
-
-class Decoded(NamedTuple, Generic[Item]):
-    """A decoded message: its record, its header stamp, its signature and the signed bytes.
-
-    Attributes:
-        record: the protocol's record (as :mod:`.convert` makes it of the message).
-        stamp_ns: the header stamp, ns since the epoch.
-        signature: the message's signature (unsigned: an empty key id and MAC).
-        covered: the bytes a MAC over the message covers (:func:`covered_part`): from the
-            first byte through the signature's ``sequence``, as they arrived.
-    """
-
-    record: Item
-    stamp_ns: int
-    signature: Signature
-    covered: bytes = b''
 
 
 # -- encoding -------------------------------------------------------------------------------
@@ -141,32 +137,19 @@ class Decoded(NamedTuple, Generic[Item]):
 
 def _start(stamp_ns: int) -> bytearray:
     buffer = bytearray(ENCAPSULATION)
-    buffer += _HEADER_EMPTY_FRAME.pack(stamp_ns // _NS, stamp_ns % _NS, 1)
+    buffer += _HEADER_EMPTY_FRAME.pack(stamp_ns // NS, stamp_ns % NS, 1)
     buffer.append(0)
     return buffer
 
 
-@functools.lru_cache(maxsize=256)
-def _string(text: str) -> bytes:
-    """A string's CDR bytes after its alignment: length (NUL included), UTF-8, NUL.
-
-    Cached: a test's id, DOF names, epoch, key id and session are in every message.
-    """
-    data = text.encode('utf-8')
-    if b'\x00' in data:
-        msg = f'a string holds a NUL character, which CDR cannot carry: {text[:40]!r}'
-        raise CdrEncodeError(msg)
-    return _U32.pack(len(data) + 1) + data + b'\x00'
-
-
 def _put_string(buffer: bytearray, text: str) -> None:
-    buffer += _PAD[-len(buffer) & 3]
-    buffer += _string(text)
+    buffer += PAD[-len(buffer) & 3]
+    buffer += string_bytes(text)
 
 
 def _put_strings(buffer: bytearray, texts: Sequence[str]) -> None:
-    buffer += _PAD[-len(buffer) & 3]
-    buffer += _U32.pack(len(texts))
+    buffer += PAD[-len(buffer) & 3]
+    buffer += U32.pack(len(texts))
     for text in texts:
         _put_string(buffer, text)
 
@@ -179,10 +162,10 @@ def _doubles(count: int) -> struct.Struct:
 
 def _put_doubles(buffer: bytearray, values: Sequence[float] | np.ndarray) -> None:
     count = len(values)
-    buffer += _PAD[-len(buffer) & 3]
-    buffer += _U32.pack(count)
+    buffer += PAD[-len(buffer) & 3]
+    buffer += U32.pack(count)
     if count:
-        buffer += _PAD[(4 - len(buffer)) & 7]
+        buffer += PAD[(4 - len(buffer)) & 7]
         if isinstance(values, np.ndarray):
             buffer += np.ascontiguousarray(values, dtype='<f8').tobytes()
         else:  # a tuple: struct packs it 3-4 times faster than numpy converts it
@@ -190,13 +173,13 @@ def _put_doubles(buffer: bytearray, values: Sequence[float] | np.ndarray) -> Non
 
 
 def _put_octets(buffer: bytearray, values: Sequence[int] | bytes) -> None:
-    buffer += _PAD[-len(buffer) & 3]
-    buffer += _U32.pack(len(values))
+    buffer += PAD[-len(buffer) & 3]
+    buffer += U32.pack(len(values))
     buffer += bytes(values)
 
 
 def _put_aligned8(buffer: bytearray, layout: struct.Struct, *values: object) -> None:
-    buffer += _PAD[(4 - len(buffer)) & 7]
+    buffer += PAD[(4 - len(buffer)) & 7]
     buffer += layout.pack(*values)
 
 
@@ -217,194 +200,6 @@ def _encoding(kind: str, build: Callable[[], bytearray]) -> bytes:
         raise CdrEncodeError(msg) from err
 
 
-# -- one shape's layout, compiled -------------------------------------------------------------
-# A step message's strings, array lengths and modes (its *shape*) are the same step after step;
-# only its numbers change. For each shape in use the whole message is one struct.Struct: the
-# constant runs (padding, counts, strings) as ``Ns`` fields, the numbers as theirs. Encoding
-# packs the numbers between the runs; decoding unpacks bytes of the shape's exact length and
-# takes them only if every constant run is the one of the message the layout was made from
-# (which the full reader checked). A layout is kept only if it reproduces the full encoder's
-# bytes, or the full reader's record, for the message it was made from.
-
-_MAX_SHAPES = 64  # layouts kept per message type (the cache is emptied when full)
-
-
-class _Layout:
-    """Builds one shape's layout: constant runs and fields, as the encoder lays them out."""
-
-    def __init__(self) -> None:
-        self.codes: list[str] = []
-        self.consts: list[bytes] = []
-        self.const_at: list[int] = []  # the index of each constant run among the values
-        self.values = 0                # values unpacked so far
-        self.size = 0
-        self.covered = 0               # where the bytes a MAC covers end
-        self._run = bytearray()
-
-    def const(self, data: bytes) -> None:
-        self._run += data
-        self.size += len(data)
-
-    def pad4(self) -> None:
-        self.const(_PAD[-self.size & 3])
-
-    def pad8(self) -> None:
-        self.const(_PAD[(4 - self.size) & 7])
-
-    def _close_run(self) -> None:
-        self.codes.append(f'{len(self._run)}s')
-        self.consts.append(bytes(self._run))
-        self.const_at.append(self.values)
-        self.values += 1
-        self._run.clear()
-
-    def field(self, code: str, size: int, values: int) -> None:
-        """A field of ``values`` numbers (``size`` bytes), after the constant run before it."""
-        self._close_run()
-        self.codes.append(code)
-        self.size += size
-        self.values += values
-
-    def doubles(self, count: int) -> None:
-        self.pad4()
-        self.const(_U32.pack(count))
-        if count:
-            self.pad8()
-        self.field(f'{count}d', 8 * count, count)
-
-    def signature(self, key_id: str, session: str, mac_bytes: int) -> None:
-        self.pad4()
-        self.const(_string(key_id))
-        self.pad4()
-        self.const(_string(session))
-        self.pad8()
-        self.field('Q', 8, 1)
-        self.pad4()
-        self.covered = self.size
-        self.const(_U32.pack(mac_bytes))
-        self.field(f'{mac_bytes}s', mac_bytes, 1)
-
-    def header(self, test_id: str) -> None:
-        self.const(ENCAPSULATION)
-        self.field('iI', 8, 2)                  # sec, nanosec
-        self.const(b'\x01\x00\x00\x00\x00')   # frame_id: '' (its length 1, its NUL)
-        self.pad4()
-        self.const(_string(test_id))
-
-    def compile(self) -> _Compiled:
-        self._close_run()
-        return _Compiled(struct.Struct('<' + ''.join(self.codes)), tuple(self.consts),
-                         operator.itemgetter(*self.const_at), self.covered)
-
-
-class _Compiled(NamedTuple):
-    """One shape's layout: the message's struct, its constant runs, and where they are."""
-
-    layout: struct.Struct
-    consts: tuple[bytes, ...]
-    pick_consts: Callable[[tuple[Any, ...]], tuple[Any, ...]]
-    covered: int
-
-
-def _command_shape(command: Command, signature: Signature) -> _Compiled:
-    shape = _Layout()
-    shape.header(command.test_id)
-    shape.pad8()
-    shape.field('QI4xd', _STEP_TIME.size, 3)     # step, iteration, test_time
-    shape.pad4()
-    shape.const(_U32.pack(len(command.dof_names)))
-    for name in command.dof_names:
-        shape.pad4()
-        shape.const(_string(name))
-    shape.doubles(len(command.target_displacement))
-    shape.pad4()
-    shape.const(_U32.pack(len(command.control_mode)) + bytes(command.control_mode))
-    shape.doubles(len(command.target_force))
-    shape.signature(signature.key_id, signature.session, len(signature.mac))
-    return shape.compile()
-
-
-def _feedback_shape(feedback: Feedback, signature: Signature) -> _Compiled:
-    shape = _Layout()
-    shape.header(feedback.test_id)
-    shape.pad8()
-    shape.field('QI', _STEP.size, 2)             # step, iteration
-    shape.doubles(len(feedback.measured_displacement))
-    shape.doubles(len(feedback.restoring_force))
-    shape.field('B', 1, 1)                        # status
-    shape.pad4()
-    shape.const(_string(feedback.message))
-    shape.pad4()
-    shape.const(_string(feedback.epoch))
-    shape.field('B', 1, 1)                        # state origin
-    shape.signature(signature.key_id, signature.session, len(signature.mac))
-    return shape.compile()
-
-
-def _pack_command(shape: _Compiled, command: Command, stamp_ns: int, signature: Signature
-                  ) -> bytes:
-    sec, nanosec = divmod(stamp_ns, _NS)
-    c = shape.consts
-    return shape.layout.pack(c[0], sec, nanosec, c[1], command.step, command.iteration,
-                             command.test_time, c[2], *command.target_displacement, c[3],
-                             *command.target_force, c[4], signature.sequence, c[5],
-                             signature.mac, c[6])
-
-
-def _pack_feedback(shape: _Compiled, feedback: Feedback, stamp_ns: int, signature: Signature
-                   ) -> bytes:
-    sec, nanosec = divmod(stamp_ns, _NS)
-    c = shape.consts
-    return shape.layout.pack(c[0], sec, nanosec, c[1], feedback.step, feedback.iteration, c[2],
-                             *feedback.measured_displacement, c[3], *feedback.restoring_force,
-                             c[4], feedback.status, c[5], feedback.state_origin, c[6],
-                             signature.sequence, c[7], signature.mac, c[8])
-
-
-_COMMAND_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
-_FEEDBACK_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
-
-
-def _command_key(command: Command, signature: Signature) -> tuple[Any, ...]:
-    """What a command's layout depends on."""
-    return (command.test_id, command.dof_names, len(command.target_displacement),
-            command.control_mode, len(command.target_force), signature.key_id,
-            signature.session, len(signature.mac))
-
-
-def _feedback_key(feedback: Feedback, signature: Signature) -> tuple[Any, ...]:
-    """What a feedback's layout depends on."""
-    return (feedback.test_id, len(feedback.measured_displacement),
-            len(feedback.restoring_force), feedback.message, feedback.epoch, signature.key_id,
-            signature.session, len(signature.mac))
-
-
-def _shaped(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, ...],
-            make: Callable[[], _Compiled], pack: Callable[[_Compiled], bytes],
-            full: Callable[[], bytes]) -> bytes:
-    """The bytes of a message of shape ``key``, packed by the shape's layout.
-
-    The layout is made on the shape's first message, and kept only if it packs the bytes the
-    full encoder (``full``) makes of it.
-    """
-    if key not in shapes:
-        data = full()  # raises what cannot be carried, as it always did
-        shape = _layout_of(shapes, key, make)
-        try:
-            if shape is not None and pack(shape) != data:  # (never: kept only if it is right)
-                shapes[key] = None
-        except (struct.error, TypeError, OverflowError):
-            shapes[key] = None
-        return data
-    shape = shapes[key]
-    if shape is not None:
-        try:
-            return pack(shape)
-        except (struct.error, TypeError, OverflowError):
-            pass  # a value out of its field's range: the full encoder says which
-    return full()
-
-
 def encode_command(command: Command, stamp_ns: int, signature: Signature = _UNSIGNED) -> bytes:
     """The CDR bytes of the ``StepCommand`` of ``command`` stamped ``stamp_ns``.
 
@@ -414,7 +209,7 @@ def encode_command(command: Command, stamp_ns: int, signature: Signature = _UNSI
     def build() -> bytearray:
         buffer = _start(stamp_ns)
         _put_string(buffer, command.test_id)
-        _put_aligned8(buffer, _STEP_TIME, command.step, command.iteration,
+        _put_aligned8(buffer, STEP_TIME, command.step, command.iteration,
                       float(command.test_time))
         _put_strings(buffer, command.dof_names)
         _put_doubles(buffer, command.target_displacement)
@@ -425,9 +220,9 @@ def encode_command(command: Command, stamp_ns: int, signature: Signature = _UNSI
     displacement, force = command.target_displacement, command.target_force
     if type(displacement) is not tuple or type(force) is not tuple:  # numpy: the full encoder
         return _encoding('StepCommand', build)
-    return _shaped(_COMMAND_SHAPES, _command_key(command, signature),
-                   lambda: _command_shape(command, signature),
-                   lambda shape: _pack_command(shape, command, stamp_ns, signature),
+    return encode_shaped(COMMAND_SHAPES, command_key(command, signature),
+                   lambda: command_shape(command, signature),
+                   lambda shape: pack_command(shape, command, stamp_ns, signature),
                    lambda: _encoding('StepCommand', build))
 
 
@@ -441,7 +236,7 @@ def encode_feedback(feedback: Feedback, stamp_ns: int,
     def build() -> bytearray:
         buffer = _start(stamp_ns)
         _put_string(buffer, feedback.test_id)
-        _put_aligned8(buffer, _STEP, feedback.step, feedback.iteration)
+        _put_aligned8(buffer, STEP, feedback.step, feedback.iteration)
         _put_doubles(buffer, feedback.measured_displacement)
         _put_doubles(buffer, feedback.restoring_force)
         buffer.append(int(feedback.status))
@@ -453,9 +248,9 @@ def encode_feedback(feedback: Feedback, stamp_ns: int,
     displacement, force = feedback.measured_displacement, feedback.restoring_force
     if type(displacement) is not tuple or type(force) is not tuple:  # numpy: the full encoder
         return _encoding('StepFeedback', build)
-    return _shaped(_FEEDBACK_SHAPES, _feedback_key(feedback, signature),
-                   lambda: _feedback_shape(feedback, signature),
-                   lambda shape: _pack_feedback(shape, feedback, stamp_ns, signature),
+    return encode_shaped(FEEDBACK_SHAPES, feedback_key(feedback, signature),
+                   lambda: feedback_shape(feedback, signature),
+                   lambda shape: pack_feedback(shape, feedback, stamp_ns, signature),
                    lambda: _encoding('StepFeedback', build))
 
 
@@ -472,8 +267,8 @@ def encode_status(status: Status, stamp_ns: int, signature: Signature = _UNSIGNE
         _put_aligned8(buffer, _STATUS_COUNTS, status.step, status.total_steps,
                       float(status.omega_dt), status.retries, status.ignored_messages)
         _put_string(buffer, status.message)
-        buffer += _PAD[-len(buffer) & 3]
-        buffer += _U32.pack(status.refused_messages)
+        buffer += PAD[-len(buffer) & 3]
+        buffer += U32.pack(status.refused_messages)
         for text in (status.refused_by_reason, status.node, status.session):
             _put_string(buffer, text)
         buffer.append(1 if status.emergency_stop else 0)
@@ -565,7 +360,7 @@ _READ_STRINGS_MAX = 256
 
 def _get_string(data: bytes, pos: int, field: str, limit: int) -> tuple[str, int]:
     pos += -pos & 3
-    (size,) = _U32.unpack_from(data, pos)
+    (size,) = U32.unpack_from(data, pos)
     pos += 4
     end = pos + size
     raw = data[pos:end]
@@ -604,7 +399,7 @@ def _checked_string(data: bytes, pos: int, end: int, size: int, field: str,
 def _get_count(data: bytes, pos: int, field: str, size: int, limit: int) -> tuple[int, int]:
     """A sequence's count (at ``pos``, aligned 4) if ``size`` bytes per element fit."""
     pos += -pos & 3
-    (count,) = _U32.unpack_from(data, pos)
+    (count,) = U32.unpack_from(data, pos)
     pos += 4
     if count > limit:
         msg = f'{field}: {count} entries (at most {limit})'
@@ -669,7 +464,7 @@ def _get_header(data: bytes) -> tuple[int, int]:
         raise CdrDecodeError(msg)
     sec, nanosec = _TIME.unpack_from(data, 4)
     _, pos = _get_string(data, 12, 'header.frame_id', MAX_NAME)
-    return sec * _NS + nanosec, pos
+    return sec * NS + nanosec, pos
 
 
 def _get_signature(data: bytes, pos: int) -> tuple[Signature, int]:
@@ -692,7 +487,7 @@ def _decoding(kind: str, data: bytes, parse: Callable[[bytes], Result]) -> Resul
 def _parse_command(data: bytes) -> Decoded[Command]:
     stamp_ns, pos = _get_header(data)
     test_id, pos = _get_string(data, pos, 'test_id', MAX_NAME)
-    (step, iteration, test_time), pos = _get_aligned8(data, pos, _STEP_TIME)
+    (step, iteration, test_time), pos = _get_aligned8(data, pos, STEP_TIME)
     dof_names, pos = _get_strings(data, pos, 'dof_names', MAX_NAME)
     displacement, pos = _get_doubles(data, pos, 'target_displacement')
     modes, pos = _get_octets(data, pos, 'control_mode', MAX_ARRAY)
@@ -707,141 +502,6 @@ def _parse_command(data: bytes) -> Decoded[Command]:
 
 
 
-# -- reading by a shape's layout --------------------------------------------------------------
-_MAX_READERS = 8  # layouts tried per message length (several sites, several senders)
-
-
-class _CommandReader(NamedTuple):
-    """Reads commands of one shape (:class:`_Compiled`) without the full reader."""
-
-    shape: _Compiled
-    test_id: str
-    dof_names: tuple[str, ...]
-    control_mode: tuple[int, ...]
-    displacements: int
-    forces: int
-    key_id: str
-    session: str
-
-    def read(self, data: bytes) -> Decoded[Command] | None:
-        shape = self.shape
-        values = shape.layout.unpack(data)
-        if shape.pick_consts(values) != shape.consts:
-            return None  # not this shape
-        forces_at = 9 + self.displacements
-        end = forces_at + self.forces
-        command = Command(test_id=self.test_id, step=values[4], test_time=values[6],
-                          dof_names=self.dof_names, target_displacement=values[8:forces_at - 1],
-                          iteration=values[5], control_mode=self.control_mode,
-                          target_force=values[forces_at:end])
-        signature = Signature(key_id=self.key_id, session=self.session,
-                              sequence=values[end + 1], mac=values[end + 3])
-        return _DECODED(Decoded, (command, values[1] * _NS + values[2], signature,
-                                  data[:shape.covered]))
-
-
-class _FeedbackReader(NamedTuple):
-    """Reads feedback of one shape (:class:`_Compiled`) without the full reader."""
-
-    shape: _Compiled
-    test_id: str
-    message: str
-    epoch: str
-    displacements: int
-    forces: int
-    key_id: str
-    session: str
-
-    def read(self, data: bytes) -> Decoded[Feedback] | None:
-        shape = self.shape
-        values = shape.layout.unpack(data)
-        if shape.pick_consts(values) != shape.consts:
-            return None
-        forces_at = 8 + self.displacements
-        end = forces_at + self.forces
-        feedback = Feedback(test_id=self.test_id, step=values[4],
-                            measured_displacement=values[7:forces_at - 1],
-                            restoring_force=values[forces_at:end],
-                            status=_FEEDBACK_STATUS.get(values[end + 1], FeedbackStatus.FAULT),
-                            message=self.message, iteration=values[5], epoch=self.epoch,
-                            state_origin=_STATE_ORIGIN.get(values[end + 3], StateOrigin.FRESH))
-        signature = Signature(key_id=self.key_id, session=self.session,
-                              sequence=values[end + 5], mac=values[end + 7])
-        return _DECODED(Decoded, (feedback, values[1] * _NS + values[2], signature,
-                                  data[:shape.covered]))
-
-
-_DECODED = tuple.__new__  # (a NamedTuple's own __new__ is a Python function)
-_Reader = _CommandReader | _FeedbackReader
-
-
-def _command_reader(decoded: Decoded[Command]) -> _CommandReader | None:
-    command, signature = decoded.record, decoded.signature
-    shape = _layout_of(_COMMAND_SHAPES, _command_key(command, signature),
-                       lambda: _command_shape(command, signature))
-    return None if shape is None else _CommandReader(
-        shape, command.test_id, command.dof_names, command.control_mode,
-        len(command.target_displacement), len(command.target_force), signature.key_id,
-        signature.session)
-
-
-def _feedback_reader(decoded: Decoded[Feedback]) -> _FeedbackReader | None:
-    feedback, signature = decoded.record, decoded.signature
-    shape = _layout_of(_FEEDBACK_SHAPES, _feedback_key(feedback, signature),
-                       lambda: _feedback_shape(feedback, signature))
-    return None if shape is None else _FeedbackReader(
-        shape, feedback.test_id, feedback.message, feedback.epoch,
-        len(feedback.measured_displacement), len(feedback.restoring_force), signature.key_id,
-        signature.session)
-
-
-def _layout_of(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, ...],
-               make: Callable[[], _Compiled]) -> _Compiled | None:
-    """The layout of a shape (made once; ``None``: it has none)."""
-    if key not in shapes:
-        try:
-            shape: _Compiled | None = make()
-        except (struct.error, ValueError, TypeError, OverflowError):
-            shape = None
-        if len(shapes) >= _MAX_SHAPES:
-            shapes.clear()
-        shapes[key] = shape
-        return shape
-    return shapes[key]
-
-
-_COMMAND_READERS: dict[int, list[_Reader]] = {}
-_FEEDBACK_READERS: dict[int, list[_Reader]] = {}
-
-
-def _read_shaped(readers: dict[int, list[_Reader]], data: bytes) -> Decoded[Any] | None:
-    """``data`` read by the layout of a shape seen before (``None``: none fits)."""
-    for reader in readers.get(len(data), ()):
-        decoded = reader.read(data)
-        if decoded is not None:
-            return decoded
-    return None
-
-
-def _learn(readers: dict[int, list[_Reader]], data: bytes, decoded: Decoded[Any],
-           make: Callable[[Decoded[Any]], _Reader | None]) -> None:
-    """Keep a reader of ``decoded``'s shape if it reads ``data`` as the full reader did.
-
-    Not kept: a shape without a layout, or one that would not read these bytes so (bytes after
-    the message's end, as rclpy leaves at times: the full reader reads them).
-    """
-    reader = make(decoded)
-    if (reader is None or reader.shape.layout.size != len(data)
-            or repr(reader.read(data)) != repr(decoded)):
-        return
-    if len(readers) >= _MAX_SHAPES:
-        readers.clear()
-    known = readers.setdefault(len(data), [])
-    if len(known) >= _MAX_READERS:
-        del known[0]
-    known.append(reader)
-
-
 def decode_command(data: bytes) -> Decoded[Command]:
     """The :class:`Command`, stamp and signature of ``StepCommand`` CDR bytes.
 
@@ -849,23 +509,23 @@ def decode_command(data: bytes) -> Decoded[Command]:
         MalformedMessageError: the bytes are malformed (:class:`CdrDecodeError`) or a field is
             beyond its bound.
     """
-    decoded = _read_shaped(_COMMAND_READERS, data)
+    decoded = read_shaped(COMMAND_READERS, data)
     if decoded is None:
         decoded = _decoding('StepCommand', data, _parse_command)
-        _learn(_COMMAND_READERS, data, decoded, _command_reader)
+        learn(COMMAND_READERS, data, decoded, command_reader)
     return decoded
 
 
 def _parse_feedback(data: bytes) -> Decoded[Feedback]:
     stamp_ns, pos = _get_header(data)
     test_id, pos = _get_string(data, pos, 'test_id', MAX_NAME)
-    (step, iteration), pos = _get_aligned8(data, pos, _STEP)
+    (step, iteration), pos = _get_aligned8(data, pos, STEP)
     displacement, pos = _get_doubles(data, pos, 'measured_displacement')
     force, pos = _get_doubles(data, pos, 'restoring_force')
-    status = _FEEDBACK_STATUS.get(_get_byte(data, pos), FeedbackStatus.FAULT)
+    status = FEEDBACK_STATUS.get(_get_byte(data, pos), FeedbackStatus.FAULT)
     message, pos = _get_string(data, pos + 1, 'message', MAX_TEXT)
     epoch, pos = _get_string(data, pos, 'epoch', MAX_NAME)
-    origin = _STATE_ORIGIN.get(_get_byte(data, pos), StateOrigin.FRESH)
+    origin = STATE_ORIGIN.get(_get_byte(data, pos), StateOrigin.FRESH)
     signature, signed_end = _get_signature(data, pos + 1)
     feedback = Feedback(test_id=test_id, step=int(step),
                         measured_displacement=displacement, restoring_force=force,
@@ -885,10 +545,10 @@ def decode_feedback(data: bytes) -> Decoded[Feedback]:
         MalformedMessageError: the bytes are malformed (:class:`CdrDecodeError`) or a field is
             beyond its bound.
     """
-    decoded = _read_shaped(_FEEDBACK_READERS, data)
+    decoded = read_shaped(FEEDBACK_READERS, data)
     if decoded is None:
         decoded = _decoding('StepFeedback', data, _parse_feedback)
-        _learn(_FEEDBACK_READERS, data, decoded, _feedback_reader)
+        learn(FEEDBACK_READERS, data, decoded, feedback_reader)
     return decoded
 
 
@@ -899,7 +559,7 @@ def _parse_status(data: bytes) -> Decoded[Status]:
     counts, pos = _get_aligned8(data, pos + 1, _STATUS_COUNTS)
     message, pos = _get_string(data, pos, 'message', MAX_TEXT)
     pos += -pos & 3
-    (refused,) = _U32.unpack_from(data, pos)
+    (refused,) = U32.unpack_from(data, pos)
     refused_by_reason, pos = _get_string(data, pos + 4, 'refused_by_reason', MAX_TEXT)
     node, pos = _get_string(data, pos, 'node', MAX_NAME)
     session, pos = _get_string(data, pos, 'session', MAX_NAME)
@@ -1028,7 +688,7 @@ def decode_signature(data: bytes) -> Signature:
     return _decoding('Signature', data, _parse_signature)
 
 
-_EMPTY_MAC = _U32.pack(0)
+_EMPTY_MAC = U32.pack(0)
 
 
 def covered_part(unsigned: bytes) -> bytes:
@@ -1049,7 +709,7 @@ def covered_part(unsigned: bytes) -> bytes:
 
 def seal(covered: bytes, mac: bytes) -> bytes:
     """The whole message: its covered part (:func:`covered_part`) closed by ``mac``."""
-    return b''.join((covered, _U32.pack(len(mac)), mac))
+    return b''.join((covered, U32.pack(len(mac)), mac))
 
 
 def signed_from_bytes(decode: Callable[[bytes], Decoded[Item]], data: bytes
