@@ -222,3 +222,12 @@ def test_nan_and_signed_zero_survive_a_layout() -> None:
         data = cdr.encode_command(command, stamp, SIGNED)
         assert data == rosbags_bytes(command, stamp, SIGNED)
         assert bits(cdr.decode_command(data).record) == bits(command)
+
+
+def test_a_record_holding_lists_is_encoded_as_with_tuples() -> None:
+    """Lists where a record holds tuples have no shape: the full encoder writes the same bytes."""
+    listed = dataclasses.replace(COMMAND, dof_names=list(COMMAND.dof_names),
+                                 control_mode=list(COMMAND.control_mode))
+    for stamp in (1, 2):
+        assert cdr.encode_command(listed, stamp, SIGNED) == cdr.encode_command(COMMAND, stamp,
+                                                                               SIGNED)

@@ -195,14 +195,19 @@ def feedback_key(feedback: Feedback, signature: Signature) -> tuple[Any, ...]:
 
 
 def encode_shaped(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, ...],
-            make: Callable[[], _Compiled], pack: Callable[[_Compiled], bytes],
-            full: Callable[[], bytes]) -> bytes:
+                  make: Callable[[], _Compiled], pack: Callable[[_Compiled], bytes],
+                  full: Callable[[], bytes]) -> bytes:
     """The bytes of a message of shape ``key``, packed by the shape's layout.
 
     The layout is made on the shape's first message, and kept only if it packs the bytes the
-    full encoder (``full``) makes of it.
+    full encoder (``full``) makes of it. A record whose shape is no key (a list where the
+    record holds a tuple) is encoded by the full encoder.
     """
-    if key not in shapes:
+    try:
+        known = key in shapes
+    except TypeError:  # unhashable
+        return full()
+    if not known:
         data = full()  # raises what cannot be carried, as it always did
         shape = _layout_of(shapes, key, make)
         try:
