@@ -175,8 +175,8 @@ def test_every_byte_changed_is_read_as_the_full_reader_reads_it(name: str) -> No
             damaged[index] = value
             damaged_bytes = bytes(damaged)
             expected = full_read(name, damaged_bytes)
-            readers = (cdr_shapes.COMMAND_READERS if name == 'command'
-                       else cdr_shapes.FEEDBACK_READERS)
+            readers = (cdr_shapes._COMMAND_READERS if name == 'command'
+                       else cdr_shapes._FEEDBACK_READERS)
             by_layout = any(reader.read(damaged_bytes) is not None
                             for reader in readers.get(len(damaged_bytes), ()))
             layout_read += by_layout

@@ -42,6 +42,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from . import cdr_shapes
 from .bounds import MAX_ARRAY, MAX_NAME, MAX_REASON, MAX_TEXT, MalformedMessageError
 from .cdr_parts import (
     ENCAPSULATION,
@@ -57,23 +58,6 @@ from .cdr_parts import (
     Decoded,
     Item,
     string_bytes,
-)
-from .cdr_shapes import (
-    COMMAND_READERS,
-    COMMAND_SHAPES,
-    FEEDBACK_READERS,
-    FEEDBACK_SHAPES,
-    command_key,
-    command_reader,
-    command_shape,
-    encode_shaped,
-    feedback_key,
-    feedback_reader,
-    feedback_shape,
-    learn,
-    pack_command,
-    pack_feedback,
-    read_shaped,
 )
 from .messages import (
     Command,
@@ -217,13 +201,8 @@ def encode_command(command: Command, stamp_ns: int, signature: Signature = _UNSI
         _put_doubles(buffer, command.target_force)
         _put_signature(buffer, signature)
         return buffer
-    displacement, force = command.target_displacement, command.target_force
-    if type(displacement) is not tuple or type(force) is not tuple:  # numpy: the full encoder
-        return _encoding('StepCommand', build)
-    return encode_shaped(COMMAND_SHAPES, command_key(command, signature),
-                   lambda: command_shape(command, signature),
-                   lambda shape: pack_command(shape, command, stamp_ns, signature),
-                   lambda: _encoding('StepCommand', build))
+    return cdr_shapes.encode_command(command, stamp_ns, signature,
+                                     lambda: _encoding('StepCommand', build))
 
 
 def encode_feedback(feedback: Feedback, stamp_ns: int,
@@ -245,13 +224,8 @@ def encode_feedback(feedback: Feedback, stamp_ns: int,
         buffer.append(int(feedback.state_origin))
         _put_signature(buffer, signature)
         return buffer
-    displacement, force = feedback.measured_displacement, feedback.restoring_force
-    if type(displacement) is not tuple or type(force) is not tuple:  # numpy: the full encoder
-        return _encoding('StepFeedback', build)
-    return encode_shaped(FEEDBACK_SHAPES, feedback_key(feedback, signature),
-                   lambda: feedback_shape(feedback, signature),
-                   lambda shape: pack_feedback(shape, feedback, stamp_ns, signature),
-                   lambda: _encoding('StepFeedback', build))
+    return cdr_shapes.encode_feedback(feedback, stamp_ns, signature,
+                                      lambda: _encoding('StepFeedback', build))
 
 
 def encode_status(status: Status, stamp_ns: int, signature: Signature = _UNSIGNED) -> bytes:
@@ -501,7 +475,6 @@ def _parse_command(data: bytes) -> Decoded[Command]:
     return Decoded(command, stamp_ns, signature, data[:signed_end])
 
 
-
 def decode_command(data: bytes) -> Decoded[Command]:
     """The :class:`Command`, stamp and signature of ``StepCommand`` CDR bytes.
 
@@ -509,11 +482,8 @@ def decode_command(data: bytes) -> Decoded[Command]:
         MalformedMessageError: the bytes are malformed (:class:`CdrDecodeError`) or a field is
             beyond its bound.
     """
-    decoded = read_shaped(COMMAND_READERS, data)
-    if decoded is None:
-        decoded = _decoding('StepCommand', data, _parse_command)
-        learn(COMMAND_READERS, data, decoded, command_reader)
-    return decoded
+    return cdr_shapes.decode_command(
+        data, lambda raw: _decoding('StepCommand', raw, _parse_command))
 
 
 def _parse_feedback(data: bytes) -> Decoded[Feedback]:
@@ -545,11 +515,8 @@ def decode_feedback(data: bytes) -> Decoded[Feedback]:
         MalformedMessageError: the bytes are malformed (:class:`CdrDecodeError`) or a field is
             beyond its bound.
     """
-    decoded = read_shaped(FEEDBACK_READERS, data)
-    if decoded is None:
-        decoded = _decoding('StepFeedback', data, _parse_feedback)
-        learn(FEEDBACK_READERS, data, decoded, feedback_reader)
-    return decoded
+    return cdr_shapes.decode_feedback(
+        data, lambda raw: _decoding('StepFeedback', raw, _parse_feedback))
 
 
 def _parse_status(data: bytes) -> Decoded[Status]:

@@ -32,10 +32,7 @@ from .cdr_parts import (
 from .messages import Command, Feedback, FeedbackStatus, StateOrigin
 from .signature import Signature
 
-__all__ = ['COMMAND_READERS', 'COMMAND_SHAPES', 'FEEDBACK_READERS', 'FEEDBACK_SHAPES',
-           'command_key', 'command_reader', 'command_shape', 'encode_shaped', 'feedback_key',
-           'feedback_reader', 'feedback_shape', 'learn', 'pack_command', 'pack_feedback',
-           'read_shaped']
+__all__ = ['decode_command', 'decode_feedback', 'encode_command', 'encode_feedback']
 
 _MAX_SHAPES = 64  # layouts kept per message type (the cache is emptied when full)
 
@@ -117,7 +114,7 @@ class _Compiled(NamedTuple):
     covered: int
 
 
-def command_shape(command: Command, signature: Signature) -> _Compiled:
+def _command_shape(command: Command, signature: Signature) -> _Compiled:
     """The layout of ``command``'s shape, signed as ``signature`` (its MAC's length)."""
     shape = _Layout()
     shape.header(command.test_id)
@@ -136,7 +133,7 @@ def command_shape(command: Command, signature: Signature) -> _Compiled:
     return shape.compile()
 
 
-def feedback_shape(feedback: Feedback, signature: Signature) -> _Compiled:
+def _feedback_shape(feedback: Feedback, signature: Signature) -> _Compiled:
     """The layout of ``feedback``'s shape, signed as ``signature`` (its MAC's length)."""
     shape = _Layout()
     shape.header(feedback.test_id)
@@ -154,7 +151,7 @@ def feedback_shape(feedback: Feedback, signature: Signature) -> _Compiled:
     return shape.compile()
 
 
-def pack_command(shape: _Compiled, command: Command, stamp_ns: int, signature: Signature
+def _pack_command(shape: _Compiled, command: Command, stamp_ns: int, signature: Signature
                  ) -> bytes:
     """The bytes of ``command`` (of ``shape``'s shape) stamped and signed."""
     sec, nanosec = divmod(stamp_ns, NS)
@@ -165,7 +162,7 @@ def pack_command(shape: _Compiled, command: Command, stamp_ns: int, signature: S
                              signature.mac, c[6])
 
 
-def pack_feedback(shape: _Compiled, feedback: Feedback, stamp_ns: int, signature: Signature
+def _pack_feedback(shape: _Compiled, feedback: Feedback, stamp_ns: int, signature: Signature
                   ) -> bytes:
     """The bytes of ``feedback`` (of ``shape``'s shape) stamped and signed."""
     sec, nanosec = divmod(stamp_ns, NS)
@@ -176,27 +173,27 @@ def pack_feedback(shape: _Compiled, feedback: Feedback, stamp_ns: int, signature
                              signature.sequence, c[7], signature.mac, c[8])
 
 
-COMMAND_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
-FEEDBACK_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
+_COMMAND_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
+_FEEDBACK_SHAPES: dict[tuple[Any, ...], _Compiled | None] = {}
 
 
-def command_key(command: Command, signature: Signature) -> tuple[Any, ...]:
+def _command_key(command: Command, signature: Signature) -> tuple[Any, ...]:
     """What a command's layout depends on."""
     return (command.test_id, command.dof_names, len(command.target_displacement),
             command.control_mode, len(command.target_force), signature.key_id,
             signature.session, len(signature.mac))
 
 
-def feedback_key(feedback: Feedback, signature: Signature) -> tuple[Any, ...]:
+def _feedback_key(feedback: Feedback, signature: Signature) -> tuple[Any, ...]:
     """What a feedback's layout depends on."""
     return (feedback.test_id, len(feedback.measured_displacement),
             len(feedback.restoring_force), feedback.message, feedback.epoch, signature.key_id,
             signature.session, len(signature.mac))
 
 
-def encode_shaped(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, ...],
-                  make: Callable[[], _Compiled], pack: Callable[[_Compiled], bytes],
-                  full: Callable[[], bytes]) -> bytes:
+def _encode_shaped(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, ...],
+                   make: Callable[[], _Compiled], pack: Callable[[_Compiled], bytes],
+                   full: Callable[[], bytes]) -> bytes:
     """The bytes of a message of shape ``key``, packed by the shape's layout.
 
     The layout is made on the shape's first message, and kept only if it packs the bytes the
@@ -293,22 +290,22 @@ _DECODED = tuple.__new__  # (a NamedTuple's own __new__ is a Python function)
 _Reader = _CommandReader | _FeedbackReader
 
 
-def command_reader(decoded: Decoded[Command]) -> _CommandReader | None:
+def _command_reader(decoded: Decoded[Command]) -> _CommandReader | None:
     """A reader of ``decoded``'s shape (``None``: the shape has no layout)."""
     command, signature = decoded.record, decoded.signature
-    shape = _layout_of(COMMAND_SHAPES, command_key(command, signature),
-                       lambda: command_shape(command, signature))
+    shape = _layout_of(_COMMAND_SHAPES, _command_key(command, signature),
+                       lambda: _command_shape(command, signature))
     return None if shape is None else _CommandReader(
         shape, command.test_id, command.dof_names, command.control_mode,
         len(command.target_displacement), len(command.target_force), signature.key_id,
         signature.session)
 
 
-def feedback_reader(decoded: Decoded[Feedback]) -> _FeedbackReader | None:
+def _feedback_reader(decoded: Decoded[Feedback]) -> _FeedbackReader | None:
     """A reader of ``decoded``'s shape (``None``: the shape has no layout)."""
     feedback, signature = decoded.record, decoded.signature
-    shape = _layout_of(FEEDBACK_SHAPES, feedback_key(feedback, signature),
-                       lambda: feedback_shape(feedback, signature))
+    shape = _layout_of(_FEEDBACK_SHAPES, _feedback_key(feedback, signature),
+                       lambda: _feedback_shape(feedback, signature))
     return None if shape is None else _FeedbackReader(
         shape, feedback.test_id, feedback.message, feedback.epoch,
         len(feedback.measured_displacement), len(feedback.restoring_force), signature.key_id,
@@ -330,11 +327,11 @@ def _layout_of(shapes: dict[tuple[Any, ...], _Compiled | None], key: tuple[Any, 
     return shapes[key]
 
 
-COMMAND_READERS: dict[int, list[_Reader]] = {}
-FEEDBACK_READERS: dict[int, list[_Reader]] = {}
+_COMMAND_READERS: dict[int, list[_Reader]] = {}
+_FEEDBACK_READERS: dict[int, list[_Reader]] = {}
 
 
-def read_shaped(readers: dict[int, list[_Reader]], data: bytes) -> Decoded[Any] | None:
+def _read_shaped(readers: dict[int, list[_Reader]], data: bytes) -> Decoded[Any] | None:
     """``data`` read by the layout of a shape seen before (``None``: none fits)."""
     for reader in readers.get(len(data), ()):
         decoded = reader.read(data)
@@ -343,7 +340,7 @@ def read_shaped(readers: dict[int, list[_Reader]], data: bytes) -> Decoded[Any] 
     return None
 
 
-def learn(readers: dict[int, list[_Reader]], data: bytes, decoded: Decoded[Any],
+def _learn(readers: dict[int, list[_Reader]], data: bytes, decoded: Decoded[Any],
            make: Callable[[Decoded[Any]], _Reader | None]) -> None:
     """Keep a reader of ``decoded``'s shape if it reads ``data`` as the full reader did.
 
@@ -360,3 +357,52 @@ def learn(readers: dict[int, list[_Reader]], data: bytes, decoded: Decoded[Any],
     if len(known) >= _MAX_READERS:
         del known[0]
     known.append(reader)
+
+
+# -- what the codec calls ---------------------------------------------------------------------
+def encode_command(command: Command, stamp_ns: int, signature: Signature,
+                   full: Callable[[], bytes]) -> bytes:
+    """The bytes of ``command`` by its shape's layout.
+
+    ``full()``, the full encoder, makes them for a shape's first message and for a record
+    holding numpy arrays.
+    """
+    if type(command.target_displacement) is not tuple or type(command.target_force) is not tuple:
+        return full()
+    return _encode_shaped(_COMMAND_SHAPES, _command_key(command, signature),
+                          lambda: _command_shape(command, signature),
+                          lambda shape: _pack_command(shape, command, stamp_ns, signature), full)
+
+
+def encode_feedback(feedback: Feedback, stamp_ns: int, signature: Signature,
+                    full: Callable[[], bytes]) -> bytes:
+    """The bytes of ``feedback`` by its shape's layout (``full()``: as :func:`encode_command`)."""
+    if (type(feedback.measured_displacement) is not tuple
+            or type(feedback.restoring_force) is not tuple):
+        return full()
+    return _encode_shaped(_FEEDBACK_SHAPES, _feedback_key(feedback, signature),
+                          lambda: _feedback_shape(feedback, signature),
+                          lambda shape: _pack_feedback(shape, feedback, stamp_ns, signature),
+                          full)
+
+
+def decode_command(data: bytes, full: Callable[[bytes], Decoded[Command]]) -> Decoded[Command]:
+    """``data`` read by the layout of a shape seen before, else by ``full``.
+
+    ``full`` is the full reader; what it reads teaches the shape.
+    """
+    decoded = _read_shaped(_COMMAND_READERS, data)
+    if decoded is None:
+        decoded = full(data)
+        _learn(_COMMAND_READERS, data, decoded, _command_reader)
+    return decoded
+
+
+def decode_feedback(data: bytes, full: Callable[[bytes], Decoded[Feedback]]
+                    ) -> Decoded[Feedback]:
+    """``data`` read as :func:`decode_command` reads a command."""
+    decoded = _read_shaped(_FEEDBACK_READERS, data)
+    if decoded is None:
+        decoded = full(data)
+        _learn(_FEEDBACK_READERS, data, decoded, _feedback_reader)
+    return decoded
