@@ -31,7 +31,6 @@ import math
 import os
 import struct
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -62,6 +61,7 @@ from pd_common.protocol import (
     status_from_message,
 )
 from pd_common.protocol import TestState as State
+from support.cdr_bits import bits, pd_msgs_typestore
 
 # serialization needs no graph; should anything reach one, it stays on this host and domain
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
@@ -69,45 +69,15 @@ os.environ.setdefault('ROS_DOMAIN_ID', '217')
 rclpy_serialization = pytest.importorskip('rclpy.serialization')
 pd_msgs = pytest.importorskip('pd_msgs.msg')
 ros_messages = pytest.importorskip('pd_common.ros.messages')
-typesys = pytest.importorskip('rosbags.typesys')
 
 serialize_message = rclpy_serialization.serialize_message
 deserialize_message = rclpy_serialization.deserialize_message
 
-MSG_DIR = Path(__file__).resolve().parents[2] / 'src' / 'pd_msgs' / 'msg'
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
-def _typestore() -> Any:
-    store = typesys.get_typestore(typesys.Stores.ROS2_KILTED)
-    types: dict[str, Any] = {}
-    for path in sorted(MSG_DIR.glob('*.msg')):
-        types.update(typesys.get_types_from_msg(path.read_text(encoding='utf-8'),
-                                                f'pd_msgs/msg/{path.stem}'))
-    store.register(types)
-    return store
-
-
-STORE = _typestore()
-
-
-# -- bitwise comparison ---------------------------------------------------------------------
-
-def bits(value: Any) -> Any:
-    """``value`` with every float replaced by its 8 bytes (NaN payloads, -0.0 compare)."""
-    if isinstance(value, float):
-        return ('f64', struct.pack('<d', value))
-    if isinstance(value, np.ndarray):
-        return bits(tuple(value.tolist()))
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return (type(value).__name__,
-                tuple((f.name, bits(getattr(value, f.name))) for f in dataclasses.fields(value)))
-    if isinstance(value, (tuple, list)):
-        return tuple(bits(item) for item in value)
-    if isinstance(value, bool):
-        return ('bool', value)
-    return (type(value).__name__, value)
+STORE = pd_msgs_typestore()
 
 
 # -- strategies -----------------------------------------------------------------------------

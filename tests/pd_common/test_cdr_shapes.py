@@ -15,7 +15,6 @@ import dataclasses
 import math
 import os
 import struct
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -32,13 +31,12 @@ from pd_common.protocol import (
     cdr,
     cdr_shapes,
 )
+from support.cdr_bits import bits, pd_msgs_typestore
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-typesys = pytest.importorskip('rosbags.typesys')
 ros_messages = pytest.importorskip('pd_common.ros.messages')
 rclpy_serialization = pytest.importorskip('rclpy.serialization')
 
-MSG_DIR = Path(__file__).resolve().parents[2] / 'src' / 'pd_msgs' / 'msg'
 SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.too_slow])
 FLOAT = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
@@ -47,28 +45,7 @@ FLOAT = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
 SIGNED = Signature('0123456789abcdef', 'f' * 32, 77, bytes(range(32)))
 
 
-def _store() -> Any:
-    store = typesys.get_typestore(typesys.Stores.ROS2_KILTED)
-    types: dict[str, Any] = {}
-    for path in sorted(MSG_DIR.glob('*.msg')):
-        types.update(typesys.get_types_from_msg(path.read_text(encoding='utf-8'),
-                                                f'pd_msgs/msg/{path.stem}'))
-    store.register(types)
-    return store
-
-
-STORE = _store()
-
-
-def bits(value: Any) -> Any:
-    """``value`` with every float as its 8 bytes (NaN payloads and -0.0 compare)."""
-    if isinstance(value, float):
-        return ('f64', struct.pack('<d', value))
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return tuple((f.name, bits(getattr(value, f.name))) for f in dataclasses.fields(value))
-    if isinstance(value, tuple):
-        return tuple(bits(item) for item in value)
-    return (type(value).__name__, value)
+STORE = pd_msgs_typestore()
 
 
 def rosbags_bytes(record: Command | Feedback, stamp_ns: int, signature: Signature) -> bytes:
