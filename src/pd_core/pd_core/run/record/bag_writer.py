@@ -149,10 +149,6 @@ class BagWriter:
         self.counts.append(0)
         return channel
 
-    def channel(self, name: str) -> int | None:
-        """The channel id of a topic added already."""
-        return self._channel_of.get(name)
-
     @staticmethod
     def _schema_content(schema: int, topic: Topic) -> bytes:
         definition = topic.definition.encode('utf-8')

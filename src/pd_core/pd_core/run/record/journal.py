@@ -540,18 +540,15 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
     """
     count = 0
     with BagRecorder(bag) as recorder:
-        write = recorder.writer.write
-        channels: dict[str, int] = {}
+        write, channel = recorder.writer.write, recorder.channel
         for record in iter_frames(journal):
             count += 1
             kind, t_ns, topic, payload, _, _, _ = record
             if kind in _COPIED:
-                channel = channels.get(topic) or channels.setdefault(topic,
-                                                                     recorder.channel(topic))
-                write(channel, t_ns, payload)
-            elif record.kind is RecordKind.DEFINITION:
-                recorder.write_definition(_decoded(record, journal).item, record.t_ns)
+                write(channel(topic), t_ns, payload)
+            elif kind is RecordKind.DEFINITION:
+                recorder.write_definition(_decoded(record, journal).item, t_ns)
             else:
                 event = dict(_decoded(record, journal).item)
-                recorder.write_event(event.pop('what'), record.t_ns, **event)
+                recorder.write_event(event.pop('what'), t_ns, **event)
     return count
