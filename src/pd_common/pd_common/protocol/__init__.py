@@ -52,6 +52,7 @@ from .convert import (
     stamp_ns_of,
     status_from_message,
 )
+from .frozen import amended, command_of, feedback_of, signature_of
 from .holds import PersonHolds
 from .messages import (
     Command,
@@ -114,9 +115,11 @@ __all__ = [
     'StepKey',
     'TestState',
     'acknowledgement',
+    'amended',
     'arrival',
     'clip_reason',
     'command_from_message',
+    'command_of',
     'control_from_message',
     'control_problem',
     'covered_part',
@@ -136,12 +139,14 @@ __all__ = [
     'encode_signature',
     'encode_status',
     'feedback_from_message',
+    'feedback_of',
     'find_acknowledgement',
     'offer_from_message',
     'operator_name',
     'parse_acknowledgement',
     'seal',
     'signature_from_message',
+    'signature_of',
     'signed_from_bytes',
     'signed_from_message',
     'site_topic',

@@ -29,6 +29,7 @@ from .cdr_parts import (
     Decoded,
     string_bytes,
 )
+from .frozen import command_of, feedback_of, signature_of
 from .messages import Command, Feedback, FeedbackStatus, StateOrigin
 from .signature import Signature
 
@@ -245,12 +246,10 @@ class _CommandReader(NamedTuple):
             return None  # not this shape
         forces_at = 9 + self.displacements
         end = forces_at + self.forces
-        command = Command(test_id=self.test_id, step=values[4], test_time=values[6],
-                          dof_names=self.dof_names, target_displacement=values[8:forces_at - 1],
-                          iteration=values[5], control_mode=self.control_mode,
-                          target_force=values[forces_at:end])
-        signature = Signature(key_id=self.key_id, session=self.session,
-                              sequence=values[end + 1], mac=values[end + 3])
+        command = command_of(self.test_id, values[4], values[6], self.dof_names,
+                             values[8:forces_at - 1], values[5], self.control_mode,
+                             values[forces_at:end])
+        signature = signature_of(self.key_id, self.session, values[end + 1], values[end + 3])
         return _DECODED(Decoded, (command, values[1] * NS + values[2], signature,
                                   data[:shape.covered]))
 
@@ -274,14 +273,12 @@ class _FeedbackReader(NamedTuple):
             return None
         forces_at = 8 + self.displacements
         end = forces_at + self.forces
-        feedback = Feedback(test_id=self.test_id, step=values[4],
-                            measured_displacement=values[7:forces_at - 1],
-                            restoring_force=values[forces_at:end],
-                            status=FEEDBACK_STATUS.get(values[end + 1], FeedbackStatus.FAULT),
-                            message=self.message, iteration=values[5], epoch=self.epoch,
-                            state_origin=STATE_ORIGIN.get(values[end + 3], StateOrigin.FRESH))
-        signature = Signature(key_id=self.key_id, session=self.session,
-                              sequence=values[end + 5], mac=values[end + 7])
+        feedback = feedback_of(self.test_id, values[4], values[7:forces_at - 1],
+                               values[forces_at:end],
+                               FEEDBACK_STATUS.get(values[end + 1], FeedbackStatus.FAULT),
+                               self.message, values[5], self.epoch,
+                               STATE_ORIGIN.get(values[end + 3], StateOrigin.FRESH))
+        signature = signature_of(self.key_id, self.session, values[end + 5], values[end + 7])
         return _DECODED(Decoded, (feedback, values[1] * NS + values[2], signature,
                                   data[:shape.covered]))
 
