@@ -24,6 +24,7 @@ from pd_common.auth import (
     ReplyGate,
     Signer,
     StatusGate,
+    WirePayload,
     canonical,
     command_payload,
     control_payload,
@@ -37,6 +38,7 @@ from pd_common.auth import (
     sign_wire_reply,
     status_payload,
     verify_mac,
+    wire_mac,
 )
 from pd_common.protocol import (
     Command,
@@ -147,6 +149,19 @@ def test_a_step_message_mac_is_hmac_sha256_of_its_bytes() -> None:
     assert sent_command(signer).signature.sequence == 2
     # the same bytes under the other type's tag do not pass
     assert verify_mac(key, feedback_payload(decoded.covered), signature) is Refusal.FORGED
+
+
+@pytest.mark.parametrize('length', [0, 1, 31, 32, 63, 64, 65, 131])
+def test_the_wire_mac_is_the_hmac_modules_for_keys_of_any_length(length: int) -> None:
+    # (HMAC is spelled out over hashlib's SHA-256 for speed; Python's hmac, OpenSSL's HMAC,
+    # is the reference: short keys padded, keys longer than a block hashed first)
+    secret = bytes((7 * index + 3) % 256 for index in range(length))
+    key = Key(key_id='k' * 16, secret=secret)
+    for kind in (WIRE_COMMAND, WIRE_FEEDBACK):
+        for covered in (b'', b'\x00' * 55, bytes(range(256)) * 3):
+            tag = b'pd-wire\x00' + kind.encode('ascii') + b'\x00'
+            assert wire_mac(key, WirePayload(kind, covered)) == hmac.new(
+                secret, tag + covered, hashlib.sha256).digest()
 
 
 def test_the_mac_of_a_control_is_hmac_sha256_of_the_canonical_fields() -> None:

@@ -20,6 +20,7 @@ its bits).
 from __future__ import annotations
 
 import functools
+import hashlib
 import hmac
 import secrets
 import struct
@@ -28,6 +29,7 @@ from enum import Enum
 from typing import NamedTuple, SupportsFloat
 
 from ..protocol.cdr import covered_part, seal
+from ..protocol.frozen import signature_of
 from ..protocol.signature import Signature
 from .keys import Key
 
@@ -122,19 +124,36 @@ class WirePayload(NamedTuple):
     covered: bytes
 
 
+_BLOCK = 64  # SHA-256's block, bytes
+_IPAD = bytes(x ^ 0x36 for x in range(256))
+_OPAD = bytes(x ^ 0x5C for x in range(256))
+
+
+class _Pads(NamedTuple):
+    inner: hashlib._Hash  # SHA-256 after the key's inner pad (and the type tag)
+    outer: hashlib._Hash  # ... after its outer pad
+
+
 @functools.lru_cache(maxsize=16)
-def _wire_keyed(secret: bytes, kind: str) -> hmac.HMAC:
-    # the key's pads and the type tag already hashed: one update of the bytes per message
-    mac = hmac.new(secret, digestmod='sha256')
-    mac.update(b'pd-wire\x00' + kind.encode('ascii') + b'\x00')
-    return mac
+def _wire_keyed(secret: bytes, kind: str) -> _Pads:
+    # HMAC (RFC 2104) spelled out over hashlib's SHA-256: the key's pads and the type tag
+    # hashed once; per message two copies of a state, no hmac.HMAC object (0.9 against 1.5 µs)
+    if len(secret) > _BLOCK:
+        secret = hashlib.sha256(secret).digest()
+    secret = secret.ljust(_BLOCK, b'\x00')
+    inner = hashlib.sha256(secret.translate(_IPAD))
+    inner.update(b'pd-wire\x00' + kind.encode('ascii') + b'\x00')
+    return _Pads(inner, hashlib.sha256(secret.translate(_OPAD)))
 
 
 def wire_mac(key: Key, payload: WirePayload) -> bytes:
-    """The MAC of a message signed as its bytes."""
-    mac = _wire_keyed(key.secret, payload.kind).copy()
-    mac.update(payload.covered)
-    return mac.digest()
+    """The MAC of a message signed as its bytes: HMAC-SHA256 of its type tag and bytes."""
+    pads = _wire_keyed(key.secret, payload.kind)
+    inner = pads.inner.copy()
+    inner.update(payload.covered)
+    outer = pads.outer.copy()
+    outer.update(inner.digest())
+    return outer.digest()
 
 
 def canonical(kind: str, fields: Iterable[Value]) -> bytes:
@@ -214,11 +233,9 @@ class Signer:
 
 def _sign_wire(key: Key, kind: str, encode: Callable[[Signature], bytes], session: str,
                sequence: int) -> tuple[bytes, Signature]:
-    covered = covered_part(encode(Signature(key_id=key.key_id, session=session,
-                                            sequence=sequence)))
+    covered = covered_part(encode(signature_of(key.key_id, session, sequence, b'')))
     mac = wire_mac(key, WirePayload(kind, covered))
-    return seal(covered, mac), Signature(key_id=key.key_id, session=session, sequence=sequence,
-                                         mac=mac)
+    return seal(covered, mac), signature_of(key.key_id, session, sequence, mac)
 
 
 def sign_wire_reply(key: Key, kind: str, encode: Callable[[Signature], bytes],
