@@ -111,6 +111,7 @@ from pd_common.protocol import (
     Status,
     StepKey,
     TestState,
+    amended,
     clip_reason,
     control_from_message,
     decode_command,
@@ -560,7 +561,7 @@ class ActuatorBridgeNode(LifecycleNode):
         if self._feedback_pub is None:
             return
         driver = self.driver
-        feedback = dataclasses.replace(
+        feedback = amended(
             reply, test_id=untag(reply.test_id),
             epoch=(driver.state_epoch if driver is not None else None) or self.epoch,
             state_origin=driver.state_origin if driver is not None else self.receiver.origin)

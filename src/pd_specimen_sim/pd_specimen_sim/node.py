@@ -32,7 +32,6 @@ names of the specimen's DOFs (the site's actuators; default: ``structure.dof_nam
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 from typing import Any
@@ -48,6 +47,7 @@ from pd_common.protocol import (
     Signature,
     StateOrigin,
     StepKey,
+    amended,
     decode_command,
     signed_from_bytes,
 )
@@ -166,8 +166,8 @@ class SpecimenSimNode(Node):
             self.record.add(run, command.step, command.iteration,
                             command.target_displacement, command.control_mode,
                             command.target_force)
-        answer = dataclasses.replace(answer, test_id=command.test_id, epoch=self.epoch,
-                                     state_origin=self.receiver.origin)
+        answer = amended(answer, test_id=command.test_id, epoch=self.epoch,
+                         state_origin=self.receiver.origin)
         self.receiver.set_state(answer.measured_displacement, answer.restoring_force)
         self._feedback_pub.publish(self.receiver.encode_reply(answer, time.time_ns(),
                                                               signature))

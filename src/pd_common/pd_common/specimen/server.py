@@ -85,7 +85,8 @@ from ..experimental.error_model import ERRORS_KEY, ErrorInjector, ErrorModel
 from ..experimental.force_ramp import force_ramp
 from ..experimental.setups import ExperimentalSetup, OneToOneSetup, setup_from_config
 from ..protocol.answers import KeyedAnswers
-from ..protocol.messages import Command, Feedback, FeedbackStatus
+from ..protocol.frozen import feedback_of
+from ..protocol.messages import Command, Feedback, FeedbackStatus, StateOrigin
 from .config import (
     load_specimen_section,
     model_from_config,
@@ -480,8 +481,8 @@ class SpecimenServer(KeyedAnswers):
         self.basic = self.position
         self.force = tuple(np.asarray(force, dtype=float).tolist())
         self.steps_served += 1
-        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
-                        restoring_force=self.force, iteration=iteration)
+        return feedback_of(test_id, step, self.position, self.force, FeedbackStatus.OK, '',
+                           iteration, '', StateOrigin.FRESH)
 
     def _move_solved(self, test_id: str, step: int, iteration: int, targets: list[float],
                      force_controlled: tuple[bool, ...], forces: tuple[float, ...]
@@ -518,8 +519,8 @@ class SpecimenServer(KeyedAnswers):
             self.force = tuple(float(f) for f in actuator_force)
             self.held = tuple(held)
         self.steps_served += 1
-        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
-                        restoring_force=self.force, iteration=iteration)
+        return feedback_of(test_id, step, self.position, self.force, FeedbackStatus.OK, '',
+                           iteration, '', StateOrigin.FRESH)
 
     def _solve(self, targets: list[float], controlled: list[int], forces: list[float]
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -631,8 +632,8 @@ class SpecimenServer(KeyedAnswers):
         self.position = tuple(float(x) for x in erroneous.displacement)
         self.force = tuple(float(f) for f in erroneous.force)
         self.steps_served += 1
-        return Feedback(test_id=test_id, step=step, measured_displacement=self.position,
-                        restoring_force=self.force, iteration=iteration)
+        return feedback_of(test_id, step, self.position, self.force, FeedbackStatus.OK, '',
+                           iteration, '', StateOrigin.FRESH)
 
     def _fault(self, test_id: str, step: int, iteration: int, message: str) -> Feedback:
         self.faults += 1

@@ -17,7 +17,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pd_common.protocol import Command, Feedback, FeedbackStatus, Status, TestState
+from pd_common.protocol import (
+    Command,
+    Feedback,
+    FeedbackStatus,
+    Status,
+    TestState,
+    command_of,
+)
 from pd_common.types import FloatArray
 
 from ...dynamics.stability import StabilityReport, check_stability, require_stable
@@ -422,12 +429,11 @@ class TestSession:
         else:
             target = integrator.predict()
             iteration = integrator.iteration
-        command = Command(test_id=self.definition.test_id, step=step,
-                          test_time=self.definition.time(step),
-                          dof_names=self.definition.dof_names,
-                          target_displacement=(_Target.of(target) if target.size > _LARGE_TARGET
-                                               else tuple(target.tolist())),
-                          iteration=iteration)
+        command = command_of(self.definition.test_id, step, self.definition.time(step),
+                             self.definition.dof_names,
+                             (_Target.of(target) if target.size > _LARGE_TARGET
+                              else tuple(target.tolist())),
+                             iteration, (), ())
         self._target = (command, target)
         return command
 
