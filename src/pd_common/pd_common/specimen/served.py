@@ -18,6 +18,7 @@ command replays exactly; plain lines are as before).
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
@@ -66,7 +67,8 @@ class ServedRecord:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             end_last_line(self.path)
-            self._file: IO[str] = self.path.open('a', encoding='utf-8')
+            # unbuffered: a line is one write(2), handed to the OS at once
+            self._file: IO[bytes] = self.path.open('ab', buffering=0)
         except OSError as err:
             msg = f'{self.path}: cannot write the specimen state file ({err.strerror})'
             raise SpecimenError(msg) from None
@@ -74,8 +76,12 @@ class ServedRecord:
             self._write({'k': _KIND, 'specimen': fingerprint})
 
     def _write(self, value: Any) -> None:
-        self._file.write(_ENCODE(value) + '\n')
-        self._file.flush()
+        data = memoryview((_ENCODE(value) + '\n').encode('utf-8'))
+        while data:  # (a short write, as a full disk may make: the rest, or its error)
+            written = self._file.write(data)
+            if not written:
+                raise OSError(errno.EIO, 'nothing written', str(self.path))
+            data = data[written:]
         now = time.monotonic()
         if now - self._synced >= self.sync_interval:
             os.fsync(self._file.fileno())
