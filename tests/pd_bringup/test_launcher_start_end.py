@@ -5,12 +5,15 @@ writes its figures."""
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
 
 from pd_bringup.plan import DDS_PROFILE_VARIABLES, Child, LaunchPlan, discovery_profile
-from pd_bringup.supervisor import Supervisor
+from pd_bringup.supervisor import Supervisor, _Restart, _Running
 
 
 def test_the_discovery_profile_is_shipped_and_never_overrides_the_users() -> None:
@@ -64,3 +67,73 @@ def test_the_specimen_side_stops_once_the_summary_is_written(tmp_path: Path) -> 
     assert integrator_alive and not figure_written
     assert all(code is not None for code in children_codes)
     assert (tmp_path / 'figure.png').exists()  # run() returned after the integrator ended
+
+
+class _Sent:
+    def __init__(self, command: str, topic: str) -> None:
+        self.control = type('Control', (), {'command': command})()
+        self.topic = topic
+
+
+class _Operator:
+    """The supervisor's view of the graph, set by hand: a restarted simulator is up again."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[str, str | None]] = []
+        self.pending: list[_Sent] = []
+        self.offers: dict[str, Any] = {}
+        self.statuses: dict[str, Any] = {}
+        self.states: dict[str, int] = {}
+
+    def watch_offer(self, namespace: str) -> None:
+        pass
+
+    def watch_status(self, topic: str) -> None:
+        pass
+
+    def send(self, command: str, *, bridge_site: str | None = None, reason: str = '') -> Any:
+        self.sent.append((command, bridge_site))
+        sent = _Sent(command, f'{bridge_site}/control')
+        self.pending.append(sent)
+        return sent
+
+    def status_state(self, topic: str) -> int | None:
+        return self.states.get(topic)
+
+
+def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -> None:
+    """A hold a bridge has not acknowledged (refused once: bound to a test its status had not
+    named yet) is sent again until it is; resuming before that would let it land afterwards
+    and hold the test with no one to leave the hold."""
+    simulator = Child('pd_specimen_sim', 'simulator', '', '/pd/specimen', ['true'])
+    bridge = Child('pd_actuator_bridge', 'bridge', '', '', ['true'])
+    plan = LaunchPlan(test_id='t', n_steps=1, out=tmp_path, site_mode='bridge', physical=False,
+                      key_file=None, environment={}, children=[simulator, bridge],
+                      integrator=['true'])
+    operator = _Operator()
+    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
+                            log=lambda line: None)
+    process = subprocess.Popen(_python('import time; time.sleep(30)'))
+    try:
+        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
+                           'old-epoch', -9, [bridge])
+        operator.pending.append(_Sent('auto_hold', '/control'))  # the bridge's, unanswered
+        operator.offers['/pd/specimen'] = SimpleNamespace(
+            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
+            authenticated=True)
+        supervisor._restart = restart
+        supervisor._advance_restart(restart)
+        assert operator.sent == [] and supervisor._restart is restart  # it waits
+        operator.pending.clear()  # acknowledged: the bridge holds
+        operator.states['/bridge/status'] = 3
+        supervisor._advance_restart(restart)
+        assert operator.sent == [('auto_reset', '')]
+        operator.pending.clear()
+        operator.states['/bridge/status'] = 2  # it left the hold
+        supervisor._advance_restart(restart)
+        assert [command for command, _ in operator.sent] == ['auto_reset', 'restarted',
+                                                              'auto_resume']
+        assert supervisor._restart is None
+    finally:
+        process.kill()
+        process.wait()

@@ -638,7 +638,11 @@ class ActuatorBridgeNode(LifecycleNode):
             self._refused(reason, signature, 'step_command')
             return
         self._request = signature
+        renamed = command.test_id != self._test_id
         self._test_id, self._step = command.test_id, command.step
+        if renamed:  # controls are bound to the test its status names: name the new one now
+            state, text = self._last_status
+            self.publish_status(state, text)
         key = StepKey(command.step, command.iteration)  # the bridge core orders steps by it
         # (the same test file run again by a new integrator: a new run, not stale steps)
         run = self._runs.tag(command.test_id, key, signature.session)

@@ -497,7 +497,7 @@ class Supervisor:
             self._log(f'run_test: {item.child.name} did not come back within {READY_TIMEOUT} '
                       's; the test holds (./pd control resume once it is up, or abort)')
             return
-        if not self._is_up(item.child, restart):
+        if not self._is_up(item.child, restart) or self._holds_unanswered():
             return
         for bridge in restart.held_bridges:
             topic = f'{bridge.namespace}/bridge/status'
@@ -524,6 +524,16 @@ class Supervisor:
             return
         self._send('auto_resume', reason=f'{item.child.name} restarted')
         self._log(f'run_test: {item.child.name} is back; resuming the test')
+
+    def _holds_unanswered(self) -> bool:
+        """Whether a hold the supervisor sent is not acknowledged yet.
+
+        It is sent again, bound anew, until it is (or given up): left unanswered, a hold
+        refused once (bound to a test its receiver's status had not named yet) could land
+        after the test was resumed, and hold it with no one to leave the hold.
+        """
+        assert self.operator is not None
+        return any(sent.control.command == 'auto_hold' for sent in self.operator.pending)
 
     def _is_up(self, child: Child, restart: _Restart) -> bool:
         """Whether a restarted receiver offers itself again.
