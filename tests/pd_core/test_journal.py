@@ -675,6 +675,50 @@ def test_the_bag_holds_each_step_message_as_the_bytes_that_travelled(tmp_path: P
                       (TOPIC_FEEDBACK, 2_500, bytes(arrived))]
 
 
+def test_a_journal_of_many_blocks_converts_record_for_record_in_order(tmp_path: Path) -> None:
+    """A journal of several MB (read a block at a time): records straddling the blocks' ends,
+    one longer than a block, events and a definition between the messages. The bag holds,
+    in the journal's order, each message's bytes and time as the documented layout reads them,
+    and each event in its place (the mcap library reads it with its CRC checks)."""
+    rng = np.random.default_rng(33)
+    path = tmp_path / JOURNAL_FILE
+    topics = (TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, '/pd/bridge/trajectory')
+    with Journal(path) as journal:
+        journal.write_definition('{"test": {"id": "blocks"}}', 1)
+        for t_ns in range(2, 40_002):
+            if t_ns % 997 == 0:
+                journal.write_event('note', t_ns, at=t_ns)
+            elif t_ns == 20_000:  # longer than the block read at a time
+                journal.write_raw(topics[3], t_ns, rng.bytes(3 * 2**20 // 2))
+            else:
+                size = int(rng.integers(0, 400))
+                journal.write_raw(topics[t_ns % 3], t_ns, rng.bytes(size))
+    expected = by_the_doc(path)
+    assert path.stat().st_size > 4 * 2**20
+    assert journal_to_bag(path, tmp_path / 'bag') == len(expected)
+    (mcap_file,) = (tmp_path / 'bag').glob('*.mcap')
+    with mcap_file.open('rb') as stream:
+        stored = [(channel.topic, message.log_time, message.data) for _, channel, message
+                  in make_reader(stream, validate_crcs=True).iter_messages(
+                      log_time_order=False)]
+    names = {'def': '/pd/test_definition', 'ev': '/pd/run_events'}
+    assert [(topic, t_ns) for topic, t_ns, _ in stored] == [
+        (names.get(kind, topic), t_ns) for kind, t_ns, topic, _, _ in expected]
+    assert [data for (_, _, data), (kind, *_) in zip(stored, expected, strict=True)
+            if kind not in names] == [payload for kind, _, _, payload, _ in expected
+                                      if kind not in names]
+    # A record damaged in a later block is named by its number and byte, as the layout counts.
+    number, (*_, offset) = next((n, record) for n, record in enumerate(expected, 1)
+                                if record[4] > 3 * 2**20)
+    data = bytearray(path.read_bytes())
+    data[offset + 30] ^= 0x01
+    damaged = tmp_path / 'damaged.pdj'
+    damaged.write_bytes(bytes(data))
+    with pytest.raises(BagError, match=f'record {number} at byte {offset}: damaged'):
+        journal_to_bag(damaged, tmp_path / 'damaged-bag')
+    assert not (tmp_path / 'damaged-bag').exists()
+
+
 def test_a_record_cdr_cannot_carry_is_one_line_and_nothing_written(tmp_path: Path) -> None:
     path = tmp_path / JOURNAL_FILE
     command = Command('t\x00x', 4, 0.04, ('top',), (0.0125,))  # a NUL in a CDR string

@@ -22,6 +22,7 @@ import struct
 import textwrap
 import zlib
 from array import array
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, BinaryIO, NamedTuple
 
@@ -171,6 +172,25 @@ class BagWriter:
         self._chunk_size = offset + _MESSAGE.size + size
         if self._chunk_size >= CHUNK_BYTES:
             self._close_chunk()
+
+    def write_many(self, messages: Iterable[tuple[int, int, bytes | memoryview]]) -> None:
+        """Add messages ``(channel, t_ns, data)`` in order: :meth:`write` of each, for a copy."""
+        pack, opcode, fixed, head = _MESSAGE.pack, _OP_MESSAGE, _MESSAGE_FIXED, _MESSAGE.size
+        add, index = self._chunk.append, self._index.extend
+        offset = self._chunk_size
+        for channel, t_ns, data in messages:
+            size = len(data)
+            index((channel, t_ns, offset))
+            # (sequence 0, as in write)
+            add(pack(opcode, fixed + size, channel, 0, t_ns, t_ns))
+            add(data)
+            offset += head + size
+            if offset >= CHUNK_BYTES:
+                self._chunk_size = offset
+                self._close_chunk()
+                add, index = self._chunk.append, self._index.extend
+                offset = 0
+        self._chunk_size = offset
 
     def _close_chunk(self) -> None:
         """Write the chunk in progress and its message indexes; index it."""

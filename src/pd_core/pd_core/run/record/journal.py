@@ -71,7 +71,15 @@ from .bag import (
     RunIndex,
     typestore,
 )
-from .journal_format import HEADER, Frame, RecordKind, frame, iter_frames, records_end
+from .journal_format import (
+    HEADER,
+    Frame,
+    RecordKind,
+    frame,
+    iter_blocks,
+    iter_frames,
+    records_end,
+)
 
 __all__ = ['JOURNAL_FILE', 'LEGACY_JOURNAL_FILE', 'Journal', 'JournalRecord',
            'RecordWriteError', 'RunRecorder', 'iter_journal_records', 'journal_to_bag',
@@ -87,7 +95,7 @@ _KIND_NAMES = {RecordKind.DEFINITION: 'def', RecordKind.COMMAND: 'cmd',
                RecordKind.FEEDBACK: 'fb', RecordKind.STATUS: 'st', RecordKind.RAW: 'raw',
                RecordKind.EVENT: 'ev'}
 #: The bytes a bag records as they are in the journal.
-_COPIED = (RecordKind.COMMAND, RecordKind.FEEDBACK, RecordKind.STATUS, RecordKind.RAW)
+_COPIED = frozenset((RecordKind.COMMAND, RecordKind.FEEDBACK, RecordKind.STATUS, RecordKind.RAW))
 
 
 class RunRecorder(Protocol):
@@ -532,23 +540,45 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
     return count
 
 
+class _Channels(dict[str, int]):
+    """A bag's channel per topic, added to the bag on first use."""
+
+    def __init__(self, recorder: BagRecorder) -> None:
+        super().__init__()
+        self._channel = recorder.channel
+
+    def __missing__(self, topic: str) -> int:
+        channel = self[topic] = self._channel(topic)
+        return channel
+
+
 def _write_bag(journal: str | Path, bag: Path) -> int:
     """:func:`journal_to_bag` into ``bag`` (created); the records written.
 
-    A message's bytes are copied as they are (the record's CRC vouches for them); the
-    definition and the events become ``std_msgs/msg/String`` messages.
+    A message's bytes are copied as they are (the record's CRC vouches for them), a block of
+    the journal at a time; the definition and the events become ``std_msgs/msg/String``
+    messages, in their place among the messages.
     """
     count = 0
     with BagRecorder(bag) as recorder:
-        write, channel = recorder.writer.write, recorder.channel
-        for record in iter_frames(journal):
-            count += 1
-            kind, t_ns, topic, payload, _, _, _ = record
-            if kind in _COPIED:
-                write(channel(topic), t_ns, payload)
-            elif kind is RecordKind.DEFINITION:
-                recorder.write_definition(_decoded(record, journal).item, t_ns)
-            else:
-                event = dict(_decoded(record, journal).item)
-                recorder.write_event(event.pop('what'), t_ns, **event)
+        write_many, channels = recorder.writer.write_many, _Channels(recorder)
+        for data, base, number, records in iter_blocks(journal):
+            view = memoryview(data)
+            done = 0
+            others = [i for i, record in enumerate(records) if record[2] not in _COPIED]
+            for index in [*others, len(records)]:
+                write_many([(channels[topic], t_ns, view[payload:end])
+                            for _, end, _, t_ns, topic, payload in records[done:index]])
+                if index == len(records):
+                    break
+                start, end, kind, t_ns, topic, payload = records[index]
+                record = Frame(kind, t_ns, topic, data[payload:end], base + start, base + end,
+                               number + index)
+                if kind is RecordKind.DEFINITION:
+                    recorder.write_definition(_decoded(record, journal).item, t_ns)
+                else:
+                    event = dict(_decoded(record, journal).item)
+                    recorder.write_event(event.pop('what'), t_ns, **event)
+                done = index + 1
+            count += len(records)
     return count

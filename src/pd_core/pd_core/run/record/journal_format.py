@@ -51,8 +51,8 @@ from pd_common.config import open_regular_file
 
 from ...errors import BagError
 
-__all__ = ['HEADER', 'MAGIC', 'MAX_RECORD_BYTES', 'VERSION', 'Frame', 'RecordKind', 'frame',
-           'iter_frames', 'records_end']
+__all__ = ['HEADER', 'MAGIC', 'MAX_RECORD_BYTES', 'VERSION', 'Block', 'Frame', 'RecordKind',
+           'frame', 'iter_blocks', 'iter_frames', 'records_end']
 
 MAGIC = b'\x89PDJ\r\n\x1a\n'
 VERSION = 2
@@ -109,12 +109,43 @@ def _only_zeros(file: BinaryIO) -> bool:
     return True
 
 
+class Block(NamedTuple):
+    """Records read at once, each whole, CRC-checked and of a known kind.
+
+    Each of ``records`` is ``(start, end, kind, t_ns, topic, payload)``: the record is
+    ``data[start:end]`` and its payload ``data[payload:end]``; the first is record ``number`` of
+    the journal, and ``data[0]`` is byte ``base`` of the file.
+    """
+
+    data: bytes
+    base: int
+    number: int
+    records: list[tuple[int, int, RecordKind, int, str, int]]
+
+
 def iter_frames(path: str | Path, notes: list[str] | None = None) -> Iterator[Frame]:
     """A journal's complete records, in order (a torn last one described in ``notes``).
 
     Raises:
         BagError: the file cannot be read, is not a journal, or has a damaged record before
             its end.
+    """
+    new = tuple.__new__  # a NamedTuple's own __new__ is a Python function
+    for data, base, number, records in iter_blocks(path, notes):
+        for start, end, kind, t_ns, topic, payload in records:
+            yield new(Frame, (kind, t_ns, topic, data[payload:end], base + start, base + end,
+                              number))
+            number += 1
+
+
+def iter_blocks(path: str | Path, notes: list[str] | None = None) -> Iterator[Block]:
+    """A journal's complete records, in order, a block at a time (see :func:`iter_frames`).
+
+    What copies many records (the bag written from a journal) reads them so: a record costs
+    it no object of its own.
+
+    Raises:
+        BagError: as :func:`iter_frames`.
     """
     path = Path(path)
     try:
@@ -125,7 +156,7 @@ def iter_frames(path: str | Path, notes: list[str] | None = None) -> Iterator[Fr
         raise BagError(msg) from None
 
 
-def _frames(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Frame]:
+def _frames(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Block]:
     read = file.read
     head = read(_HEADER.size)
     if len(head) < _HEADER.size and HEADER.startswith(head):
@@ -144,39 +175,44 @@ def _frames(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Fra
     yield from _records(file, path, notes)
 
 
-def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Frame]:
+def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Block]:
     """The records after the header, read a block at a time.
 
     The loop is the reading's cost: what is rare (a block's end, a fault, a new topic) is out
-    of its way.
+    of its way. A block's records are handed on before anything wrong after them is reported.
     """
     read = file.read
     unpack_prefix = _PREFIX.unpack_from
     unpack_body = _BODY.unpack_from
     crc32 = zlib.crc32
     kinds = _KIND_CODES
-    new = tuple.__new__  # a NamedTuple's own __new__ is a Python function
     topics: dict[bytes, str] = {}
     prefix, smallest, largest, fixed = _PREFIX.size, _BODY.size, MAX_RECORD_BYTES, _FIXED
     base = _HEADER.size  # the file offset of buf[0]
     buf = b''
     view = memoryview(buf)
-    size = pos = number = 0
+    size = pos = 0
+    number = 1  # of the record at pos
+    block = Block(buf, base, number, [])
+    add = block.records.append
     while True:
-        number += 1
         if size - pos >= prefix:
             length, crc = unpack_prefix(buf, pos)
             end = pos + prefix + length
         else:
             length = end = -1
         if end > size or length < smallest or length > largest:
-            # a block's end, or a fault: read on, then look again
+            # a block's end, or a fault: hand on the block's records, read on, look again
+            if block.records:
+                yield block
             missing = prefix + length - (size - pos) if smallest <= length <= largest else 0
             base += pos
             buf = buf[pos:] + read(max(_BLOCK, missing))
             view = memoryview(buf)
             size = len(buf)
             pos = 0
+            block = Block(buf, base, number, [])
+            add = block.records.append
             if not buf:
                 return
             if _fault(buf, file, path, base, number, notes):
@@ -184,6 +220,8 @@ def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Fr
             length, crc = unpack_prefix(buf, pos)
             end = prefix + length
         if crc32(view[pos + prefix:end]) != crc:
+            if block.records:
+                yield block
             _torn_or_damaged('CRC mismatch', end - pos, buf[end:], file, path, base + pos,
                              number, notes)
             return
@@ -192,10 +230,14 @@ def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Fr
         topic = topics.get(buf[pos + fixed:payload_start])
         kind = kinds[kind_code]
         if topic is None or kind is None or payload_start > end:
+            if block.records:  # (the records before a malformed one are handed on first)
+                yield block
+                block = Block(buf, base, number, [])
+                add = block.records.append
             kind, topic = _kind_and_topic(buf, pos, topics, f'{path}: record {number} at '
                                                             f'byte {base + pos}: malformed')
-        yield new(Frame, (kind, t_ns, topic, buf[payload_start:end], base + pos, base + end,
-                          number))
+        add((pos, end, kind, t_ns, topic, payload_start))
+        number += 1
         pos = end
 
 
