@@ -165,3 +165,25 @@ def test_a_bag_is_never_written_over(tmp_path: Path) -> None:
     (tmp_path / 'b').mkdir()
     with pytest.raises(FileExistsError):
         BagWriter(tmp_path / 'b').open()
+
+
+@pytest.mark.parametrize('seed', [3, 4])
+def test_write_many_writes_the_bytes_write_writes(tmp_path: Path, seed: int) -> None:
+    """Messages given in batches of every size (empty, one, across a chunk's end, a message
+    longer than a chunk) make the same bag, byte for byte, as one ``write`` each."""
+    messages = _messages(seed, 3000, ordered=True)
+    rng = random.Random(seed)
+    (tmp_path / 'many').mkdir()
+    (tmp_path / 'one').mkdir()
+    with BagWriter(tmp_path / 'many' / 'bag') as writer:
+        channels = [writer.add_topic(bag_topic(name, msgtype)) for name, msgtype in TOPICS]
+        done = 0
+        while done < len(messages):
+            size = rng.choice((0, 1, 2, 17, 400, 2500))
+            writer.write_many([(channels[index], t_ns, memoryview(data)) for index, t_ns, data
+                               in messages[done:done + size]])
+            done += size
+    _ours(tmp_path / 'one' / 'bag', messages)
+    for name in ('bag.mcap', 'metadata.yaml'):
+        assert (tmp_path / 'many' / 'bag' / name).read_bytes() == (
+            tmp_path / 'one' / 'bag' / name).read_bytes()
