@@ -206,7 +206,7 @@ class BagRecorder:
 
     @property
     def writer(self) -> BagWriter:
-        """The bag's writer (to copy many messages: ``writer.write(channel, t_ns, data)``)."""
+        """The bag's writer (to copy many messages: ``writer.write_many(messages)``)."""
         if self._writer is None:
             msg = f'{self.path}: bag is not open'
             raise BagError(msg)

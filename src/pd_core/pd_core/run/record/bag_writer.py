@@ -163,25 +163,17 @@ class BagWriter:
 
     def write(self, channel: int, t_ns: int, data: bytes | memoryview) -> None:
         """Add one message (its CDR bytes) to a channel, logged and published at ``t_ns``."""
-        size = len(data)
-        offset = self._chunk_size
-        self._index.extend((channel, t_ns, offset))
-        # (sequence 0, as rosbags and rosbag2 record it: the log time orders a channel)
-        self._chunk += (_MESSAGE.pack(_OP_MESSAGE, _MESSAGE_FIXED + size, channel, 0, t_ns,
-                                      t_ns), data)
-        self._chunk_size = offset + _MESSAGE.size + size
-        if self._chunk_size >= CHUNK_BYTES:
-            self._close_chunk()
+        self.write_many(((channel, t_ns, data),))
 
     def write_many(self, messages: Iterable[tuple[int, int, bytes | memoryview]]) -> None:
-        """Add messages ``(channel, t_ns, data)`` in order: :meth:`write` of each, for a copy."""
+        """Add messages ``(channel, t_ns, data)`` in order, as :meth:`write` adds each."""
         pack, opcode, fixed, head = _MESSAGE.pack, _OP_MESSAGE, _MESSAGE_FIXED, _MESSAGE.size
         add, index = self._chunk.append, self._index.extend
         offset = self._chunk_size
         for channel, t_ns, data in messages:
             size = len(data)
             index((channel, t_ns, offset))
-            # (sequence 0, as in write)
+            # (sequence 0, as rosbags and rosbag2 record it: the log time orders a channel)
             add(pack(opcode, fixed + size, channel, 0, t_ns, t_ns))
             add(data)
             offset += head + size

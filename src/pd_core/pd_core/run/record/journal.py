@@ -540,18 +540,6 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
     return count
 
 
-class _Channels(dict[str, int]):
-    """A bag's channel per topic, added to the bag on first use."""
-
-    def __init__(self, recorder: BagRecorder) -> None:
-        super().__init__()
-        self._channel = recorder.channel
-
-    def __missing__(self, topic: str) -> int:
-        channel = self[topic] = self._channel(topic)
-        return channel
-
-
 def _write_bag(journal: str | Path, bag: Path) -> int:
     """:func:`journal_to_bag` into ``bag`` (created); the records written.
 
@@ -561,16 +549,18 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
     """
     count = 0
     with BagRecorder(bag) as recorder:
-        write_many, channels = recorder.writer.write_many, _Channels(recorder)
+        write_many, channel = recorder.writer.write_many, recorder.channel
+
+        def copy(view: memoryview, rows: list[tuple[int, int, RecordKind, int, str, int]]
+                 ) -> None:
+            write_many([(channel(topic), t_ns, view[payload:end])
+                        for _, end, _, t_ns, topic, payload in rows])
+
         for data, base, number, records in iter_blocks(journal):
             view = memoryview(data)
             done = 0
-            others = [i for i, record in enumerate(records) if record[2] not in _COPIED]
-            for index in [*others, len(records)]:
-                write_many([(channels[topic], t_ns, view[payload:end])
-                            for _, end, _, t_ns, topic, payload in records[done:index]])
-                if index == len(records):
-                    break
+            for index in [i for i, row in enumerate(records) if row[2] not in _COPIED]:
+                copy(view, records[done:index])
                 start, end, kind, t_ns, topic, payload = records[index]
                 record = Frame(kind, t_ns, topic, data[payload:end], base + start, base + end,
                                number + index)
@@ -580,5 +570,6 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
                     event = dict(_decoded(record, journal).item)
                     recorder.write_event(event.pop('what'), t_ns, **event)
                 done = index + 1
+            copy(view, records[done:])
             count += len(records)
     return count

@@ -150,13 +150,13 @@ def iter_blocks(path: str | Path, notes: list[str] | None = None) -> Iterator[Bl
     path = Path(path)
     try:
         with open_regular_file(path) as file:
-            yield from _frames(file, path, notes)
+            yield from _blocks(file, path, notes)
     except OSError as err:
         msg = f'{path}: cannot read the journal ({err.strerror or type(err).__name__})'
         raise BagError(msg) from None
 
 
-def _frames(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Block]:
+def _blocks(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Block]:
     read = file.read
     head = read(_HEADER.size)
     if len(head) < _HEADER.size and HEADER.startswith(head):
