@@ -33,7 +33,7 @@ import tempfile
 from pathlib import Path
 
 from _results import merge_results
-from bench_loop import DEFAULT_TEST, REPO, _ping, graph_run, machine_header
+from bench_loop import DEFAULT_TEST, REPO, _ping, graph_run, machine_header, percentile
 
 PROBE = Path(__file__).resolve().parent / '_anatomy'
 PROCESSES = {'pd_integrator': 'integrator', 'pd_specimen_sim': 'specimen',
@@ -42,8 +42,8 @@ PARTS = ('before_publish', 'publish', 'after_publish')
 
 
 def _quantile(values: list[int], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] / 1e3 if ordered else 0.0
+    """The ``q`` quantile (0..1) of ns samples, in µs (0 for none)."""
+    return percentile(values, q * 100.0) / 1e3 if values else 0.0
 
 
 def read_samples(folder: Path) -> dict[str, dict[str, list[int]]]:
@@ -120,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
             for part in PARTS:
                 key = part.replace('_publish', '') if part != 'publish' else 'publish'
                 figures[f'anatomy_{node}_{key}_us'] = round(_quantile(samples[part], 0.5), 1)
-    rt = sorted(ping.samples_s)[len(ping.samples_s) // 2] * 1e6 if ping.samples_s else 0.0
+    rt = percentile(ping.samples_s, 50.0) * 1e6 if ping.samples_s else 0.0
     critical = sum(_quantile(samples[part], 0.5) for samples in nodes.values()
                    for part in ('before_publish', 'publish'))
     print(f'\ngraph: {per_step:.0f} us a step (wall time / steps, the fastest of {args.runs}); '
