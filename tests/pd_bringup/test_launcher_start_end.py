@@ -69,10 +69,9 @@ def test_the_specimen_side_stops_once_the_summary_is_written(tmp_path: Path) -> 
     assert (tmp_path / 'figure.png').exists()  # run() returned after the integrator ended
 
 
-class _Sent:
-    def __init__(self, command: str, topic: str) -> None:
-        self.control = type('Control', (), {'command': command})()
-        self.topic = topic
+def _sent(command: str) -> Any:
+    """A control the operator waits on (only its command is read)."""
+    return SimpleNamespace(control=SimpleNamespace(command=command))
 
 
 class _Operator:
@@ -80,7 +79,7 @@ class _Operator:
 
     def __init__(self) -> None:
         self.sent: list[tuple[str, str | None]] = []
-        self.pending: list[_Sent] = []
+        self.pending: list[Any] = []
         self.offers: dict[str, Any] = {}
         self.statuses: dict[str, Any] = {}
         self.states: dict[str, int] = {}
@@ -93,7 +92,7 @@ class _Operator:
 
     def send(self, command: str, *, bridge_site: str | None = None, reason: str = '') -> Any:
         self.sent.append((command, bridge_site))
-        sent = _Sent(command, f'{bridge_site}/control')
+        sent = _sent(command)
         self.pending.append(sent)
         return sent
 
@@ -117,7 +116,7 @@ def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -
     try:
         restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
                            'old-epoch', -9, [bridge])
-        operator.pending.append(_Sent('auto_hold', '/control'))  # the bridge's, unanswered
+        operator.pending.append(_sent('auto_hold'))  # the bridge's, unanswered
         operator.offers['/pd/specimen'] = SimpleNamespace(
             at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
             authenticated=True)
