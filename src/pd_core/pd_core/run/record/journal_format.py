@@ -81,6 +81,7 @@ class RecordKind(IntEnum):
 _BY_CODE = {int(kind): kind for kind in RecordKind}
 _KIND_CODES: tuple[RecordKind | None, ...] = tuple(_BY_CODE.get(code) for code in range(256))
 _FIXED = _PREFIX.size + _BODY.size  # bytes before a record's topic
+_HEAD = struct.Struct('<IIBxHq')  # the prefix and the body's fixed fields, read at once
 
 
 class Frame(NamedTuple):
@@ -179,11 +180,12 @@ def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Bl
     """The records after the header, read a block at a time.
 
     The loop is the reading's cost: what is rare (a block's end, a fault, a new topic) is out
-    of its way. A block's records are handed on before anything wrong after them is reported.
+    of its way, and a record's number is counted only when one is named (the block's first
+    plus the records before it). A block's records are handed on before anything wrong after
+    them is reported.
     """
     read = file.read
-    unpack_prefix = _PREFIX.unpack_from
-    unpack_body = _BODY.unpack_from
+    unpack_head = _HEAD.unpack_from
     crc32 = zlib.crc32
     kinds = _KIND_CODES
     topics: dict[bytes, str] = {}
@@ -192,19 +194,22 @@ def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Bl
     buf = b''
     view = memoryview(buf)
     size = pos = 0
-    number = 1  # of the record at pos
-    block = Block(buf, base, number, [])
-    add = block.records.append
+    block = Block(buf, base, 1, [])
+    records = block.records
+    add = records.append
     while True:
-        if size - pos >= prefix:
-            length, crc = unpack_prefix(buf, pos)
+        if size - pos >= fixed:  # (no record is shorter)
+            length, crc, kind_code, topic_length, t_ns = unpack_head(buf, pos)
             end = pos + prefix + length
         else:
             length = end = -1
         if end > size or length < smallest or length > largest:
             # a block's end, or a fault: hand on the block's records, read on, look again
-            if block.records:
+            number = block.number + len(records)
+            if records:
                 yield block
+            if size - pos >= prefix:
+                length, _ = _PREFIX.unpack_from(buf, pos)
             missing = prefix + length - (size - pos) if smallest <= length <= largest else 0
             base += pos
             buf = buf[pos:] + read(max(_BLOCK, missing))
@@ -212,32 +217,34 @@ def _records(file: BinaryIO, path: Path, notes: list[str] | None) -> Iterator[Bl
             size = len(buf)
             pos = 0
             block = Block(buf, base, number, [])
-            add = block.records.append
+            records = block.records
+            add = records.append
             if not buf:
                 return
             if _fault(buf, file, path, base, number, notes):
                 return
-            length, crc = unpack_prefix(buf, pos)
+            length, crc, kind_code, topic_length, t_ns = unpack_head(buf, pos)
             end = prefix + length
         if crc32(view[pos + prefix:end]) != crc:
-            if block.records:
+            number = block.number + len(records)
+            if records:
                 yield block
             _torn_or_damaged('CRC mismatch', end - pos, buf[end:], file, path, base + pos,
                              number, notes)
             return
-        kind_code, topic_length, t_ns = unpack_body(buf, pos + prefix)
         payload_start = pos + fixed + topic_length
         topic = topics.get(buf[pos + fixed:payload_start])
         kind = kinds[kind_code]
         if topic is None or kind is None or payload_start > end:
-            if block.records:  # (the records before a malformed one are handed on first)
+            number = block.number + len(records)
+            if records:  # (the records before a malformed one are handed on first)
                 yield block
                 block = Block(buf, base, number, [])
-                add = block.records.append
+                records = block.records
+                add = records.append
             kind, topic = _kind_and_topic(buf, pos, topics, f'{path}: record {number} at '
                                                             f'byte {base + pos}: malformed')
         add((pos, end, kind, t_ns, topic, payload_start))
-        number += 1
         pos = end
 
 
