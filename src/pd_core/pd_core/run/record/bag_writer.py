@@ -45,6 +45,7 @@ _OP_SUMMARY_OFFSET, _OP_DATA_END = 0x0E, 0x0F
 
 _MESSAGE = struct.Struct('<BQHIQQ')  # opcode, length, channel, sequence, log and publish time
 _MESSAGE_FIXED = _MESSAGE.size - 9   # the record's content before the data
+_HEAD_BYTES = np.arange(9, 23)       # a message record's channel, sequence and log time
 _RECORD = struct.Struct('<BQ')
 _U16 = struct.Struct('<H')
 _U32 = struct.Struct('<I')
@@ -94,7 +95,7 @@ class BagWriter:
         self._offset = 0
         self._chunk: list[bytes | memoryview] = []
         self._chunk_size = 0
-        self._index = array('q')  # the chunk's messages: channel, log time, offset, ...
+        self._starts = array('q')  # where each of the chunk's messages starts in it
         self._chunk_indexes: list[bytes] = []
         self._start = _NO_TIME
         self._end = 0
@@ -168,11 +169,11 @@ class BagWriter:
     def write_many(self, messages: Iterable[tuple[int, int, bytes | memoryview]]) -> None:
         """Add messages ``(channel, t_ns, data)`` in order, as :meth:`write` adds each."""
         pack, opcode, fixed, head = _MESSAGE.pack, _OP_MESSAGE, _MESSAGE_FIXED, _MESSAGE.size
-        add, index = self._chunk.append, self._index.extend
+        add, start = self._chunk.append, self._starts.append
         offset = self._chunk_size
         for channel, t_ns, data in messages:
             size = len(data)
-            index((channel, t_ns, offset))
+            start(offset)
             # (sequence 0, as rosbags and rosbag2 record it: the log time orders a channel)
             add(pack(opcode, fixed + size, channel, 0, t_ns, t_ns))
             add(data)
@@ -180,15 +181,18 @@ class BagWriter:
             if offset >= CHUNK_BYTES:
                 self._chunk_size = offset
                 self._close_chunk()
-                add, index = self._chunk.append, self._index.extend
+                add, start = self._chunk.append, self._starts.append
                 offset = 0
         self._chunk_size = offset
 
     def _close_chunk(self) -> None:
         """Write the chunk in progress and its message indexes; index it."""
         records = b''.join(self._chunk)
-        index = np.frombuffer(self._index, dtype=np.int64).reshape(-1, 3)
-        channels, times = index[:, 0], index[:, 1]
+        # each message's channel and log time, read back from its header (as it was packed)
+        starts = np.frombuffer(self._starts, dtype=np.int64)
+        heads = np.frombuffer(records, dtype=np.uint8)[starts[:, None] + _HEAD_BYTES]
+        channels = heads[:, :2].copy().view('<u2')[:, 0].astype(np.int64)
+        times = heads[:, 6:].copy().view('<i8')[:, 0]
         start, end = (int(times.min()), int(times.max())) if len(times) else (0, 0)
         chunk_offset = self._offset
         head = (struct.pack('<QQQI', start, end, len(records), zlib.crc32(records))
@@ -200,7 +204,8 @@ class BagWriter:
         counts = np.bincount(channels, minlength=len(self.counts))
         for channel in np.flatnonzero(counts):
             offsets += _U16.pack(channel) + _U64.pack(self._offset)
-            body = index[channels == channel, 1:].astype('<u8').tobytes()  # time, offset
+            mine = channels == channel
+            body = np.column_stack((times[mine], starts[mine])).astype('<u8').tobytes()
             self._emit(_record(_OP_MESSAGE_INDEX,
                                _U16.pack(channel) + _U32.pack(len(body)) + body))
             self.counts[channel] += int(counts[channel])
@@ -214,7 +219,7 @@ class BagWriter:
             self._end = max(self._end, end)
         self._chunk = []
         self._chunk_size = 0
-        self._index = array('q')
+        self._starts = array('q')
 
     # -- the end --------------------------------------------------------------------------
     def close(self) -> None:
