@@ -7,6 +7,7 @@ bytes and its history arrays).
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import shutil
@@ -607,6 +608,30 @@ def test_journal_to_bag_replays_to_the_offline_response(tmp_path: Path, offline:
 def test_journal_to_bag_refuses_an_existing_bag(tmp_path: Path, offline: Any) -> None:
     with pytest.raises(BagError, match='bag exists already'):
         journal_to_bag(offline.directory / JOURNAL_FILE, offline.directory / 'bag')
+
+
+@pytest.mark.parametrize('running', [True, False])
+def test_the_conversion_leaves_the_garbage_collector_as_it_found_it(tmp_path: Path,
+                                                                   offline: Any,
+                                                                   running: bool) -> None:
+    # It pauses the collector while it copies: running again afterwards (if it ran), also
+    # after a journal it cannot read; never switched on by it.
+    source = offline.directory / JOURNAL_FILE
+    damaged = tmp_path / 'damaged.pdj'
+    data = bytearray(source.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # a record in the middle: damaged, not torn
+    damaged.write_bytes(bytes(data))
+    was = gc.isenabled()
+    try:
+        (gc.enable if running else gc.disable)()
+        assert journal_to_bag(source, tmp_path / 'bag') > 2 * STEPS
+        assert gc.isenabled() is running
+        with pytest.raises(BagError, match='damaged'):
+            journal_to_bag(damaged, tmp_path / 'bag-of-damaged')
+        assert gc.isenabled() is running
+        assert not (tmp_path / 'bag-of-damaged').exists()
+    finally:
+        (gc.enable if was else gc.disable)()
 
 
 def test_load_run_reads_the_journal_of_a_folder_without_a_bag(tmp_path: Path,

@@ -36,6 +36,8 @@ restarted, ...).
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import json
 import os
 import shutil
@@ -540,6 +542,23 @@ def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
     return count
 
 
+@contextlib.contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector paused (if it runs) while many records are copied.
+
+    A copy allocates a few tuples per record and no cycle (reference counting frees them all);
+    left running, the collector would pass over the block's records every 700 allocations
+    (about 7 % of the conversion's time here). It runs again afterwards, whatever happened.
+    """
+    running = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if running:
+            gc.enable()
+
+
 def _write_bag(journal: str | Path, bag: Path) -> int:
     """:func:`journal_to_bag` into ``bag`` (created); the records written.
 
@@ -548,7 +567,7 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
     messages, in their place among the messages.
     """
     count = 0
-    with BagRecorder(bag) as recorder:
+    with _collector_paused(), BagRecorder(bag) as recorder:
         write_many, channel = recorder.writer.write_many, recorder.channel
 
         def copy(view: memoryview, rows: list[tuple[int, int, RecordKind, int, str, int]]
