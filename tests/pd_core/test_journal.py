@@ -7,6 +7,7 @@ bytes and its history arrays).
 
 from __future__ import annotations
 
+import errno
 import gc
 import json
 import math
@@ -45,6 +46,7 @@ from pd_core.run.record.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, 
 from pd_core.run.record.journal import (
     JOURNAL_FILE,
     Journal,
+    RecordWriteError,
     journal_to_bag,
     read_journal,
     read_journal_records,
@@ -315,48 +317,108 @@ def test_sync_interval_zero_is_one_fsync_per_committed_step_before_its_next_comm
     monkeypatch.setattr(journal_module.os, 'fsync', lambda fd: events.append('fsync'))
     queue: deque[tuple[str, Command]] = deque()
 
-    def send(site: str, command: Command) -> None:
-        events.append('send')
-        queue.append((site, command))
+    def seal(site: str, command: Command) -> Sent:  # (what the node signs)
+        return Sent(Signature(), encode_command(command, dispatcher.send_stamp_ns, Signature()))
 
-    dispatcher = StepDispatcher(session, send, journal)
+    def deliver(site: str, sent: Sent) -> None:  # (what the node publishes)
+        events.append('send')
+        queue.append((site, decode_command(sent.data).record))
+
+    dispatcher = StepDispatcher(session, seal, journal, deliver=deliver)
     dispatcher.start()
     events.clear()
     assert serve_queue(queue, {'': server}, dispatcher)
     journal.close()
     assert session.state is State.FINISHED
     steps = definition.n_steps
-    # Each answer synced, then the command it leads to sent; the last answer, then the close.
+    # Each answer (and the command it leads to) synced, then that command sent; the last
+    # answer, then the close.
     assert events == ['fsync', 'send'] * steps + ['fsync', 'fsync']
 
 
-def test_the_answer_is_on_disk_before_the_next_command_leaves(tmp_path: Path) -> None:
-    """What a specimen was sent is never more than one command ahead of the record: when a
-    command is sent, the answer that led to it is already in the file (a kill between the two
-    leaves a journal whose owed command the resumed run recomputes and re-sends)."""
+def test_a_command_and_the_answer_before_it_are_on_disk_before_it_leaves(
+        tmp_path: Path) -> None:
+    """The record never lags what a specimen was sent (write-ahead): when a command leaves
+    (the dispatcher's ``deliver``), its own record, with the bytes that leave, and the answer
+    that led to it are already in the file; a kill between the two leaves a journal whose owed
+    command the resumed run re-sends."""
     definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
     server = site_servers(definition)['']
     session = Session(definition)
     path = tmp_path / JOURNAL_FILE
     journal = Journal(path, sync_interval=3600.0).open()
     queue: deque[tuple[str, Command]] = deque()
-    on_disk_when_sent: list[tuple[int, int]] = []
+    on_disk_when_sent: list[tuple[int, int, bool]] = []
 
-    def send(site: str, command: Command) -> None:
-        answered = [feedback.step for feedback in records_by_the_doc(path, 'fb')]
-        on_disk_when_sent.append((command.step, answered[-1] if answered else -1))
+    def seal(site: str, command: Command) -> Sent:  # (what the node signs)
+        return Sent(Signature(), encode_command(command, dispatcher.send_stamp_ns, Signature()))
+
+    def deliver(site: str, sent: Sent) -> None:  # (what the node publishes)
+        records = by_the_doc(path)
+        answered = [decode_feedback(payload).record.step
+                    for kind, _, _, payload, _ in records if kind == 'fb']
+        command = decode_command(sent.data).record
+        on_disk_when_sent.append((command.step, answered[-1] if answered else -1,
+                                  records[-1][0] == 'cmd' and records[-1][3] == sent.data))
         queue.append((site, command))
 
-    dispatcher = StepDispatcher(session, send, journal)
+    dispatcher = StepDispatcher(session, seal, journal, deliver=deliver)
     dispatcher.start()
     try:
         assert serve_queue(queue, {'': server}, dispatcher)
     finally:
         journal.close()
     assert session.state is State.FINISHED
-    assert on_disk_when_sent[0] == (0, -1)
-    assert on_disk_when_sent[1:] == [(step, step - 1)
+    assert on_disk_when_sent[0] == (0, -1, True)
+    assert on_disk_when_sent[1:] == [(step, step - 1, True)
                                      for step in range(1, len(on_disk_when_sent))]
+
+
+def test_nothing_is_delivered_that_the_journal_could_not_write(tmp_path: Path) -> None:
+    """A record that cannot be written (a full disk) raises before the command leaves."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': DURATION})
+    server = site_servers(definition)['']
+    session = Session(definition)
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=3600.0).open()
+    delivered: list[int] = []
+    queue: deque[tuple[str, Command]] = deque()
+
+    def seal(site: str, command: Command) -> Sent:
+        return Sent(Signature(), encode_command(command, dispatcher.send_stamp_ns, Signature()))
+
+    def deliver(site: str, sent: Sent) -> None:
+        command = decode_command(sent.data).record
+        delivered.append(command.step)
+        queue.append((site, command))
+
+    dispatcher = StepDispatcher(session, seal, journal, deliver=deliver)
+    dispatcher.start()
+    for _ in range(5):
+        site, command = queue.popleft()
+        answer = server.handle(command.test_id, command.step, command.target_displacement)
+        assert answer is not None
+        dispatcher.on_feedback(site, answer)
+    assert delivered == [0, 1, 2, 3, 4, 5]
+
+    class FullDisk:  # the journal's file, on a disk that just filled up
+        def __init__(self, file: Any) -> None:
+            self.file = file
+
+        def write(self, data: bytes) -> int:
+            raise OSError(errno.ENOSPC, 'No space left on device')
+
+        def __getattr__(self, name: str) -> Any:
+            return getattr(self.file, name)
+
+    journal._file = FullDisk(journal._file)  # type: ignore[assignment]
+    site, command = queue.popleft()
+    answer = server.handle(command.test_id, command.step, command.target_displacement)
+    assert answer is not None
+    with pytest.raises(RecordWriteError, match='No space left'):
+        dispatcher.on_feedback(site, answer)
+    assert delivered == [0, 1, 2, 3, 4, 5]  # step 6 computed, not sent
+    assert session.protocol.pending is not None
+    assert session.protocol.pending.step == 6
 
 
 def test_every_committed_step_is_on_disk_while_the_writer_runs(tmp_path: Path,

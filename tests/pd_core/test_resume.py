@@ -605,14 +605,20 @@ def test_restore_dispatcher_refuses_a_command_nothing_owes(tmp_path: Path,
         restore_dispatcher(load_run(path), dispatcher, 'x')
 
 
-def test_restore_dispatcher_sets_send_and_bag_back(tmp_path: Path, reference: Any) -> None:
+def test_restore_dispatcher_sets_send_deliver_and_bag_back(tmp_path: Path,
+                                                           reference: Any) -> None:
     def send(site: str, command: Command) -> None:
         raise AssertionError('sent while restoring')
 
+    def deliver(site: str, sent: Any) -> None:  # (the node's: publish)
+        raise AssertionError('delivered while restoring')
+
     with Journal(tmp_path / JOURNAL_FILE) as journal:
-        dispatcher = StepDispatcher(Session(reference.session.definition), send, journal)
+        dispatcher = StepDispatcher(Session(reference.session.definition), send, journal,
+                                    deliver=deliver)
         restore_dispatcher(load_run(reference.directory / JOURNAL_FILE), dispatcher)
         assert dispatcher.send is send
+        assert dispatcher.deliver is deliver
         assert dispatcher.bag is journal
         assert journal.records == 0  # nothing recorded while restoring
 

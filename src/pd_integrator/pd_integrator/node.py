@@ -250,7 +250,8 @@ class IntegratorNode(Node):
 
         self.bag = Journal(self.directory / JOURNAL_FILE, append=bool(resume_from),
                            sync_interval=float(self.get_parameter('sync_interval').value)).open()
-        self.dispatcher = StepDispatcher(self.session, self._publish_command, self.bag)
+        self.dispatcher = StepDispatcher(self.session, self._seal_command, self.bag,
+                                         deliver=self._publish_command)
         self.steering = Steering(self.session, self._record_event)
         if self.record is not None:  # what a person held before the restart still holds
             self.steering.restore(self.record.run_events)
@@ -431,13 +432,16 @@ class IntegratorNode(Node):
     def _on_refused_offer(self, reason: Refusal, signature: Signature, topic: str) -> None:
         self._refusal_log(reason, signature, topic)
 
-    def _publish_command(self, site: str, command: Command) -> Sent:
-        """Sign and publish one site command; restart the feedback timer."""
-        # (stamped as the dispatcher records it: the record holds the bytes that went out)
+    def _seal_command(self, site: str, command: Command) -> Sent:
+        """One site command signed: the bytes the journal records, then publishes."""
+        # (stamped as the dispatcher records it: the record holds the bytes that go out)
         data, signature = self.senders[site].encode(command, self.dispatcher.send_stamp_ns)
-        self._command_pubs[site].publish(data)
-        self._sent_at = time.monotonic()
         return Sent(signature, data)
+
+    def _publish_command(self, site: str, sent: Sent) -> None:
+        """Publish a sealed site command (its record written); restart the feedback timer."""
+        self._command_pubs[site].publish(sent.data)
+        self._sent_at = time.monotonic()
 
     def _site_ready(self, site: str) -> bool:
         """Whether ``site`` listens, talks back and obeys this test's signed session."""

@@ -460,12 +460,12 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
         BagError: a recomputed command differs from the recorded one.
     """
     expected: deque[tuple[str, Command]] = deque()
-    send, bag = dispatcher.send, dispatcher.bag
+    send, bag, deliver = dispatcher.send, dispatcher.bag, dispatcher.deliver
 
     def capture(site: str, command: Command) -> None:
         expected.append((site, command))
 
-    dispatcher.send, dispatcher.bag = capture, None
+    dispatcher.send, dispatcher.bag, dispatcher.deliver = capture, None, None  # nothing leaves
     structured = not dispatcher.coordinator.passthrough
     session = dispatcher.session
     try:
@@ -502,7 +502,7 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
             del expected[matches[0]]
         _apply_last_status(session, run)
     finally:
-        dispatcher.send, dispatcher.bag = send, bag
+        dispatcher.send, dispatcher.bag, dispatcher.deliver = send, bag, deliver
     return _owed(dispatcher, list(expected))
 
 

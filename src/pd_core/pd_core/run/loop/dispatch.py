@@ -3,9 +3,11 @@
 :class:`StepDispatcher` owns the order of things for one test: take the session's next
 structure-level command, fan it out to the sites (:class:`~.substructure.SiteCoordinator`,
 numerical elements evaluated on the way), *send* the site commands (a callable: the node
-publishes, the ROS-free runner calls a specimen), take each site's feedback, hand the
-assembled feedback to the session, and record everything in the bag **after** the next
-commands went out (the specimen moves while the bag is written).
+signs them, the ROS-free runner queues them for a specimen), take each site's feedback, hand
+the assembled feedback to the session, and record everything in the journal: a step's answer
+and the commands that follow it go to the operating system in one write *before* the commands
+leave (``deliver``: the node publishes them then), so the record never lags what a specimen
+was sent.
 
 Bag streams: a test without substructures records ``/pd/step_command`` and
 ``/pd/step_feedback`` exactly as before; a substructured test records each site's stream
@@ -38,19 +40,25 @@ if TYPE_CHECKING:
     from ..record.journal import RunRecorder
     from .session import TestSession
 
-__all__ = ['SendFunction', 'Sent', 'StepDispatcher', 'refuse_fresh_state']
+__all__ = ['DeliverFunction', 'SendFunction', 'Sent', 'StepDispatcher', 'refuse_fresh_state']
 
 class Sent(NamedTuple):
-    """A command as it went out: its signature and its bytes (the journal keeps them)."""
+    """A command as it goes out: its signature and its bytes (the journal keeps them)."""
 
     signature: Signature
     data: bytes
 
 
 SendFunction = Callable[[str, Command], Sent | Signature | None]
-"""``send(site, command)``: deliver a site command (publish it, or call a specimen); returns
-what it went out as (:class:`Sent`), or its signature (``None``: unsigned), which the record
-keeps with the command."""
+"""``send(site, command)``: hand over a site command (sign it, queue it for a specimen);
+returns what it goes out as (:class:`Sent`), or its signature (``None``: unsigned), which the
+record keeps with the command. A sender that transmits at once sends before the record is
+written; one that transmits given ``deliver`` (the node), or from a queue served after the
+dispatcher returns (the ROS-free runner), sends after it."""
+
+DeliverFunction = Callable[[str, Sent], None]
+"""``deliver(site, sent)``: transmit a command as :class:`Sent` returned by ``send`` (its
+bytes), once its record (and the answer before it) is with the operating system."""
 
 #: One item of a batch: a structure command and its site commands, or the feedback of a step
 #: completed at once (a fully numerical model: no site commands).
@@ -62,19 +70,23 @@ class StepDispatcher:
 
     Args:
         session: the test.
-        send: delivers one site command.
+        send: hands over one site command (signs or queues it; see :data:`SendFunction`).
         bag: where commands and feedback are recorded (``None``: not recorded): the run's
-            journal, flushed to the operating system after every step.
+            journal, written to the operating system once a step, before its commands leave.
         clock: time stamps for the bag [ns].
+        deliver: transmits what ``send`` returned as :class:`Sent`, after the record is
+            written (``None``: ``send`` transmits, or queues).
     """
 
     def __init__(self, session: TestSession, send: SendFunction,
                  bag: RunRecorder | None = None,
-                 clock: Callable[[], int] = time.time_ns) -> None:
+                 clock: Callable[[], int] = time.time_ns, *,
+                 deliver: DeliverFunction | None = None) -> None:
         self.session = session
         self.coordinator = SiteCoordinator(session.definition.model,
                                            session.definition.protocol.max_retries)
         self.send = send
+        self.deliver = deliver
         self.bag = bag
         self._clock = clock
         #: When the commands being sent left [ns]: their record's time stamp (see _send_batch).
@@ -143,16 +155,10 @@ class StepDispatcher:
         self._record_feedback(site, feedback, received, signature, stamp_ns, data)
         if assembled is not None and not passthrough:
             self._record(TOPIC_STRUCTURE_FEEDBACK, assembled, received)
-        if batch and self.bag is not None:
-            # The answer is on disk before the next command leaves: the record never lags
-            # what the specimen was sent by more than that command (which a resumed run
-            # recomputes and re-sends, and the specimen answers as a repeat).
-            self.bag.flush()
-        self._record_batch(batch, self._send_batch(batch))
-        if self.bag is not None:
-            # The next command is with the OS now too; it needs no fsync of its own (lost,
-            # the resumed run recomputes it): one fsync per step at most.
-            self.bag.flush(sync=not batch)
+        # The answer and the next commands go to the OS in one write before the commands leave
+        # (one fsync per step at most): a crash may leave a command recorded and not sent,
+        # which a resumed run re-sends as owed, never one sent and not recorded.
+        self._flush(batch)
         return verdict
 
     def on_timeout(self) -> bool:
@@ -229,20 +235,33 @@ class StepDispatcher:
         return batch
 
     def _send_batch(self, batch: list[_BatchItem]) -> list[Sent | Signature | None]:
-        """Send the batch's site commands; what each went out as, in order.
+        """Hand over the batch's site commands; what each goes out as, in order.
 
-        They are recorded at :attr:`send_stamp_ns`, taken before the first leaves: a sender that
-        stamps its messages stamps them with it (the integrator), so the record holds the bytes
-        that went out.
+        They are recorded at :attr:`send_stamp_ns`, taken before the first is handed over: a
+        sender that stamps its messages stamps them with it (the integrator), so the record
+        holds the bytes that go out.
         """
         self.send_stamp_ns = self._clock()
         return [self.send(site, site_command)
                 for _, site_commands in batch for site, site_command in site_commands]
 
     def _flush(self, batch: list[_BatchItem]) -> None:
-        self._record_batch(batch, self._send_batch(batch))
+        """Hand over the batch's commands, record them, write the record, then deliver them.
+
+        A record that cannot be written raises before anything is delivered: nothing moves
+        that the journal does not hold.
+        """
+        went = self._send_batch(batch)
+        self._record_batch(batch, went)
         if self.bag is not None:
             self.bag.flush()
+        if self.deliver is not None:
+            sites = [site for _, site_commands in batch for site, _ in site_commands]
+            for site, sent in zip(sites, went, strict=True):
+                if not isinstance(sent, Sent):  # (a sender's bug: nothing to transmit)
+                    msg = f'{site or "the site"}: send returned no bytes (Sent) to deliver'
+                    raise TypeError(msg)
+                self.deliver(site, sent)
 
     def _record_batch(self, batch: list[_BatchItem], signatures: list[Sent | Signature | None]
                       ) -> None:
