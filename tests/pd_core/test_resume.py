@@ -623,6 +623,25 @@ def test_restore_dispatcher_sets_send_deliver_and_bag_back(tmp_path: Path,
         assert journal.records == 0  # nothing recorded while restoring
 
 
+def test_restore_dispatcher_gives_its_outlets_back_after_a_record_it_refuses(
+        tmp_path: Path, reference: Any) -> None:
+    path = _altered(reference, tmp_path, 'cmd', 100, 'target_displacement', 1e-15)
+
+    def send(site: str, command: Command) -> None:
+        raise AssertionError('sent while restoring')
+
+    def deliver(site: str, sent: Any) -> None:
+        raise AssertionError('delivered while restoring')
+
+    with Journal(tmp_path / JOURNAL_FILE) as journal:
+        dispatcher = StepDispatcher(Session(reference.session.definition), send, journal,
+                                    deliver=deliver)
+        with pytest.raises(BagError, match='differs from the recomputed one'):
+            restore_dispatcher(load_run(path), dispatcher, 'killed-run')
+        assert (dispatcher.send, dispatcher.deliver, dispatcher.bag) == (send, deliver, journal)
+        assert journal.records == 0
+
+
 def test_recover_run_writes_the_outputs_so_far(tmp_path: Path, reference: Any) -> None:
     lines = journal_lines(reference.directory)
     step = 210

@@ -449,8 +449,8 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
     The recorded site feedback is fed through the whole step loop — the session, the sites'
     protocols, the numerical elements — in the recorded order, and every command the loop
     computes is checked against the recorded one; re-sent commands (a timeout, a resume) are
-    recognised as the pending ones. Nothing is sent: the dispatcher's ``send`` and ``bag`` are
-    set aside while it runs.
+    recognised as the pending ones. Nothing is sent or recorded
+    (:meth:`.StepDispatcher.replaying`).
 
     Returns:
         The site commands the restored loop still owes (pending, unanswered): what a resumed
@@ -460,15 +460,13 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
         BagError: a recomputed command differs from the recorded one.
     """
     expected: deque[tuple[str, Command]] = deque()
-    send, bag, deliver = dispatcher.send, dispatcher.bag, dispatcher.deliver
 
     def capture(site: str, command: Command) -> None:
         expected.append((site, command))
 
-    dispatcher.send, dispatcher.bag, dispatcher.deliver = capture, None, None  # nothing leaves
     structured = not dispatcher.coordinator.passthrough
     session = dispatcher.session
-    try:
+    with dispatcher.replaying(capture):  # nothing leaves, nothing is recorded
         dispatcher.start()
         for topic, _, item, _ in run.ordered:
             if topic == TOPIC_STATUS or (structured and '/structure/' in topic):
@@ -501,8 +499,6 @@ def restore_dispatcher(run: RecordedRun, dispatcher: StepDispatcher, source: str
                 raise BagError(msg)
             del expected[matches[0]]
         _apply_last_status(session, run)
-    finally:
-        dispatcher.send, dispatcher.bag, dispatcher.deliver = send, bag, deliver
     return _owed(dispatcher, list(expected))
 
 

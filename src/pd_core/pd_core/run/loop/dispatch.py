@@ -17,8 +17,9 @@ re-runs through the session.
 
 from __future__ import annotations
 
+import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, NamedTuple
 
 from pd_common.protocol import (
@@ -113,6 +114,20 @@ class StepDispatcher:
                       retries=status.retries,
                       ignored_messages=status.ignored_messages + ignored,
                       message=status.message)
+
+    @contextlib.contextmanager
+    def replaying(self, capture: Callable[[str, Command], None]) -> Iterator[None]:
+        """Nothing leaves and nothing is recorded while the loop replays a record.
+
+        ``send``, ``deliver`` and the bag are set aside (the site commands the loop computes go
+        to ``capture``) and given back afterwards, whatever happened.
+        """
+        outlets = self.send, self.deliver, self.bag
+        self.send, self.deliver, self.bag = capture, None, None
+        try:
+            yield
+        finally:
+            self.send, self.deliver, self.bag = outlets
 
     # -- commands -----------------------------------------------------------------------------
     def start(self) -> None:
