@@ -249,15 +249,15 @@ class StepDispatcher:
                 break
         return batch
 
-    def _send_batch(self, batch: list[_BatchItem]) -> list[Sent | Signature | None]:
-        """Hand over the batch's site commands; what each goes out as, in order.
+    def _send_batch(self, batch: list[_BatchItem]) -> list[tuple[str, Sent | Signature | None]]:
+        """Hand over the batch's site commands; their sites and what each goes out as.
 
         They are recorded at :attr:`send_stamp_ns`, taken before the first is handed over: a
         sender that stamps its messages stamps them with it (the integrator), so the record
         holds the bytes that go out.
         """
         self.send_stamp_ns = self._clock()
-        return [self.send(site, site_command)
+        return [(site, self.send(site, site_command))
                 for _, site_commands in batch for site, site_command in site_commands]
 
     def _flush(self, batch: list[_BatchItem]) -> None:
@@ -271,20 +271,19 @@ class StepDispatcher:
         if self.bag is not None:
             self.bag.flush()
         if self.deliver is not None:
-            sites = [site for _, site_commands in batch for site, _ in site_commands]
-            for site, sent in zip(sites, went, strict=True):
+            for site, sent in went:
                 if not isinstance(sent, Sent):  # (a sender's bug: nothing to transmit)
                     msg = f'{site or "the site"}: send returned no bytes (Sent) to deliver'
                     raise TypeError(msg)
                 self.deliver(site, sent)
 
-    def _record_batch(self, batch: list[_BatchItem], signatures: list[Sent | Signature | None]
-                      ) -> None:
+    def _record_batch(self, batch: list[_BatchItem],
+                      went: list[tuple[str, Sent | Signature | None]]) -> None:
         if self.bag is None:
             return
         t_ns = self.send_stamp_ns
         passthrough = self.coordinator.passthrough
-        sent = iter(signatures)
+        sent = iter(went)
         for item, site_commands in batch:
             if isinstance(item, Feedback):
                 self._record(TOPIC_STRUCTURE_FEEDBACK, item, t_ns)
@@ -292,12 +291,12 @@ class StepDispatcher:
             if not passthrough:
                 self._record(TOPIC_STRUCTURE_COMMAND, item, t_ns)
             for site, site_command in site_commands:
-                went = next(sent, None)
-                if isinstance(went, Sent):
-                    self._record(self._topics[site][0], site_command, t_ns, went.signature,
-                                 data=went.data)
+                _, out = next(sent)  # (in the batch's order: the same site)
+                if isinstance(out, Sent):
+                    self._record(self._topics[site][0], site_command, t_ns, out.signature,
+                                 data=out.data)
                 else:
-                    self._record(self._topics[site][0], site_command, t_ns, went)
+                    self._record(self._topics[site][0], site_command, t_ns, out)
 
     def _record_feedback(self, site: str, feedback: Feedback, t_ns: int,
                          signature: Signature | None, stamp_ns: int | None,
