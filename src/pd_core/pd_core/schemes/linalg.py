@@ -275,7 +275,14 @@ def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
     if kind == 'scalar':
         solution = np.asarray(rhs, dtype=float) / value
     elif kind == 'cholesky':
-        solution = scipy.linalg.cho_solve(value, rhs, check_finite=False)
+        c, lower = value
+        if _plain(rhs, c):  # LAPACK's solve as cho_solve calls it, without its wrappers
+            solution, info = _POTRS(c, rhs, lower=lower)
+            if info != 0:
+                msg = f'illegal value in {-info}th argument of internal potrs'
+                raise ValueError(msg)
+        else:
+            solution = scipy.linalg.cho_solve(value, rhs, check_finite=False)
     elif kind == 'diagonal':
         rhs = np.asarray(rhs, dtype=float)
         solution = rhs / (value if rhs.ndim == 1 else value[:, None])
@@ -286,6 +293,29 @@ def solve_factored(factor: tuple[str, Any], rhs: np.ndarray) -> np.ndarray:
         if info != 0:
             msg = f'tridiagonal solve failed (LAPACK info {info})'
             raise ConfigError(msg)
+    elif _plain(rhs, value[0]):  # LAPACK's solve as lu_solve calls it, without its wrappers
+        solution, info = _GETRS(value[0], value[1], rhs)
+        if info != 0:
+            msg = f'illegal value in {-info}th argument of internal gesv|posv'
+            raise ValueError(msg)
     else:
         solution = scipy.linalg.lu_solve(value, rhs, check_finite=False)
     return solution
+
+
+#: The LAPACK solves scipy's ``cho_solve`` and ``lu_solve`` call for float64 operands.
+_POTRS = scipy.linalg.lapack.dpotrs
+_GETRS = scipy.linalg.lapack.dgetrs
+
+
+def _plain(rhs: Any, factor: Any) -> bool:
+    """Whether ``rhs`` and ``factor`` are what scipy would hand LAPACK's float64 solve as they are.
+
+    A non-empty float64 vector or matrix of the factor's rows against a float64 factor: scipy's
+    ``cho_solve``/``lu_solve`` would pick ``dpotrs``/``dgetrs`` and pass both unchanged (the
+    same floats, a few microseconds of checks and batch handling less a solve). Anything else
+    goes through scipy.
+    """
+    return (type(rhs) is np.ndarray and rhs.dtype == np.float64 and 0 < rhs.ndim <= 2
+            and rhs.size > 0 and type(factor) is np.ndarray and factor.dtype == np.float64
+            and factor.ndim == 2 and rhs.shape[0] == factor.shape[0])
