@@ -19,6 +19,7 @@ from pd_common.protocol import Command, Feedback, FeedbackStatus
 from pd_common.protocol import TestState as State
 from pd_core.errors import ConfigError
 from pd_core.model.setups import OneToOneSetup, RigidLinkTwoActuators, setup_from_config
+from pd_core.model.substructure import NonlinearSpring
 from pd_core.run.loop.coordinator import SiteCoordinator
 from pd_core.run.loop.dispatch import StepDispatcher
 from pd_core.run.loop.protocol import Verdict
@@ -556,3 +557,28 @@ def test_numerical_springs_trial_from_the_committed_state_and_commit_with_the_st
     assert force(2, 1, 2.5) == 1.0
     sites.commit()  # committed at 2.5: 1.5 of plastic deformation
     assert force(3, 0, 1.5) == 0.0
+
+
+@pytest.mark.parametrize(('dofs', 'relative'), [
+    ([0, 2], [-1, 1]),  # one grounded basic DOF, one relative to DOF 1
+    ([1], [-1]),  # grounded
+    ([2, 2, 0], [1, 1, -1]),  # a DOF twice: each force added, as np.add.at adds it
+    ([0, 1], [3, 3]),  # two basic DOFs relative to the same DOF
+])
+def test_an_elements_ends_gather_and_scatter_as_the_index_arithmetic_says(
+        dofs: list[int], relative: list[int]) -> None:
+    """``basic = x[dofs] - x[relative]`` (0 for the ground); the forces go back with signs."""
+    spring = NonlinearSpring(dofs=np.array(dofs), relative=np.array(relative))
+    x = np.array([0.1, -0.7, 2.3, 0.45])
+    expected = [x[d] - (x[r] if r >= 0 else 0.0) for d, r in zip(dofs, relative, strict=True)]
+    assert spring.basic(x).tolist() == expected
+    force = np.array([3.0, -5.5, 7.25])[:len(dofs)]
+    into = np.array([1.0, 2.0, 4.0, 8.0])
+    spring.scatter(force, into)
+    reference = np.array([1.0, 2.0, 4.0, 8.0])
+    for f, d in zip(force, dofs, strict=True):
+        reference[d] += f
+    for f, r in zip(force, relative, strict=True):
+        if r >= 0:
+            reference[r] -= f
+    assert into.tolist() == reference.tolist()

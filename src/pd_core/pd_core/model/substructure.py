@@ -40,6 +40,11 @@ __all__ = [
     'StructuralModel',
 ]
 
+def _distinct(index: NDArray[np.intp]) -> bool:
+    """Whether no index appears twice."""
+    return len(set(index.tolist())) == index.size
+
+
 @dataclass
 class _TwoEnded:
     """Element DOFs ``x[dofs] - x[relative]`` (a relative index of −1 means the ground)."""
@@ -47,20 +52,37 @@ class _TwoEnded:
     dofs: NDArray[np.intp]
     relative: NDArray[np.intp]
 
+    def __post_init__(self) -> None:
+        """Index the element's two ends once (its DOFs are fixed when it is made)."""
+        relative = np.asarray(self.relative)
+        linked = relative >= 0  # a basic DOF relative to another DOF (else to the ground)
+        #: Where a basic DOF has another end: the mask, the other ends for ``x`` and for
+        #: ``scatter`` (``None``: every basic DOF is grounded).
+        self._linked: NDArray[np.bool_] | None = linked if linked.any() else None
+        self._other_end = np.maximum(relative, 0)
+        self._linked_dofs = relative[linked]
+        # Distinct indices: ``into[i] += f`` adds each force once, as ``np.add.at`` does.
+        self._distinct = (_distinct(np.asarray(self.dofs))
+                          and _distinct(self._linked_dofs))
+
     def basic(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Basic displacements of the element."""
         values = x[self.dofs]
-        grounded = self.relative >= 0
-        if grounded.any():
-            values = values - np.where(grounded, x[np.maximum(self.relative, 0)], 0.0)
+        if self._linked is not None:
+            values = values - np.where(self._linked, x[self._other_end], 0.0)
         return values
 
     def scatter(self, force: np.ndarray, into: np.ndarray) -> None:
         """Add the element's basic forces to the structure force vector ``into``."""
+        linked = self._linked
+        if self._distinct:
+            into[self.dofs] += force
+            if linked is not None:
+                into[self._linked_dofs] += -force[linked]
+            return
         np.add.at(into, self.dofs, force)
-        grounded = self.relative >= 0
-        if grounded.any():
-            np.add.at(into, self.relative[grounded], -force[grounded])
+        if linked is not None:
+            np.add.at(into, self._linked_dofs, -force[linked])
 
     def matrix(self, n: int) -> np.ndarray:
         """``B`` with ``basic = B x`` (dense, ``n_basic × n``)."""
@@ -125,6 +147,7 @@ class ExperimentalElement(_TwoEnded):
 
     def __post_init__(self) -> None:
         """Index the basic DOFs; nothing measured yet."""
+        super().__post_init__()
         n_basic = self.setup.n_basic if self.setup is not None else int(self.dofs.size)
         n_act = self.setup.n_actuators if self.setup is not None else int(self.dofs.size)
         index = (np.arange(self.dofs.size, dtype=np.intp) if self.basic_index is None
@@ -134,6 +157,7 @@ class ExperimentalElement(_TwoEnded):
             [i for i in range(n_basic) if i not in set(index.tolist())], dtype=np.intp)
         forced = [c.force_controlled for c in self.control] if self.control else []
         self._forced: NDArray[np.bool_] = np.array(forced or [False] * n_act, dtype=bool)
+        self._mixed = bool(self._forced.any())
         # What the site measured last (the free DOFs' displacement, the force-controlled
         # actuators' strokes): 0 until the first answer.
         self.measured_basic: NDArray[np.float64] = np.zeros(n_basic)
@@ -142,7 +166,7 @@ class ExperimentalElement(_TwoEnded):
     @property
     def mixed(self) -> bool:
         """Whether some actuator of the element is force-controlled."""
-        return bool(self._forced.any())
+        return self._mixed
 
     @property
     def free_index(self) -> NDArray[np.intp]:
@@ -232,6 +256,11 @@ class StructuralModel:
         for element in self.experimental:
             sites.setdefault(element.site, []).append(element)
         self.sites: dict[str, list[ExperimentalElement]] = sites
+        self._actuator_names = {
+            site: tuple(name for element in elements for name in element.actuator_names)
+            for site, elements in sites.items()}
+        self._site_mixed = {site: any(element.mixed for element in elements)
+                            for site, elements in sites.items()}
         self._has_linear = bool(_nnz(self.linear_stiffness))
         # A large tridiagonal CSR stiffness (a shear building) multiplies by its bands: the
         # floats of the CSR product at about half its cost.
@@ -250,7 +279,7 @@ class StructuralModel:
 
     def actuator_names(self, site: str) -> tuple[str, ...]:
         """The actuator DOF names of ``site`` (the DOF names of its commands)."""
-        return tuple(name for element in self.sites[site] for name in element.actuator_names)
+        return self._actuator_names[site]
 
     def initial_stiffness(self) -> np.ndarray:
         """Dense initial stiffness: linear part + springs' and experimental elements' initial."""
@@ -295,7 +324,7 @@ class StructuralModel:
 
     def site_mixed(self, site: str) -> bool:
         """Whether some actuator of ``site`` is force-controlled."""
-        return any(element.mixed for element in self.sites[site])
+        return self._site_mixed[site]
 
     def site_command(self, site: str, x: np.ndarray, time: float
                      ) -> tuple[np.ndarray, tuple[int, ...], tuple[float, ...],

@@ -31,10 +31,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pd_common.protocol import DEFAULT_SITE, Command, Feedback, FeedbackStatus
+from pd_common.protocol import DEFAULT_SITE, Command, Feedback, FeedbackStatus, command_of
 
 from ...errors import ProtocolError
 from .protocol import StepProtocol, Verdict
+
+#: Up to this many DOFs the structure feedback holds tuples, beyond it read-only arrays.
+SMALL_MODEL_DOF = 16
 
 if TYPE_CHECKING:
     from ...model.substructure import StructuralModel
@@ -92,12 +95,9 @@ class SiteCoordinator:
         for site in self.sites:
             targets, modes, forces, basics[site] = model.site_command(site, x,
                                                                       command.test_time)
-            site_command = Command(test_id=command.test_id, step=command.step,
-                                   test_time=command.test_time,
-                                   dof_names=model.actuator_names(site),
-                                   target_displacement=tuple(targets.tolist()),
-                                   iteration=command.iteration, control_mode=modes,
-                                   target_force=forces)
+            site_command = command_of(command.test_id, command.step, command.test_time,
+                                      model.actuator_names(site), tuple(targets.tolist()),
+                                      command.iteration, modes, forces)
             protocol = self.protocols[site]
             protocol.pending = None  # a new structure step supersedes anything still owed
             protocol.send(site_command)
@@ -191,6 +191,13 @@ class SiteCoordinator:
                                     pending.x, force, measured)
         command = pending.command
         self._pending = None
+        if measured.size <= SMALL_MODEL_DOF:
+            # Tuples of a few floats: the session checks them, the journal encodes them by
+            # their shape's layout, faster than as arrays.
+            return Feedback(test_id=command.test_id, step=command.step,
+                            iteration=command.iteration,
+                            measured_displacement=tuple(measured.tolist()),
+                            restoring_force=tuple(force.tolist()))
         # Read-only arrays rather than tuples: a large model then skips two conversions of
         # every DOF per step (the session, the history and the bag take any float sequence).
         measured.setflags(write=False)
