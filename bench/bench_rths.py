@@ -184,7 +184,9 @@ def _line(label: str, values: dict[str, Any]) -> str:
             f'{values["tick_p50_us"]:.1f}/{values["tick_p99_us"]:.1f}/'
             f'{values["tick_max_us"]:.0f} µs  step p50/p99/max {values["step_p50_ms"]:.3f}/'
             f'{values["step_p99_ms"]:.3f}/{values["step_max_ms"]:.2f} ms '
-            f'(nominal {values["nominal_step_ms"]:.3f})')
+            f'(nominal {values["nominal_step_ms"]:.3f})  target latency p50/p99 '
+            f'{values.get("target_latency_p50_us", float("nan")):.0f}/'
+            f'{values.get("target_latency_p99_us", float("nan")):.0f} µs')
 
 
 def main() -> None:

@@ -103,6 +103,34 @@ def test_a_stall_longer_than_a_period_is_one_missed_deadline(stall_periods: floa
     assert statistics.ticks == 200  # re-anchored: the missed ticks are not run in a burst
 
 
+def test_the_target_latency_is_the_time_from_a_measurement_to_the_next_target() -> None:
+    """The integrator's round trip as the actuator sees it: each step's reply delay, measured."""
+    clock = FakeClock()
+    loop = loop_with(clock)
+    delays = [0.0, 0.3, 0.6]  # periods the integrator takes, in turn
+
+    def on_measurement(measurement: ContinuousMeasurement) -> None:
+        clock.now += delays[measurement.step % 3] * PERIOD
+        loop.set_next_target(target(measurement.step + 1))
+
+    loop.on_measurement = on_measurement
+    loop.set_next_target(target(1))  # before the ticking: no measurement to wait for
+    loop.run(ticks=120)  # 30 steps, 30 replies (the last one's step not ticked yet)
+    statistics = loop.statistics()
+    assert statistics.steps == 30
+    # Ten replies of each delay, each a few readings of the fake clock (0.1 µs) longer.
+    assert statistics.target_latency_p50_us == pytest.approx(0.3 * PERIOD * 1e6, abs=1.0)
+    assert statistics.target_latency_max_us == pytest.approx(0.6 * PERIOD * 1e6, abs=1.0)
+    assert statistics.target_latency_p99_us <= statistics.target_latency_max_us
+    assert statistics.slowdown_fraction == 0.0  # 0.6 of a period is early enough
+
+
+def test_no_target_latency_without_a_measured_step() -> None:
+    loop = loop_with(FakeClock())
+    loop.set_next_target(target(1))
+    assert math.isnan(loop.statistics().target_latency_p50_us)
+
+
 def test_a_missing_target_slows_the_actuator_down_to_a_hold() -> None:
     clock = FakeClock()
     loop = loop_with(clock)

@@ -14,8 +14,10 @@ and the deadlines are re-anchored on that tick (the controller does not run the 
 missed in a burst: the actuator's time falls behind the wall clock by the stall). The
 statistics (:class:`RealtimeStatistics`): ticks, missed deadlines, the largest lateness, the
 actuator's slow-down counters (:class:`~.continuous.ActuatorCounters`), and percentiles of
-the tick time (the duration of :meth:`~.continuous.ContinuousActuator.tick`) and of the step
-time (the wall time between two completed steps; the first from the start of the ticking).
+the tick time (the duration of :meth:`~.continuous.ContinuousActuator.tick`), of the step
+time (the wall time between two completed steps; the first from the start of the ticking) and
+of the target latency (from a step's measurement, at the end of its tick, to the next step's
+target: the integrator's round trip as the actuator sees it).
 
 The clock and the sleep are injected: a fake clock makes every count exact in tests.
 """
@@ -56,6 +58,8 @@ class RealtimeStatistics:
         slowed_samples, held_samples, predicted_samples, slowdowns: The actuator's counters.
         tick_p50_us, tick_p99_us, tick_max_us: Tick time percentiles, µs.
         step_p50_ms, step_p99_ms, step_max_ms: Step time percentiles, ms.
+        target_latency_p50_us, target_latency_p99_us, target_latency_max_us: Percentiles of
+            the time from a step's measurement to the next step's target, µs (NaN: none).
         nominal_step_ms: Δt_int, ms (what a step takes when every deadline is kept).
     """
 
@@ -76,6 +80,9 @@ class RealtimeStatistics:
     step_p99_ms: float
     step_max_ms: float
     nominal_step_ms: float
+    target_latency_p50_us: float = math.nan
+    target_latency_p99_us: float = math.nan
+    target_latency_max_us: float = math.nan
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as a JSON-ready mapping."""
@@ -135,6 +142,8 @@ class RealtimeLoop:
         self.max_lateness = 0.0
         self._tick_times: array[float] = array('d')
         self._step_times: array[float] = array('d')
+        self._latencies: array[float] = array('d')
+        self._measured_at: float | None = None  # a step measured, the next target awaited
 
     # -- targets -------------------------------------------------------------------------------
     def set_next_target(self, target: float) -> None:
@@ -145,6 +154,10 @@ class RealtimeLoop:
         """
         with self._lock:
             self.actuator.set_next_target(target)
+            measured_at = self._measured_at
+            if measured_at is not None:
+                self._latencies.append(self._clock() - measured_at)
+                self._measured_at = None
 
     # -- the loop ------------------------------------------------------------------------------
     @property
@@ -196,6 +209,7 @@ class RealtimeLoop:
                     if measurement is not None:
                         step_times.append(end - last_step)
                         last_step = end
+                        self._measured_at = end
                 count += 1
                 deadline += period
                 if measurement is not None:
@@ -240,9 +254,11 @@ class RealtimeLoop:
         with self._lock:  # a snapshot: the ticking thread appends under the lock
             counters = replace(self.actuator.counters)
             tick_times, step_times = array('d', self._tick_times), array('d', self._step_times)
+            latencies = array('d', self._latencies)
             ticks, missed, lateness = self.ticks, self.missed_deadlines, self.max_lateness
         tick = _percentiles(tick_times, 1.0e6)
         step = _percentiles(step_times, 1.0e3)
+        latency = _percentiles(latencies, 1.0e6)
         return RealtimeStatistics(
             controller_rate=1.0 / self.period, ticks=ticks, steps=len(step_times),
             missed_deadlines=missed, max_lateness_us=lateness * 1.0e6,
@@ -251,4 +267,6 @@ class RealtimeLoop:
             predicted_samples=counters.predicted_samples, slowdowns=counters.slowdowns,
             tick_p50_us=tick[0], tick_p99_us=tick[1], tick_max_us=tick[2],
             step_p50_ms=step[0], step_p99_ms=step[1], step_max_ms=step[2],
-            nominal_step_ms=self.actuator.integration_dt * 1.0e3)
+            nominal_step_ms=self.actuator.integration_dt * 1.0e3,
+            target_latency_p50_us=latency[0], target_latency_p99_us=latency[1],
+            target_latency_max_us=latency[2])
