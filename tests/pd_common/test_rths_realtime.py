@@ -7,13 +7,14 @@ the counts exact: no test depends on the machine's timing.
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import pytest
 
 from pd_common.errors import RthsError
 from pd_common.rths import ContinuousActuator, ContinuousMeasurement, continuous_from_config
-from pd_common.rths.realtime import RealtimeLoop
+from pd_common.rths.realtime import TIMER_SLACK, RealtimeLoop, set_timer_slack
 
 RATE = 4096.0
 DT = 4.0 / RATE  # four ticks a step
@@ -179,3 +180,27 @@ def test_start_and_stop_a_ticking_thread() -> None:
 def test_a_bad_spin_is_refused() -> None:
     with pytest.raises(RthsError, match='realtime spin'):
         RealtimeLoop(actuator(), spin=-1.0)
+
+
+@pytest.mark.skipif(not sys.platform.startswith('linux'), reason='prctl timer slack: Linux')
+def test_the_ticking_thread_sleeps_with_a_fine_timer_slack_and_gives_its_own_back() -> None:
+    """While ticking, its sleeps may end 1 µs late (not 50 µs); afterwards, as before."""
+    was = set_timer_slack(37e-6)  # this thread's, as a caller might have set it
+    assert was is not None
+    seen: list[float | None] = []
+
+    def sleep(seconds: float) -> None:
+        probe = set_timer_slack(1e-6)  # reads the slack in force (and sets the same again)
+        seen.append(probe)
+
+    loop = RealtimeLoop(actuator(), sleep=sleep)
+    loop.set_next_target(target(1))
+    loop.run(ticks=3)
+    assert seen and all(value == pytest.approx(TIMER_SLACK) for value in seen)
+    assert set_timer_slack(was) == pytest.approx(37e-6)  # given back after the ticks
+    untouched = RealtimeLoop(actuator(), sleep=sleep, timer_slack=None)
+    set_timer_slack(37e-6)
+    seen.clear()
+    untouched.run(ticks=3)
+    assert seen and seen[0] == pytest.approx(37e-6)
+    set_timer_slack(was)

@@ -382,7 +382,8 @@ def _report_realtime(plan: LaunchPlan) -> None:
         print(f'run_test: {site} in real time: {stats.get("ticks")} ticks, '
               f'{stats.get("missed_deadlines")} missed deadlines, slowed '
               f'{100.0 * float(stats.get("slowdown_fraction") or 0.0):.1f} % of the ticks, '
-              f'step p99 {_number(stats.get("step_p99_ms"), ".2f")} ms', flush=True)
+              f'step p99 {_number(stats.get("step_p99_ms"), ".2f")} ms, target latency p99 '
+              f'{_number(stats.get("target_latency_p99_us"), ".0f")} µs', flush=True)
 
 
 def _number(value: Any, spec: str) -> str:

@@ -3,7 +3,10 @@
 :class:`RealtimeLoop` calls :meth:`~.continuous.ContinuousActuator.tick` once per controller
 period, tick ``k`` due at ``t_0 + k / rate`` on a monotonic clock (``time.perf_counter``).
 It sleeps until ``spin`` seconds before the deadline, then spins on the clock (``sleep`` is
-coarse; spinning alone would hold the GIL that the thread delivering the targets needs). The
+coarse; spinning alone would hold the GIL that the thread delivering the targets needs). On
+Linux the ticking thread's timer slack is set to ``timer_slack`` while it ticks (``prctl``; the
+kernel's default lets a sleep end up to 50 µs late), so a short spin suffices and the GIL is
+free for the rest of the period. The
 targets arrive from another thread or callback (:meth:`RealtimeLoop.set_next_target`); while
 a step's target is missing the actuator follows the predictor and slows down smoothly
 (:mod:`.continuous`). The measurement of a completed step goes to ``on_measurement``, called
@@ -24,6 +27,7 @@ The clock and the sleep are injected: a fake clock makes every count exact in te
 
 from __future__ import annotations
 
+import ctypes
 import math
 import sys
 import threading
@@ -38,7 +42,32 @@ import numpy as np
 from ..errors import RthsError
 from .continuous import ContinuousActuator, ContinuousMeasurement
 
-__all__ = ['RealtimeLoop', 'RealtimeStatistics']
+__all__ = ['TIMER_SLACK', 'RealtimeLoop', 'RealtimeStatistics', 'set_timer_slack']
+
+#: The ticking thread's timer slack, s: a sleep ends within about a microsecond of its time
+#: (plus the machine's wake-up latency) instead of the kernel's default 50 µs.
+TIMER_SLACK = 1.0e-6
+_PR_SET_TIMERSLACK, _PR_GET_TIMERSLACK = 29, 30  # <linux/prctl.h>
+
+
+def set_timer_slack(seconds: float) -> float | None:
+    """Set the calling thread's timer slack; the one it had, s (``None``: not set, not Linux).
+
+    The slack is how much later than asked the kernel may end the thread's sleeps (it groups
+    wake-ups to save power; 50 µs by default). ``seconds`` is rounded to whole nanoseconds,
+    at least one (0 would restore the thread's default).
+    """
+    if not sys.platform.startswith('linux'):
+        return None
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    was = int(prctl(_PR_GET_TIMERSLACK, 0, 0, 0, 0))
+    if was < 0 or prctl(_PR_SET_TIMERSLACK, max(1, round(seconds * 1e9)), 0, 0, 0) != 0:
+        return None
+    return was * 1e-9
+
 
 MeasurementHandler = Callable[[ContinuousMeasurement], None]
 """``handler(measurement)``: a step completed (called in the ticking thread)."""
@@ -110,6 +139,8 @@ class RealtimeLoop:
             (``sys.setswitchinterval``: a thread holding the GIL gives it up after that
             long; the default 5 ms would let the ROS thread delay many ticks); ``None``:
             leave it.
+        timer_slack: The ticking thread's timer slack while it ticks, s (how late the kernel
+            may end a sleep; Linux only); ``None``: leave it.
 
     Raises:
         RthsError: ``spin`` negative.
@@ -119,7 +150,8 @@ class RealtimeLoop:
                  on_measurement: MeasurementHandler | None = None,
                  clock: Callable[[], float] = time.perf_counter,
                  sleep: Callable[[float], None] = time.sleep, spin: float = 1.0e-4,
-                 switch_interval: float | None = None) -> None:
+                 switch_interval: float | None = None,
+                 timer_slack: float | None = TIMER_SLACK) -> None:
         """Build the loop (not ticking)."""
         if not (math.isfinite(spin) and spin >= 0.0):
             msg = f'realtime spin: must be a number of seconds >= 0, got {spin!r}'
@@ -133,6 +165,7 @@ class RealtimeLoop:
         self._sleep = sleep
         self._spin = float(spin)
         self._switch_interval = switch_interval
+        self._timer_slack = timer_slack
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -184,6 +217,7 @@ class RealtimeLoop:
         previous = sys.getswitchinterval()
         if self._switch_interval is not None:
             sys.setswitchinterval(self._switch_interval)
+        slack = None if self._timer_slack is None else set_timer_slack(self._timer_slack)
         try:
             deadline = clock()
             last_step = deadline
@@ -219,6 +253,8 @@ class RealtimeLoop:
         finally:
             if self._switch_interval is not None:
                 sys.setswitchinterval(previous)
+            if slack is not None:
+                set_timer_slack(slack)
 
     def start(self) -> None:
         """Start ticking in a daemon thread (nothing if it runs already)."""

@@ -63,6 +63,10 @@ _TEST_ID = 'bridge'
 #: The interpreter's thread switch interval while ticking in real time, s (the default 5 ms
 #: would let the node's executor thread hold the GIL over many controller periods).
 SWITCH_INTERVAL = 2.0e-4
+#: Seconds before a tick's deadline at which the ticking thread stops sleeping and spins
+#: (holding the GIL): short, as its sleeps end on time (the loop's timer slack), so that the
+#: executor thread that takes the next target is not kept waiting for the GIL.
+SPIN = 2.0e-5
 
 
 def _key(step: StepId) -> tuple[int, int]:
@@ -118,7 +122,7 @@ class TransferSystemDriver(ActuatorDriver):
         self.loop: RealtimeLoop | None = None
         if clock == 'realtime':
             self.loop = loop if loop is not None else RealtimeLoop(
-                server.actuator, switch_interval=SWITCH_INTERVAL)
+                server.actuator, switch_interval=SWITCH_INTERVAL, spin=SPIN)
             self.loop.on_measurement = self._on_realtime_measurement
             self.loop.on_error = self._on_realtime_error
         self._lock = threading.Lock()
