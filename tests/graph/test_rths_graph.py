@@ -12,7 +12,9 @@ against the wall clock and reports its deadlines.
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -27,6 +29,7 @@ from pd_common.rths import (
     BENCHMARK_SPECIMEN,
 )
 from pd_core.dynamics.record_readers import read_ground_motion
+from pd_core.run.record.outputs import read_response_csv
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
 from pd_rths_benchmark.core.native_loop import native_test_file
@@ -97,16 +100,34 @@ def test_benchmark_through_the_bridge_equals_the_ros_free_run(
 
 
 def test_benchmark_in_wall_clock_time_through_the_bridge(
-        processes: Processes, tmp_path: Path) -> None:
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
     """``clock: realtime``: the bridge ticks the actuator at 4096 Hz against the wall clock and
     reports its deadlines, which run_test adds to summary.json (no timing is asserted: the
-    machine decides)."""
+    machine decides). The tracking monitor runs on every step (its messages go out only
+    while someone subscribes): the last sample an observer gets is the run's tracking.csv."""
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64MultiArray
+
+    received: list[Any] = []
+    observer.create_subscription(
+        Float64MultiArray, '/pd/lab1/monitor/tracking', received.append,
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                   reliability=ReliabilityPolicy.RELIABLE))
     test_file = benchmark_file(tmp_path / 'vrths-rt.yaml', clock='realtime', seconds=1.0)
     out = tmp_path / 'graph'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'bridge',
                                                     '--out', str(out), '--no-figures'])
-    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    deadline = time.monotonic() + RUN_TIMEOUT
+    while launcher.poll() is None and time.monotonic() < deadline:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    code = wait_exit(launcher, 1.0, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
+    for _ in range(20):  # the last samples may still be on their way
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    tracking = read_response_csv(out / 'tracking.csv')
+    assert len(received) >= 100, len(received)  # (the observer may miss the first steps)
+    assert list(received[-1].data) == pytest.approx(
+        [tracking['error_x1'][-1], tracking['indicator_x1'][-1]], rel=1e-12, abs=1e-20)
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'finished'
     report = json.loads((out / 'rths-lab1.json').read_text(encoding='utf-8'))

@@ -24,7 +24,8 @@ Tracking monitor: for every step answered OK, ``monitor/tracking`` (``/pd/monito
 DOF followed by the running tracking indicator [m²] of each DOF (positive = energy removed,
 negative = energy added; :class:`pd_common.experimental.TrackingMonitor`, restarted for each
 test id). The integrator's outputs rebuild the same values from the bag
-(``tracking.csv``); this topic is for watching a test while it runs.
+(``tracking.csv``); this topic is for watching a test while it runs, published while
+something subscribes to it (the indicator runs on every step regardless).
 
 Emergency stop, from any state, latched until ``reset_emergency_stop``: a message on the
 ``bridge/emergency_stop`` topic (``std_msgs/String``, the reason) or on the lab-wide
@@ -249,6 +250,7 @@ class ActuatorBridgeNode(LifecycleNode):
         self._monitor_pub: Any = self.create_publisher(Float64MultiArray, 'monitor/tracking',
                                                        MONITOR_QOS)
         self._monitor: TrackingMonitor | None = None
+        self._monitor_message = Float64MultiArray()  # its layout set for each test
         self._monitor_key: tuple[str, int] | None = None  # (test id, DOF count) monitored
         self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
@@ -560,6 +562,9 @@ class ActuatorBridgeNode(LifecycleNode):
         """
         if self._feedback_pub is None:
             return
+        # The command answered, read before the answer goes out: in real time the driver's
+        # ticking thread answers, and the next command may arrive before the monitor runs.
+        target = self._target
         driver = self.driver
         feedback = amended(
             reply, test_id=untag(reply.test_id),
@@ -573,7 +578,7 @@ class ActuatorBridgeNode(LifecycleNode):
             self.receiver.epoch, self.receiver.origin = feedback.epoch, feedback.state_origin
         if reply.status is FeedbackStatus.OK and self._monitor_pub is not None:
             try:
-                self._publish_monitor(reply)
+                self._publish_monitor(reply, target)
             except Exception as err:  # noqa: BLE001 - a monitor must never stop the bridge
                 self.get_logger().error(f'tracking monitor disabled: {err!r}')
                 self._monitor_pub = None
@@ -583,9 +588,12 @@ class ActuatorBridgeNode(LifecycleNode):
         elif reply.status is not FeedbackStatus.OK:
             self.publish_status(TestStatus.STATE_HOLDING, reply.message)
 
-    def _publish_monitor(self, reply: Feedback) -> None:
-        """Add an answered step to the tracking monitor and publish its error and indicator."""
-        target = self._target
+    def _publish_monitor(self, reply: Feedback,
+                         target: tuple[str, Any, tuple[float, ...]] | None) -> None:
+        """Add an answered step to the tracking monitor and publish its error and indicator.
+
+        ``target``: the command it answers (run, step key, target displacement).
+        """
         key = reply.key
         if target is None or (target[0], target[1]) != (reply.test_id, key):
             return
@@ -595,16 +603,20 @@ class ActuatorBridgeNode(LifecycleNode):
         if self._monitor is None or self._monitor_key != (reply.test_id, n):
             self._monitor = TrackingMonitor(n, keep_history=False)  # a new test: a new indicator
             self._monitor_key = (reply.test_id, n)
+            self._monitor_message.layout.dim = [
+                MultiArrayDimension(label='error[m],indicator[m2]', size=2, stride=2 * n),
+                MultiArrayDimension(label='dof', size=n, stride=n),
+            ]
         try:
             sample = self._monitor.update(target[2], reply.measured_displacement)
         except ValueError:
             return  # a malformed measurement: the bridge's own checks report it
         self._monitored = (reply.test_id, key)
-        message = Float64MultiArray()
-        message.layout.dim = [
-            MultiArrayDimension(label='error[m],indicator[m2]', size=2, stride=2 * n),
-            MultiArrayDimension(label='dof', size=n, stride=n),
-        ]
+        # The indicator runs on every step; the message is made only for someone to read it
+        # (a message object costs the step loop ~100 us: the real-time loop feels it).
+        if self._monitor_pub.get_subscription_count() == 0:
+            return
+        message = self._monitor_message
         message.data = [*sample.error.tolist(), *sample.indicator.tolist()]
         self._monitor_pub.publish(message)
 

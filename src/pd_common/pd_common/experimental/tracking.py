@@ -227,7 +227,7 @@ def _vector(values: Any, what: str, n: int) -> FloatArray:
     if vector.size != n:
         msg = f'{what} has {vector.size} values, expected {n}'
         raise ValueError(msg)
-    if not np.all(np.isfinite(vector)):
+    if not np.isfinite(vector).all():
         msg = f'non-finite {what}: {vector.tolist()}'
         raise ValueError(msg)
     return vector
