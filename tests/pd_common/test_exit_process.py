@@ -149,3 +149,28 @@ def test_a_teardown_that_holds_the_gil_still_ends(tmp_path: Path) -> None:
     assert result.returncode == -signal.SIGALRM, result.stderr
     assert time.monotonic() - start < 30.0
     assert 'after run_node' not in result.stdout
+
+
+def test_settle_collector_freezes_what_is_alive_and_still_collects_what_comes_after(
+        tmp_path: Path) -> None:
+    """A node process's start-up is collected once and frozen (a full pass of the collector
+    no longer walks it); cycles made while the test steps are still collected."""
+    result = _run('''
+        import gc, weakref
+        from pd_common.ros import settle_collector
+
+        class Part:
+            pass
+
+        before = Part(); before.me = before; gone_before = weakref.ref(before); del before
+        kept = [Part() for _ in range(1000)]
+        settle_collector()
+        assert gone_before() is None, 'the garbage of the start-up was not collected'
+        assert gc.get_freeze_count() >= 1000, gc.get_freeze_count()
+        after = Part(); after.me = after; gone_after = weakref.ref(after); del after
+        gc.collect()
+        assert gone_after() is None, 'a cycle made after the freeze was not collected'
+        print('settled', len(kept))
+    ''', tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == 'settled 1000'

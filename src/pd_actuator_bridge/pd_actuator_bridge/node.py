@@ -135,6 +135,7 @@ from pd_common.ros import (
     new_epoch,
     now_stamp,
     run_node,
+    settle_collector,
     spin_until_shutdown,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
@@ -368,6 +369,7 @@ class ActuatorBridgeNode(LifecycleNode):
             self.publish_status(TestStatus.STATE_HOLDING, f'{text}; holding: {latched}')
         else:
             self.publish_status(TestStatus.STATE_RUNNING, text)
+        settle_collector()  # what configure built (the driver) is not walked again in motion
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:

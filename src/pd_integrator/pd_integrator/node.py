@@ -80,6 +80,7 @@ from pd_common.ros import (
     now_stamp,
     read_status,
     run_node,
+    settle_collector,
 )
 from pd_common.signals import StopFlag
 from pd_core.errors import BagError, IntegratorError, PdIntegratorError
@@ -535,6 +536,7 @@ class IntegratorNode(Node):
             self._figure_worker = FigureWorker.start()
         self.meter = ProgressMeter(self.session.total_steps, self.meter.interval,
                                    first_step=max(self.session.committed_step, 0))
+        settle_collector()  # what the set-up made is not walked again while the test steps
         if self.record is None:
             self.dispatcher.start()
         else:

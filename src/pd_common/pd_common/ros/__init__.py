@@ -15,6 +15,7 @@ from .executor import (
     exit_process,
     init_with_stop_flag,
     run_node,
+    settle_collector,
     spin_until_shutdown,
 )
 from .keys import declare_key
@@ -67,6 +68,7 @@ __all__ = [
     'read_status',
     'repeat_emergency_stop',
     'run_node',
+    'settle_collector',
     'settle_listeners',
     'signed_control',
     'spin_until_shutdown',
