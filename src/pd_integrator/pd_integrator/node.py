@@ -529,6 +529,7 @@ class IntegratorNode(Node):
 
     def start(self) -> None:
         """Send the first command (a resumed run: check the sites, then what it owes)."""
+        settle_collector()  # what the set-up made is not walked again while the test steps
         self._started = time.perf_counter()
         if self.figures and self._figure_worker is None:
             # Prepares (imports matplotlib) at a low priority while the test runs, and draws
@@ -536,7 +537,6 @@ class IntegratorNode(Node):
             self._figure_worker = FigureWorker.start()
         self.meter = ProgressMeter(self.session.total_steps, self.meter.interval,
                                    first_step=max(self.session.committed_step, 0))
-        settle_collector()  # what the set-up made is not walked again while the test steps
         if self.record is None:
             self.dispatcher.start()
         else:
