@@ -182,6 +182,12 @@ def test_a_bad_spin_is_refused() -> None:
         RealtimeLoop(actuator(), spin=-1.0)
 
 
+@pytest.mark.parametrize('slack', [-1e-6, math.nan, math.inf])
+def test_a_bad_timer_slack_is_refused(slack: float) -> None:
+    with pytest.raises(RthsError, match='realtime timer_slack'):
+        RealtimeLoop(actuator(), timer_slack=slack)
+
+
 @pytest.mark.skipif(not sys.platform.startswith('linux'), reason='prctl timer slack: Linux')
 def test_the_ticking_thread_sleeps_with_a_fine_timer_slack_and_gives_its_own_back() -> None:
     """While ticking, its sleeps may end 1 µs late (not 50 µs); afterwards, as before."""

@@ -143,7 +143,7 @@ class RealtimeLoop:
             may end a sleep; Linux only); ``None``: leave it.
 
     Raises:
-        RthsError: ``spin`` negative.
+        RthsError: ``spin`` or ``timer_slack`` negative or not a number.
     """
 
     def __init__(self, actuator: ContinuousActuator, *,
@@ -155,6 +155,9 @@ class RealtimeLoop:
         """Build the loop (not ticking)."""
         if not (math.isfinite(spin) and spin >= 0.0):
             msg = f'realtime spin: must be a number of seconds >= 0, got {spin!r}'
+            raise RthsError(msg)
+        if timer_slack is not None and not (math.isfinite(timer_slack) and timer_slack >= 0.0):
+            msg = f'realtime timer_slack: must be a number of seconds >= 0, got {timer_slack!r}'
             raise RthsError(msg)
         self.actuator = actuator
         self.on_measurement = on_measurement
