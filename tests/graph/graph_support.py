@@ -96,13 +96,15 @@ def shm_segments() -> set[str]:
     return {path.name for path in shm.glob('fastdds_*')} if shm.is_dir() else set()
 
 
+def stale_segments(before: set[str]) -> set[str]:
+    """Fast DDS segments created since ``before`` that no live process uses (left behind)."""
+    new = shm_segments() - before
+    return new - clean_shm.in_use() if new else set()
+
+
 def remove_stale_segments(before: set[str]) -> None:
     """Remove Fast DDS segments created during the test that no live process uses."""
-    new = shm_segments() - before
-    if not new:
-        return
-    in_use = clean_shm.in_use()
-    for name in new - in_use:
+    for name in stale_segments(before):
         try:
             (Path('/dev/shm') / name).unlink()
         except OSError:

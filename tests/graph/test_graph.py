@@ -22,7 +22,14 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from graph_support import REPO, Processes, executable, send_control
+from graph_support import (
+    REPO,
+    Processes,
+    executable,
+    send_control,
+    shm_segments,
+    stale_segments,
+)
 from rosbags.highlevel import AnyReader
 
 from pd_common.protocol import Command, Feedback, FeedbackStatus
@@ -119,10 +126,13 @@ def offline_run(short_test: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run: Path,
                                         processes: Processes, tmp_path: Path) -> None:
     out = tmp_path / 'graph'
+    segments = shm_segments()
     launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', site,
                                                     '--out', str(out), '--no-figures'])
     code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
+    # Every node process took its Fast DDS shared memory with it.
+    assert not stale_segments(segments), sorted(stale_segments(segments))
     graph_csv = (out / 'response.csv').read_bytes()
     assert graph_csv == (offline_run / 'response.csv').read_bytes()
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))

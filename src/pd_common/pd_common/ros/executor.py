@@ -132,6 +132,7 @@ def run_node(program: str, make_node: Callable[[], NodeT],
             cleanup(node)
         deadline = (None if teardown_timeout is None
                     else _teardown_deadline(program, teardown_timeout, code))
+        gc.unfreeze()  # (settle_collector's objects: the teardown may need them collected)
         if executor is not None:
             executor.shutdown()
         if node is not None:
