@@ -35,9 +35,7 @@ from pd_common.protocol import DEFAULT_SITE, Command, Feedback, FeedbackStatus, 
 
 from ...errors import ProtocolError
 from .protocol import StepProtocol, Verdict
-
-#: Up to this many DOFs the structure feedback holds tuples, beyond it read-only arrays.
-SMALL_MODEL_DOF = 16
+from .session import SMALL_MODEL_DOF
 
 if TYPE_CHECKING:
     from ...model.substructure import StructuralModel

@@ -49,9 +49,15 @@ if TYPE_CHECKING:
 PROBE_SUFFIX = ':probe'
 
 
+#: Up to this many DOFs a model's step values are plain tuples, checked in plain Python (the
+#: structure feedback of :mod:`.coordinator` too); above it a command's target is a
+#: :class:`_Target` holding its array, and the checks take one numpy pass.
+SMALL_MODEL_DOF = 16
+
+
 def _all_finite(values: tuple[float, ...] | FloatArray) -> bool:
     """Whether every value is finite (numpy for long vectors, plain Python for short ones)."""
-    if isinstance(values, np.ndarray) or len(values) > 16:
+    if isinstance(values, np.ndarray) or len(values) > SMALL_MODEL_DOF:
         return bool(np.isfinite(np.asarray(values, dtype=float)).all())
     return all(map(math.isfinite, values))
 
@@ -80,10 +86,6 @@ class _Target(tuple[float, ...]):
             plain: np.ndarray = np.array(tuple(self), dtype=dtype)  # (a copy made elsewhere)
             return plain
         return array.copy() if copy else array
-
-
-#: Above this many DOFs a command's target is a :class:`_Target` (smaller ones: a plain tuple).
-_LARGE_TARGET = 16
 
 
 class TestSession:
@@ -325,7 +327,7 @@ class TestSession:
         if tolerance <= 0.0:
             return None
         target = pending.target_displacement
-        if len(target) > 16:  # a large model: one numpy pass (the same floats, the same worst)
+        if len(target) > SMALL_MODEL_DOF:  # one numpy pass (the same floats, the same worst)
             target_array = (self._target[1] if self._target is not None
                             and self._target[0] is pending else np.asarray(target, dtype=float))
             deviation = np.abs(np.asarray(measured, dtype=float) - target_array)
@@ -431,7 +433,7 @@ class TestSession:
             iteration = integrator.iteration
         command = command_of(self.definition.test_id, step, self.definition.time(step),
                              self.definition.dof_names,
-                             (_Target.of(target) if target.size > _LARGE_TARGET
+                             (_Target.of(target) if target.size > SMALL_MODEL_DOF
                               else tuple(target.tolist())),
                              iteration, (), ())
         self._target = (command, target)
