@@ -14,8 +14,6 @@ import textwrap
 import time
 from pathlib import Path
 
-import pytest
-
 
 def _run(code: str, tmp_path: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
@@ -177,45 +175,3 @@ def test_settle_collector_freezes_what_is_alive_and_still_collects_what_comes_af
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == 'settled 1000'
 
-
-def _domain_shm(domain: int) -> set[str]:
-    """Fast DDS's shared-memory port files of ``domain`` (ports 7400 + 250·domain + …)."""
-    low, high = 7400 + 250 * domain, 7400 + 250 * (domain + 1)
-    found = set()
-    for path in Path('/dev/shm').glob('*fastdds_port*'):
-        digits = path.name.split('fastdds_port', 1)[1].split('_', 1)[0]
-        if digits.isdigit() and low <= int(digits) < high:
-            found.add(path.name)
-    return found
-
-
-@pytest.mark.skipif(not Path('/dev/shm').is_dir(), reason='no /dev/shm')
-def test_a_settled_node_process_leaves_no_shared_memory_behind(tmp_path: Path) -> None:
-    """The collector settled (start-up and set-up frozen) must not keep Fast DDS's transport
-    alive past the teardown: the process's shared-memory files go with it."""
-    domain = 100 + os.getpid() % 100  # as _run sets it
-    before = _domain_shm(domain)
-    result = _run('''
-        import rclpy
-        from std_msgs.msg import String
-        from pd_common.ros import exit_process, run_node, settle_collector
-
-        def main():
-            rclpy.init()
-
-            def body(node, executor):
-                publisher = node.create_publisher(String, 'settled_probe', 10)
-                node.create_subscription(String, 'settled_probe', lambda message: None, 10)
-                settle_collector()  # as the integrator before its first command
-                for _ in range(20):
-                    publisher.publish(String(data='a step'))
-                    executor.spin_once(timeout_sec=0.01)
-                return 0
-
-            return run_node('probe', lambda: rclpy.create_node('settled_probe'), (), body)
-
-        exit_process(main)
-        ''', tmp_path)
-    assert result.returncode == 0, result.stderr
-    left = _domain_shm(domain) - before
-    assert not left, f'left in /dev/shm: {sorted(left)}'
