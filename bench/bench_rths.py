@@ -28,7 +28,10 @@ Figures (printed, and merged into ``bench/results.json``; other keys are kept):
 ``rths_inprocess_p99_tick_us``, ``rths_inprocess_missed_deadlines``,
 ``rths_inprocess_slowdown_fraction``, ``rths_graph_p99_step_ms``,
 ``rths_graph_missed_deadlines``, ``rths_graph_missed_fraction``, ``rths_graph_slowdown_fraction``
-(placed, as a real-time test runs), ``rths_graph_unplaced_*`` (the same, not placed).
+(placed, as a real-time test runs), ``rths_graph_unplaced_*`` (the same, not placed);
+``*_cpu_latency_held``: whether the loop held the CPUs' shallow idle states while it ticked
+(:mod:`pd_common.rths.cpu_latency`: root only; a line ending "idle CPUs not kept awake" ran
+without, as an unprivileged user's run does).
 """
 
 from __future__ import annotations
@@ -186,7 +189,8 @@ def _line(label: str, values: dict[str, Any]) -> str:
             f'{values["step_p99_ms"]:.3f}/{values["step_max_ms"]:.2f} ms '
             f'(nominal {values["nominal_step_ms"]:.3f})  target latency p50/p99 '
             f'{values.get("target_latency_p50_us", float("nan")):.0f}/'
-            f'{values.get("target_latency_p99_us", float("nan")):.0f} µs')
+            f'{values.get("target_latency_p99_us", float("nan")):.0f} µs'
+            f'{"" if values.get("cpu_latency_held") else "  (idle CPUs not kept awake)"}')
 
 
 def main() -> None:
@@ -218,6 +222,7 @@ def main() -> None:
         'rths_inprocess_p99_tick_us': round(statistics.tick_p99_us, 2),
         'rths_inprocess_missed_deadlines': statistics.missed_deadlines,
         'rths_inprocess_slowdown_fraction': round(statistics.slowdown_fraction, 6),
+        'rths_inprocess_cpu_latency_held': statistics.cpu_latency_held,
     }
     placed = PLACED if len(os.sched_getaffinity(0)) >= 2 else ()
     runs = [('graph', 'rths_graph', placed), ('unplaced', 'rths_graph_unplaced', ())]
@@ -238,6 +243,7 @@ def main() -> None:
             f'{prefix}_missed_fraction': round(int(report['missed_deadlines'])
                                                / max(int(report['ticks']), 1), 6),
             f'{prefix}_slowdown_fraction': round(float(report['slowdown_fraction']), 6),
+            f'{prefix}_cpu_latency_held': bool(report.get('cpu_latency_held')),
         })
     for key, value in figures.items():
         print(f'{key} = {value}')

@@ -383,7 +383,16 @@ def _report_realtime(plan: LaunchPlan) -> None:
               f'{stats.get("missed_deadlines")} missed deadlines, slowed '
               f'{100.0 * float(stats.get("slowdown_fraction") or 0.0):.1f} % of the ticks, '
               f'step p99 {_number(stats.get("step_p99_ms"), ".2f")} ms, target latency p99 '
-              f'{_number(stats.get("target_latency_p99_us"), ".0f")} µs', flush=True)
+              f'{_number(stats.get("target_latency_p99_us"), ".0f")} µs'
+              f'{_wake_ups(stats)}', flush=True)
+
+
+def _wake_ups(stats: dict[str, Any]) -> str:
+    """How the CPUs' wake-up latency was held while the site ticked (pd_common.rths)."""
+    if stats.get('cpu_latency_held'):
+        return ', idle CPUs kept awake'
+    note = stats.get('cpu_latency_note')
+    return f', idle CPUs not kept awake ({note})' if note else ''
 
 
 def _number(value: Any, spec: str) -> str:

@@ -35,6 +35,7 @@ from .continuous import (
     ContinuousMeasurement,
     continuous_from_config,
 )
+from .cpu_latency import CpuLatencyRequest
 from .plant import plant_from_config, plant_model_names, register_plant_model
 from .realtime import RealtimeLoop, RealtimeStatistics
 from .site import ContinuousSiteServer, SampleLog
@@ -52,6 +53,7 @@ __all__ = [
     'ContinuousConfig',
     'ContinuousMeasurement',
     'ContinuousSiteServer',
+    'CpuLatencyRequest',
     'IdealPlant',
     'NoCompensation',
     'PhysicalSpecimen',

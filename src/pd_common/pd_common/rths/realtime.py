@@ -6,7 +6,9 @@ It sleeps until ``spin`` seconds before the deadline, then spins on the clock (`
 coarse; spinning alone would hold the GIL that the thread delivering the targets needs). On
 Linux the ticking thread's timer slack is set to ``timer_slack`` while it ticks (``prctl``; the
 kernel's default lets a sleep end up to 50 µs late), so a short spin suffices and the GIL is
-free for the rest of the period. The
+free for the rest of the period. While it ticks the loop also asks for the CPUs' shallowest
+idle states (``cpu_latency``, :mod:`.cpu_latency`: a PM QoS request, machine-wide, root only),
+so that a process woken by a message or a deadline starts at once. The
 targets arrive from another thread or callback (:meth:`RealtimeLoop.set_next_target`); while
 a step's target is missing the actuator follows the predictor and slows down smoothly
 (:mod:`.continuous`). The measurement of a completed step goes to ``on_measurement``, called
@@ -41,6 +43,7 @@ import numpy as np
 
 from ..errors import RthsError
 from .continuous import ContinuousActuator, ContinuousMeasurement
+from .cpu_latency import CPU_LATENCY, CpuLatencyRequest
 
 __all__ = ['TIMER_SLACK', 'RealtimeLoop', 'RealtimeStatistics', 'set_timer_slack']
 
@@ -90,6 +93,9 @@ class RealtimeStatistics:
         target_latency_p50_us, target_latency_p99_us, target_latency_max_us: Percentiles of
             the time from a step's measurement to the next step's target, µs (NaN: none).
         nominal_step_ms: Δt_int, ms (what a step takes when every deadline is kept).
+        cpu_latency_held: Whether the CPUs' wake-up latency request was in force while it
+            ticked (:mod:`.cpu_latency`).
+        cpu_latency_note: Why it was not ('' when held or not asked for).
     """
 
     controller_rate: float
@@ -112,6 +118,8 @@ class RealtimeStatistics:
     target_latency_p50_us: float = math.nan
     target_latency_p99_us: float = math.nan
     target_latency_max_us: float = math.nan
+    cpu_latency_held: bool = False
+    cpu_latency_note: str = ''
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as a JSON-ready mapping."""
@@ -141,9 +149,15 @@ class RealtimeLoop:
             leave it.
         timer_slack: The ticking thread's timer slack while it ticks, s (how late the kernel
             may end a sleep; Linux only); ``None``: leave it.
+        cpu_latency: The CPUs' wake-up latency to request while it ticks, s
+            (:class:`~.cpu_latency.CpuLatencyRequest`; held only where permitted, see
+            :attr:`cpu_latency`); ``None``: request nothing.
+
+    Attributes:
+        cpu_latency: The request (``None``: none); its ``reason`` says why it was not held.
 
     Raises:
-        RthsError: ``spin`` or ``timer_slack`` negative or not a number.
+        RthsError: ``spin``, ``timer_slack`` or ``cpu_latency`` negative or not a number.
     """
 
     def __init__(self, actuator: ContinuousActuator, *,
@@ -151,7 +165,8 @@ class RealtimeLoop:
                  clock: Callable[[], float] = time.perf_counter,
                  sleep: Callable[[float], None] = time.sleep, spin: float = 1.0e-4,
                  switch_interval: float | None = None,
-                 timer_slack: float | None = TIMER_SLACK) -> None:
+                 timer_slack: float | None = TIMER_SLACK,
+                 cpu_latency: float | None = CPU_LATENCY) -> None:
         """Build the loop (not ticking)."""
         if not (math.isfinite(spin) and spin >= 0.0):
             msg = f'realtime spin: must be a number of seconds >= 0, got {spin!r}'
@@ -169,6 +184,8 @@ class RealtimeLoop:
         self._spin = float(spin)
         self._switch_interval = switch_interval
         self._timer_slack = timer_slack
+        self.cpu_latency = None if cpu_latency is None else CpuLatencyRequest(cpu_latency)
+        self._latency_held = False
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -221,6 +238,9 @@ class RealtimeLoop:
         if self._switch_interval is not None:
             sys.setswitchinterval(self._switch_interval)
         slack = None if self._timer_slack is None else set_timer_slack(self._timer_slack)
+        request = self.cpu_latency
+        if request is not None and request.acquire():
+            self._latency_held = True
         try:
             deadline = clock()
             last_step = deadline
@@ -258,6 +278,8 @@ class RealtimeLoop:
                 sys.setswitchinterval(previous)
             if slack is not None:
                 set_timer_slack(slack)
+            if request is not None:
+                request.release()
 
     def start(self) -> None:
         """Start ticking in a daemon thread (nothing if it runs already)."""
@@ -308,4 +330,6 @@ class RealtimeLoop:
             step_p50_ms=step[0], step_p99_ms=step[1], step_max_ms=step[2],
             nominal_step_ms=self.actuator.integration_dt * 1.0e3,
             target_latency_p50_us=latency[0], target_latency_p99_us=latency[1],
-            target_latency_max_us=latency[2])
+            target_latency_max_us=latency[2], cpu_latency_held=self._latency_held,
+            cpu_latency_note='' if self._latency_held or self.cpu_latency is None
+            else self.cpu_latency.reason or '')
