@@ -108,7 +108,7 @@ def in_process(raw: dict[str, Any]) -> tuple[RealtimeStatistics, TestSession, fl
     server = site_servers(definition)[SITE]
     assert isinstance(server, ContinuousSiteServer)
     session = TestSession(definition)
-    loop = RealtimeLoop(server.actuator)
+    loop = RealtimeLoop(server.actuator, cpu_latency=server.actuator.config.cpu_latency)
     at_once: deque[Command] = deque()
     pending: list[Command] = []
 

@@ -210,6 +210,18 @@ def test_a_bad_section_names_the_file_and_key(tmp_path: Path) -> None:
         read_transfer_system(str(test_file), 'lab1')
 
 
+@pytest.mark.parametrize(('realtime', 'asked'), [({}, 0), ({'cpu_latency': 2e-5}, 20),
+                                                  ({'cpu_latency': None}, None)])
+def test_the_ticking_loop_asks_for_the_cpu_latency_of_the_test_file(
+        tmp_path: Path, realtime: dict[str, Any], asked: int | None) -> None:
+    test_file = write_test_file(tmp_path / 't.yaml', realtime=realtime)
+    driver = make_driver('transfer_system', DriverContext(
+        1, {'test_file': str(test_file), 'site': 'lab1', 'clock': 'realtime'}))
+    assert isinstance(driver, TransferSystemDriver) and driver.loop is not None
+    request = driver.loop.cpu_latency
+    assert (None if request is None else request.latency_us) == asked
+
+
 def test_realtime_clock_answers_every_step_from_the_ticking_thread(tmp_path: Path) -> None:
     """Wall clock (no timing asserted): each command's measurement comes from the thread, in
     order; the report counts the ticks."""

@@ -112,12 +112,24 @@ def test_inertia_subtract_removes_the_mass_force_of_the_measured_motion() -> Non
     ({'compensator': {'name': 'none', 'gain': 2.0}}, r'transfer_system\.compensator'),
     ({'noise': {'seed': -1}}, r'transfer_system\.noise\.seed'),
     ({'realtime': {'hold_at': 1.5}}, r'realtime\.hold_at'),
+    ({'realtime': {'cpu_latency': -1e-6}}, r'realtime\.cpu_latency'),
+    ({'realtime': {'cpu_latency': 'none'}}, r'realtime\.cpu_latency'),
+    ({'realtime': {'cpu_latency': 1e4}}, r'realtime\.cpu_latency'),
     ({'colour': 'red'}, r'transfer_system\.colour: unknown key'),
 ])
 def test_bad_sections_are_one_line_naming_the_key(section: dict, match: str) -> None:
     with pytest.raises(RthsError, match=match) as error:
         continuous_from_config({'plant': {'model': 'ideal'}, **section}, WHERE)
     assert '\n' not in str(error.value) and str(error.value).startswith('test.yaml')
+
+
+def test_the_wall_clock_asks_for_awake_cpus_unless_the_file_says_otherwise() -> None:
+    plant = {'plant': {'model': 'ideal'}}
+    assert continuous_from_config(plant, WHERE).cpu_latency == 0.0
+    assert continuous_from_config({**plant, 'realtime': {'cpu_latency': None}},
+                                  WHERE).cpu_latency is None
+    assert continuous_from_config({**plant, 'realtime': {'cpu_latency': 5e-5}},
+                                  WHERE).cpu_latency == 5e-5
 
 
 def test_the_integration_step_must_be_whole_controller_samples() -> None:

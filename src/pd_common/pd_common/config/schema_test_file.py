@@ -439,6 +439,10 @@ class RealtimeSection(ConfigModel):
     is missing."""
     slowdown_samples: Positive = 2.0
     """Controller samples to brake from full rate to the hold (and to recover)."""
+    cpu_latency: Annotated[float, Field(ge=0.0, le=2000.0)] | None = 0.0
+    """The CPUs' wake-up latency asked of Linux while the actuator ticks against the wall clock
+    [s] (PM QoS, ``/dev/cpu_dma_latency``; needs root or a udev rule): 0 keeps idle CPUs
+    polling, awake for the next message; null asks nothing (idle CPUs sleep, saving power)."""
 
 
 class TransferSystemSection(ConfigModel):

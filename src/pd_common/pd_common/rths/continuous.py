@@ -56,6 +56,7 @@ import numpy as np
 from ..errors import RthsError
 from .base import BENCHMARK_SPECIMEN, PhysicalSpecimen, SensorNoise, TransferSystem
 from .compensation import Compensator, make_compensator
+from .cpu_latency import CPU_LATENCY, LARGEST_CPU_LATENCY
 from .plant import plant_from_config
 
 #: How targets are sub-stepped: the polynomial order of predictor and corrector.
@@ -65,7 +66,7 @@ INERTIA_MODES = ('measured', 'subtract')
 
 _KEYS = ('controller_rate', 'plant', 'compensator', 'specimen', 'noise', 'quantum', 'capacity',
          'interpolation', 'inertia', 'realtime')
-_REALTIME_KEYS = ('hold_at', 'slowdown_samples')
+_REALTIME_KEYS = ('hold_at', 'slowdown_samples', 'cpu_latency')
 _SPECIMEN_KEYS = ('mass', 'stiffness', 'damping_ratio')
 _NOISE_KEYS = ('displacement_power', 'force_power', 'seed')
 # Nodes of the Lagrange polynomials, in steps relative to the last reached target d[n].
@@ -99,6 +100,8 @@ class ContinuousConfig:
             while the next target is missing (the actuator holds there).
         slowdown_samples: Real time: controller samples to brake from full rate to the hold
             (and to recover).
+        cpu_latency: Real time: the CPUs' wake-up latency to ask for while ticking, s
+            (:mod:`.cpu_latency`); ``None``: ask nothing.
     """
 
     plant: Mapping[str, Any]
@@ -113,6 +116,7 @@ class ContinuousConfig:
     inertia: str = 'measured'
     hold_at: float = 0.8
     slowdown_samples: float = 2.0
+    cpu_latency: float | None = CPU_LATENCY
 
     def __post_init__(self) -> None:
         """Check the fields (one-line :class:`RthsError` naming the field)."""
@@ -143,6 +147,13 @@ class ContinuousConfig:
                    f'got {self.hold_at!r}')
             raise RthsError(msg)
         _check_positive(self.slowdown_samples, f'{where}.realtime.slowdown_samples', 'samples')
+        latency = self.cpu_latency
+        if latency is not None and (isinstance(latency, bool)
+                                    or not isinstance(latency, int | float)
+                                    or not 0.0 <= latency <= LARGEST_CPU_LATENCY):
+            msg = (f'{where}.realtime.cpu_latency: must be null or a number of seconds in '
+                   f'[0, {LARGEST_CPU_LATENCY:g}], got {latency!r}')
+            raise RthsError(msg)
 
     @property
     def controller_dt(self) -> float:
@@ -257,6 +268,9 @@ def continuous_from_config(section: Mapping[str, Any], where: str) -> Continuous
         if 'slowdown_samples' in realtime:
             kwargs['slowdown_samples'] = _number(realtime, 'slowdown_samples', here,
                                                  strict=True, unit='samples')
+        if 'cpu_latency' in realtime:
+            kwargs['cpu_latency'] = (None if realtime['cpu_latency'] is None else
+                                     _number(realtime, 'cpu_latency', here, unit='s'))
     try:
         config = ContinuousConfig(**kwargs)
     except RthsError as error:

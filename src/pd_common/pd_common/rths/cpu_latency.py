@@ -25,13 +25,14 @@ from types import TracebackType
 
 from ..errors import RthsError
 
-__all__ = ['CPU_LATENCY', 'CPU_LATENCY_DEVICE', 'CpuLatencyRequest']
+__all__ = ['CPU_LATENCY', 'CPU_LATENCY_DEVICE', 'LARGEST_CPU_LATENCY', 'CpuLatencyRequest']
 
 #: The latency a real-time loop asks for by default, s: none (idle CPUs poll).
 CPU_LATENCY = 0.0
 #: Linux's PM QoS request file for the CPUs' wake-up latency.
 CPU_LATENCY_DEVICE = Path('/dev/cpu_dma_latency')
-_LARGEST_US = 2_000_000_000  # the kernel's "no constraint" (PM_QOS_DEFAULT_VALUE, µs)
+#: The largest request, s: the kernel's "no constraint" (PM_QOS_DEFAULT_VALUE, 2e9 µs).
+LARGEST_CPU_LATENCY = 2000.0
 
 
 class CpuLatencyRequest:
@@ -53,9 +54,9 @@ class CpuLatencyRequest:
     def __init__(self, latency: float = CPU_LATENCY, *,
                  device: Path | str = CPU_LATENCY_DEVICE) -> None:
         """Prepare the request (nothing is held yet)."""
-        if not (math.isfinite(latency) and 0.0 <= latency * 1e6 <= _LARGEST_US):
+        if not (math.isfinite(latency) and 0.0 <= latency <= LARGEST_CPU_LATENCY):
             msg = (f'realtime cpu_latency: must be a number of seconds in [0, '
-                   f'{_LARGEST_US / 1e6:g}], got {latency!r}')
+                   f'{LARGEST_CPU_LATENCY:g}], got {latency!r}')
             raise RthsError(msg)
         self.latency_us = round(latency * 1e6)
         self.device = Path(device)

@@ -122,7 +122,8 @@ class TransferSystemDriver(ActuatorDriver):
         self.loop: RealtimeLoop | None = None
         if clock == 'realtime':
             self.loop = loop if loop is not None else RealtimeLoop(
-                server.actuator, switch_interval=SWITCH_INTERVAL, spin=SPIN)
+                server.actuator, switch_interval=SWITCH_INTERVAL, spin=SPIN,
+                cpu_latency=server.actuator.config.cpu_latency)
             self.loop.on_measurement = self._on_realtime_measurement
             self.loop.on_error = self._on_realtime_error
         self._lock = threading.Lock()
