@@ -3,7 +3,7 @@ and the publish call itself, beside the same figures of the raw ping-pong floor.
 
 Run inside the sourced workspace (``. scripts/env.sh``)::
 
-    python bench/step_anatomy.py [--site direct|bridge] [--runs 2] [--pings 3000] [--no-save]
+    python bench/step_anatomy.py [--site direct|bridge|rths] [--runs 2] [--pings 3000] [--no-save]
 
 A measurement, not a test: it asserts nothing. The processes it starts (``run_test --site SITE
 --no-figures`` on the default test, and the ping-pong's echo) load the probe in
@@ -15,6 +15,15 @@ critical path is roughly the integrator's and the specimen side's ``before`` + `
 plus the wake-ups the publishes cause: on this machine a publish costs more the longer the
 receiving process has been idle (a virtual CPU that has halted is slow to wake), so the
 ping-pong's echo, which answers at once, publishes faster than a node that first works.
+
+``--site rths``: the real-time run instead (``bench_rths.py``'s quick vRTHS case 1 against the
+wall clock through the graph, placed as there), split along the round trip the actuator waits
+for: from a step's measurement (the end of its tick) to the answer's publish, the publish, DDS
+to the integrator, the integrator's work to its command's publish, that publish, DDS to the
+bridge, and the bridge's work to the target handed to the ticking loop; medians, p90 and p99
+of each, matched step by step on the machine's monotonic clock. Figures:
+``rths_anatomy_<part>_p50_us`` and ``_p90_us``, ``rths_anatomy_slowdown_fraction`` (the
+probed run's).
 
 Figures merged into ``bench/results.json`` (unless ``--no-save``): ``anatomy_<node>_before_us``,
 ``anatomy_<node>_publish_us``, ``anatomy_<node>_after_us`` (medians, µs; node:
@@ -31,6 +40,8 @@ import os
 import sys
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 from _results import merge_results
 from bench_loop import DEFAULT_TEST, REPO, _ping, graph_run, machine_header, percentile
@@ -62,10 +73,100 @@ def _probe_environment(folder: Path) -> None:
         part for part in (str(PROBE), os.environ.get('PYTHONPATH', '')) if part)
 
 
+#: The parts of the real-time round trip, in order (``--site rths``).
+CHAIN = ('measurement to answer', 'answer publish', 'DDS to the integrator', 'integrator work',
+         'command publish', 'DDS to the bridge', 'bridge to target', 'measurement to target')
+
+
+def _before(times: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Index of the last of ``times`` (sorted) at or before each ``at`` (-1: none)."""
+    return np.searchsorted(times, at, side='right') - 1
+
+
+def real_time_chain(nodes: dict[str, dict[str, list]]) -> dict[str, np.ndarray]:
+    """The round trip's parts per step, µs: each target matched backwards along its chain.
+
+    For a target handed to the bridge's loop: the bridge's last command callback before it, the
+    integrator's last command publish ending before that, the integrator's last feedback
+    callback before that publish, the bridge's last answer publish ending before that, and the
+    step's measurement (kept with the target). Steps whose chain is not in order are left out.
+    """
+    bridge, integrator = nodes.get('bridge', {}), nodes.get('integrator', {})
+    targets = np.array(bridge.get('chain_target', []), dtype=np.int64).reshape(-1, 2)
+
+    def publishes(samples: dict[str, list], which: str) -> tuple[np.ndarray, np.ndarray]:
+        rows = sorted((start, end) for start, end, kind in samples.get('chain_publish', [])
+                      if kind == which)
+        data = np.array(rows, dtype=np.int64).reshape(-1, 2)
+        return data[:, 0], data[:, 1]
+
+    def callbacks(samples: dict[str, list], which: str) -> np.ndarray:
+        return np.array(sorted(t for t, kind in samples.get('chain_callback', [])
+                               if kind == which), dtype=np.int64)
+
+    answer_start, answer_end = publishes(bridge, 'feedback')
+    command_start, command_end = publishes(integrator, 'command')
+    bridge_in, integrator_in = callbacks(bridge, 'command'), callbacks(integrator, 'feedback')
+    if not (len(targets) and len(answer_end) and len(command_end) and len(bridge_in)
+            and len(integrator_in)):
+        return {}
+    target, measured = targets[:, 0], targets[:, 1]
+    b_in = _before(bridge_in, target)
+    c_pub = _before(command_end, bridge_in[b_in])
+    i_in = _before(integrator_in, command_start[c_pub])
+    a_pub = _before(answer_end, integrator_in[i_in])
+    valid = (b_in >= 0) & (c_pub >= 0) & (i_in >= 0) & (a_pub >= 0)
+    times = [measured, answer_start[a_pub], answer_end[a_pub], integrator_in[i_in],
+             command_start[c_pub], command_end[c_pub], bridge_in[b_in], target]
+    steps = np.diff(np.array(times), axis=0)  # one row per part, one column per step
+    valid &= (steps >= 0).all(axis=0)
+    parts = {name: steps[index][valid] / 1e3 for index, name in enumerate(CHAIN[:-1])}
+    parts[CHAIN[-1]] = (target - measured)[valid] / 1e3
+    return parts
+
+
+def rths_main(args: argparse.Namespace) -> int:
+    """``--site rths``: the real-time round trip, part by part."""
+    from bench_rths import PLACED, benchmark_file, graph
+
+    print(machine_header(args.domain_id))
+    print('test: bench_rths.py --quick (vRTHS case 1, 4096 Hz ticks, 1024 Hz steps) in real '
+          f'time through the graph, --cpus {" --cpus ".join(PLACED)}\n')
+    with tempfile.TemporaryDirectory(prefix='pd-anatomy-') as name:
+        work = Path(name)
+        _probe_environment(work)
+        report, _, tail = graph(benchmark_file(True, clock='realtime'), args.domain_id, work,
+                                timeout=300.0, cpus=PLACED)
+        parts = real_time_chain(read_samples(work))
+    if report is None or not parts:
+        print(f'step_anatomy: error: the real-time run left no time line; it said:\n{tail}',
+              file=sys.stderr)
+        return 1
+    figures: dict[str, float] = {}
+    print(f'{"part of the round trip":<24} {"p50":>8} {"p90":>8} {"p99":>8}   (us, '
+          f'{len(parts[CHAIN[-1]]):,} steps)')
+    for part in CHAIN:
+        p50, p90, p99 = np.percentile(parts[part], [50.0, 90.0, 99.0])
+        print(f'{part:<24} {p50:8.1f} {p90:8.1f} {p99:8.1f}')
+        key = part.replace(' ', '_')
+        figures[f'rths_anatomy_{key}_p50_us'] = round(float(p50), 1)
+        figures[f'rths_anatomy_{key}_p90_us'] = round(float(p90), 1)
+    slowed = float(report['slowdown_fraction'])
+    print(f'\nthe probed run: slowed {100 * slowed:.2f} % of its ticks, target latency p50 / '
+          f'p99 {report.get("target_latency_p50_us", float("nan")):.0f} / '
+          f'{report.get("target_latency_p99_us", float("nan")):.0f} us (its own count); the '
+          'actuator brakes when a target comes later than about 700 us after the measurement')
+    figures['rths_anatomy_slowdown_fraction'] = round(slowed, 6)
+    if not args.no_save:
+        merge_results(figures, drop_prefixes=('rths_anatomy_',))
+        print(f'written to {REPO / "bench" / "results.json"}')
+    return 0
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """Command-line arguments."""
     parser = argparse.ArgumentParser(prog='step_anatomy', description=__doc__.splitlines()[0])
-    parser.add_argument('--site', choices=('direct', 'bridge'), default='direct')
+    parser.add_argument('--site', choices=('direct', 'bridge', 'rths'), default='direct')
     parser.add_argument('--runs', type=int, default=2, help='graph runs, the fastest kept')
     parser.add_argument('--pings', type=int, default=3000, help='ping-pong round trips')
     parser.add_argument('--domain-id', type=int, default=78)
@@ -80,6 +181,8 @@ def main(argv: list[str] | None = None) -> int:
     """Measure and print the table."""
     args = parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    if args.site == 'rths':
+        return rths_main(args)
     print(machine_header(args.domain_id))
     print(f'test: {DEFAULT_TEST.relative_to(REPO)} through run_test --site {args.site}\n')
     figures: dict[str, float] = {}
