@@ -504,7 +504,7 @@ def check_control(
         violation (then the first two are empty).
     """
     for what, values in (('control_mode', control_mode), ('target_force', target_force)):
-        if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
+        if _not_a_sequence(values):
             return (), (), LimitViolation(
                 KIND_FAULT, 0, f'{what} must be a sequence, got {type(values).__name__}')
     modes = list(control_mode)
@@ -731,9 +731,21 @@ def _dof_allowed_exactly(target: float, current: float, limits: SafetyLimits) ->
     return True
 
 
+def _not_a_sequence(values: Any) -> bool:
+    """Whether ``values`` cannot be a sequence of values (text, bytes, a mapping, a scalar).
+
+    A tuple or list (what the bridge receives) is decided without the abstract base classes'
+    ``isinstance``, which costs a microsecond each.
+    """
+    kind = type(values)
+    if kind is tuple or kind is list:
+        return False
+    return isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable)
+
+
 def _as_floats(values: Any, what: str) -> tuple[list[float], str | None]:
     """Convert a sequence of numbers to floats, or describe why it cannot be."""
-    if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
+    if _not_a_sequence(values):
         return [], f'{what} must be a sequence of numbers, got {type(values).__name__}'
     result = []
     for dof, value in enumerate(values):
