@@ -12,6 +12,7 @@ against the wall clock and reports its deadlines.
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -139,3 +140,8 @@ def test_benchmark_in_wall_clock_time_through_the_bridge(
     # run_test puts the same statistics into summary.json and prints them
     assert summary['realtime'] == {'lab1': report}
     assert 'lab1 in real time:' in processes.log('run_test')
+    # while it ticked, the bridge kept idle CPUs awake where it may (root), and says which
+    allowed = os.access('/dev/cpu_dma_latency', os.W_OK)
+    assert report['cpu_latency_held'] is allowed
+    assert (', idle CPUs kept awake' if allowed else ', idle CPUs not kept awake (') in (
+        processes.log('run_test'))
