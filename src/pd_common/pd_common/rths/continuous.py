@@ -56,7 +56,7 @@ import numpy as np
 from ..errors import RthsError
 from .base import BENCHMARK_SPECIMEN, PhysicalSpecimen, SensorNoise, TransferSystem
 from .compensation import Compensator, make_compensator
-from .cpu_latency import CPU_LATENCY, LARGEST_CPU_LATENCY
+from .cpu_latency import CPU_LATENCY, check_cpu_latency
 from .plant import plant_from_config
 
 #: How targets are sub-stepped: the polynomial order of predictor and corrector.
@@ -147,13 +147,8 @@ class ContinuousConfig:
                    f'got {self.hold_at!r}')
             raise RthsError(msg)
         _check_positive(self.slowdown_samples, f'{where}.realtime.slowdown_samples', 'samples')
-        latency = self.cpu_latency
-        if latency is not None and (isinstance(latency, bool)
-                                    or not isinstance(latency, int | float)
-                                    or not 0.0 <= latency <= LARGEST_CPU_LATENCY):
-            msg = (f'{where}.realtime.cpu_latency: must be null or a number of seconds in '
-                   f'[0, {LARGEST_CPU_LATENCY:g}], got {latency!r}')
-            raise RthsError(msg)
+        if self.cpu_latency is not None:  # (null: nothing is asked)
+            check_cpu_latency(self.cpu_latency, f'{where}.realtime.cpu_latency')
 
     @property
     def controller_dt(self) -> float:

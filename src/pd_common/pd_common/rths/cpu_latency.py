@@ -17,7 +17,6 @@ and the reason is kept (:attr:`CpuLatencyRequest.reason`): the loop runs as befo
 
 from __future__ import annotations
 
-import math
 import os
 import struct
 from pathlib import Path
@@ -25,7 +24,8 @@ from types import TracebackType
 
 from ..errors import RthsError
 
-__all__ = ['CPU_LATENCY', 'CPU_LATENCY_DEVICE', 'LARGEST_CPU_LATENCY', 'CpuLatencyRequest']
+__all__ = ['CPU_LATENCY', 'CPU_LATENCY_DEVICE', 'LARGEST_CPU_LATENCY', 'CpuLatencyRequest',
+           'check_cpu_latency']
 
 #: The latency a real-time loop asks for by default, s: none (idle CPUs poll).
 CPU_LATENCY = 0.0
@@ -33,6 +33,21 @@ CPU_LATENCY = 0.0
 CPU_LATENCY_DEVICE = Path('/dev/cpu_dma_latency')
 #: The largest request, s: the kernel's "no constraint" (PM_QOS_DEFAULT_VALUE, 2e9 µs).
 LARGEST_CPU_LATENCY = 2000.0
+
+
+def check_cpu_latency(latency: object, where: str) -> float:
+    """``latency`` as a number of seconds a request may ask for.
+
+    Raises:
+        RthsError: not a number (a bool is not one), negative, NaN or beyond the kernel's
+            range: one line starting with ``where``.
+    """
+    if (isinstance(latency, bool) or not isinstance(latency, int | float)
+            or not 0.0 <= latency <= LARGEST_CPU_LATENCY):
+        msg = (f'{where}: must be a number of seconds in [0, {LARGEST_CPU_LATENCY:g}], '
+               f'got {latency!r}')
+        raise RthsError(msg)
+    return float(latency)
 
 
 class CpuLatencyRequest:
@@ -54,11 +69,7 @@ class CpuLatencyRequest:
     def __init__(self, latency: float = CPU_LATENCY, *,
                  device: Path | str = CPU_LATENCY_DEVICE) -> None:
         """Prepare the request (nothing is held yet)."""
-        if not (math.isfinite(latency) and 0.0 <= latency <= LARGEST_CPU_LATENCY):
-            msg = (f'realtime cpu_latency: must be a number of seconds in [0, '
-                   f'{LARGEST_CPU_LATENCY:g}], got {latency!r}')
-            raise RthsError(msg)
-        self.latency_us = round(latency * 1e6)
+        self.latency_us = round(check_cpu_latency(latency, 'realtime cpu_latency') * 1e6)
         self.device = Path(device)
         self.reason: str | None = None
         self._fd: int | None = None
