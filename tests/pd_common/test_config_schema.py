@@ -34,6 +34,9 @@ from pd_common.config.schema import (
     json_schema_text,
 )
 from pd_common.config.schema_markdown import markdown_reference
+from pd_common.config.schema_test_file import RealtimeSection
+from pd_common.rths import ContinuousConfig
+from pd_common.rths.cpu_latency import LARGEST_CPU_LATENCY
 from pd_common.specimen import HYSTERESIS_MODELS
 from support.paths import CONFIG, REPO
 
@@ -301,3 +304,13 @@ def test_a_check_of_a_mapping_names_the_key_it_refuses() -> None:
         validate_model(DriverConfigFile, {'daqmx': {'channels': [channel]}}, 'rig.yaml')
     assert str(info.value) == ('rig.yaml: daqmx.channels.0.force_channel: same physical channel '
                                'as displacement_channel (Dev1/AI0)')
+
+
+def test_the_realtime_section_states_the_loops_own_defaults_and_bound() -> None:
+    """The schema restates what the real-time loop uses (it does not import the loop)."""
+    section = RealtimeSection()
+    config = ContinuousConfig(plant={'model': 'ideal'})
+    assert (section.hold_at, section.slowdown_samples, section.cpu_latency) == (
+        config.hold_at, config.slowdown_samples, config.cpu_latency)
+    number = RealtimeSection.model_json_schema()['properties']['cpu_latency']['anyOf'][0]
+    assert (number['minimum'], number['maximum']) == (0.0, LARGEST_CPU_LATENCY)
