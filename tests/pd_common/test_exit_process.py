@@ -175,3 +175,42 @@ def test_settle_collector_freezes_what_is_alive_and_still_collects_what_comes_af
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == 'settled 1000'
 
+
+
+def test_a_timer_that_fails_because_the_context_went_down_ends_quietly(tmp_path: Path) -> None:
+    """A signal shuts the context down outside the executor: a timer callback publishing then
+    fails, and that failure is the shutdown (no FATAL log); while the context is up, it is
+    raised."""
+    result = _run('''
+        import rclpy
+        from std_msgs.msg import String
+        from pd_common.ros import quiet_at_shutdown
+
+        rclpy.init()
+        node = rclpy.create_node('quiet_probe')
+        publisher = node.create_publisher(String, 'quiet_probe', 10)
+        calls = []
+
+        def beat():
+            calls.append(1)
+            publisher.publish(String(data='beat'))
+
+        def broken():
+            raise RuntimeError('a bug')
+
+        quiet_at_shutdown(node, beat)()  # context up: publishes
+        try:
+            quiet_at_shutdown(node, broken)()
+        except RuntimeError:
+            print('raised while up')
+        rclpy.shutdown()
+        try:
+            beat()
+        except Exception:
+            print('unguarded fails once down')
+        quiet_at_shutdown(node, beat)()  # context down: the same failure, quiet
+        print('quiet', len(calls))
+    ''', tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split('\n')[:3] == ['raised while up', 'unguarded fails once down',
+                                             'quiet 3']

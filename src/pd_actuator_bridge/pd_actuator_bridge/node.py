@@ -134,6 +134,7 @@ from pd_common.ros import (
     declare_key,
     new_epoch,
     now_stamp,
+    quiet_at_shutdown,
     run_node,
     settle_collector,
     spin_until_shutdown,
@@ -232,7 +233,7 @@ class ActuatorBridgeNode(LifecycleNode):
                                         self.epoch, on_refused=self._on_refused_start,
                                         accepting=False,  # sessions only while active
                                         announcer=self.announcer)
-        self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
+        self.create_timer(OFFER_REFRESH_S, quiet_at_shutdown(self, self.receiver.refresh))
         self._request = Signature()  # the signature of the command being answered
         self._accept_when_ready = False
         self._ramping_down = False  # a deactivation's force ramp-down still executing
@@ -265,7 +266,7 @@ class ActuatorBridgeNode(LifecycleNode):
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
-        self.create_timer(HEARTBEAT_S, self._heartbeat)
+        self.create_timer(HEARTBEAT_S, quiet_at_shutdown(self, self._heartbeat))
         if self.key is not None:  # sealed: the parameters given at start are the ones in force
             self.add_on_set_parameters_callback(self._sealed_parameters)
         if self.holds.emergency is not None:

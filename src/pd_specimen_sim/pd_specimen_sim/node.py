@@ -59,6 +59,7 @@ from pd_common.ros import (
     SessionReceiver,
     declare_key,
     new_epoch,
+    quiet_at_shutdown,
     run_node,
     spin_until_shutdown,
 )
@@ -103,7 +104,7 @@ class SpecimenSimNode(Node):
         self.receiver.restored = restored
         self.receiver.set_state(self.server.position, self.server.force)
         self.receiver.publish_offer()
-        self.create_timer(OFFER_REFRESH_S, self.receiver.refresh)
+        self.create_timer(OFFER_REFRESH_S, quiet_at_shutdown(self, self.receiver.refresh))
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
         self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS,

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from rclpy.node import Node
 
 __all__ = ['TEARDOWN_TIMEOUT', 'events_executor', 'exit_process', 'init_with_stop_flag',
-           'run_node', 'settle_collector', 'spin_until_shutdown']
+           'quiet_at_shutdown', 'run_node', 'settle_collector', 'spin_until_shutdown']
 
 NodeT = TypeVar('NodeT', bound='Node')
 
@@ -64,6 +64,25 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
             if rclpy.ok():
                 raise
             return
+
+
+def quiet_at_shutdown(node: Node, callback: Callable[[], None]) -> Callable[[], None]:
+    """``callback`` for a timer of ``node``, under :func:`spin_until_shutdown`'s rule.
+
+    rclpy's signal handlers shut the context down outside the executor: a timer callback
+    running at that moment fails to publish ("publisher's context is invalid"), and the
+    executor would report it as a FATAL exception, logged to a rosout that is gone. That
+    failure is the shutdown: the callback ends quietly. The same failure while the context is
+    still up is raised. (A timer's callback takes no argument.)
+    """
+    def quiet() -> None:
+        try:
+            callback()
+        except Exception:
+            if node.context.ok():
+                raise
+
+    return quiet
 
 
 def init_with_stop_flag(args: list[str] | None = None) -> StopFlag:
