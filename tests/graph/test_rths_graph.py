@@ -88,6 +88,7 @@ def test_benchmark_through_the_bridge_equals_the_ros_free_run(
     kinds = [child['kind'] for child in plan['children']]
     assert kinds == ['bridge'], kinds
     assert 'pd_specimen_sim' not in log
+    assert 'integrator_cpu_latency' not in summary  # simulated time: nothing asked of the host
 
     graph = np.genfromtxt(out / 'response.csv', delimiter=',', names=True)
     reference = np.genfromtxt(tmp_path / 'offline' / 'response.csv', delimiter=',', names=True)
@@ -143,5 +144,9 @@ def test_benchmark_in_wall_clock_time_through_the_bridge(
     # while it ticked, the bridge kept idle CPUs awake where it may (root), and says which
     allowed = os.access('/dev/cpu_dma_latency', os.W_OK)
     assert report['cpu_latency_held'] is allowed
+    # ... and so did the integrator on its own host (here the same machine): a bridge beside
+    # the controller covers only its own
+    assert summary['integrator_cpu_latency']['held'] is allowed
+    assert (summary['integrator_cpu_latency']['note'] == '') is allowed
     assert (', idle CPUs kept awake' if allowed else ', idle CPUs not kept awake (') in (
         processes.log('run_test'))

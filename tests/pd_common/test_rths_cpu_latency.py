@@ -15,13 +15,22 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 from pd_common.errors import RthsError
-from pd_common.rths import ContinuousActuator, continuous_from_config
-from pd_common.rths.cpu_latency import CPU_LATENCY_DEVICE, CpuLatencyRequest
+from pd_common.rths import BENCHMARK_SPECIMEN, ContinuousActuator, continuous_from_config
+from pd_common.rths.cpu_latency import (
+    CPU_LATENCY_DEVICE,
+    CpuLatencyRequest,
+    wall_clock_cpu_latency,
+)
 from pd_common.rths.realtime import RealtimeLoop
+from pd_core.run.test_file import from_dict
+from pd_rths_benchmark.core.native_loop import native_test_file
+from pd_rths_benchmark.core.problem import benchmark_case
 
 RATE = 4096.0
 DT = 4.0 / RATE  # four ticks a step
@@ -169,3 +178,47 @@ def test_a_killed_process_leaves_no_request_behind() -> None:
         while machine_latency_us() != before and time.monotonic() < deadline:
             time.sleep(0.01)
         assert machine_latency_us() == before
+
+
+# -- the integrator's host: what a test file's wall-clock sites ask for --------------------
+def _benchmark_sites(**site: Any) -> dict[str, Any]:
+    """The benchmark's test file (case 1) through the test-file loader: its ``sites`` as the
+    integrator's definition holds them, lab1 updated with ``site``."""
+    raw = native_test_file(benchmark_case(1), np.zeros(20), 0.02, padding_samples=0,
+                           intensity=1.0, integration_dt=1.0 / 1024.0,
+                           transfer_system={'plant': {'model': 'benchmark'}},
+                           specimen=BENCHMARK_SPECIMEN,
+                           bridge={'driver': 'transfer_system', 'clock': 'realtime'})
+    for key, value in site.items():
+        if value is None:
+            raw['sites']['lab1'].pop(key, None)
+        else:
+            raw['sites']['lab1'][key] = value
+    sites = from_dict(raw, source='test').sites
+    assert sites is not None
+    return sites
+
+
+def test_a_wall_clock_site_asks_its_latency_of_the_integrators_host_too() -> None:
+    assert wall_clock_cpu_latency(_benchmark_sites()) == 0.0  # the default: poll
+    asked = _benchmark_sites(transfer_system={'plant': {'model': 'benchmark'},
+                                              'realtime': {'cpu_latency': 5e-5}})
+    assert wall_clock_cpu_latency(asked) == 5e-5
+    nothing = _benchmark_sites(transfer_system={'plant': {'model': 'benchmark'},
+                                                'realtime': {'cpu_latency': None}})
+    assert wall_clock_cpu_latency(nothing) is None  # null: ask nothing
+    simulated = _benchmark_sites(bridge={'driver': 'transfer_system', 'clock': 'simulated'})
+    assert wall_clock_cpu_latency(simulated) is None  # simulated time: no deadline
+    assert wall_clock_cpu_latency(None) is None and wall_clock_cpu_latency({}) is None
+
+
+def test_of_several_wall_clock_sites_the_smallest_latency_is_asked() -> None:
+    def site(clock: str, latency: object) -> dict[str, Any]:
+        return {'bridge': {'driver': 'transfer_system', 'clock': clock},
+                'transfer_system': {'realtime': {'cpu_latency': latency}}}
+
+    sites = {'a': site('realtime', 2e-5), 'b': site('realtime', 1e-5),
+             'c': site('simulated', 0.0), 'd': site('realtime', None)}
+    assert wall_clock_cpu_latency(sites) == 1e-5
+    with pytest.raises(RthsError, match=r'^sites\.e\.transfer_system\.realtime\.cpu_latency: '):
+        wall_clock_cpu_latency({**sites, 'e': site('realtime', -1.0)})

@@ -48,6 +48,7 @@ from pd_common.auth import (
     describe_refusals,
     merge_refusals,
 )
+from pd_common.errors import RthsError
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
     Acknowledgements,
@@ -82,6 +83,7 @@ from pd_common.ros import (
     run_node,
     settle_collector,
 )
+from pd_common.rths import CpuLatencyRequest, wall_clock_cpu_latency
 from pd_common.signals import StopFlag
 from pd_core.errors import BagError, IntegratorError, PdIntegratorError
 from pd_core.run.loop.dispatch import Sent, StepDispatcher
@@ -219,6 +221,15 @@ class IntegratorNode(Node):
                 raise PdIntegratorError(msg)
             definition = load_test_file(test_file, overrides)
         self.session = TestSession(definition)  # refuses an unstable test before any motion
+        try:  # (the test file's schema checked the latencies: this names one it did not see)
+            latency = wall_clock_cpu_latency(definition.sites)
+        except RthsError as err:
+            raise PdIntegratorError(str(err)) from None
+        #: A wall-clock test keeps this host's idle CPUs awake while the integrator runs (the
+        #: bridge's request covers its own machine only): held from here to :meth:`finish`.
+        self.cpu_latency = CpuLatencyRequest(latency) if latency is not None else None
+        if self.cpu_latency is not None and not self.cpu_latency.acquire():
+            self.get_logger().warning(f'idle CPUs not kept awake: {self.cpu_latency.reason}')
         self.key = declare_key(self)  # refuses a missing or readable key before any output
         if not resume_from:
             output = self.get_parameter('output_dir').value
@@ -692,6 +703,11 @@ class IntegratorNode(Node):
             self.session.abort(reason)
         self.publish_status()
         self.bag.close()
+        cpu_latency: dict[str, Any] = {}
+        if self.cpu_latency is not None:
+            cpu_latency['integrator_cpu_latency'] = {'held': self.cpu_latency.held,
+                                                     'note': self.cpu_latency.reason or ''}
+            self.cpu_latency.release()
         wall_time = time.perf_counter() - self._started if self._started else 0.0
         events = [*(self.record.run_events if self.record is not None else []),
                   *self.bag.events]
@@ -707,7 +723,7 @@ class IntegratorNode(Node):
                 authentication={'enabled': self.key is not None,
                                 'key_id': self.key.key_id if self.key else None,
                                 'refused_messages': self.refusals()},
-                specimen_side=self.specimen_side())
+                specimen_side=self.specimen_side(), **cpu_latency)
         finally:  # (also when the outputs fail: the worker does not wait for its parent's end)
             if worker is not None:
                 worker.close()

@@ -35,7 +35,7 @@ from .continuous import (
     ContinuousMeasurement,
     continuous_from_config,
 )
-from .cpu_latency import CpuLatencyRequest
+from .cpu_latency import CpuLatencyRequest, wall_clock_cpu_latency
 from .plant import plant_from_config, plant_model_names, register_plant_model
 from .realtime import RealtimeLoop, RealtimeStatistics
 from .site import ContinuousSiteServer, SampleLog
@@ -71,4 +71,5 @@ __all__ = [
     'quantise',
     'register_compensator',
     'register_plant_model',
+    'wall_clock_cpu_latency',
 ]

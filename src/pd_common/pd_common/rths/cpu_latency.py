@@ -19,13 +19,15 @@ from __future__ import annotations
 
 import os
 import struct
+from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 from ..errors import RthsError
 
 __all__ = ['CPU_LATENCY', 'CPU_LATENCY_DEVICE', 'LARGEST_CPU_LATENCY', 'CpuLatencyRequest',
-           'check_cpu_latency']
+           'check_cpu_latency', 'wall_clock_cpu_latency']
 
 #: The latency a real-time loop asks for by default, s: none (idle CPUs poll).
 CPU_LATENCY = 0.0
@@ -48,6 +50,36 @@ def check_cpu_latency(latency: object, where: str) -> float:
                f'got {latency!r}')
         raise RthsError(msg)
     return float(latency)
+
+
+def wall_clock_cpu_latency(sites: Mapping[str, Any] | None) -> float | None:
+    """The wake-up latency a test's own host asks for while the test runs, s.
+
+    The smallest ``transfer_system.realtime.cpu_latency`` (default :data:`CPU_LATENCY`) of the
+    sites whose bridge ticks against the wall clock (``sites.<site>.bridge.clock: realtime``),
+    as the test file's ``sites`` section writes them; ``None`` when no site does, or every one
+    asks nothing (``null``). A bridge holds its own site's request on its machine while it
+    ticks; the integrator holds this one on its own, which is another machine when the bridge
+    runs beside the actuator's controller.
+
+    Raises:
+        RthsError: a latency the request cannot ask for, naming its key.
+    """
+    asked: list[float] = []
+    for name, site in (sites or {}).items():
+        if not isinstance(site, Mapping):
+            continue
+        bridge = site.get('bridge')
+        if not isinstance(bridge, Mapping) or bridge.get('clock') != 'realtime':
+            continue
+        transfer = site.get('transfer_system')
+        realtime = transfer.get('realtime') if isinstance(transfer, Mapping) else None
+        latency = (realtime.get('cpu_latency', CPU_LATENCY) if isinstance(realtime, Mapping)
+                   else CPU_LATENCY)
+        if latency is not None:
+            asked.append(check_cpu_latency(
+                latency, f'sites.{name}.transfer_system.realtime.cpu_latency'))
+    return min(asked) if asked else None
 
 
 class CpuLatencyRequest:
