@@ -177,14 +177,15 @@ def test_settle_collector_freezes_what_is_alive_and_still_collects_what_comes_af
 
 
 
-def test_a_timer_that_fails_because_the_context_went_down_ends_quietly(tmp_path: Path) -> None:
-    """A signal shuts the context down outside the executor: a timer callback publishing then
-    fails, and that failure is the shutdown (no FATAL log); while the context is up, it is
-    raised."""
+def test_a_callback_that_fails_because_the_context_went_down_ends_quietly(
+        tmp_path: Path) -> None:
+    """A signal shuts the context down outside the executor: a timer's or a subscription's
+    callback publishing then fails, and that failure is the shutdown (no FATAL log); while the
+    context is up, it is raised."""
     result = _run('''
         import rclpy
         from std_msgs.msg import String
-        from pd_common.ros import quiet_at_shutdown
+        from pd_common.ros import events_executor, quiet_at_shutdown
 
         rclpy.init()
         node = rclpy.create_node('quiet_probe')
@@ -194,6 +195,15 @@ def test_a_timer_that_fails_because_the_context_went_down_ends_quietly(tmp_path:
         def beat():
             calls.append(1)
             publisher.publish(String(data='beat'))
+
+        # run by the executor as a timer: it is called as it was written (no TimerInfo)
+        timer = node.create_timer(0.01, quiet_at_shutdown(node, beat))
+        executor = events_executor(node)
+        while not calls:
+            executor.spin_once(timeout_sec=0.1)
+        node.destroy_timer(timer)
+        print('timer ran', len(calls))
+        calls.clear()
 
         def broken():
             raise RuntimeError('a bug')
@@ -210,7 +220,20 @@ def test_a_timer_that_fails_because_the_context_went_down_ends_quietly(tmp_path:
             print('unguarded fails once down')
         quiet_at_shutdown(node, beat)()  # context down: the same failure, quiet
         print('quiet', len(calls))
+
+        def answer(data, *, topic=''):  # a subscription's callback (a raw message)
+            calls.append(data)
+            publisher.publish(String(data=data.decode()))
+
+        try:
+            answer(b'late')
+        except Exception:
+            print('unguarded answer fails once down')
+        quiet_at_shutdown(node, answer)(b'late', topic='step_command')
+        print('quiet answer', calls[-1].decode())
     ''', tmp_path)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.split('\n')[:3] == ['raised while up', 'unguarded fails once down',
-                                             'quiet 3']
+    assert result.stdout.split('\n')[:6] == ['timer ran 1', 'raised while up',
+                                             'unguarded fails once down', 'quiet 3',
+                                             'unguarded answer fails once down',
+                                             'quiet answer late']

@@ -256,13 +256,13 @@ class ActuatorBridgeNode(LifecycleNode):
         self._monitor_key: tuple[str, int] | None = None  # (test id, DOF count) monitored
         self._monitored: tuple[str, Any] | None = None  # (test id, key) of the last sample
         self._target: tuple[str, Any, tuple[float, ...]] | None = None  # last command
-        self.create_subscription(ControlMessage, 'bridge/control', self._on_control,
-                                 CONTROL_DEPTH)
-        self.create_subscription(String, 'bridge/emergency_stop', self._on_emergency_topic,
-                                 CONTROL_DEPTH)
+        self.create_subscription(ControlMessage, 'bridge/control',
+                                 quiet_at_shutdown(self, self._on_control), CONTROL_DEPTH)
+        self.create_subscription(String, 'bridge/emergency_stop',
+                                 quiet_at_shutdown(self, self._on_emergency_topic), CONTROL_DEPTH)
         # The lab-wide emergency stop: one message holds every site's bridge at once.
-        self.create_subscription(String, GLOBAL_EMERGENCY_STOP, self._on_emergency_topic,
-                                 CONTROL_DEPTH)
+        self.create_subscription(String, GLOBAL_EMERGENCY_STOP,
+                                 quiet_at_shutdown(self, self._on_emergency_topic), CONTROL_DEPTH)
         self.create_service(Trigger, 'bridge/emergency_stop', self._on_emergency_service)
         self.create_service(Trigger, 'bridge/reset', self._on_reset_service)
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
@@ -355,8 +355,9 @@ class ActuatorBridgeNode(LifecycleNode):
             self.get_logger().info(f'active; waiting for {driver.waiting_for()}')
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
-        self._command_sub = self.create_subscription(StepCommand, 'step_command',
-                                                     self._on_command, STEP_QOS, raw=True)
+        self._command_sub = self.create_subscription(
+            StepCommand, 'step_command', quiet_at_shutdown(self, self._on_command), STEP_QOS,
+            raw=True)
         self._accept_when_ready = True  # check_driver offers a session once the driver is
         limits = self.limits
         assert limits is not None

@@ -107,8 +107,8 @@ class SpecimenSimNode(Node):
         self.create_timer(OFFER_REFRESH_S, quiet_at_shutdown(self, self.receiver.refresh))
         self._feedback_pub = self.create_publisher(StepFeedback, 'step_feedback', STEP_QOS)
         # The hot topics travel as CDR bytes (pd_common.protocol.cdr): no message objects.
-        self.create_subscription(StepCommand, 'step_command', self._on_command, STEP_QOS,
-                                 raw=True)
+        self.create_subscription(StepCommand, 'step_command',
+                                 quiet_at_shutdown(self, self._on_command), STEP_QOS, raw=True)
         self._runs = RunTags()
         self.get_logger().info(f'simulated specimen ready: {len(dof_names)} DOF '
                                f'({", ".join(dof_names)}) on '

@@ -8,13 +8,14 @@ them poll timeouts and stop flags between events).
 from __future__ import annotations
 
 import atexit
+import functools
 import gc
 import os
 import signal
 import sys
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NoReturn, TypeVar
+from typing import TYPE_CHECKING, NoReturn, ParamSpec, TypeVar
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -31,6 +32,7 @@ __all__ = ['TEARDOWN_TIMEOUT', 'events_executor', 'exit_process', 'init_with_sto
            'quiet_at_shutdown', 'run_node', 'settle_collector', 'spin_until_shutdown']
 
 NodeT = TypeVar('NodeT', bound='Node')
+Args = ParamSpec('Args')
 
 #: Seconds a node process's rclpy teardown (executor shut down, node destroyed, rclpy shut
 #: down) may take after its ``cleanup``; past them the process ends with its exit code.
@@ -66,18 +68,23 @@ def spin_until_shutdown(executor: Executor, timeout_sec: float,
             return
 
 
-def quiet_at_shutdown(node: Node, callback: Callable[[], None]) -> Callable[[], None]:
-    """``callback`` for a timer of ``node``, under :func:`spin_until_shutdown`'s rule.
+def quiet_at_shutdown(node: Node, callback: Callable[Args, None]) -> Callable[Args, None]:
+    """``callback`` for a timer or a subscription of ``node``: quiet once the context is down.
 
-    rclpy's signal handlers shut the context down outside the executor: a timer callback
-    running at that moment fails to publish ("publisher's context is invalid"), and the
-    executor would report it as a FATAL exception, logged to a rosout that is gone. That
-    failure is the shutdown: the callback ends quietly. The same failure while the context is
-    still up is raised. (A timer's callback takes no argument.)
+    :func:`spin_until_shutdown`'s rule for the callbacks the executor runs. rclpy's signal
+    handlers shut the context down outside the executor: a callback running at that moment
+    fails to publish ("publisher's context is invalid"), and the executor would report it as a
+    FATAL exception, logged to a rosout that is gone. That failure is the shutdown: the
+    callback ends quietly. The same failure while the context is still up is raised.
+
+    The wrapper carries ``callback``'s signature (``functools.wraps``): the executor reads it
+    to decide whether a timer's callback takes a ``TimerInfo``, and a bare ``*args`` would
+    make it pass one to a callback that takes none.
     """
-    def quiet() -> None:
+    @functools.wraps(callback)
+    def quiet(*args: Args.args, **kwargs: Args.kwargs) -> None:
         try:
-            callback()
+            callback(*args, **kwargs)
         except Exception:
             if node.context.ok():
                 raise
