@@ -109,3 +109,18 @@ def test_every_python_name_a_page_names_exists() -> None:
     assert len(named) > 50
     missing = sorted((page, name) for page, name in named if not _exists(name))
     assert missing == [], f'pages name modules or objects that do not exist: {missing}'
+
+
+def test_the_messages_page_prints_every_message_file_whole() -> None:
+    """docs/reference/messages.md holds each ``src/pd_msgs/msg/*.msg`` verbatim, and no other:
+    a reader decodes the journal's and the topics' bytes from the page alone."""
+    page = (REPO / 'docs' / 'reference' / 'messages.md').read_text()
+    printed = dict(re.findall(r'^## (\w+)\n\n```text\n(.*?)\n```$', page,
+                              re.MULTILINE | re.DOTALL))
+    files = {path.stem: path.read_text().rstrip('\n')
+             for path in (REPO / 'src' / 'pd_msgs' / 'msg').glob('*.msg')}
+    assert sorted(printed) == sorted(files), 'docs/reference/messages.md: one section per .msg'
+    for name, text in files.items():
+        assert printed[name] == text, (
+            f'docs/reference/messages.md: {name} differs from src/pd_msgs/msg/{name}.msg: '
+            'copy the file into its block')
