@@ -30,7 +30,7 @@ from pd_common.protocol import (
 )
 from pd_common.protocol import TestState as State
 from pd_common.specimen import SpecimenServer
-from pd_core.errors import BagError, ConfigError, PdIntegratorError
+from pd_core.errors import BagError, ConfigError, NothingToRecoverError, PdIntegratorError
 from pd_core.run.loop.dispatch import StepDispatcher
 from pd_core.run.loop.epochs import EpochChange, EpochGuard
 from pd_core.run.loop.protocol import Verdict
@@ -671,6 +671,36 @@ def test_recover_run_writes_the_outputs_so_far(tmp_path: Path, reference: Any) -
     assert session.state is State.FINISHED
     assert (folder / 'response.csv').read_bytes() == (
         reference.directory / 'response.csv').read_bytes()
+
+
+def _files(folder: Path) -> dict[Path, bytes]:
+    return {path.relative_to(folder): path.read_bytes()
+            for path in sorted(folder.rglob('*')) if path.is_file()}
+
+
+def test_recover_leaves_a_run_that_ended_whole_as_it_is(tmp_path: Path, reference: Any) -> None:
+    """A run that ended wrote its bag and a summary with what only the live run knew: a
+    recovery would replace that summary with a poorer one. Nothing is written; once the
+    run's own summary is gone (killed before it), the folder is recovered, and again."""
+    folder = tmp_path / 'run'
+    shutil.copytree(reference.directory, folder)
+    summary = json.loads((folder / 'summary.json').read_text(encoding='utf-8'))
+    summary['only_the_live_run_knew'] = 1
+    (folder / 'summary.json').write_text(json.dumps(summary), encoding='utf-8')
+    before = _files(folder)
+    with pytest.raises(NothingToRecoverError,
+                       match=rf'^{folder}: nothing to recover: the run ended \(finished\) and '
+                             rf'wrote its bag and outputs; ./pd replay {folder} --out DIR'):
+        recover_run(folder, figures=False)
+    assert _files(folder) == before
+    (folder / 'summary.json').unlink()
+    recover_run(folder, figures=False)
+    recovered = json.loads((folder / 'summary.json').read_text(encoding='utf-8'))
+    assert recovered['recovered'] is True and recovered['state'] == 'finished'
+    assert 'only_the_live_run_knew' not in recovered
+    assert (folder / 'response.csv').read_bytes() == before[Path('response.csv')]
+    recover_run(folder, figures=False)  # a recovered folder: recovered again, the same
+    assert json.loads((folder / 'summary.json').read_text(encoding='utf-8')) == recovered
 
 
 def test_recover_run_needs_a_journal(tmp_path: Path) -> None:

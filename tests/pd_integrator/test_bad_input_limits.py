@@ -374,6 +374,21 @@ def test_offline_whose_journal_cannot_grow_says_how_to_recover(tmp_path: Path) -
     assert summary['recovered'] and summary['steps'] > 0
 
 
+def test_recover_of_a_run_that_ended_says_there_is_nothing_to_do(tmp_path: Path) -> None:
+    """A finished run's folder is whole: ./pd recover writes nothing (its summary keeps what
+    only the live run knew), says so in one line and how to write the outputs elsewhere."""
+    out = tmp_path / 'out'
+    finished = run('offline', '--out', str(out), '--quiet', '--no-figures', cwd=tmp_path)
+    assert finished.code == 0, finished.stderr
+    before = {path: path.read_bytes() for path in out.rglob('*') if path.is_file()}
+    result = run('recover', str(out), '--no-figures', cwd=tmp_path)
+    assert (result.code, result.stderr) == (0, '')
+    assert result.stdout == (f'recover: {out}: nothing to recover: the run ended (finished) and '
+                             f'wrote its bag and outputs; ./pd replay {out} --out DIR writes '
+                             'them again elsewhere\n')
+    assert {path: path.read_bytes() for path in out.rglob('*') if path.is_file()} == before
+
+
 # -- 9. a run folder whose launch plan is no file -------------------------------------------
 def test_resume_of_a_folder_whose_launch_plan_is_a_fifo_never_hangs(tmp_path: Path) -> None:
     folder = tmp_path / 'run'

@@ -31,6 +31,13 @@ class BagError(PdIntegratorError):
     """A test bag cannot be written, read or replayed."""
 
 
+class NothingToRecoverError(BagError):
+    """A run folder asked to be recovered is whole already: its run ended and wrote its outputs.
+
+    Not a fault: nothing was written (``./pd recover`` says so and exits 0).
+    """
+
+
 class AnalysisEndedError(IntegratorError):
     """An external integrator (OpenSees's ``genericClient``) ended the analysis: not a fault."""
 

@@ -14,6 +14,7 @@ or the journal of a run whose bag was never finished.
 
 from __future__ import annotations
 
+import json
 import shutil
 import time
 from collections import deque
@@ -34,7 +35,7 @@ from pd_common.specimen import (
     site_geometry,
 )
 
-from ..errors import BagError, ConfigError
+from ..errors import BagError, ConfigError, NothingToRecoverError
 from .bridge_limits import BridgeGate, SiteLimits, limits_summary
 from .definition import TestDefinition
 from .loop.dispatch import StepDispatcher, refuse_fresh_state
@@ -52,6 +53,7 @@ from .record.journal import (
     read_journal,
 )
 from .record.outputs import (
+    SUMMARY_JSON,
     draw_run_figures,
     summarize,
     tracking_history,
@@ -551,6 +553,23 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
     return RunResult(session=session, directory=directory, summary=summary)
 
 
+def _ended_state(run_dir: Path) -> str | None:
+    """The state in the ``summary.json`` a run wrote as it ended; ``None`` if there is none.
+
+    ``None`` too for a summary that ``recover_run`` wrote, or one that cannot be read.
+    """
+    path = run_dir / SUMMARY_JSON
+    if not path.is_file():  # (none, or a FIFO or a device: never read)
+        return None
+    try:
+        summary = json.loads(path.read_text(encoding='utf-8'))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(summary, dict) or summary.get('recovered'):
+        return None
+    return str(summary.get('state') or 'ended')
+
+
 def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
     """A killed run's folder made whole from its journal: the bag, and the outputs so far.
 
@@ -558,8 +577,13 @@ def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
     ``response.csv``, ``summary.json`` (``recovered``: true) and the figures, up to the last
     committed step. The run can still be resumed afterwards (``./pd run --resume``).
 
+    A folder whose run ended and wrote its bag and ``summary.json`` itself is left as it is:
+    that summary holds what only the live run knew (its round trips, the sites' protocol and
+    authentication, the specimen side), which a summary rebuilt from the journal would drop.
+
     Raises:
         BagError: the folder has no journal, or it cannot be read.
+        NothingToRecoverError: the run ended and wrote its outputs (nothing written).
     """
     run_dir = Path(run_dir)
     journal = run_dir / JOURNAL_FILE
@@ -568,6 +592,11 @@ def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
         msg = f'{run_dir}: no {JOURNAL_FILE}: nothing to recover from'
         raise BagError(msg)
     bag = run_dir / BAG_DIRECTORY
+    ended = _ended_state(run_dir)
+    if ended is not None and (bag / 'metadata.yaml').is_file():
+        msg = (f'{run_dir}: nothing to recover: the run ended ({ended}) and wrote its bag and '
+               f'outputs; ./pd replay {run_dir} --out DIR writes them again elsewhere')
+        raise NothingToRecoverError(msg)
     if bag.exists() and not (bag / 'metadata.yaml').is_file():
         shutil.rmtree(bag)  # a bag the crash left unfinished: the journal has all of it
     if not bag.exists():
