@@ -8,6 +8,7 @@ names the pages cite are checked against ``src/`` (read as text: nothing is impo
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -15,7 +16,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-from support.paths import REPO
+from pd_common.cli import help_text
+from pd_core.run.runner import run_offline
+from pd_core.run.test_file import load_test_file
+from support.paths import DEFAULT_TEST, REPO
 
 README_MAX_LINES = 250
 # A repository path as the pages write it: `src/pd_integrator/config/default_test.yaml`.
@@ -124,3 +128,35 @@ def test_the_messages_page_prints_every_message_file_whole() -> None:
         assert printed[name] == text, (
             f'docs/reference/messages.md: {name} differs from src/pd_msgs/msg/{name}.msg: '
             'copy the file into its block')
+
+
+def test_the_command_line_reference_has_a_row_for_every_command() -> None:
+    """Every command ``./pd help`` lists (the script's and every package's registered ones)
+    has its row in docs/reference/cli.md's table, with where it is explained."""
+    listed = set(re.findall(r'^  \./pd (\w+)', help_text(), re.MULTILINE))
+    page = (REPO / 'docs' / 'reference' / 'cli.md').read_text()
+    rows = set(re.findall(r'^\| `\./pd (\w+)', page, re.MULTILINE))
+    assert listed, 'help_text lists no command'
+    assert listed - rows == set(), f'docs/reference/cli.md: no row for {sorted(listed - rows)}'
+
+
+def test_the_bag_snippets_of_analyse_a_bag_run_as_written(tmp_path: Path) -> None:
+    """The Python of docs/how-to/analyse-a-bag.md, copied as it stands, reads a run's bag: the
+    messages per topic and the peak force agree with the run's own outputs."""
+    result = run_offline(load_test_file(DEFAULT_TEST, overrides={'duration': 3.0}),
+                         tmp_path / 'run', figures=False)
+    bag = result.directory / 'bag'
+    page = (REPO / 'docs' / 'how-to' / 'analyse-a-bag.md').read_text()
+    reader, read_bag = re.findall(r'```python\n(.*?)```', page, re.DOTALL)
+    (tmp_path / 'read_bag.py').write_text(reader)
+    (tmp_path / 'read_run.py').write_text(read_bag.replace("'runs/<run>/bag'", repr(str(bag))))
+    steps = result.session.committed_step
+    summary = json.loads((result.directory / 'summary.json').read_text())
+    peak = summary['dofs']['top']['peaks']['restoring_force']['abs']
+    out = subprocess.run([sys.executable, 'read_bag.py', str(bag)], cwd=tmp_path, text=True,
+                         capture_output=True, timeout=120, check=True).stdout
+    assert re.search(rf'^/pd/step_feedback +{steps + 1} messages$', out, re.MULTILINE), out
+    assert f'peak restoring force {peak / 1000:.3f} kN' in out
+    out = subprocess.run([sys.executable, 'read_run.py'], cwd=tmp_path, text=True,
+                         capture_output=True, timeout=120, check=True).stdout
+    assert out.startswith(f'{2 * (steps + 1)} commands and feedback;'), out
