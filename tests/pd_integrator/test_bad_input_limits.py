@@ -16,6 +16,7 @@ import json
 import os
 import re
 import resource
+import socket
 import subprocess
 import sys
 import time
@@ -31,7 +32,8 @@ from support.paths import DEFAULT_TEST, INSTALL
 MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline',
            'pretest': 'pd_pretest.pretest', 'replay': 'pd_integrator.replay',
            'recover': 'pd_integrator.recover', 'console': 'pd_console.console',
-           'journal': 'pd_integrator.journal',
+           'journal': 'pd_integrator.journal', 'control': 'pd_bringup.control',
+           'schema': 'pd_common.config.schema_cli',
            'rths_benchmark': 'pd_rths_benchmark.rths_benchmark'}
 #: Seconds a refusal may take (a process start with numpy and scipy is about one).
 PROMPT = 10.0
@@ -387,6 +389,84 @@ def test_recover_of_a_run_that_ended_says_there_is_nothing_to_do(tmp_path: Path)
                              f'wrote its bag and outputs; ./pd replay {out} --out DIR writes '
                              'them again elsewhere\n')
     assert {path: path.read_bytes() for path in out.rglob('*') if path.is_file()} == before
+
+
+# -- the options of the tools: out of range, or a place that cannot be used -------------------
+@pytest.fixture(scope='module')
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The default test's run folder, run offline to its end (read only by the tests)."""
+    where = tmp_path_factory.mktemp('finished')
+    finished = run('offline', '--out', str(where / 'out'), '--quiet', '--no-figures', cwd=where)
+    assert finished.code == 0, finished.stderr
+    return where / 'out'
+
+
+@pytest.mark.parametrize(('args', 'message'), [
+    (['--port', '-1'], r'port: must be 0 \(any free port\) to 65535, got -1'),
+    (['--port', '99999'], r'port: must be 0 \(any free port\) to 65535, got 99999'),
+    (['--port', '0', '--max-points', '0'],
+     r'max_points: must be at least 2 rows per series, got 0'),
+    (['--port', '0', '--update-rate', 'nan'],
+     r'update_rate: must be a positive number of frames per second, got nan'),
+    (['--port', '0', '--foxglove', '70000'],
+     r'foxglove_port: must be 1 to 65535 \(0: off\), got 70000'),
+    (['--port', '0', '--host', '192.0.2.1'], r'cannot listen on 192\.0\.2\.1:0 \(.+\)'),
+], ids=['port-negative', 'port-too-large', 'max-points', 'update-rate', 'foxglove-port',
+        'not-this-hosts-address'])
+def test_a_console_setting_it_cannot_serve_with_is_one_line(
+        tmp_path: Path, finished_run: Path, args: list[str], message: str) -> None:
+    refused(run('console', str(finished_run), *args, cwd=tmp_path), 'console', rf'{message}$')
+
+
+def test_a_console_whose_port_is_taken_is_one_line(tmp_path: Path, finished_run: Path) -> None:
+    out = finished_run
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        refused(run('console', str(out), '--port', str(port), cwd=tmp_path), 'console',
+                rf'cannot listen on 127\.0\.0\.1:{port} \(.*address already in use\)$')
+
+
+def test_a_journal_tail_beyond_any_journal_prints_all_of_it(tmp_path: Path,
+                                                            finished_run: Path) -> None:
+    out = finished_run
+    every = run('journal', str(out), cwd=tmp_path)
+    huge = run('journal', str(out), '--tail', '9' * 30, cwd=tmp_path)
+    assert (huge.code, huge.stderr) == (0, '')
+    assert huge.stdout == every.stdout and every.stdout.count('\n') > 100
+
+
+@pytest.mark.parametrize('where', ['a-file', 'under-a-file'])
+def test_schema_written_where_it_cannot_be_is_one_line(tmp_path: Path, where: str) -> None:
+    (tmp_path / 'a-file').write_text('mine\n')
+    target = tmp_path / 'a-file' if where == 'a-file' else tmp_path / 'a-file' / 'sub'
+    reason = 'File exists' if where == 'a-file' else 'Not a directory'
+    refused(run('schema', '--write', str(target), cwd=tmp_path), 'schema',
+            rf'{target}: cannot write \({reason}\)$')
+    assert (tmp_path / 'a-file').read_text() == 'mine\n'  # nothing lost
+
+
+@pytest.mark.parametrize('timeout', ['inf', 'nan', '0', '-1'])
+def test_a_control_timeout_that_is_no_time_is_one_line(tmp_path: Path, timeout: str) -> None:
+    refused(run('control', 'pause', '--timeout', timeout, cwd=tmp_path), 'control',
+            rf'--timeout: must be a positive number of seconds, got {timeout}$')
+
+
+@pytest.mark.parametrize(('param', 'message'), [
+    ('dt:=', r"--param 'dt:=': no value after := \(e\.g\. dt:=0\.5\)"),
+    ('dt:=  ', r"--param 'dt:=  ': no value after :="),
+    (':=1', r"--param ':=1': expected NAME:=VALUE"),
+    ('d t:=1', r"--param 'd t:=1': expected NAME:=VALUE"),
+], ids=['empty', 'blank', 'no-name', 'space-in-name'])
+def test_an_override_ros_cannot_parse_is_refused_before_anything(
+        tmp_path: Path, param: str, message: str) -> None:
+    """The integrator's ROS arguments would fail to parse in the child (a traceback, a run
+    folder left): run_test refuses the override first, and nothing is made."""
+    out = tmp_path / 'out'
+    refused(run('run_test', str(DEFAULT_TEST), '-p', param, '--out', str(out), '--no-figures',
+                cwd=tmp_path), 'run_test', rf'{message}.*$')
+    assert not out.exists()
 
 
 # -- 9. a run folder whose launch plan is no file -------------------------------------------

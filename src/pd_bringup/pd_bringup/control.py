@@ -20,12 +20,14 @@ stop again meanwhile; it exits 1 naming any that did not confirm.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
 from pathlib import Path
 
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from std_msgs.msg import String
 
@@ -89,9 +91,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f'control: error: {command!r} is not a {"bridge" if args.bridge else "test"} '
               f'control ({", ".join(allowed)})', file=sys.stderr)
         return 2
-    if not args.timeout > 0.0:
+    if not (args.timeout > 0.0 and math.isfinite(args.timeout)):
         print(f'control: error: --timeout: must be a positive number of seconds, got '
-              f'{args.timeout}', file=sys.stderr)
+              f'{args.timeout:g}', file=sys.stderr)
         return 2
     key: Key | None = None
     if command != 'estop':
@@ -120,6 +122,9 @@ def main(argv: list[str] | None = None) -> int:
         if command == 'estop':
             return _emergency_stop(node, key, args, spin)
         return _control(node, key, command, args, spin)
+    except (KeyboardInterrupt, ExternalShutdownException):  # a signal while it waits
+        print(f'control: error: interrupted: {command} not confirmed', file=sys.stderr)
+        return 1
     finally:
         rclpy.try_shutdown()
 

@@ -38,6 +38,7 @@ import argparse
 import json
 import math
 import os
+import re
 import signal
 import sys
 from pathlib import Path
@@ -85,6 +86,10 @@ LOG_FILE = 'run_test.log'
 __all__ = ['LaunchError', 'main', 'parse_overrides', 'resolve_key']
 
 
+#: A node parameter's name as ROS reads one on the command line (``-p NAME:=VALUE``).
+_PARAMETER_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_.]*')
+
+
 def parse_overrides(items: list[str]) -> dict[str, object]:
     """``NAME:=VALUE`` items (YAML values, as ``ros2 run --ros-args -p`` reads them).
 
@@ -94,8 +99,11 @@ def parse_overrides(items: list[str]) -> dict[str, object]:
     overrides: dict[str, object] = {}
     for item in items:
         name, sep, value = item.partition(':=')
-        if not sep or not name:
-            msg = f'--param {item!r}: expected NAME:=VALUE'
+        if not sep or not _PARAMETER_NAME.fullmatch(name):
+            msg = f'--param {item!r}: expected NAME:=VALUE (a parameter name, e.g. dt:=0.005)'
+            raise LaunchError(msg)
+        if not value.strip():  # (ROS cannot parse an empty override: the node would not start)
+            msg = f'--param {item!r}: no value after := (e.g. {name}:=0.5)'
             raise LaunchError(msg)
         try:
             overrides[name] = load_yaml(value)

@@ -32,6 +32,7 @@ import asyncio
 import ipaddress
 import json
 import logging
+import math
 import sys
 import threading
 import time
@@ -135,6 +136,37 @@ def default_bridge_limits(path: str = '') -> dict[str, float]:
             if isinstance(parameters.get(name), int | float)}
 
 
+class ConsoleSettingError(ValueError):
+    """A console setting (an option or a parameter) out of its range: one line naming it."""
+
+
+def check_settings(*, port: int, update_rate: float, max_points: int,
+                   foxglove_port: int | None) -> None:
+    """Refuse a setting the server could not use, naming it (before anything listens).
+
+    Raises:
+        ConsoleSettingError: a port outside 0–65535 (the Foxglove port: 1–65535), an update
+            rate that is not a positive number, fewer than 2 rows per series.
+    """
+    if not 0 <= port <= 65535:
+        msg = f'port: must be 0 (any free port) to 65535, got {port}'
+        raise ConsoleSettingError(msg)
+    if not (math.isfinite(update_rate) and update_rate > 0.0):
+        msg = f'update_rate: must be a positive number of frames per second, got {update_rate}'
+        raise ConsoleSettingError(msg)
+    if max_points < 2:
+        msg = f'max_points: must be at least 2 rows per series, got {max_points}'
+        raise ConsoleSettingError(msg)
+    if foxglove_port is not None and foxglove_port != 0 and not 1 <= foxglove_port <= 65535:
+        msg = f'foxglove_port: must be 1 to 65535 (0: off), got {foxglove_port}'
+        raise ConsoleSettingError(msg)
+
+
+def _listen_error(err: OSError, host: str, port: int) -> str:
+    """One line for a server that cannot listen (a busy port, an address not of this host)."""
+    return f'cannot listen on {host}:{port} ({err.strerror or err})'
+
+
 class ConsoleNode(Node):
     """Subscribes to the test's topics and feeds a :class:`ConsoleModel`; sends controls.
 
@@ -167,6 +199,8 @@ class ConsoleNode(Node):
         self.foxglove_port = int(declare('foxglove_port', 0, "serve the live test to the "
                                          "Foxglove app on this port (foxglove-sdk's "
                                          'WebSocket server; 0: off)'))
+        check_settings(port=self.port, update_rate=self.update_rate,
+                       max_points=self.max_points, foxglove_port=self.foxglove_port)
         model.max_points = self.max_points
         if self.foxglove_port:
             model.fresh_rows = FOXGLOVE_ROWS
@@ -797,6 +831,16 @@ def main(args: list[str] | None = None) -> int:
     model = ConsoleModel(time.monotonic)
     access = ConsoleAccess()
     if options.run is not None:
+        host = options.host or '127.0.0.1'
+        port = DEFAULT_PORT if options.port is None else options.port
+        update_rate = 4.0 if options.update_rate is None else options.update_rate
+        try:
+            check_settings(port=port, update_rate=update_rate,
+                           max_points=model.max_points if options.max_points is None
+                           else options.max_points, foxglove_port=options.foxglove)
+        except ConsoleSettingError as err:
+            print(f'console: error: {err}', file=sys.stderr)
+            return 2
         if options.max_points is not None:
             model.max_points = options.max_points
         model.default_limits = default_bridge_limits(options.bridge_params or '')
@@ -806,13 +850,15 @@ def main(args: list[str] | None = None) -> int:
             print(f'console: error: {err}', file=sys.stderr)
             return 2
         stop = StopFlag()
-        server = ConsoleServer(model, lock, access, None, options.update_rate or 4.0, run_dir,
-                               host=options.host or '127.0.0.1',
-                               port=DEFAULT_PORT if options.port is None else options.port)
+        server = ConsoleServer(model, lock, access, None, update_rate, run_dir,
+                               host=host, port=port)
         try:
             asyncio.run(serve(server, stop))
         except KeyboardInterrupt:
             pass
+        except OSError as err:
+            print(f'console: error: {_listen_error(err, host, port)}', file=sys.stderr)
+            return 2
         return 0
     stop = init_with_stop_flag(argv)
     try:
@@ -827,12 +873,21 @@ def main(args: list[str] | None = None) -> int:
         thread.start()
         server = ConsoleServer(model, lock, access, node, node.update_rate, host=node.host,
                                port=node.port)
-        asyncio.run(serve(server, stop))
-        stop.set()
-        thread.join(timeout=2.0)
-        executor.shutdown()
-        node.destroy_node()
+        try:
+            asyncio.run(serve(server, stop))
+        except OSError as err:
+            print(f'console: error: {_listen_error(err, node.host, node.port)}',
+                  file=sys.stderr)
+            return 2
+        finally:
+            stop.set()
+            thread.join(timeout=2.0)
+            executor.shutdown()
+            node.destroy_node()
         return 0
+    except ConsoleSettingError as err:
+        print(f'console: error: {err}', file=sys.stderr)
+        return 2
     except OSError as err:
         print(f'console: error: {err}', file=sys.stderr)
         return 2

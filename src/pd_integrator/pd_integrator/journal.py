@@ -40,7 +40,7 @@ def _count(text: str) -> int:
     if value < 1:
         msg = f'{text!r}: not a number of records >= 1'
         raise argparse.ArgumentTypeError(msg)
-    return value
+    return min(value, sys.maxsize)  # (more than any journal holds: all of them)
 
 
 def _numbered(records: Iterable[JournalRecord], kinds: set[str] | None

@@ -28,16 +28,19 @@ __all__ = ['main']
 
 
 def _write(folder: Path) -> list[Path]:
-    """Write the three schemas into ``folder``; the files written."""
+    """Write the three schemas into ``folder``; the files written.
+
+    Raises:
+        OSError: the folder cannot be made or a file cannot be written.
+    """
+    texts = {folder / name: json_schema_text(bridge=bridge, driver=driver)
+             for bridge, driver, name in ((False, False, TEST_FILE_SCHEMA_FILE),
+                                          (True, False, BRIDGE_SCHEMA_FILE),
+                                          (False, True, DRIVER_CONFIG_SCHEMA_FILE))}
     folder.mkdir(parents=True, exist_ok=True)
-    written = []
-    for bridge, driver, name in ((False, False, TEST_FILE_SCHEMA_FILE),
-                                 (True, False, BRIDGE_SCHEMA_FILE),
-                                 (False, True, DRIVER_CONFIG_SCHEMA_FILE)):
-        path = folder / name
-        path.write_text(json_schema_text(bridge=bridge, driver=driver), encoding='utf-8')
-        written.append(path)
-    return written
+    for path, text in texts.items():
+        path.write_text(text, encoding='utf-8')
+    return list(texts)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -65,7 +68,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='write the JSON Schemas into DIR (src/pd_common/schema)')
     args = parser.parse_args(argv)
     if args.write is not None:
-        for path in _write(args.write):
+        try:
+            written = _write(args.write)
+        except OSError as err:  # a file in the way, a read-only folder
+            where = err.filename or args.write
+            print(f'schema: error: {where}: cannot write ({err.strerror or err})',
+                  file=sys.stderr)
+            return 2
+        for path in written:
             sys.stdout.write(f"{path}\n")
         return 0
     if args.markdown:
