@@ -21,6 +21,7 @@ from aiohttp.test_utils import TestClient, TestServer
 from pd_common.protocol import Command, Feedback
 from pd_console.console import (
     ConsoleServer,
+    ConsoleSettingError,
     FoxgloveFeed,
     default_bridge_limits,
     serve,
@@ -159,10 +160,14 @@ def test_bridge_limits_come_from_a_parameter_file(tmp_path: Path) -> None:
     path.write_text('/**:\n  ros__parameters:\n    max_force: 5000.0\n    max_increment: 0.01\n'
                     '    driver: sim_servo\n', encoding='utf-8')
     assert default_bridge_limits(str(path)) == {'max_force': 5000.0, 'max_increment': 0.01}
-    assert default_bridge_limits(str(tmp_path / 'missing.yaml')) == {}
-    # a file the bridge would refuse shows no limits (read through the same schema)
+    # a file named that is missing, or that the bridge would refuse (read through the same
+    # schema), is one line naming the setting: not gauges quietly without limits
+    with pytest.raises(ConsoleSettingError, match=r'^bridge_params: .*missing\.yaml: cannot '
+                                                   r'read the bridge parameter file'):
+        default_bridge_limits(str(tmp_path / 'missing.yaml'))
     path.write_text('/**:\n  ros__parameters:\n    max_force: -5000.0\n', encoding='utf-8')
-    assert default_bridge_limits(str(path)) == {}
+    with pytest.raises(ConsoleSettingError, match=r'^bridge_params: .*max_force'):
+        default_bridge_limits(str(path))
     assert default_bridge_limits()['max_displacement'] == pytest.approx(0.25)
 
 

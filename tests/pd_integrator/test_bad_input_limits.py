@@ -428,6 +428,24 @@ def test_a_console_whose_port_is_taken_is_one_line(tmp_path: Path, finished_run:
                 rf'cannot listen on 127\.0\.0\.1:{port} \(.*address already in use\)$')
 
 
+@pytest.mark.parametrize('live', [False, True], ids=['finished-run', 'live'])
+def test_a_console_file_named_that_cannot_be_used_is_one_line(
+        tmp_path: Path, finished_run: Path, live: bool) -> None:
+    """A bridge parameter file or a key asked for by name and unusable is refused, not taken
+    as none (gauges without limits, a console that cannot steer); only the defaults may be
+    missing."""
+    run_folder = [] if live else [str(finished_run)]
+    refused(run('console', *run_folder, '--port', '0', '--bridge-params',
+                str(tmp_path / 'nope.yaml'), cwd=tmp_path), 'console',
+            rf'bridge_params: {tmp_path}/nope\.yaml: cannot read the bridge parameter file')
+    if live:  # (a finished run's console sends nothing: it reads no key)
+        key = tmp_path / 'test.key'
+        key.write_text('pd-hmac-sha256 v1 ' + '0123456789abcdef' * 4 + '\n')
+        key.chmod(0o644)
+        refused(run('console', '--port', '0', '--key', str(key), cwd=tmp_path), 'console',
+                rf'key_file: {key}: key file is accessible to group or others')
+
+
 def test_a_journal_tail_beyond_any_journal_prints_all_of_it(tmp_path: Path,
                                                             finished_run: Path) -> None:
     out = finished_run

@@ -120,24 +120,30 @@ def web_directory() -> Path:
     return Path(__file__).resolve().parents[1] / 'console'
 
 
+class ConsoleSettingError(ValueError):
+    """A console setting (an option or a parameter) out of its range: one line naming it."""
+
+
 def default_bridge_limits(path: str = '') -> dict[str, float]:
     """The bridge limits of a site whose test definition names none.
 
     ``path`` (a bridge parameter file) or the shipped one, read through its schema as
-    ``./pd run`` reads it; the limits the file sets (the gauges show no others). A file that
-    cannot be read or is refused gives none: the console only watches.
+    ``./pd run`` reads it; the limits the file sets (the gauges show no others). The shipped
+    file unreadable gives none (the gauges show no limits).
+
+    Raises:
+        ConsoleSettingError: ``path`` names a file that cannot be read or is refused.
     """
     try:
         file = Path(path) if path else default_bridge_parameter_file()
         parameters = read_bridge_parameter_file(file).parameters()
-    except SchemaError:
+    except SchemaError as err:
+        if path:  # asked for by name: one line, not gauges quietly without limits
+            msg = f'bridge_params: {err}'
+            raise ConsoleSettingError(msg) from None
         return {}
     return {name: float(parameters[name]) for name in (*BRIDGE_LIMITS, 'step_duration')
             if isinstance(parameters.get(name), int | float)}
-
-
-class ConsoleSettingError(ValueError):
-    """A console setting (an option or a parameter) out of its range: one line naming it."""
 
 
 def check_settings(*, port: int, update_rate: float, max_points: int,
@@ -212,6 +218,9 @@ class ConsoleNode(Node):
         try:
             self.key = load_key(operator_key_path(self.key_file or None))
         except AuthError as err:
+            if self.key_file:  # asked for by name: refused, not a console that cannot steer
+                msg = f'key_file: {err}'
+                raise ConsoleSettingError(msg) from None
             self.key_error = str(err)
         # Statuses are believed only as their nodes signed them; controls go out bound to
         # their receivers and are confirmed (pd_common.ros.ControlSender).
@@ -843,7 +852,11 @@ def main(args: list[str] | None = None) -> int:
             return 2
         if options.max_points is not None:
             model.max_points = options.max_points
-        model.default_limits = default_bridge_limits(options.bridge_params or '')
+        try:
+            model.default_limits = default_bridge_limits(options.bridge_params or '')
+        except ConsoleSettingError as err:
+            print(f'console: error: {err}', file=sys.stderr)
+            return 2
         try:
             run_dir = load_run_folder(options.run, model)
         except (BagError, OSError) as err:
