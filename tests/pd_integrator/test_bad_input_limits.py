@@ -16,6 +16,7 @@ import json
 import os
 import re
 import resource
+import shutil
 import socket
 import subprocess
 import sys
@@ -33,7 +34,8 @@ MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline'
            'pretest': 'pd_pretest.pretest', 'replay': 'pd_integrator.replay',
            'recover': 'pd_integrator.recover', 'console': 'pd_console.console',
            'journal': 'pd_integrator.journal', 'control': 'pd_bringup.control',
-           'schema': 'pd_common.config.schema_cli',
+           'schema': 'pd_common.config.schema_cli', 'keygen': 'pd_bringup.keygen',
+           'study_ch5': 'pd_studies.study_ch5',
            'rths_benchmark': 'pd_rths_benchmark.rths_benchmark'}
 #: Seconds a refusal may take (a process start with numpy and scipy is about one).
 PROMPT = 10.0
@@ -444,6 +446,51 @@ def test_a_console_file_named_that_cannot_be_used_is_one_line(
         key.chmod(0o644)
         refused(run('console', '--port', '0', '--key', str(key), cwd=tmp_path), 'console',
                 rf'key_file: {key}: key file is accessible to group or others')
+
+
+@pytest.mark.parametrize('into', ['the-run', 'another-run'])
+def test_replay_never_writes_over_a_run_folder(tmp_path: Path, finished_run: Path,
+                                               into: str) -> None:
+    """A replay's outputs into a run's own folder would replace its summary (what only the
+    live run knew) and response: refused, nothing written."""
+    run_copy = tmp_path / 'run'
+    shutil.copytree(finished_run, run_copy)
+    target = run_copy if into == 'the-run' else tmp_path / 'other'
+    if into == 'another-run':
+        shutil.copytree(finished_run, target)
+    before = {path: path.read_bytes() for path in target.rglob('*') if path.is_file()}
+    refused(run('replay', str(run_copy), '--out', str(target), '--no-figures', cwd=tmp_path),
+            'replay', rf'{target}: a run folder \(journal\.pdj in it\): its outputs are not '
+                      r'replaced; --out a new folder')
+    assert {path: path.read_bytes() for path in target.rglob('*') if path.is_file()} == before
+    again = run('replay', str(run_copy), '--no-figures', cwd=tmp_path)  # its own replay/: fine
+    assert again.code == 0 and (run_copy / 'replay' / 'response.csv').is_file(), again.stderr
+
+
+def test_recover_of_a_journal_without_a_run_leaves_no_bag(tmp_path: Path) -> None:
+    folder = tmp_path / 'run'
+    folder.mkdir()
+    (folder / 'journal.pdj').write_bytes(b'')
+    refused(run('recover', str(folder), '--no-figures', cwd=tmp_path), 'recover',
+            r'.*journal\.pdj: no /pd/test_definition record')
+    assert sorted(path.name for path in folder.iterdir()) == ['journal.pdj']
+
+
+def test_keygen_never_replaces_what_is_not_a_key_file(tmp_path: Path, fifo: Path) -> None:
+    for target in (fifo, Path('/dev/null')):
+        refused(run('keygen', '--out', str(target), '--force', cwd=tmp_path), 'keygen',
+                rf'{target}: not a regular file; a key file is replaced only by a key file$')
+
+
+@pytest.mark.parametrize('where', ['a-file', 'under-a-file'])
+def test_study_ch5_into_a_folder_that_cannot_be_made_is_one_line(tmp_path: Path,
+                                                                 where: str) -> None:
+    (tmp_path / 'a-file').write_text('mine\n')
+    target = tmp_path / 'a-file' if where == 'a-file' else tmp_path / 'a-file' / 'sub'
+    reason = 'File exists' if where == 'a-file' else 'Not a directory'
+    refused(run('study_ch5', '--duration', '1', '--out', str(target), cwd=tmp_path),
+            'study_ch5', rf'{target}: cannot make the output folder \({reason}\)$')
+    assert (tmp_path / 'a-file').read_text() == 'mine\n'
 
 
 def test_a_journal_tail_beyond_any_journal_prints_all_of_it(tmp_path: Path,

@@ -20,6 +20,17 @@ from pd_common.config import existing_path
 from pd_core.errors import PdIntegratorError
 from pd_core.run.runner import rebuild_outputs
 
+#: What only a run's own folder holds: an output folder with one of them is a run's.
+RUN_RECORDS = ('journal.pdj', 'bag', 'launch.json', 'journal.jsonl')
+
+
+def _run_record_in(folder: Path) -> str | None:
+    """The first of :data:`RUN_RECORDS` in ``folder``; ``None`` if none (or no folder)."""
+    for name in RUN_RECORDS:
+        if (folder / name).exists():
+            return name
+    return None
+
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status.
@@ -42,6 +53,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     run_dir = resolved if resolved.is_dir() and bag.name != 'bag' else resolved.parent
     out = Path(args.out) if args.out else run_dir / 'replay'
+    held = _run_record_in(out)
+    if held is not None:  # its outputs would replace the run's own (its summary knows more)
+        print(f'replay: error: {out}: a run folder ({held} in it): its outputs are not '
+              'replaced; --out a new folder (default: <run folder>/replay)', file=sys.stderr)
+        return 2
     try:
         key = load_key(args.key) if args.key else None
         result = rebuild_outputs(bag, out, figures=not args.no_figures, key=key)

@@ -86,8 +86,13 @@ def check_output_directory(out: Path, records: list[StudyRecord]) -> None:
     """Refuse an output folder that already holds one of the runs (nothing is overwritten).
 
     Raises:
-        StudyError: a run folder already holds a bag.
+        StudyError: a run folder already holds a bag, or the folder cannot be made.
     """
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a file in the way, a folder that cannot be written
+        msg = f'{err.filename or out}: cannot make the output folder ({err.strerror or err})'
+        raise StudyError(msg) from None
     for record in records:
         for scheme in record.definitions:
             run = out / record.label / scheme
@@ -212,15 +217,20 @@ def main(argv: list[str] | None = None) -> int:
                                 progress=say)
             comparison_figures(result, out / record.label)
             results.append(result)
+        rows = [row for result in results for row in peak_rows(result)]
+        write_table_csv(rows, out / TABLE_CSV)
+        markdown = markdown_table(results, rows)
+        (out / TABLE_MD).write_text(markdown, encoding='utf-8')
+        (out / STUDY_JSON).write_text(json.dumps(_manifest(study, results, schemes,
+                                                           args.duration),
+                                                 indent=2, default=str) + '\n', encoding='utf-8')
     except (PdIntegratorError, ValueError) as err:
         print(f'{PROG}: error: {" ".join(str(err).split())}', file=sys.stderr)
         return 2
-    rows = [row for result in results for row in peak_rows(result)]
-    write_table_csv(rows, out / TABLE_CSV)
-    markdown = markdown_table(results, rows)
-    (out / TABLE_MD).write_text(markdown, encoding='utf-8')
-    (out / STUDY_JSON).write_text(json.dumps(_manifest(study, results, schemes, args.duration),
-                                             indent=2, default=str) + '\n', encoding='utf-8')
+    except OSError as err:  # an output that cannot be written (a full disk)
+        print(f'{PROG}: error: {err.filename or out}: cannot write '
+              f'({err.strerror or type(err).__name__})', file=sys.stderr)
+        return 1
     say('')
     say(markdown)
     say(f'outputs in {out}')

@@ -80,7 +80,12 @@ def generate_key(path: str | Path, *, overwrite: bool = False) -> Key:
     try:
         if not path.parent.exists():
             path.parent.mkdir(mode=0o700, parents=True)
-        flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if overwrite else os.O_EXCL)
+        if overwrite and path.exists() and not path.is_file():  # a FIFO would block, a device
+            msg = f'{path}: not a regular file; a key file is replaced only by a key file'
+            raise KeyFileError(msg)
+        # (O_NONBLOCK: a FIFO put there meanwhile fails at once instead of waiting for a reader)
+        flags = (os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK
+                 | (os.O_TRUNC if overwrite else os.O_EXCL))
         descriptor = os.open(path, flags, 0o600)
     except FileExistsError:
         msg = f'{path}: a key file exists already (keep it, or remove it deliberately)'

@@ -599,9 +599,15 @@ def recover_run(run_dir: str | Path, *, figures: bool = True) -> RunResult:
         raise NothingToRecoverError(msg)
     if bag.exists() and not (bag / 'metadata.yaml').is_file():
         shutil.rmtree(bag)  # a bag the crash left unfinished: the journal has all of it
-    if not bag.exists():
+    made = not bag.exists()
+    if made:
         journal_to_bag(journal, bag)
-    result = rebuild_outputs(journal, run_dir, figures=figures)
+    try:
+        result = rebuild_outputs(journal, run_dir, figures=figures)
+    except Exception:
+        if made:  # (a journal with no run in it: no bag of it left behind)
+            shutil.rmtree(bag, ignore_errors=True)
+        raise
     result.summary['recovered'] = True
     if result.summary.get('state') in ('running', 'paused'):
         # The record stops in the middle of the test: its process was killed.
