@@ -467,6 +467,21 @@ def test_replay_never_writes_over_a_run_folder(tmp_path: Path, finished_run: Pat
     assert again.code == 0 and (run_copy / 'replay' / 'response.csv').is_file(), again.stderr
 
 
+@pytest.mark.parametrize('content', ['', '{}\n', '# nothing yet\n'])
+def test_a_bridge_parameter_file_that_sets_nothing_is_refused_before_anything(
+        tmp_path: Path, content: str) -> None:
+    """An empty parameter file passes ROS and the schema, and the bridge would start with no
+    configuration: no test, a 30 s wait for a specimen side, a run folder left."""
+    params = tmp_path / 'bridge.yaml'
+    params.write_text(content)
+    out = tmp_path / 'out'
+    refused(run('run_test', str(DEFAULT_TEST), '--bridge-params', str(params), '--out',
+                str(out), '--no-figures', cwd=tmp_path), 'run_test',
+            rf'{params}: no bridge parameters in it \(an empty file\?\); start from .*'
+            r'bridge\.yaml$')
+    assert not out.exists()
+
+
 def test_recover_of_a_journal_without_a_run_leaves_no_bag(tmp_path: Path) -> None:
     folder = tmp_path / 'run'
     folder.mkdir()

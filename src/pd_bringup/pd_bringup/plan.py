@@ -369,6 +369,10 @@ def bridge_driver(params: Path | None, extra: dict[str, Any]) -> str:
             parameters = read_bridge_parameter_file(params)
         except SchemaError as err:
             raise LaunchError(str(err)) from None
+        if not parameters.root:  # (the bridge would start unconfigured: no test, a 30 s wait)
+            msg = (f'{params}: no bridge parameters in it (an empty file?); start from '
+                   f'{default_bridge_parameter_file()}')
+            raise LaunchError(msg)
         for section in parameters.root.values():
             if section.ros__parameters.driver is not None:
                 return section.ros__parameters.driver
