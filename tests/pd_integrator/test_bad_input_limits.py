@@ -482,6 +482,25 @@ def test_a_bridge_parameter_file_that_sets_nothing_is_refused_before_anything(
     assert not out.exists()
 
 
+def test_a_rig_file_that_is_not_yaml_is_one_line(tmp_path: Path) -> None:
+    rig = tmp_path / 'rig.yaml'
+    rig.write_text('test: [unclosed\n  id: x: y\n')
+    refused(run('run_test', str(DEFAULT_TEST), '--rig', str(rig), '--out', str(tmp_path / 'o'),
+                cwd=tmp_path), 'run_test',
+            rf"{rig}: cannot read the rig file \(line 2: expected ',' or '\]', but got ':'\)$")
+
+
+@pytest.mark.parametrize('program', ['replay', 'console'])
+def test_a_bag_whose_metadata_is_not_yaml_is_one_line(tmp_path: Path, finished_run: Path,
+                                                      program: str) -> None:
+    bag = tmp_path / 'bag'
+    shutil.copytree(finished_run / 'bag', bag)
+    (bag / 'metadata.yaml').write_text('[\n')
+    args = ['--port', '0'] if program == 'console' else ['--out', str(tmp_path / 'o')]
+    refused(run(program, str(bag), *args, cwd=tmp_path), program,
+            rf'.*{bag}: cannot read the bag \(.*metadata\.yaml.*\)$')
+
+
 def test_recover_of_a_journal_without_a_run_leaves_no_bag(tmp_path: Path) -> None:
     folder = tmp_path / 'run'
     folder.mkdir()

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from pd_common.auth import default_rig_key, generate_key
-from pd_common.config import SchemaError, YAMLError, read_yaml_file, validate_model
+from pd_common.config import SchemaError, YAMLError, read_yaml_file, validate_model, yaml_problem
 from pd_common.config.schema_test_file import RigSection
 
 __all__ = ['DISCOVERY', 'TEST_KEYS_KEPT', 'TEST_KEY_DAYS', 'RigError', 'RigSettings',
@@ -107,8 +107,11 @@ def load_rig(rig: RigSection | None, test_file: Path, rig_file: Path | None) -> 
     if rig_file is not None:
         try:
             raw = read_yaml_file(rig_file)
-        except (OSError, YAMLError) as err:
+        except OSError as err:
             msg = f'{rig_file}: cannot read the rig file ({err})'
+            raise RigError(msg) from None
+        except YAMLError as err:  # (PyYAML's message spans lines: its line and problem)
+            msg = f'{rig_file}: cannot read the rig file ({yaml_problem(err)})'
             raise RigError(msg) from None
         section = raw.get('rig', raw) if isinstance(raw, Mapping) else raw
         try:  # (an empty file, or an empty rig section: no settings)

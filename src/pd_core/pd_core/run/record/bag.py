@@ -440,6 +440,7 @@ def read_bag(path: str | Path) -> RecordedRun:
     except BagError:
         raise
     except Exception as err:
-        msg = f'{path}: cannot read the bag ({err})'
+        reason = ' '.join(str(err).split())  # (one line: a YAML error's own spans several)
+        msg = f'{path}: cannot read the bag ({reason})'
         raise BagError(msg) from err
     return index.result(str(path))
