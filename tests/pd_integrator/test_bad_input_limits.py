@@ -35,7 +35,7 @@ MODULES = {'run_test': 'pd_bringup.launcher', 'offline': 'pd_integrator.offline'
            'recover': 'pd_integrator.recover', 'console': 'pd_console.console',
            'journal': 'pd_integrator.journal', 'control': 'pd_bringup.control',
            'schema': 'pd_common.config.schema_cli', 'keygen': 'pd_bringup.keygen',
-           'study_ch5': 'pd_studies.study_ch5',
+           'study_ch5': 'pd_studies.study_ch5', 'analyze': 'pd_scheme_analysis.analyze',
            'rths_benchmark': 'pd_rths_benchmark.rths_benchmark'}
 #: Seconds a refusal may take (a process start with numpy and scipy is about one).
 PROMPT = 10.0
@@ -499,6 +499,37 @@ def test_a_bag_whose_metadata_is_not_yaml_is_one_line(tmp_path: Path, finished_r
     args = ['--port', '0'] if program == 'console' else ['--out', str(tmp_path / 'o')]
     refused(run(program, str(bag), *args, cwd=tmp_path), program,
             rf'.*{bag}: cannot read the bag \(.*metadata\.yaml.*\)$')
+
+
+@pytest.mark.parametrize(('program', 'args', 'message'), [
+    ('pretest', [str(DEFAULT_TEST), '--scales', '0.01:1000:1e-6'],
+     r"--scales: 999,990,001 values from '0\.01:1000:1e-6'; at most 10,000$"),
+    ('pretest', [str(DEFAULT_TEST), '--vary', 'structure.mass=1:2:100000000'],
+     r"--vary: 100,000,000 values from 'structure\.mass=1:2:100000000'; at most 10,000$"),
+    ('pretest', [str(DEFAULT_TEST), '--scales', '0.1:10:0.01', '--vary',
+                 'structure.mass=1:2:2000'],
+     (r'default_test\.yaml: 1,982,000 analyses \(1 record\(s\) × 991 scale\(s\) × the '
+      r'--vary values\); at most 100,000$')),
+    ('analyze', ['--points', '1000000000'],
+     r'--points: at most 100,000 values of Ω, got 1,000,000,000$'),
+    ('rths_benchmark', ['--perturbed', '100000000'],
+     r'--perturbed: must be 0 to 10,000 plants, got 100,000,000$'),
+], ids=['scales', 'vary', 'product', 'points', 'perturbed'])
+def test_a_count_no_survey_needs_is_one_line_at_once(tmp_path: Path, program: str,
+                                                     args: list[str], message: str) -> None:
+    """A typo's extra zeros would allocate and compute for hours: refused before anything."""
+    out = tmp_path / 'out'
+    refused(run(program, *args, '--out', str(out), '--no-figures', cwd=tmp_path), program,
+            message)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize('what', ['folder', 'fifo'])
+def test_a_benchmark_record_that_is_no_file_says_so(tmp_path: Path, fifo: Path,
+                                                    what: str) -> None:
+    record = tmp_path if what == 'folder' else fifo
+    refused(run('rths_benchmark', '--record', str(record), '--out', str(tmp_path / 'o'),
+                cwd=tmp_path), 'rths_benchmark', rf'--record {record}: not a regular file$')
 
 
 def test_recover_of_a_journal_without_a_run_leaves_no_bag(tmp_path: Path) -> None:

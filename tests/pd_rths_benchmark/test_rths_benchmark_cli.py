@@ -84,6 +84,11 @@ def test_the_written_test_file_runs_offline_as_the_native_loop(short_record: Pat
     path = tmp_path / 'case2.yaml'
     assert main(['--record', str(short_record), '--case', '2', '--controller', 'model_based',
                  '--loop', 'native', '--write-test', str(path)]) == 0
+    written = path.read_bytes()
+    # written once: a second --write-test to the same file is one line, the file kept
+    assert main(['--record', str(short_record), '--case', '2', '--loop', 'native',
+                 '--write-test', str(path)]) == 2
+    assert path.read_bytes() == written
     definition = load_test_file(path)
     assert definition.sites is not None
     assert definition.sites['lab1']['bridge']['driver'] == 'transfer_system'
@@ -101,7 +106,7 @@ def test_the_written_test_file_runs_offline_as_the_native_loop(short_record: Pat
     (['--set', 'delay'], '--set: expected NAME=VALUE'),
     (['--intensity', '-1'], '--intensity: must be a positive number'),
     (['--loop', 'native', '--dt', '0.001'], '--dt: the integration step must be a whole'),
-    (['--perturbed', '-2'], '--perturbed: must be >= 0'),
+    (['--perturbed', '-2'], '--perturbed: must be 0 to 10,000 plants, got -2'),
     (['--ideal', '--perturbed', '1'], 'an ideal transfer system has no perturbed plants'),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv: list[str], message: str, tmp_path: Path,

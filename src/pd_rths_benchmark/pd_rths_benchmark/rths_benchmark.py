@@ -149,6 +149,10 @@ def _number(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
+#: Most perturbed plants of one run (each a whole benchmark run; the tables use 20).
+MAX_PERTURBED = 10_000
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status.
 
@@ -159,8 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.controller is None:
         args.controller = 'none' if args.ideal else DEFAULT_COMPENSATOR
     try:
-        if args.perturbed < 0:
-            msg = f'--perturbed: must be >= 0, got {args.perturbed}'
+        if not 0 <= args.perturbed <= MAX_PERTURBED:
+            msg = f'--perturbed: must be 0 to {MAX_PERTURBED:,} plants, got {args.perturbed:,}'
             raise ValueError(msg)
         if args.ideal and args.perturbed:
             msg = '--perturbed: an ideal transfer system has no perturbed plants'
@@ -173,7 +177,11 @@ def main(argv: list[str] | None = None) -> int:
         record = load_record(args.record, args.units)
         _check_intensity(options.intensity, record)
         if args.write_test:
-            path = write_test_file(options, record, Path(args.write_test))
+            try:
+                path = write_test_file(options, record, Path(args.write_test))
+            except FileExistsError:
+                msg = f'--write-test {args.write_test}: exists already (never replaced)'
+                raise ValueError(msg) from None
             print(f'wrote {path}: ./pd run {path} --site bridge')
             return 0
         out = Path(args.out) if args.out else Path('runs') / (

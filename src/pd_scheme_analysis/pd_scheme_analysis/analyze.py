@@ -117,6 +117,10 @@ def _select_schemes(text: str | None, params: dict[str, dict[str, list[Any]]]) -
     return list(dict.fromkeys(names))
 
 
+#: Most values of Ω in one sweep (the figures resolve a few hundred).
+MAX_POINTS = 100_000
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns 0 on success, 2 on invalid input."""
     parser = argparse.ArgumentParser(prog='analyze', description=__doc__.splitlines()[0])
@@ -136,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--no-figures', action='store_true', help='write the CSV files only')
     args = parser.parse_args(argv)
     try:
+        if args.points > MAX_POINTS:  # (a typo's extra zeros would compute for hours)
+            msg = f'--points: at most {MAX_POINTS:,} values of Ω, got {args.points:,}'
+            raise ConfigError(msg)
         omegas = omega_grid(args.omega_max, args.points)
         for xi in args.xi:
             if not 0.0 <= xi < 1.0:

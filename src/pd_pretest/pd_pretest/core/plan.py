@@ -54,6 +54,17 @@ def _clean(value: float) -> float:
     return float(f'{value:.12g}')
 
 
+#: Most values of one ``--scales`` or ``--vary``, and most analyses of one pre-test: a
+#: pre-test is a survey of a few hundred runs; a typo in a step (``0:1000:1e-6``) would
+#: otherwise allocate and run for hours.
+MAX_VALUES = 10_000
+MAX_RUNS = 100_000
+
+
+def _too_many(what: str, count: int, text: str) -> str:
+    return f'{what}: {count:,} values from {text!r}; at most {MAX_VALUES:,}'
+
+
 def parse_range(text: str, what: str) -> list[float]:
     """``LO:HI:STEP`` (inclusive), a comma list, or one number.
 
@@ -67,13 +78,18 @@ def parse_range(text: str, what: str) -> list[float]:
                     and step > 0.0 and hi >= lo):
                 raise ValueError
             count = math.floor((hi - lo) / step + 1e-9) + 1
-            values = [_clean(lo + i * step) for i in range(count)]
+            values = ([_clean(lo + i * step) for i in range(count)] if count <= MAX_VALUES
+                      else [])
         else:
             values = [float(part) for part in text.split(',')]
+            count = len(values)
     except ValueError:
         msg = (f'{what}: expected LO:HI:STEP (HI >= LO, STEP > 0), a comma list or a number, '
                f'got {text!r}')
         raise PretestError(msg) from None
+    if count > MAX_VALUES:
+        msg = _too_many(what, count, text)
+        raise PretestError(msg)
     if not values or not all(math.isfinite(v) for v in values):
         msg = f'{what}: values must be finite numbers, got {text!r}'
         raise PretestError(msg)
@@ -131,6 +147,9 @@ def parse_variation(text: str) -> Variation:
     except ValueError:
         msg = f'--vary: expected NAME=LO:HI:N (N an integer >= 1), got {text!r}'
         raise PretestError(msg) from None
+    if count > MAX_VALUES:
+        msg = _too_many('--vary', count, text)
+        raise PretestError(msg)
     keys: list[str | int] = []
     for token in _INDEX.sub(r'.\1', name).split('.'):
         if not token:
@@ -411,6 +430,11 @@ def build_plan(test_file: str | Path, *, records: Sequence[str | Path] = (),
     structures: dict[tuple[float, ...], Structural] = {}
     runs: list[Run] = []
     warnings: list[str] = []
+    planned = len(records or [None]) * len(scales) * math.prod(len(v.values) for v in variations)
+    if planned > MAX_RUNS:
+        msg = (f'{source}: {planned:,} analyses ({len(records or [None])} record(s) × '
+               f'{len(scales)} scale(s) × the --vary values); at most {MAX_RUNS:,}')
+        raise PretestError(msg)
     load_vars = [i for i, v in enumerate(variations) if v.load]
     struct_vars = [i for i, v in enumerate(variations) if v.structural]
     combos = list(itertools.product(*(v.values for v in variations)))

@@ -218,7 +218,8 @@ def load_record(path: str | Path | None, units: str | None = None) -> BenchmarkR
     if units is None:
         units = 'm/s2' if file.suffix.lower() == '.mat' else DEFAULT_RECORD_UNITS
     if not file.is_file():
-        msg = f'--record {file}: no such file'
+        msg = (f'--record {file}: not a regular file' if file.exists()
+               else f'--record {file}: no such file')
         raise ConfigError(msg)
     try:
         motion = read_ground_motion(file, units=units)
@@ -358,6 +359,7 @@ def write_test_file(options: BenchmarkOptions, record: BenchmarkRecord, path: Pa
     """Write the native loop as a YAML test file for ``./pd run FILE --site bridge``.
 
     Raises:
+        FileExistsError: ``path`` exists (a file is never replaced).
         OSError: The file cannot be written.
     """
     raw = native_benchmark_file(options, record, bridge=BRIDGE_PARAMETERS)
@@ -365,8 +367,9 @@ def write_test_file(options: BenchmarkOptions, record: BenchmarkRecord, path: Pa
               f'{options.intensity:g}, controller {options.controller}, through this '
               'project\'s integrator:\n# ./pd run THIS_FILE --site bridge   (the bridge runs '
               'the transfer system at 4096 Hz)\n')
-    path.write_text(header + yaml.safe_dump(raw, sort_keys=False, width=100),
-                    encoding='utf-8')
+    text = header + yaml.safe_dump(raw, sort_keys=False, width=100)
+    with path.open('x', encoding='utf-8') as stream:
+        stream.write(text)
     return path
 
 
