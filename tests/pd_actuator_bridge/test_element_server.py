@@ -3,6 +3,7 @@ the address (``element_server.main`` returns 2 with one line on stderr, no trace
 
 from __future__ import annotations
 
+import socket
 from pathlib import Path
 
 import pytest
@@ -59,3 +60,25 @@ def test_resume_refuses_what_is_not_a_stopped_served_run(
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and message in err and 'Traceback' not in err, err
+
+
+def test_a_port_that_is_taken_is_one_line_before_anything_is_made(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The element's link would fail to bind only inside the running test (a run folder made,
+    a held test): the server says it first, and makes nothing."""
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        text = (CONFIG / 'serve_epp.yaml').read_text()
+        path = tmp_path / 'taken.yaml'
+        path.write_text(text.replace('port: 44000 ', f'port: {port} ').replace(
+            'file: ../data/', f'file: {CONFIG}/../data/'))
+        assert f'port: {port} ' in path.read_text()  # (else main would serve: exec)
+        out = tmp_path / 'out'
+        assert main([str(path), '--offline', '--out', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f'element_server: error: {path}: test.scheme_parameters.port: cannot bind '
+                   f'127.0.0.1:{port} (Address already in use); another element server or '
+                   'program holds it\n')
+    assert not out.exists()

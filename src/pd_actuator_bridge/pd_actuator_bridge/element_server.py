@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import socket
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -112,6 +113,24 @@ def check_test_file(path: Path) -> tuple[str, list[str]]:
     return f'{host}:{int(parameters["port"])}', warnings
 
 
+def check_port_free(path: Path, address: str) -> None:
+    """Bind the served address once, as the element's link will (a port of 0 always binds).
+
+    Raises:
+        ServeError: the port is taken: said now, before a run folder and its processes are
+            made (the link's own bind would fail only inside the running test).
+    """
+    host, _, port = address.rpartition(':')
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, int(port)))
+        except OSError as err:
+            msg = (f'{path}: test.scheme_parameters.port: cannot bind {address} '
+                   f'({err.strerror}); another element server or program holds it')
+            raise ServeError(msg) from None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Check, then run the served test (replaces this process)."""
     args = parse_args(argv)
@@ -121,6 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         test_file = (Path(args.test_file) if args.test_file
                      else share_file('pd_integrator', 'config', DEFAULT_TEST))
         address, warnings = check_test_file(test_file)
+        check_port_free(test_file, address)
         tool = find_executable('pd_integrator', 'offline') if args.offline else \
             find_executable('pd_bringup', 'run_test')
     except (ServeError, ResourceError) as err:
