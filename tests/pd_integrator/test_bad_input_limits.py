@@ -567,6 +567,16 @@ def test_a_journal_tail_beyond_any_journal_prints_all_of_it(tmp_path: Path,
     assert huge.stdout == every.stdout and every.stdout.count('\n') > 100
 
 
+def test_a_journal_with_no_records_says_so(tmp_path: Path) -> None:
+    """An empty file (a run killed as it made its journal) is a journal of no records: said
+    on stderr, not an empty silence."""
+    journal = tmp_path / 'journal.pdj'
+    journal.write_bytes(b'')
+    result = run('journal', str(journal), cwd=tmp_path)
+    assert (result.code, result.stdout) == (0, '')
+    assert result.stderr == f'journal: {journal}: no records\n'
+
+
 @pytest.mark.parametrize('where', ['a-file', 'under-a-file'])
 def test_schema_written_where_it_cannot_be_is_one_line(tmp_path: Path, where: str) -> None:
     (tmp_path / 'a-file').write_text('mine\n')

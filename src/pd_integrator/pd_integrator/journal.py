@@ -63,9 +63,16 @@ def main(argv: list[str] | None = None) -> int:
     if path.is_dir():
         path = path / JOURNAL_FILE
     notes: list[str] = []
+    counted = [0]  # the journal's records (before --kind and --tail)
+
+    def counting(records: Iterable[JournalRecord]) -> Iterator[JournalRecord]:
+        for record in records:
+            counted[0] += 1
+            yield record
+
     try:
         selected: Iterable[tuple[int, JournalRecord]] = _numbered(
-            iter_journal_records(path, notes), args.kind)
+            counting(iter_journal_records(path, notes)), args.kind)
         if args.tail:
             selected = collections.deque(selected, maxlen=args.tail)
         for number, record in selected:
@@ -81,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     for note in notes:
         print(f'journal: {note}', file=sys.stderr)
+    if not counted[0]:  # (an empty file: a run killed as it made its journal, or no journal)
+        print(f'journal: {path}: no records', file=sys.stderr)
     return 0
 
 
