@@ -67,6 +67,7 @@ from .operator import Operator
 from .plan import (
     DDS_PROFILE_VARIABLES,
     LAUNCH_FILE,
+    RESTART_NOTE,
     LaunchError,
     LaunchPlan,
     attach_fault_reports,
@@ -355,11 +356,34 @@ def print_summary(out: Path) -> None:
               f'{format_quantity(values.get("residual_displacement"), "m")}')
     if collapse := data.get('collapse'):
         print(f'run_test: {collapse.get("message")}')
-    restarts = data.get('restarts')
-    extra = f', {restarts} restart(s)' if restarts else ''
+    extra = _continuations(data)
     reason = f' ({data["message"]})' if not committed and data.get('message') else ''
     print(f'run_test: {data.get("state")}{reason}: {committed} steps in '
           f'{_number(data.get("wall_time"), ".2f")} s{extra}; outputs in {out}')
+
+
+def _continuations(summary: dict[str, Any]) -> str:
+    """``, 1 restart(s), 1 resume(s)``: the processes run_test restarted, the person's resumes.
+
+    From the run's events when it has them (a person's ``./pd run --resume`` is a ``resumed``
+    event that run_test's restarts are not the note of); else the summary's ``restarts``.
+    """
+    events = summary.get('run_events')
+    if not isinstance(events, list):
+        restarts = summary.get('restarts')
+        return f', {restarts} restart(s)' if restarts else ''
+    restarts = resumes = 0
+    for event in events:
+        what = event.get('what') if isinstance(event, dict) else None
+        if what == 'restart':
+            restarts += 1
+        elif what == 'resumed':
+            if str(event.get('note') or '').startswith(RESTART_NOTE):
+                restarts += 1
+            else:
+                resumes += 1
+    return (f', {restarts} restart(s)' if restarts else '') + (
+        f', {resumes} resume(s)' if resumes else '')
 
 
 def _report_faults(plan: LaunchPlan) -> None:

@@ -33,11 +33,16 @@ from pd_core.run.definition import TestDefinition
 from .faults import FaultPlanError, attach_reports, proxy_command
 from .reports import add_to_summary, read_reports
 
-__all__ = ['BEHIND', 'CPU_KINDS', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'SIMULATED_DRIVERS',
+__all__ = ['BEHIND', 'CPU_KINDS', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'RESTART_NOTE',
+           'SIMULATED_DRIVERS',
            'Child', 'LaunchError', 'LaunchPlan', 'attach_fault_reports',
            'attach_realtime_reports', 'bridge_driver', 'bridge_record_file',
            'discovery_profile', 'fault_report_name', 'insert_fault_proxies', 'opensees_command',
            'parse_cpus', 'realtime_report_name', 'site_commands', 'with_key']
+
+#: How a ``resumed`` event of an integrator run_test restarted begins (its ``resume_note``):
+#: a person's ``./pd run --resume`` is told from it.
+RESTART_NOTE = 'restarted by run_test'
 
 #: The plan's file name in a run folder.
 LAUNCH_FILE = 'launch.json'

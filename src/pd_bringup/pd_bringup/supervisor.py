@@ -58,7 +58,7 @@ from pd_core.errors import PdIntegratorError
 from pd_core.run.resume import load_resumable
 
 from .operator import Operator
-from .plan import Child, LaunchPlan
+from .plan import RESTART_NOTE, Child, LaunchPlan
 
 __all__ = ['HUNG_TIMEOUT', 'POLICIES', 'PROCESSES_FILE', 'Supervisor', 'recorded_processes']
 
@@ -420,7 +420,7 @@ class Supervisor:
                   f'({integrator.restarts + 1}/{self.max_restarts})'
                   + ('; it holds until ./pd control resume (--on-child-exit hold)'
                      if held else ''))
-        self._start_integrator(resume=True, note=f'restarted by run_test: {what}',
+        self._start_integrator(resume=True, note=f'{RESTART_NOTE}: {what}',
                                restarts=integrator.restarts + 1, held=held)
         return True
 
