@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import socket
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from pd_common.config import SchemaError, read_test_file
-from pd_common.opensees import ElementProtocolError, allow_list, check_bind
+from pd_common.opensees import ElementProtocolError, allow_list, bind_listener, check_bind
 from pd_common.registry import ParameterError, resolve_parameters
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_common.specimen import HYSTERESIS_MODELS
@@ -121,14 +120,11 @@ def check_port_free(path: Path, address: str) -> None:
             made (the link's own bind would fail only inside the running test).
     """
     host, _, port = address.rpartition(':')
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
-        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            probe.bind((host, int(port)))
-        except OSError as err:
-            msg = (f'{path}: test.scheme_parameters.port: cannot bind {address} '
-                   f'({err.strerror}); another element server or program holds it')
-            raise ServeError(msg) from None
+    try:
+        bind_listener(host, int(port)).close()
+    except ElementProtocolError as err:
+        msg = f'{path}: test.scheme_parameters.{err}'
+        raise ServeError(msg) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -39,6 +39,26 @@ def allow_list(text: str) -> tuple[str, ...]:
     return tuple(address.strip() for address in text.split(',') if address.strip())
 
 
+def bind_listener(host: str, port: int) -> socket.socket:
+    """A TCP socket bound to ``host:port`` for the element to connect to (not listening yet).
+
+    ``SO_REUSEADDR``: a port a finished test's connection left in TIME_WAIT binds again.
+
+    Raises:
+        ElementProtocolError: the port cannot be bound (taken by another server or program).
+    """
+    listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        listener.bind((host, port))
+    except OSError as err:
+        listener.close()
+        msg = (f'port: cannot bind {host}:{port} ({err.strerror}); another element server or '
+               'program holds it')
+        raise ElementProtocolError(msg) from None
+    return listener
+
+
 def check_bind(host: str, allow: Sequence[str], allow_remote: bool) -> list[str]:
     """Check the address to bind and the allow-list; returns the warnings to print.
 
@@ -93,14 +113,7 @@ class ElementLink:
         self._allow = {str(ipaddress.ip_address(a)) for a in allow}
         self._loopback_only = ipaddress.ip_address(host).is_loopback
         self.timeout = timeout
-        self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self._listener.bind((host, int(port)))
-        except OSError as err:
-            self._listener.close()
-            msg = f'port: cannot bind {host}:{port}: {err.strerror}'
-            raise ElementProtocolError(msg) from None
+        self._listener = bind_listener(host, int(port))
         self._listener.listen(1)
         self.port: int = self._listener.getsockname()[1]
         self._client: socket.socket | None = None
