@@ -18,10 +18,12 @@ from pathlib import Path
 from pd_common.auth import AuthError, load_key
 from pd_common.config import existing_path
 from pd_core.errors import PdIntegratorError
-from pd_core.run.runner import rebuild_outputs
+from pd_core.run.record.journal import JOURNAL_FILE, LEGACY_JOURNAL_FILE
+from pd_core.run.runner import BAG_DIRECTORY, rebuild_outputs
 
-#: What only a run's own folder holds: an output folder with one of them is a run's.
-RUN_RECORDS = ('journal.pdj', 'bag', 'launch.json', 'journal.jsonl')
+#: What only a run's own folder holds: an output folder with one of them is a run's (its
+#: journal, its bag, run_test's launch plan, an earlier version's journal).
+RUN_RECORDS = (JOURNAL_FILE, BAG_DIRECTORY, 'launch.json', LEGACY_JOURNAL_FILE)
 
 
 def _run_record_in(folder: Path) -> str | None:

@@ -430,9 +430,9 @@ def build_plan(test_file: str | Path, *, records: Sequence[str | Path] = (),
     structures: dict[tuple[float, ...], Structural] = {}
     runs: list[Run] = []
     warnings: list[str] = []
-    planned = len(records or [None]) * len(scales) * math.prod(len(v.values) for v in variations)
+    planned = len(record_paths) * len(scales) * math.prod(len(v.values) for v in variations)
     if planned > MAX_RUNS:
-        msg = (f'{source}: {planned:,} analyses ({len(records or [None])} record(s) × '
+        msg = (f'{source}: {planned:,} analyses ({len(record_paths)} record(s) × '
                f'{len(scales)} scale(s) × the --vary values); at most {MAX_RUNS:,}')
         raise PretestError(msg)
     load_vars = [i for i, v in enumerate(variations) if v.load]
