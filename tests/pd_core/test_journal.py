@@ -13,6 +13,7 @@ import json
 import math
 import shutil
 import struct
+import threading
 import zlib
 from collections import deque
 from pathlib import Path
@@ -304,6 +305,91 @@ def test_sync_interval_zero_syncs_every_flush(tmp_path: Path,
         journal.write_event('step', 0)
         journal.flush()
     assert len(synced) == 3
+    journal.close()
+
+
+def test_a_slow_fsync_in_the_background_holds_up_no_step(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The interval's fsync runs in its own thread: a disk that takes as long as it likes to
+    sync does not hold up the flushes (steps) after it; close waits for it, then syncs."""
+    release = threading.Event()
+    started = threading.Event()
+    synced: list[str] = []
+
+    def slow_fsync(fd: int) -> None:
+        started.set()
+        assert release.wait(30.0)  # a disk that never answers, until released
+        synced.append(threading.current_thread().name)
+
+    monkeypatch.setattr(journal_module.os, 'fsync', slow_fsync)
+    now = [0.0]
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0],
+                      sync_in_background=True).open()
+    now[0] = 1.0
+    journal.write_event('step', 0)
+    journal.flush()  # asks for the fsync, and returns while it hangs
+    assert started.wait(30.0)
+    for step in range(50):  # the steps go on, each on the OS at once
+        now[0] = 1.0 + 0.1 * (step + 1)
+        journal.write_event('step', step)
+        journal.flush()
+        assert kinds(journal.path).count('ev') == step + 2
+    assert synced == []
+    release.set()
+    journal.close()
+    # The one asked at 1.0, one asked at 2.0 while it hung, and the caller's at close.
+    assert synced[-1] == threading.current_thread().name
+    assert synced[:-1] == ['journal-fsync'] * (len(synced) - 1) and len(synced) in (2, 3)
+    assert not [thread for thread in threading.enumerate() if thread.name == 'journal-fsync']
+
+
+def test_a_failed_background_fsync_stops_the_run_at_the_next_step(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An fsync that fails (EIO: what reached the disk is unknown) ends the journal at the
+    next flush in one line, as a failed write does; nothing is written after it."""
+    failed = threading.Event()
+
+    def failing_fsync(fd: int) -> None:
+        failed.set()
+        raise OSError(errno.EIO, 'Input/output error')
+
+    monkeypatch.setattr(journal_module.os, 'fsync', failing_fsync)
+    now = [0.0]
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0],
+                      sync_in_background=True).open()
+    now[0] = 1.0
+    journal.write_event('step', 0)
+    journal.flush()
+    assert failed.wait(30.0)
+    thread = next((thread for thread in threading.enumerate()
+                   if thread.name == 'journal-fsync'), None)
+    if thread is not None:
+        thread.join(30.0)
+    written = kinds(journal.path)
+    journal.write_event('step', 1)
+    with pytest.raises(RecordWriteError) as raised:
+        journal.flush()
+    assert str(raised.value).count('\n') == 0
+    assert 'Input/output error' in str(raised.value) and './pd recover' in str(raised.value)
+    assert kinds(journal.path) == written  # nothing after the failed sync
+    journal.close()  # closed already: nothing more
+
+
+@pytest.mark.parametrize('background', [False, True])
+def test_sync_interval_zero_syncs_in_the_step_even_in_the_background_mode(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, background: bool) -> None:
+    """An fsync per committed step (interval 0) is done before flush returns: never deferred."""
+    synced: list[str] = []
+    monkeypatch.setattr(journal_module.os, 'fsync',
+                        lambda fd: synced.append(threading.current_thread().name))
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=0.0, clock=lambda: 5.0,
+                      sync_in_background=background).open()
+    for count in range(1, 4):
+        journal.write_event('step', 0)
+        journal.flush()
+        assert synced == [threading.current_thread().name] * count
+    journal.persist()  # an emergency stop's record: in the caller too
+    assert len(synced) == 4 and 'journal-fsync' not in synced
     journal.close()
 
 

@@ -260,8 +260,10 @@ class IntegratorNode(Node):
         self.owed: list[tuple[str, Command]] = []
         self._gap = 0.0
 
+        # The interval's fsync in a thread of its own: a slow disk holds up no step.
         self.bag = Journal(self.directory / JOURNAL_FILE, append=bool(resume_from),
-                           sync_interval=float(self.get_parameter('sync_interval').value)).open()
+                           sync_interval=float(self.get_parameter('sync_interval').value),
+                           sync_in_background=True).open()
         self.dispatcher = StepDispatcher(self.session, self._seal_command, self.bag,
                                          deliver=self._publish_command)
         self.steering = Steering(self.session, self._record_event)

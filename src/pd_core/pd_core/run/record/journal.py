@@ -10,7 +10,12 @@ message, in the order the integrator saw it:
   written to the operating system: a process killed at any moment (SIGKILL) loses nothing
   that was committed;
 * at most every ``sync_interval`` seconds (default 1 s) the file is also ``fsync``-ed: a power
-  loss loses at most that window.
+  loss loses at most that window. With ``sync_in_background`` (the integrator node's journal)
+  that ``fsync`` runs in a thread of its own, so a slow disk does not hold up the step that
+  asks for it (a real-time test's loop); a failed one stops the run at the next step, as a
+  failed write does. An interval of 0 (an ``fsync`` per committed step, before its next
+  command), an emergency stop's or a hold's record (:meth:`Journal.persist`) and the last
+  ``fsync`` at close always run in the caller.
 
 A record holds a message as it travels: a step command or feedback is its CDR bytes, signature
 included (the feedback as it arrived), a status its CDR bytes; the definition and the events
@@ -41,6 +46,7 @@ import gc
 import json
 import os
 import shutil
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -152,6 +158,50 @@ def _signed(signature: Signature | None) -> Signature:
     return signature if signature is not None and signature.signed else _UNSIGNED
 
 
+class BackgroundSync:
+    """``fsync`` of one open file in a thread of its own: the caller asks and goes on.
+
+    Requests that arrive while one runs are served by one more ``fsync`` after it (it covers
+    every write made before it started). The first error is kept in :attr:`error` and ends the
+    thread; the owner raises it (:meth:`Journal.flush`).
+
+    Args:
+        fd: the file descriptor; it must stay open until :meth:`stop` returns.
+    """
+
+    def __init__(self, fd: int) -> None:
+        self._fd = fd
+        self._wanted = threading.Event()
+        self._stopping = False
+        self.error: OSError | None = None
+        self.synced = 0  # fsync calls done
+        self._thread = threading.Thread(target=self._run, name='journal-fsync', daemon=True)
+        self._thread.start()
+
+    def request(self) -> None:
+        """Ask for an ``fsync`` (returns at once)."""
+        self._wanted.set()
+
+    def _run(self) -> None:
+        while True:
+            self._wanted.wait()
+            self._wanted.clear()
+            if self._stopping:
+                return
+            try:
+                os.fsync(self._fd)
+            except OSError as err:
+                self.error = err
+                return
+            self.synced += 1
+
+    def stop(self) -> None:
+        """End the thread once the ``fsync`` under way (if any) returns."""
+        self._stopping = True
+        self._wanted.set()
+        self._thread.join()
+
+
 class Journal:
     """Appends a run's records to ``journal.pdj``; durable per step (see the module).
 
@@ -161,14 +211,19 @@ class Journal:
         append: continue an existing journal (a resumed run): a record a crash tore at its
             end is cut off first.
         clock: monotonic clock for the sync interval.
+        sync_in_background: the interval's ``fsync`` in a thread of its own
+            (:class:`BackgroundSync`), not in the step that asks for it.
     """
 
     def __init__(self, path: str | Path, *, sync_interval: float = 1.0, append: bool = False,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 sync_in_background: bool = False) -> None:
         self.path = Path(path)
         self.sync_interval = sync_interval
         self._append = append
         self._clock = clock
+        self._sync_in_background = sync_in_background
+        self._syncer: BackgroundSync | None = None
         self._file: IO[bytes] | None = None
         self._pending: list[bytes] = []
         self._topics: dict[str, bytes] = {}
@@ -199,6 +254,8 @@ class Journal:
             msg = f'{self.path}: cannot write the journal ({err.strerror})'
             raise BagError(msg) from None
         self._synced = self._clock()
+        if self._sync_in_background and self.sync_interval > 0.0:
+            self._syncer = BackgroundSync(self._file.fileno())
         return self
 
     def _reopen(self) -> IO[bytes]:
@@ -310,7 +367,10 @@ class Journal:
         file = self._file
         if file is None or not self._pending:
             return
+        syncer = self._syncer
         try:
+            if syncer is not None and syncer.error is not None:
+                raise syncer.error  # the last interval's fsync failed: nothing more is written
             file.write(b''.join(self._pending))
             self._pending.clear()
             file.flush()
@@ -318,7 +378,10 @@ class Journal:
                 return
             now = self._clock()
             if now - self._synced >= self.sync_interval:
-                os.fsync(file.fileno())
+                if syncer is not None:
+                    syncer.request()
+                else:
+                    os.fsync(file.fileno())
                 self._synced = now
         except OSError as err:
             raise self._write_failed(err) from None
@@ -353,12 +416,22 @@ class Journal:
         self.flush()
         if self._file is None:
             return
+        syncer = self._stop_syncer()
         try:
+            if syncer is not None and syncer.error is not None:
+                raise syncer.error
             os.fsync(self._file.fileno())
             self._file.close()
         except OSError as err:
             raise self._write_failed(err) from None
         self._file = None
+
+    def _stop_syncer(self) -> BackgroundSync | None:
+        """End the background ``fsync`` (before the file closes); the one that ran."""
+        syncer, self._syncer = self._syncer, None
+        if syncer is not None:
+            syncer.stop()
+        return syncer
 
     def _write_failed(self, err: OSError) -> RecordWriteError:
         """Close the file after a failed write and return the error to raise.
@@ -367,6 +440,7 @@ class Journal:
         the error to raise.
         """
         self._pending.clear()
+        self._stop_syncer()
         file, self._file = self._file, None
         if file is not None:
             try:
