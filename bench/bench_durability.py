@@ -26,6 +26,10 @@ benches' keys are kept):
    * for comparison, the MCAP ``BagRecorder`` written directly during the loop (what the runs
      recorded before the journal; not durable) [``durability_bag_recorder_us_per_step``];
 
+   the longest flush a step waits for when an ``fsync`` falls due (``sync_interval`` 10 ms),
+   the ``fsync`` in the step against in a thread of its own, as the integrator node does
+   [``durability_longest_flush_us_fsync_in_step``,
+   ``durability_longest_flush_us_fsync_in_background``],
    the differences [``durability_journal_cost_us_per_step``: journal − none,
    ``durability_fsync_cost_us_per_step``: fsync every step − journal], the ``os.fsync`` calls
    counted in the best run of each variant [``durability_journal_fsyncs``,
@@ -397,12 +401,56 @@ def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
               f'the pre-journal recorder, for comparison: '
               f'{us["bag_recorder"] - us["none"]:+.1f} us/step over none; '
               f'{fsyncs["bag_recorder"]} fsync(s); all: {spread["bag_recorder"]} us')
+    figures.update(_longest_flushes(table, definition, work))
     table.add(section, 'journal -> bag conversion (end of run)', f'{conversion * 1e3:.0f} ms',
               f'{conversion / steps * 1e6:.1f} us/step; best of {CONVERSIONS}')
     table.add(section, 'journal size', f'{journal_bytes / steps:.0f} B/step',
               f'{journal_bytes / 1e6:.2f} MB (unsigned, offline); the bag '
               f'{bag_bytes / steps:.0f} B/step')
     return figures
+
+
+def _longest_flushes(table: Table, definition: Any, work: Path) -> Figures:
+    """The longest a step waits for the journal when an fsync falls due: the fsync in the
+    step (``sync_in_background=False``, ``run_offline``'s journal) against in its own thread
+    (the integrator node's), ``sync_interval`` 10 ms so that the short loop meets many; best
+    of REPEATS, interleaved."""
+    from pd_core.run.record.journal import Journal
+
+    class TimedFlushes(Journal):
+        longest = 0.0
+
+        def flush(self, *, sync: bool = True) -> None:
+            start = time.perf_counter()
+            super().flush(sync=sync)
+            self.longest = max(self.longest, time.perf_counter() - start)
+
+    longest: dict[bool, list[float]] = {False: [], True: []}
+    counts: dict[bool, list[int]] = {False: [], True: []}
+    for index in range(REPEATS):
+        for background in (False, True):
+            path = work / f'flushes-{index}-{int(background)}.pdj'
+            made: list[TimedFlushes] = []
+
+            def make(path: Path = path, background: bool = background,
+                     made: list[TimedFlushes] = made) -> TimedFlushes:
+                journal = TimedFlushes(path, sync_interval=0.01, sync_in_background=background)
+                journal.open()
+                made.append(journal)
+                return journal
+
+            _, _, count = step_loop(definition, make)
+            longest[background].append(made[0].longest)
+            counts[background].append(count)
+            _remove(path)
+    in_step, off_step = min(longest[False]) * 1e6, min(longest[True]) * 1e6
+    table.add('1 core', 'longest journal flush, fsync in the step', f'{in_step:.0f} us',
+              f'sync_interval 10 ms: {counts[False][0]} fsyncs (one at close); best of {REPEATS}')
+    table.add('1 core', 'longest journal flush, fsync in its thread', f'{off_step:.0f} us',
+              f'what the integrator node does: {counts[True][0]} fsyncs (one at close); best of '
+              f'{REPEATS}')
+    return {'durability_longest_flush_us_fsync_in_step': in_step,
+            'durability_longest_flush_us_fsync_in_background': off_step}
 
 
 # -- 2. the offline soak ----------------------------------------------------------------------
