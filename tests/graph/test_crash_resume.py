@@ -167,8 +167,14 @@ def test_hold_on_child_exit_then_resume_from_the_run_folder(
 
     resumed = run_launcher(processes, 'resume', ['--resume', str(out)])
     code = wait_exit(resumed, RUN_TIMEOUT, lambda: processes.log('resume'))
-    assert code == 0, processes.log('resume')[-3000:]
+    log = processes.log('resume')
+    assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
+    # A person's resume, not a restart run_test made: said so, and counted so.
+    result = summary(out)
+    assert (result['restarts'], result['resumes']) == (0, 1)
+    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
+                                                  f'1 resume(s); outputs in {out}')
     assert summary(out)['state'] == 'finished'
 
 
@@ -190,8 +196,14 @@ def test_killed_launcher_leaves_no_orphan_and_the_run_resumes(
 
     resumed = run_launcher(processes, 'resume', ['--resume', str(out)])
     code = wait_exit(resumed, RUN_TIMEOUT, lambda: processes.log('resume'))
-    assert code == 0, processes.log('resume')[-3000:]
+    log = processes.log('resume')
+    assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
+    # A person's resume, not a restart run_test made: said so, and counted so.
+    result = summary(out)
+    assert (result['restarts'], result['resumes']) == (0, 1)
+    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
+                                                  f'1 resume(s); outputs in {out}')
 
 
 def test_a_fresh_specimen_in_mid_test_is_refused(
@@ -321,8 +333,14 @@ def test_killed_integrator_without_restart_then_resume_by_hand(
 
     resumed = run_launcher(processes, 'resume', ['--resume', str(out)])
     code = wait_exit(resumed, RUN_TIMEOUT, lambda: processes.log('resume'))
-    assert code == 0, processes.log('resume')[-3000:]
+    log = processes.log('resume')
+    assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
+    # A person's resume, not a restart run_test made: said so, and counted so.
+    result = summary(out)
+    assert (result['restarts'], result['resumes']) == (0, 1)
+    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
+                                                  f'1 resume(s); outputs in {out}')
     result = summary(out)
     assert result['state'] == 'finished' and result['steps'] == STEPS
     assert [event['what'] for event in result['run_events']].count('resumed') == 1

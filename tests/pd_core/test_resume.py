@@ -36,6 +36,7 @@ from pd_core.run.loop.epochs import EpochChange, EpochGuard
 from pd_core.run.loop.protocol import Verdict
 from pd_core.run.loop.session import TestSession as Session  # not a test class
 from pd_core.run.record.bag import TOPIC_STATUS, RecordedRun, site_of
+from pd_core.run.record.continuations import RESTART_NOTE, count_continuations
 from pd_core.run.record.journal import JOURNAL_FILE, Journal, journal_to_bag
 from pd_core.run.resume import (
     RESUMABLE,
@@ -48,6 +49,7 @@ from pd_core.run.runner import (
     DEFINITION_JSON,
     finish_outputs,
     load_run,
+    rebuild_outputs,
     recover_run,
     replay_run,
     restore_dispatcher,
@@ -717,3 +719,30 @@ def test_last_measured_matches_the_restored_position(tmp_path: Path, reference: 
     assert measured == {'': servers[''].position}
     assert measured[''][0] == reference.session.history.displacement[240, 0]
     assert measured[''][0] != reference.session.history.displacement[239, 0]
+
+
+# -- run_test's restarts and a person's resumes --------------------------------------------
+def test_restarts_and_resumes_are_told_apart_by_the_restart_note() -> None:
+    events = [{'what': 'restart', 'process': 'pd_specimen_sim exited (signal SIGKILL)'},
+              {'what': 'resumed', 'note': f'{RESTART_NOTE}: pd_integrator died (code 1)'},
+              {'what': 'resumed', 'note': 'after a crash'},  # a person's ./pd run --resume
+              {'what': 'resumed'},  # (no note: a person's too)
+              {'what': 'control', 'command': 'resume'},  # a resume of a paused test: neither
+              {'what': 'epoch_change', 'note': RESTART_NOTE}]
+    assert count_continuations(events) == (2, 2)
+    assert count_continuations([]) == (0, 0)
+
+
+def test_a_recovered_summary_counts_restarts_and_resumes_apart(tmp_path: Path) -> None:
+    """./pd recover (rebuild_outputs of the journal's bag) writes both counts of the run's
+    events: a person's resume is not counted as a restart."""
+    definition = load_test_file(DEFAULT_TEST, overrides={'duration': 0.2})
+    run = run_offline(definition, tmp_path / 'run', figures=False)
+    with Journal(run.directory / JOURNAL_FILE, append=True) as journal:
+        journal.write_event('restart', 1, process='pd_specimen_sim exited')
+        journal.write_event('resumed', 2, note='after a crash', committed_step=3)
+        journal.write_event('resumed', 3, note=f'{RESTART_NOTE}: pd_integrator died',
+                            committed_step=5)
+    journal_to_bag(run.directory / JOURNAL_FILE, tmp_path / 'bag')
+    summary = rebuild_outputs(tmp_path / 'bag', tmp_path / 'out', figures=False).summary
+    assert (summary['restarts'], summary['resumes']) == (2, 1)

@@ -67,7 +67,6 @@ from .operator import Operator
 from .plan import (
     DDS_PROFILE_VARIABLES,
     LAUNCH_FILE,
-    RESTART_NOTE,
     LaunchError,
     LaunchPlan,
     attach_fault_reports,
@@ -365,23 +364,10 @@ def print_summary(out: Path) -> None:
 def _continuations(summary: dict[str, Any]) -> str:
     """``, 1 restart(s), 1 resume(s)``: the processes run_test restarted, the person's resumes.
 
-    From the run's events when it has them (a person's ``./pd run --resume`` is a ``resumed``
-    event that run_test's restarts are not the note of); else the summary's ``restarts``.
+    From the summary's ``restarts`` and ``resumes`` (counted of the run's events:
+    :func:`pd_core.run.record.continuations.count_continuations`).
     """
-    events = summary.get('run_events')
-    if not isinstance(events, list):
-        restarts = summary.get('restarts')
-        return f', {restarts} restart(s)' if restarts else ''
-    restarts = resumes = 0
-    for event in events:
-        what = event.get('what') if isinstance(event, dict) else None
-        if what == 'restart':
-            restarts += 1
-        elif what == 'resumed':
-            if str(event.get('note') or '').startswith(RESTART_NOTE):
-                restarts += 1
-            else:
-                resumes += 1
+    restarts, resumes = summary.get('restarts'), summary.get('resumes')
     return (f', {restarts} restart(s)' if restarts else '') + (
         f', {resumes} resume(s)' if resumes else '')
 

@@ -29,6 +29,7 @@ from pd_common.config.schema_test_file import OpenSeesSite, SiteSettings
 from pd_common.resources import ResourceError, find_executable, share_file
 from pd_core.errors import PdIntegratorError
 from pd_core.run.definition import TestDefinition
+from pd_core.run.record.continuations import RESTART_NOTE
 
 from .faults import FaultPlanError, attach_reports, proxy_command
 from .reports import add_to_summary, read_reports
@@ -40,9 +41,6 @@ __all__ = ['BEHIND', 'CPU_KINDS', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'RESTA
            'discovery_profile', 'fault_report_name', 'insert_fault_proxies', 'opensees_command',
            'parse_cpus', 'realtime_report_name', 'site_commands', 'with_key']
 
-#: How a ``resumed`` event of an integrator run_test restarted begins (its ``resume_note``):
-#: a person's ``./pd run --resume`` is told from it.
-RESTART_NOTE = 'restarted by run_test'
 
 #: The plan's file name in a run folder.
 LAUNCH_FILE = 'launch.json'

@@ -91,6 +91,7 @@ from pd_core.run.loop.progress import ProgressMeter
 from pd_core.run.loop.session import TestSession
 from pd_core.run.loop.steering import Steering
 from pd_core.run.record.bag import RecordedRun
+from pd_core.run.record.continuations import count_continuations
 from pd_core.run.record.figure_worker import FigureWorker
 from pd_core.run.record.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
 from pd_core.run.resume import (
@@ -714,12 +715,12 @@ class IntegratorNode(Node):
         events = [*(self.record.run_events if self.record is not None else []),
                   *self.bag.events]
         worker, self._figure_worker = self._figure_worker, None
+        restarts, resumes = count_continuations(events)
         try:
             summary = finish_outputs(
                 self.session, self.directory, wall_time=wall_time, figures=self.figures,
                 mode='graph', figure_worker=worker, before_summary=self._journal_to_bag,
-                run_events=events,
-                restarts=sum(event['what'] in ('restart', 'resumed') for event in events),
+                run_events=events, restarts=restarts, resumes=resumes,
                 step_round_trip=self._round_trips.statistics(),
                 site_protocol=self.dispatcher.coordinator.summary(),
                 authentication={'enabled': self.key is not None,

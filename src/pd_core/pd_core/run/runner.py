@@ -44,6 +44,7 @@ from .loop.progress import ProgressMeter
 from .loop.session import TestSession
 from .record.actuators import ActuatorHistory, actuator_history, write_actuator_outputs
 from .record.bag import TOPIC_BRIDGE_STATUS, TOPIC_STATUS, RecordedRun, read_bag, site_of
+from .record.continuations import count_continuations
 from .record.energy import energy_balance
 from .record.journal import (
     JOURNAL_FILE,
@@ -538,8 +539,7 @@ def rebuild_outputs(bag_path: str | Path, directory: str | Path, *, figures: boo
         extra['record_notes'] = run.notes
     if run.run_events:
         extra['run_events'] = run.run_events
-        extra['restarts'] = sum(event.get('what') in ('restart', 'resumed')
-                                for event in run.run_events)
+        extra['restarts'], extra['resumes'] = count_continuations(run.run_events)
     session = replay_run(run, str(bag_path))
     times = [t for t, _ in run.events]
     wall_time = (max(times) - min(times)) / 1e9 if times else 0.0

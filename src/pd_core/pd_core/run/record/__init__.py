@@ -5,7 +5,8 @@
   signed messages in it;
 * :mod:`.history` — the committed response; :mod:`.energy` — its energy balance;
 * :mod:`.outputs`, :mod:`.actuators`, :mod:`.figure_worker` — the run folder's CSV files,
-  summary and figures.
+  summary and figures;
+* :mod:`.continuations` — run_test's restarts and a person's resumes among the run's events.
 
 Nothing here imports the step loop (:mod:`..loop`): an import contract keeps it so.
 """
