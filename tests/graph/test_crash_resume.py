@@ -317,6 +317,17 @@ def test_a_restarted_bridge_limits_increments_from_the_measured_position(
     assert moves[heard:] == []  # nothing reached the specimen
     assert 'ready: actuator at [0.04] m' in processes.log('bridge2')
 
+    # The supervisor's automatic controls, signed with the test's key, take no limit's hold
+    # over: only a person leaves it.
+    send_control(observer, rig_key, 'auto_hold', topic='/pd/bridge/control')
+    ack = send_control(observer, rig_key, 'auto_reset', topic='/pd/bridge/control',
+                       expect='refused')
+    assert 'holds for another reason' in ack.outcome and 'max_increment' in ack.outcome
+    again = move(6, 0.04)  # (where it is: within every limit, yet refused while it holds)
+    assert again.status is not FeedbackStatus.OK, again
+    time.sleep(0.5)
+    assert moves[heard:] == []
+
 
 def test_killed_integrator_without_restart_then_resume_by_hand(
         crash_test: Path, reference: bytes, processes: Processes, tmp_path: Path) -> None:

@@ -136,3 +136,43 @@ def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -
     finally:
         process.kill()
         process.wait()
+
+
+def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: Path) -> None:
+    """The bridge refuses the supervisor's auto_reset (it holds for a reason of its own, a
+    person's to clear): run_test says so at once and leaves the test held, instead of sending
+    it again for 30 s and then calling the restarted process lost."""
+    simulator = Child('pd_specimen_sim', 'simulator', '', '/pd/specimen', ['true'])
+    bridge = Child('pd_actuator_bridge', 'bridge', '', '', ['true'])
+    plan = LaunchPlan(test_id='t', n_steps=1, out=tmp_path, site_mode='bridge', physical=False,
+                      key_file=None, environment={}, children=[simulator, bridge],
+                      integrator=['true'])
+    operator = _Operator()
+    lines: list[str] = []
+    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
+                            log=lines.append)
+    process = subprocess.Popen(_python('import time; time.sleep(30)'))
+    try:
+        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
+                           'old-epoch', -9, [bridge])
+        operator.offers['/pd/specimen'] = SimpleNamespace(
+            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
+            authenticated=True)
+        operator.states['/bridge/status'] = 3  # holding
+        supervisor._restart = restart
+        supervisor._advance_restart(restart)
+        assert operator.sent == [('auto_reset', '')]
+        refused = SimpleNamespace(control=SimpleNamespace(
+            command='auto_reset', target='/pd/pd_actuator_bridge'))
+        outcome = ('refused: the bridge holds for another reason (max_increment); a person '
+                   'resets it')
+        operator.check = lambda: [(refused, SimpleNamespace(ok=False, outcome=outcome))]
+        supervisor._check_controls()
+        assert supervisor._restart is None
+        assert lines[-1] == ('run_test: pd_specimen_sim is back, but /pd/pd_actuator_bridge '
+                             'holds: the test holds (a person resets it: ./pd control reset '
+                             '--bridge, then ./pd control resume)')
+        assert not [command for command, _ in operator.sent if command == 'auto_resume']
+    finally:
+        process.kill()
+        process.wait()

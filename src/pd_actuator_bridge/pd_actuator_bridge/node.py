@@ -109,6 +109,7 @@ from pd_common.protocol import (
     PersonHolds,
     RunTags,
     Signature,
+    StateOrigin,
     Status,
     StepKey,
     TestState,
@@ -677,10 +678,10 @@ class ActuatorBridgeNode(LifecycleNode):
             if reply.status is not FeedbackStatus.OK and not was_holding:
                 self.get_logger().error(f'holding: {reply.message}')
 
-    def _on_driver_fault(self, message: str) -> None:
+    def _on_driver_fault(self, message: str, *, timeout: bool = False) -> None:
         if self.bridge is None:
             return
-        reply = self.bridge.handle_fault(message)
+        reply = self.bridge.handle_fault(message, timeout=timeout)
         if reply is not None:
             self.get_logger().error(f'holding: {message}')
             self._publish_reply(reply)
@@ -713,7 +714,7 @@ class ActuatorBridgeNode(LifecycleNode):
         if (sent_at is not None and bridge.state == 'busy'
                 and time.monotonic() - sent_at > timeout):
             self._on_driver_fault(f'actuator did not reach step {self._step} within '
-                                  f'{timeout} s')
+                                  f'{timeout} s', timeout=True)
         if self._command_sub is not None:
             reply = bridge.check_watchdog()
             if reply is not None:
@@ -832,6 +833,19 @@ class ActuatorBridgeNode(LifecycleNode):
         state, text = self._last_status
         self.publish_status(state, text)
 
+    def _explained_by_the_supervisor(self) -> bool:
+        """Whether the bridge holds only because its simulated specimen stopped answering.
+
+        Its driver timed out waiting for a specimen process (a simulator: not the hardware's
+        state) and nothing else made it hold since: the process the supervisor's ``auto_hold``
+        reports dead or hung. That hold becomes the supervisor's, which its ``auto_reset``
+        leaves once the process is back with its state. A limit, a tracking error, a person's
+        hold or an emergency stop never does; nor does a physical actuator's timeout.
+        """
+        bridge, driver = self.bridge, self.driver
+        return (bridge is not None and driver is not None and bridge.held_by_driver_timeout
+                and driver.state_origin is not StateOrigin.HARDWARE)
+
     def _obey(self, request: str, sender: str, reason: str) -> str:
         """Carry out an admitted control; ``'ok'`` or ``'refused: why'``."""
         why = f' ({reason})' if reason else ''
@@ -848,7 +862,8 @@ class ActuatorBridgeNode(LifecycleNode):
             return 'ok'
         elif request == 'auto_hold':  # the supervisor: a process of the test died
             holding = self.bridge is not None and self.bridge.state == 'holding'
-            self._auto_held = not holding and not self._latched()
+            self._auto_held = ((not holding or self._explained_by_the_supervisor())
+                               and not self._latched())
             held = f'held by {sender}{why}'
             self._on_driver_fault(held)
             if not holding:

@@ -580,6 +580,12 @@ class Supervisor:
             elif not ack.ok:
                 self._log(f'run_test: {sent.control.target} did not take {command}: '
                           f'{ack.outcome}')
+                if command == 'auto_reset' and self._restart is not None:
+                    # A hold that is not the supervisor's to leave: waiting changes nothing.
+                    self._log(f'run_test: {self._restart.running.child.name} is back, but '
+                              f'{sent.control.target} holds: the test holds (a person resets '
+                              'it: ./pd control reset --bridge, then ./pd control resume)')
+                    self._restart = None
 
     def _statement_topic(self, item: _Running) -> tuple[str, str] | None:
         """Where a process says it is alive: ``('status'|'offer', topic or namespace)``."""

@@ -197,6 +197,7 @@ class ActuatorBridge:
         self._state = STATE_READY
         self._hold_status: FeedbackStatus | None = None
         self._hold_reason = ''
+        self._timed_out = False  # the hold is a driver timeout's, and nothing else's since
         self._displacement: tuple[float, ...] | None = None
         self._force: tuple[float, ...] = (math.nan,) * n_dof
         # Step bookkeeping.
@@ -245,6 +246,16 @@ class ActuatorBridge:
     def hold_status(self) -> FeedbackStatus | None:
         """``LIMIT`` or ``FAULT``: what caused the hold (``None`` unless holding)."""
         return self._hold_status
+
+    @property
+    def held_by_driver_timeout(self) -> bool:
+        """Whether the bridge holds only because its driver did not answer in time.
+
+        A :meth:`handle_fault` with ``timeout`` that made it hold, and no other cause since (a
+        limit, an emergency stop): the node's supervisor may take such a hold over when the
+        process behind a simulated driver died (see the node's ``auto_hold``).
+        """
+        return self._state == STATE_HOLDING and self._timed_out
 
     @property
     def limits(self) -> SafetyLimits:
@@ -532,11 +543,12 @@ class ActuatorBridge:
                 self._captured = reply
             return reply
 
-    def handle_fault(self, message: str) -> Feedback | None:
+    def handle_fault(self, message: str, *, timeout: bool = False) -> Feedback | None:
         """Hold because of a fault detected outside the core (e.g. a driver timeout).
 
         Args:
             message: One-line reason.
+            timeout: the driver did not answer in time (:attr:`held_by_driver_timeout`).
 
         Returns:
             A ``'fault'`` reply for the step in flight, if any; else ``None``.
@@ -544,11 +556,14 @@ class ActuatorBridge:
         with self._lock:
             if self._state == STATE_HOLDING:
                 return None
+            reply = None
             if self._in_flight is not None:
                 test_id, step = self._in_flight
-                return self._enter_hold(test_id, step, STATUS_FAULT, message, record=True)
-            self._enter_hold('', -1, STATUS_FAULT, message, record=False)
-            return None
+                reply = self._enter_hold(test_id, step, STATUS_FAULT, message, record=True)
+            else:
+                self._enter_hold('', -1, STATUS_FAULT, message, record=False)
+            self._timed_out = timeout
+            return reply
 
     def check_watchdog(self, now: float | None = None) -> Feedback | None:
         """Hold if no command arrived for longer than ``watchdog_timeout`` while armed.
@@ -601,6 +616,7 @@ class ActuatorBridge:
                 message = f'{message}; driver hold() failed: {_describe(exc)}'
             self._hold_status = STATUS_FAULT
             self._hold_reason = message
+            self._timed_out = False
             return None
 
     def reset(self, clear_emergency: bool = False) -> bool:
@@ -629,6 +645,7 @@ class ActuatorBridge:
             self._state = STATE_READY
             self._hold_status = None
             self._hold_reason = ''
+            self._timed_out = False
             self._in_flight = None
             self._commanded = None
             self._saturation_note = ''
@@ -868,6 +885,7 @@ class ActuatorBridge:
         self._state = STATE_HOLDING
         self._hold_status = status
         self._hold_reason = message
+        self._timed_out = False
         self._in_flight = None
         self._commanded = None
         self._saturation_note = ''
