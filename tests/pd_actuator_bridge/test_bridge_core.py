@@ -35,7 +35,7 @@ from pd_actuator_bridge.core import (
     register_driver,
 )
 from pd_actuator_bridge.core.drivers import registry
-from pd_common.protocol import Feedback, FeedbackStatus
+from pd_common.protocol import Feedback, FeedbackStatus, StateOrigin
 from pd_common.registry import ParameterError
 from support.loopback import LoopbackDriver
 from support.sections import INLINE_GROUND_MOTION
@@ -605,36 +605,49 @@ def test_async_driver_in_flight_bookkeeping() -> None:
     assert len(published) == 1
 
 
-def test_only_a_driver_timeout_and_nothing_since_is_held_by_the_timeout() -> None:
-    """held_by_driver_timeout: the one hold a supervisor may take over (its simulated specimen
-    process died). Any other cause, before or after, makes it false; a reset clears it."""
-    driver = AsyncDriver()
-    bridge = ActuatorBridge(driver, LIMITS, ['top'])
+class SimulatedAsyncDriver(AsyncDriver):
+    """An AsyncDriver whose specimen is simulated (a restarted process may restore it)."""
+
+    @property
+    def state_origin(self) -> StateOrigin:
+        return StateOrigin.RESTORED
+
+
+def test_only_a_simulated_specimens_timeout_and_nothing_since_is_the_supervisors() -> None:
+    """held_by_simulated_timeout: the one hold the supervisor may take over (the process behind
+    a simulated driver died). Any other cause, before or after, makes it false; so does a
+    physical actuator; a reset clears it."""
+    physical = ActuatorBridge(AsyncDriver(), LIMITS, ['top'])
+    physical.handle_command('t1', 0, [0.05])
+    physical.handle_fault('actuator did not reach step 0 within 5.0 s', timeout=True)
+    assert physical.state == 'holding' and not physical.held_by_simulated_timeout
+
+    bridge = ActuatorBridge(SimulatedAsyncDriver(), LIMITS, ['top'])
     bridge.handle_command('t1', 0, [0.05])
-    assert not bridge.held_by_driver_timeout
+    assert not bridge.held_by_simulated_timeout
     reply = bridge.handle_fault('actuator did not reach step 0 within 5.0 s', timeout=True)
     assert reply is not None and reply.status is FeedbackStatus.FAULT
-    assert bridge.state == 'holding' and bridge.held_by_driver_timeout
+    assert bridge.state == 'holding' and bridge.held_by_simulated_timeout
     bridge.emergency_stop('button')  # a later cause: no longer the timeout's alone
-    assert bridge.state == 'holding' and not bridge.held_by_driver_timeout
-    assert bridge.reset(clear_emergency=True) and not bridge.held_by_driver_timeout
+    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
+    assert bridge.reset(clear_emergency=True) and not bridge.held_by_simulated_timeout
 
     bridge.handle_command('t1', 1, [0.05])
     bridge.handle_fault('actuator did not reach step 1 within 5.0 s', timeout=True)
-    assert bridge.held_by_driver_timeout
-    assert bridge.reset() and not bridge.held_by_driver_timeout
+    assert bridge.held_by_simulated_timeout
+    assert bridge.reset() and not bridge.held_by_simulated_timeout
 
     # A limit's hold, then a timeout while it holds: still the limit's.
     bridge.handle_command('t1', 2, [0.05])
     limit = bridge.handle_measurement(ActuatorMeasurement(2, (0.05,), (-1500.0,)))
     assert limit is not None and limit.status is FeedbackStatus.LIMIT
     assert bridge.handle_fault('actuator did not reach step 2 within 5.0 s', timeout=True) is None
-    assert bridge.state == 'holding' and not bridge.held_by_driver_timeout
+    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
     # Another fault (a driver's own report) is not a timeout.
     assert bridge.reset()
     bridge.handle_command('t1', 3, [0.05])
     bridge.handle_fault('driver: the specimen refused the move')
-    assert bridge.state == 'holding' and not bridge.held_by_driver_timeout
+    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
 
 
 def test_async_force_limit_holds() -> None:

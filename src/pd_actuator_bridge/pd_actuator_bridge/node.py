@@ -109,7 +109,6 @@ from pd_common.protocol import (
     PersonHolds,
     RunTags,
     Signature,
-    StateOrigin,
     Status,
     StepKey,
     TestState,
@@ -842,9 +841,7 @@ class ActuatorBridgeNode(LifecycleNode):
         leaves once the process is back with its state. A limit, a tracking error, a person's
         hold or an emergency stop never does; nor does a physical actuator's timeout.
         """
-        bridge, driver = self.bridge, self.driver
-        return (bridge is not None and driver is not None and bridge.held_by_driver_timeout
-                and driver.state_origin is not StateOrigin.HARDWARE)
+        return self.bridge is not None and self.bridge.held_by_simulated_timeout
 
     def _obey(self, request: str, sender: str, reason: str) -> str:
         """Carry out an admitted control; ``'ok'`` or ``'refused: why'``."""

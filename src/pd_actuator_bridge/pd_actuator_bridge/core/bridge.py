@@ -91,7 +91,7 @@ from pd_common.experimental.limits import (
     saturate_command,
 )
 from pd_common.experimental.limits import format_value as _fmt
-from pd_common.protocol import Arrival, Feedback, FeedbackStatus, arrival
+from pd_common.protocol import Arrival, Feedback, FeedbackStatus, StateOrigin, arrival
 
 from .drivers.base import ActuatorDriver, ActuatorMeasurement, StepId
 from .errors import BridgeConfigError
@@ -248,14 +248,17 @@ class ActuatorBridge:
         return self._hold_status
 
     @property
-    def held_by_driver_timeout(self) -> bool:
-        """Whether the bridge holds only because its driver did not answer in time.
+    def held_by_simulated_timeout(self) -> bool:
+        """Whether the bridge holds only because a simulated specimen did not answer in time.
 
-        A :meth:`handle_fault` with ``timeout`` that made it hold, and no other cause since (a
-        limit, an emergency stop): the node's supervisor may take such a hold over when the
-        process behind a simulated driver died (see the node's ``auto_hold``).
+        A :meth:`handle_fault` with ``timeout`` made it hold, no other cause came since (a
+        limit, an emergency stop), and the driver's specimen is simulated (its state is not the
+        hardware's): the supervisor takes such a hold over when it reports the process behind
+        the driver dead or hung (the node's ``auto_hold``), and its restart ends it. A physical
+        actuator's timeout is never such a hold.
         """
-        return self._state == STATE_HOLDING and self._timed_out
+        return (self._state == STATE_HOLDING and self._timed_out
+                and self._driver.state_origin is not StateOrigin.HARDWARE)
 
     @property
     def limits(self) -> SafetyLimits:
@@ -548,7 +551,7 @@ class ActuatorBridge:
 
         Args:
             message: One-line reason.
-            timeout: the driver did not answer in time (:attr:`held_by_driver_timeout`).
+            timeout: the driver did not answer in time (:attr:`held_by_simulated_timeout`).
 
         Returns:
             A ``'fault'`` reply for the step in flight, if any; else ``None``.
