@@ -127,8 +127,10 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
                                         processes: Processes, tmp_path: Path) -> None:
     out = tmp_path / 'graph'
     segments = shm_segments()
+    # (direct: the integrator's own parameters as the docs give them, integers included)
+    extra = ['-p', 'sync_interval:=0', '-p', 'progress_interval:=1'] if site == 'direct' else []
     launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', site,
-                                                    '--out', str(out), '--no-figures'])
+                                                    '--out', str(out), '--no-figures', *extra])
     code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
     # Every node process took its Fast DDS shared memory with it.

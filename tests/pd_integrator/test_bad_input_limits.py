@@ -598,14 +598,32 @@ def test_a_control_timeout_that_is_no_time_is_one_line(tmp_path: Path, timeout: 
     ('dt:=  ', r"--param 'dt:=  ': no value after :="),
     (':=1', r"--param ':=1': expected NAME:=VALUE"),
     ('d t:=1', r"--param 'd t:=1': expected NAME:=VALUE"),
-], ids=['empty', 'blank', 'no-name', 'space-in-name'])
+    ('sync_interval:=-1',
+     r"parameter sync_interval: must be a number of seconds, 0 or more \(.*\); got -1$"),
+    ('sync_interval:=abc',
+     r"parameter sync_interval: must be a number of seconds, 0 or more \(.*\); got 'abc'$"),
+    ('sync_interval:=.inf', r"parameter sync_interval: .*; got inf$"),
+    ('sync_interval:=true', r"parameter sync_interval: .*; got True$"),
+    ('progress_interval:=0',
+     r"parameter progress_interval: must be a number of seconds, more than 0 \(.*\); got 0$"),
+    ('confirm_resume:=true',
+     r"DEFAULT:.*parameter 'confirm_resume' is not a test parameter \(one of test_id, .*\)$"),
+], ids=['empty', 'blank', 'no-name', 'space-in-name', 'sync-negative', 'sync-text', 'sync-inf',
+        'sync-boolean', 'progress-zero', 'not-a-test-parameter'])
+@pytest.mark.parametrize('program', ['run_test', 'offline'])
 def test_an_override_ros_cannot_parse_is_refused_before_anything(
-        tmp_path: Path, param: str, message: str) -> None:
+        tmp_path: Path, program: str, param: str, message: str) -> None:
     """The integrator's ROS arguments would fail to parse in the child (a traceback, a run
-    folder left): run_test refuses the override first, and nothing is made."""
+    folder left): run_test refuses the override first, and nothing is made; so does
+    ./pd offline, which takes the test's parameters as run_test does (and no other)."""
+    if program == 'offline' and param.partition(':=')[0] in ('sync_interval',
+                                                              'progress_interval'):
+        message = (rf"DEFAULT:.*parameter '{param.partition(':=')[0]}' is not a test "
+                   r"parameter \(one of test_id, .*\)$")
+    message = message.replace('DEFAULT:', re.escape(f'{DEFAULT_TEST.name}: '))
     out = tmp_path / 'out'
-    refused(run('run_test', str(DEFAULT_TEST), '-p', param, '--out', str(out), '--no-figures',
-                cwd=tmp_path), 'run_test', rf'{message}.*$')
+    refused(run(program, str(DEFAULT_TEST), '-p', param, '--out', str(out), '--no-figures',
+                cwd=tmp_path), program, rf'{message}.*$')
     assert not out.exists()
 
 

@@ -38,18 +38,16 @@ import argparse
 import json
 import math
 import os
-import re
 import signal
 import sys
 from pathlib import Path
 from typing import Any, NoReturn
 
 import rclpy
-import yaml
 from rclpy.signals import SignalHandlerOptions
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
-from pd_common.config import TestFile, load_yaml
+from pd_common.config import TestFile
 from pd_common.resources import ResourceError, find_executable
 from pd_common.ros import events_executor, exit_process
 from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
@@ -61,7 +59,13 @@ from pd_core.run.loop.session import TestSession
 from pd_core.run.record.journal import JOURNAL_FILE
 from pd_core.run.resume import load_resumable
 from pd_core.run.runner import BAG_DIRECTORY, default_run_directory
-from pd_core.run.test_file import default_test_file, read_definition
+from pd_core.run.test_file import (
+    RUN_PARAMETERS,
+    default_test_file,
+    parse_overrides,
+    read_definition,
+    run_parameter,
+)
 
 from .operator import Operator
 from .plan import (
@@ -83,34 +87,7 @@ from .supervisor import HUNG_TIMEOUT, POLICIES, Supervisor, recorded_processes
 #: run_test's own output once its terminal is gone (SIGHUP), in the run folder.
 LOG_FILE = 'run_test.log'
 
-__all__ = ['LaunchError', 'main', 'parse_overrides', 'resolve_key']
-
-
-#: A node parameter's name as ROS reads one on the command line (``-p NAME:=VALUE``).
-_PARAMETER_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_.]*')
-
-
-def parse_overrides(items: list[str]) -> dict[str, object]:
-    """``NAME:=VALUE`` items (YAML values, as ``ros2 run --ros-args -p`` reads them).
-
-    Raises:
-        LaunchError: an item is not ``NAME:=VALUE``.
-    """
-    overrides: dict[str, object] = {}
-    for item in items:
-        name, sep, value = item.partition(':=')
-        if not sep or not _PARAMETER_NAME.fullmatch(name):
-            msg = f'--param {item!r}: expected NAME:=VALUE (a parameter name, e.g. dt:=0.005)'
-            raise LaunchError(msg)
-        if not value.strip():  # (ROS cannot parse an empty override: the node would not start)
-            msg = f'--param {item!r}: no value after := (e.g. {name}:=0.5)'
-            raise LaunchError(msg)
-        try:
-            overrides[name] = load_yaml(value)
-        except yaml.YAMLError as err:
-            msg = f'--param {item!r}: not a YAML value ({str(err).splitlines()[0]})'
-            raise LaunchError(msg) from None
-    return overrides
+__all__ = ['LaunchError', 'main', 'resolve_key']
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -239,6 +216,9 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     """
     test_file = Path(args.test_file) if args.test_file else default_test_file()
     overrides = parse_overrides(args.param)
+    # The integrator's own parameters (not the test's): checked here, passed on as seconds.
+    run_values = {name: run_parameter(name, overrides.pop(name))
+                  for name in list(overrides) if name in RUN_PARAMETERS}
     # Read once, fail early, before any process:
     definition, document = read_definition(test_file, overrides)
     if not definition.needs_probe:
@@ -250,7 +230,10 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
                   '-p', f'output_dir:={out.resolve()}',
                   '-p', f'figures:={"false" if args.no_figures else "true"}']
     for item in args.param:
-        integrator += ['-p', item]
+        if item.partition(':=')[0] not in run_values:
+            integrator += ['-p', item]
+    for name, seconds in run_values.items():  # (a double parameter: 1 would be an integer)
+        integrator += ['-p', f'{name}:={seconds!r}']
     children, physical = site_commands(
         definition, test_file.resolve(), args.site,
         Path(args.bridge_params) if args.bridge_params else None, out)

@@ -110,7 +110,7 @@ from pd_core.run.runner import (
     prepare_run_directory,
     restore_dispatcher,
 )
-from pd_core.run.test_file import PARAMETER_PATHS, load_test_file
+from pd_core.run.test_file import PARAMETER_PATHS, load_test_file, run_parameter
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
 from pd_msgs.msg import Control as ControlMessage
 
@@ -186,12 +186,14 @@ class IntegratorNode(Node):
         self.declare_parameter('figures', True, ParameterDescriptor(
             description='write PNG figures at the end of the test'))
         self.declare_parameter('progress_interval', 2.0, ParameterDescriptor(
-            description='seconds between progress lines on the console'))
+            description='seconds between progress lines on the console',
+            dynamic_typing=True))  # (-p progress_interval:=1 is an integer)
         self.declare_parameter('resume_from', '', ParameterDescriptor(
             description='run folder of a stopped run to continue from its last committed step '
                         '(its test, its record; test_file and output_dir are not used)'))
         self.declare_parameter('sync_interval', 1.0, ParameterDescriptor(
-            description='most seconds between two fsync of the journal (0: every step)'))
+            description='most seconds between two fsync of the journal (0: every step)',
+            dynamic_typing=True))
         self.declare_parameter('confirm_resume', False, ParameterDescriptor(
             description='resume_from with a physical site: move without waiting for the '
                         "operator's signed resume (the gap and positions are still reported)"))
@@ -200,6 +202,10 @@ class IntegratorNode(Node):
         self.declare_parameter('hold_on_resume', False, ParameterDescriptor(
             description="resume_from: restore the run and hold until a person's signed resume "
                         '(run_test restarts a dead integrator so under --on-child-exit hold)'))
+        # (checked before anything is made: a bad one leaves no run folder)
+        progress_interval = run_parameter(
+            'progress_interval', self.get_parameter('progress_interval').value)
+        sync_interval = run_parameter('sync_interval', self.get_parameter('sync_interval').value)
         overrides: dict[str, Any] = {}
         for name in PARAMETER_PATHS:
             self.declare_parameter(name, None, ParameterDescriptor(
@@ -237,8 +243,7 @@ class IntegratorNode(Node):
             self.directory = prepare_run_directory(
                 Path(output) if output else default_run_directory('runs', definition.test_id))
         self.figures = bool(self.get_parameter('figures').value)
-        self.meter = ProgressMeter(definition.n_steps,
-                                   float(self.get_parameter('progress_interval').value))
+        self.meter = ProgressMeter(definition.n_steps, progress_interval)
 
         self.signer = Signer(self.key) if self.key is not None else None
         #: The run's record could not be written (a full disk): the test ends with one line.
@@ -263,7 +268,7 @@ class IntegratorNode(Node):
 
         # The interval's fsync in a thread of its own: a slow disk holds up no step.
         self.bag = Journal(self.directory / JOURNAL_FILE, append=bool(resume_from),
-                           sync_interval=float(self.get_parameter('sync_interval').value),
+                           sync_interval=sync_interval,
                            sync_in_background=True).open()
         self.dispatcher = StepDispatcher(self.session, self._seal_command, self.bag,
                                          deliver=self._publish_command)

@@ -15,7 +15,7 @@ from pd_core.errors import PdIntegratorError
 from pd_core.run.bridge_limits import limits_report, site_limits
 from pd_core.run.record.journal import JOURNAL_FILE, RecordWriteError
 from pd_core.run.runner import default_run_directory, run_offline
-from pd_core.run.test_file import default_test_file, load_test_file
+from pd_core.run.test_file import default_test_file, load_test_file, parse_overrides
 
 
 def write_failure(err: OSError, out: Path | None) -> str:
@@ -52,11 +52,13 @@ def main(argv: list[str] | None = None) -> int:
                         'sites.<site>.bridge overrides it')
     parser.add_argument('--past-limits', action='store_true', help="check the bridges' limits "
                         'but run past them (for study): report where they would have held')
+    parser.add_argument('--param', '-p', action='append', default=[], metavar='NAME:=VALUE',
+                        help='a test parameter, as ./pd run takes it: e.g. -p scale_factor:=0.5')
     args = parser.parse_args(argv)
     out: Path | None = None
     try:
         test_file = Path(args.test_file) if args.test_file else default_test_file()
-        definition = load_test_file(test_file)
+        definition = load_test_file(test_file, parse_overrides(args.param))
         for warning in definition.warnings:
             print(f'offline: warning: {warning}', file=sys.stderr)
         if report := definition.modal_report():

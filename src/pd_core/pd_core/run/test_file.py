@@ -14,16 +14,19 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping
+import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from pd_common.config import (
     SchemaError,
     TestFile,
     describe_size,
+    load_yaml,
     read_test_data,
     validate_section,
     validate_test_file,
@@ -48,8 +51,9 @@ from .definition import (
     TestDefinition,
 )
 
-__all__ = ['MAX_STEPS', 'PARAMETER_PATHS', 'SECTIONS', 'apply_overrides', 'default_test_file',
-           'from_dict', 'from_json', 'load_test_file', 'read_definition', 'steps_refusal']
+__all__ = ['MAX_STEPS', 'PARAMETER_PATHS', 'RUN_PARAMETERS', 'SECTIONS', 'apply_overrides',
+           'default_test_file', 'from_dict', 'from_json', 'load_test_file', 'parse_overrides',
+           'read_definition', 'run_parameter', 'steps_refusal']
 
 def default_test_file() -> Path:
     """The shipped default test: the integrator's installed share, or the source tree."""
@@ -87,6 +91,16 @@ PARAMETER_PATHS: dict[str, tuple[str, str]] = {
     'max_retries': ('protocol', 'max_retries'),
     'tracking_tolerance': ('protocol', 'tracking_tolerance'),
 }
+
+#: The integrator node's own parameters a run may set with ``-p`` besides the test's
+#: (:data:`PARAMETER_PATHS`): name -> (the least value, whether it is allowed, what it is).
+RUN_PARAMETERS: dict[str, tuple[float, bool, str]] = {
+    'sync_interval': (0.0, True, 'most seconds between two fsync of the journal (0: every step)'),
+    'progress_interval': (0.0, False, 'seconds between two progress lines'),
+}
+
+#: A node parameter's name as ROS reads one on the command line (``-p NAME:=VALUE``).
+_PARAMETER_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_.]*')
 
 #: The most integration steps a test may have (its history is held in memory: five arrays per
 #: DOF, the loads and the ground motion, per step: 5e7 steps of one DOF take 3 GB).
@@ -193,6 +207,48 @@ def from_json(text: str, *, source: str = 'bag') -> TestDefinition:
     return from_dict(raw, source=source, base_dir=Path.cwd())
 
 
+def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
+    """``NAME:=VALUE`` items (YAML values, as ``ros2 run --ros-args -p`` reads them).
+
+    Raises:
+        ConfigError: an item is not ``NAME:=VALUE`` (one line naming it).
+    """
+    overrides: dict[str, Any] = {}
+    for item in items:
+        name, sep, value = item.partition(':=')
+        if not sep or not _PARAMETER_NAME.fullmatch(name):
+            msg = f'--param {item!r}: expected NAME:=VALUE (a parameter name, e.g. dt:=0.005)'
+            raise ConfigError(msg)
+        if not value.strip():  # (ROS cannot parse an empty override: the node would not start)
+            msg = f'--param {item!r}: no value after := (e.g. {name}:=0.5)'
+            raise ConfigError(msg)
+        try:
+            overrides[name] = load_yaml(value)
+        except yaml.YAMLError as err:
+            msg = f'--param {item!r}: not a YAML value ({str(err).splitlines()[0]})'
+            raise ConfigError(msg) from None
+    return overrides
+
+
+def run_parameter(name: str, value: Any) -> float:
+    """A run parameter's value (:data:`RUN_PARAMETERS`) as seconds.
+
+    Raises:
+        ConfigError: not a finite number, or below its least value (one line naming it).
+    """
+    least, inclusive, what = RUN_PARAMETERS[name]
+    bound = f'{least:g} or more' if inclusive else f'more than {least:g}'
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if (isinstance(value, bool) or not math.isfinite(seconds)
+            or not (seconds >= least if inclusive else seconds > least)):
+        msg = f'parameter {name}: must be a number of seconds, {bound} ({what}); got {value!r}'
+        raise ConfigError(msg)
+    return seconds
+
+
 def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], source: str
                     ) -> dict[str, Any]:
     """Return a copy of ``raw`` with node parameter overrides applied."""
@@ -202,7 +258,8 @@ def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], source: s
         if value is None:
             continue
         if name not in PARAMETER_PATHS:
-            msg = f'{source}: parameter {name!r} is not a test parameter'
+            msg = (f'{source}: parameter {name!r} is not a test parameter (one of '
+                   f'{", ".join(PARAMETER_PATHS)})')
             raise ConfigError(msg)
         section, key = PARAMETER_PATHS[name]
         target = result.setdefault(section, {})
