@@ -100,15 +100,21 @@ class _Operator:
         return self.states.get(topic)
 
 
-def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -> None:
-    """A hold a bridge has not acknowledged (refused once: bound to a test its status had not
-    named yet) is sent again until it is; resuming before that would let it land afterwards
-    and hold the test with no one to leave the hold."""
+def _simulator_behind_a_bridge(tmp_path: Path) -> tuple[Child, Child, LaunchPlan]:
+    """A plan of one simulator behind one bridge (commands that are never run)."""
     simulator = Child('pd_specimen_sim', 'simulator', '', '/pd/specimen', ['true'])
     bridge = Child('pd_actuator_bridge', 'bridge', '', '', ['true'])
     plan = LaunchPlan(test_id='t', n_steps=1, out=tmp_path, site_mode='bridge', physical=False,
                       key_file=None, environment={}, children=[simulator, bridge],
                       integrator=['true'])
+    return simulator, bridge, plan
+
+
+def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -> None:
+    """A hold a bridge has not acknowledged (refused once: bound to a test its status had not
+    named yet) is sent again until it is; resuming before that would let it land afterwards
+    and hold the test with no one to leave the hold."""
+    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
     operator = _Operator()
     supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
                             log=lambda line: None)
@@ -142,11 +148,7 @@ def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: 
     """The bridge refuses the supervisor's auto_reset (it holds for a reason of its own, a
     person's to clear): run_test says so at once and leaves the test held, instead of sending
     it again for 30 s and then calling the restarted process lost."""
-    simulator = Child('pd_specimen_sim', 'simulator', '', '/pd/specimen', ['true'])
-    bridge = Child('pd_actuator_bridge', 'bridge', '', '', ['true'])
-    plan = LaunchPlan(test_id='t', n_steps=1, out=tmp_path, site_mode='bridge', physical=False,
-                      key_file=None, environment={}, children=[simulator, bridge],
-                      integrator=['true'])
+    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
     operator = _Operator()
     lines: list[str] = []
     supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]

@@ -308,6 +308,18 @@ def test_sync_interval_zero_syncs_every_flush(tmp_path: Path,
     journal.close()
 
 
+def _first_step_synced_in_background(tmp_path: Path) -> tuple[Journal, list[float]]:
+    """A journal syncing in the background (interval 1 s, a clock set by hand: ``now[0]``)
+    whose first step, at 1 s, has just asked for an fsync."""
+    now = [0.0]
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0],
+                      sync_in_background=True).open()
+    now[0] = 1.0
+    journal.write_event('step', 0)
+    journal.flush()
+    return journal, now
+
+
 def test_a_slow_fsync_in_the_background_holds_up_no_step(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The interval's fsync runs in its own thread: a disk that takes as long as it likes to
@@ -322,12 +334,7 @@ def test_a_slow_fsync_in_the_background_holds_up_no_step(
         synced.append(threading.current_thread().name)
 
     monkeypatch.setattr(journal_module.os, 'fsync', slow_fsync)
-    now = [0.0]
-    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0],
-                      sync_in_background=True).open()
-    now[0] = 1.0
-    journal.write_event('step', 0)
-    journal.flush()  # asks for the fsync, and returns while it hangs
+    journal, now = _first_step_synced_in_background(tmp_path)  # returns while it hangs
     assert started.wait(30.0)
     for step in range(50):  # the steps go on, each on the OS at once
         now[0] = 1.0 + 0.1 * (step + 1)
@@ -354,12 +361,7 @@ def test_a_failed_background_fsync_stops_the_run_at_the_next_step(
         raise OSError(errno.EIO, 'Input/output error')
 
     monkeypatch.setattr(journal_module.os, 'fsync', failing_fsync)
-    now = [0.0]
-    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=1.0, clock=lambda: now[0],
-                      sync_in_background=True).open()
-    now[0] = 1.0
-    journal.write_event('step', 0)
-    journal.flush()
+    journal, _ = _first_step_synced_in_background(tmp_path)
     assert failed.wait(30.0)
     thread = next((thread for thread in threading.enumerate()
                    if thread.name == 'journal-fsync'), None)
