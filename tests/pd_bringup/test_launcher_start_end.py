@@ -178,3 +178,37 @@ def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: 
     finally:
         process.kill()
         process.wait()
+
+
+def test_a_bridges_hold_that_went_unanswered_is_sent_again_before_its_reset(
+        tmp_path: Path) -> None:
+    """The supervisor's hold of a bridge was given up (unanswered after its sends): the bridge
+    may hold for its own driver timeout, which it leaves to the supervisor only once it has
+    the supervisor's hold. So the hold is sent again, and answered, before the reset."""
+    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
+    operator = _Operator()
+    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
+                            log=lambda line: None)
+    process = subprocess.Popen(_python('import time; time.sleep(30)'))
+    try:
+        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
+                           'old-epoch', -9, [bridge])
+        supervisor._restart = restart
+        lost = SimpleNamespace(topic='/pd/bridge/control', attempts=5, control=SimpleNamespace(
+            command='auto_hold', target='/pd/pd_actuator_bridge'))
+        operator.check = lambda: [(lost, None)]  # given up
+        supervisor._check_controls()
+        operator.offers['/pd/specimen'] = SimpleNamespace(
+            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
+            authenticated=True)
+        operator.states['/bridge/status'] = 3  # holding (its own driver timeout)
+        supervisor._advance_restart(restart)
+        assert operator.sent == [('auto_hold', '')]  # the hold again, not the reset
+        supervisor._advance_restart(restart)
+        assert operator.sent == [('auto_hold', '')]  # it waits for the answer
+        operator.pending.clear()  # answered
+        supervisor._advance_restart(restart)
+        assert operator.sent == [('auto_hold', ''), ('auto_reset', '')]
+    finally:
+        process.kill()
+        process.wait()

@@ -57,7 +57,7 @@ from pd_common.config.files import read_text
 from pd_core.errors import PdIntegratorError
 from pd_core.run.resume import load_resumable
 
-from .operator import Operator
+from .operator import Operator, control_topics
 from .plan import RESTART_NOTE, Child, LaunchPlan
 
 __all__ = ['HUNG_TIMEOUT', 'POLICIES', 'PROCESSES_FILE', 'Supervisor', 'recorded_processes']
@@ -193,6 +193,10 @@ class _Restart:
     code: int
     held_bridges: list[Child] = field(default_factory=list)
     reset_sent: float = 0.0
+    #: The control topics of held bridges whose auto_hold went unanswered: sent again before
+    #: their reset (a bridge that holds for a timeout of its own takes the supervisor's hold
+    #: over only when it gets it).
+    holds_lost: set[str] = field(default_factory=set)
 
 
 class Supervisor:
@@ -502,6 +506,12 @@ class Supervisor:
         for bridge in restart.held_bridges:
             topic = f'{bridge.namespace}/bridge/status'
             if operator.status_state(topic) == _HOLDING:
+                control_topic = control_topics(bridge.site)[0]
+                if control_topic in restart.holds_lost:  # first the hold it never answered
+                    restart.holds_lost.discard(control_topic)
+                    self._send('auto_hold', bridge_site=bridge.site,
+                               reason=f'{item.child.name} restarted')
+                    return
                 held_by = self._person_holds(topic)
                 if held_by:
                     self._restart = None
@@ -577,6 +587,8 @@ class Supervisor:
             if ack is None:
                 self._log(f'run_test: {command} was not acknowledged by {sent.control.target} '
                           f'after {sent.attempts} sends')
+                if command == 'auto_hold' and self._restart is not None:
+                    self._restart.holds_lost.add(sent.topic)
             elif not ack.ok:
                 self._log(f'run_test: {sent.control.target} did not take {command}: '
                           f'{ack.outcome}')
