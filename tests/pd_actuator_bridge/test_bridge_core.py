@@ -613,41 +613,58 @@ class SimulatedAsyncDriver(AsyncDriver):
         return StateOrigin.RESTORED
 
 
-def test_only_a_simulated_specimens_timeout_and_nothing_since_is_the_supervisors() -> None:
-    """held_by_simulated_timeout: the one hold the supervisor may take over (the process behind
-    a simulated driver died). Any other cause, before or after, makes it false; so does a
-    physical actuator; a reset clears it."""
+def test_the_supervisor_leaves_only_its_own_hold_or_a_simulated_specimens_timeout() -> None:
+    """hold_for_supervisor / held_by_supervisor: the holds the supervisor's auto_reset may leave.
+    Its own hold (also when sent again), or a simulated specimen's driver timeout with nothing
+    since (the process behind the driver died); never a physical actuator's timeout, a limit's,
+    another fault's, a person's or an emergency stop's; a reset ends it."""
     physical = ActuatorBridge(AsyncDriver(), LIMITS, ['top'])
     physical.handle_command('t1', 0, [0.05])
     physical.handle_fault('actuator did not reach step 0 within 5.0 s', timeout=True)
-    assert physical.state == 'holding' and not physical.held_by_simulated_timeout
+    assert physical.hold_for_supervisor('held by run_test') is None
+    assert physical.state == 'holding' and not physical.held_by_supervisor
 
     bridge = ActuatorBridge(SimulatedAsyncDriver(), LIMITS, ['top'])
     bridge.handle_command('t1', 0, [0.05])
-    assert not bridge.held_by_simulated_timeout
-    reply = bridge.handle_fault('actuator did not reach step 0 within 5.0 s', timeout=True)
+    assert not bridge.held_by_supervisor
+    reply = bridge.hold_for_supervisor('held by run_test')  # not holding: it holds now
     assert reply is not None and reply.status is FeedbackStatus.FAULT
-    assert bridge.state == 'holding' and bridge.held_by_simulated_timeout
-    bridge.emergency_stop('button')  # a later cause: no longer the timeout's alone
-    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
-    assert bridge.reset(clear_emergency=True) and not bridge.held_by_simulated_timeout
+    assert bridge.held_by_supervisor
+    assert bridge.hold_for_supervisor('held by run_test') is None  # sent again: still its own
+    assert bridge.held_by_supervisor
+    bridge.handle_fault('held by ana (pd control)')  # a person's hold on top: theirs now
+    assert bridge.state == 'holding' and not bridge.held_by_supervisor
+    bridge.hold_for_supervisor('held by run_test')
+    assert not bridge.held_by_supervisor
+    assert bridge.reset() and not bridge.held_by_supervisor
 
     bridge.handle_command('t1', 1, [0.05])
     bridge.handle_fault('actuator did not reach step 1 within 5.0 s', timeout=True)
-    assert bridge.held_by_simulated_timeout
-    assert bridge.reset() and not bridge.held_by_simulated_timeout
+    assert not bridge.held_by_supervisor  # a timeout is its own until the supervisor says so
+    bridge.hold_for_supervisor('held by run_test')
+    assert bridge.held_by_supervisor
+    assert bridge.reset() and not bridge.held_by_supervisor
+
+    bridge.handle_command('t1', 2, [0.05])
+    bridge.handle_fault('actuator did not reach step 2 within 5.0 s', timeout=True)
+    bridge.emergency_stop('button')  # a later cause: no longer the timeout's alone
+    bridge.hold_for_supervisor('held by run_test')
+    assert bridge.state == 'holding' and not bridge.held_by_supervisor
+    assert bridge.reset(clear_emergency=True)
 
     # A limit's hold, then a timeout while it holds: still the limit's.
-    bridge.handle_command('t1', 2, [0.05])
-    limit = bridge.handle_measurement(ActuatorMeasurement(2, (0.05,), (-1500.0,)))
+    bridge.handle_command('t1', 3, [0.05])
+    limit = bridge.handle_measurement(ActuatorMeasurement(3, (0.05,), (-1500.0,)))
     assert limit is not None and limit.status is FeedbackStatus.LIMIT
-    assert bridge.handle_fault('actuator did not reach step 2 within 5.0 s', timeout=True) is None
-    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
+    assert bridge.handle_fault('actuator did not reach step 3 within 5.0 s', timeout=True) is None
+    bridge.hold_for_supervisor('held by run_test')
+    assert bridge.state == 'holding' and not bridge.held_by_supervisor
     # Another fault (a driver's own report) is not a timeout.
     assert bridge.reset()
-    bridge.handle_command('t1', 3, [0.05])
+    bridge.handle_command('t1', 4, [0.05])
     bridge.handle_fault('driver: the specimen refused the move')
-    assert bridge.state == 'holding' and not bridge.held_by_simulated_timeout
+    bridge.hold_for_supervisor('held by run_test')
+    assert bridge.state == 'holding' and not bridge.held_by_supervisor
 
 
 def test_async_force_limit_holds() -> None:

@@ -223,7 +223,6 @@ class ActuatorBridgeNode(LifecycleNode):
                 self._control_gate.remember(str(event['session']), int(event['sequence']))
         self._acknowledged = Acknowledgements()
         self._runs = RunTags()
-        self._auto_held = False  # the current hold is the supervisor's auto_hold alone
         self._estop_logged_at = 0.0
         self._estop_repeats_logged = 0
         # Lifecycle transitions: with a key, only the owner's signed controls (or the node's
@@ -735,7 +734,6 @@ class ActuatorBridgeNode(LifecycleNode):
                 self.bridge.emergency_stop(self._latched())
             self._log_repeated_stops()
             return
-        self._auto_held = False
         self.record.append(event)
         text = self._latched()
         if self.bridge is not None:
@@ -774,7 +772,6 @@ class ActuatorBridgeNode(LifecycleNode):
         event = self.holds.clear(emergency=clear_emergency, by=by)
         if event is not None:
             self.record.append(event)
-        self._auto_held = False
         what = 'emergency stop and hold' if clear_emergency else 'hold'
         message = f'{what} reset by {clip_reason(by, 80)}'
         self.get_logger().warning(message)
@@ -832,17 +829,6 @@ class ActuatorBridgeNode(LifecycleNode):
         state, text = self._last_status
         self.publish_status(state, text)
 
-    def _explained_by_the_supervisor(self) -> bool:
-        """Whether the bridge holds only because its simulated specimen stopped answering.
-
-        Its driver timed out waiting for a specimen process (a simulator: not the hardware's
-        state) and nothing else made it hold since: the process the supervisor's ``auto_hold``
-        reports dead or hung. That hold becomes the supervisor's, which its ``auto_reset``
-        leaves once the process is back with its state. A limit, a tracking error, a person's
-        hold or an emergency stop never does; nor does a physical actuator's timeout.
-        """
-        return self.bridge is not None and self.bridge.held_by_simulated_timeout
-
     def _obey(self, request: str, sender: str, reason: str) -> str:
         """Carry out an admitted control; ``'ok'`` or ``'refused: why'``."""
         why = f' ({reason})' if reason else ''
@@ -853,16 +839,19 @@ class ActuatorBridgeNode(LifecycleNode):
         elif request == 'hold':
             held = f'held by {sender}{why}'
             self.record.append(self.holds.operator_hold(held))
-            self._auto_held = False
-            self._on_driver_fault(held)
+            self._on_driver_fault(held)  # (a hold the supervisor held is a person's now)
             self.publish_status(TestStatus.STATE_HOLDING, held)
             return 'ok'
-        elif request == 'auto_hold':  # the supervisor: a process of the test died
+        elif request == 'auto_hold':  # the supervisor: a process of the test died or hung
             holding = self.bridge is not None and self.bridge.state == 'holding'
-            self._auto_held = ((not holding or self._explained_by_the_supervisor())
-                               and not self._latched())
             held = f'held by {sender}{why}'
-            self._on_driver_fault(held)
+            if self.bridge is not None and not self._latched():
+                reply = self.bridge.hold_for_supervisor(held)
+                if reply is not None:
+                    self.get_logger().error(f'holding: {held}')
+                    self._publish_reply(reply)
+            else:  # (an e-stop or a person's hold: theirs, whatever the supervisor says)
+                self._on_driver_fault(held)
             if not holding:
                 self.publish_status(TestStatus.STATE_HOLDING, held)
             return 'ok'
@@ -870,7 +859,8 @@ class ActuatorBridgeNode(LifecycleNode):
             blocked = self.holds.blocks_automatic
             if blocked is not None:
                 return f'refused: {blocked}; a person resets it'
-            if not self._auto_held and self.bridge is not None and self.bridge.state == 'holding':
+            if (self.bridge is not None and self.bridge.state == 'holding'
+                    and not self.bridge.held_by_supervisor):
                 return (f'refused: the bridge holds for another reason '
                         f'({self.bridge.hold_reason}); a person resets it')
             ok, text = self.reset(by=sender)

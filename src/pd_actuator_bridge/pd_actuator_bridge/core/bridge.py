@@ -197,7 +197,9 @@ class ActuatorBridge:
         self._state = STATE_READY
         self._hold_status: FeedbackStatus | None = None
         self._hold_reason = ''
-        self._timed_out = False  # the hold is a driver timeout's, and nothing else's since
+        #: What alone made the current hold: '' (anything else, or several causes),
+        #: 'timeout' (a driver timeout) or 'supervisor' (the supervisor's hold).
+        self._hold_cause = ''
         self._displacement: tuple[float, ...] | None = None
         self._force: tuple[float, ...] = (math.nan,) * n_dof
         # Step bookkeeping.
@@ -248,17 +250,37 @@ class ActuatorBridge:
         return self._hold_status
 
     @property
-    def held_by_simulated_timeout(self) -> bool:
-        """Whether the bridge holds only because a simulated specimen did not answer in time.
+    def held_by_supervisor(self) -> bool:
+        """Whether the bridge holds for the supervisor's hold alone (:meth:`hold_for_supervisor`).
 
-        A :meth:`handle_fault` with ``timeout`` made it hold, no other cause came since (a
-        limit, an emergency stop), and the driver's specimen is simulated (its state is not the
-        hardware's): the supervisor takes such a hold over when it reports the process behind
-        the driver dead or hung (the node's ``auto_hold``), and its restart ends it. A physical
-        actuator's timeout is never such a hold.
+        Only such a hold may the supervisor leave again (the node's ``auto_reset``); any other
+        cause since (a fault, a person's hold, an emergency stop) or a reset ends it.
         """
-        return (self._state == STATE_HOLDING and self._timed_out
-                and self._driver.state_origin is not StateOrigin.HARDWARE)
+        return self._state == STATE_HOLDING and self._hold_cause == 'supervisor'
+
+    def hold_for_supervisor(self, message: str) -> Feedback | None:
+        """The supervisor's hold: a process of the test died or hung.
+
+        Holds if not holding (as :meth:`handle_fault`), the hold then the supervisor's. A
+        hold already there becomes the supervisor's only if it is one: its own (a hold sent
+        again), or a driver timeout with nothing since whose specimen is simulated (its state
+        is not the hardware's) — the driver waited for the very process the supervisor reports
+        and restarts. A limit's, a fault's, a person's, an emergency stop's or a physical
+        actuator's timeout's hold stays what it is.
+
+        Returns:
+            A ``'fault'`` reply for the step in flight, if it held now; else ``None``.
+        """
+        with self._lock:
+            if self._state != STATE_HOLDING:
+                reply = self._fault_hold(message)
+                self._hold_cause = 'supervisor'
+                return reply
+            if self._hold_cause == 'supervisor' or (
+                    self._hold_cause == 'timeout'
+                    and self._driver.state_origin is not StateOrigin.HARDWARE):
+                self._hold_cause = 'supervisor'
+            return None
 
     @property
     def limits(self) -> SafetyLimits:
@@ -551,22 +573,26 @@ class ActuatorBridge:
 
         Args:
             message: One-line reason.
-            timeout: the driver did not answer in time (:attr:`held_by_simulated_timeout`).
+            timeout: the driver did not answer in time (see :meth:`hold_for_supervisor`).
 
         Returns:
             A ``'fault'`` reply for the step in flight, if any; else ``None``.
         """
         with self._lock:
             if self._state == STATE_HOLDING:
+                self._hold_cause = ''  # a cause of its own now, too
                 return None
-            reply = None
-            if self._in_flight is not None:
-                test_id, step = self._in_flight
-                reply = self._enter_hold(test_id, step, STATUS_FAULT, message, record=True)
-            else:
-                self._enter_hold('', -1, STATUS_FAULT, message, record=False)
-            self._timed_out = timeout
+            reply = self._fault_hold(message)
+            self._hold_cause = 'timeout' if timeout else ''
             return reply
+
+    def _fault_hold(self, message: str) -> Feedback | None:
+        """Hold for a fault (not holding yet): the reply for the step in flight, if any."""
+        if self._in_flight is not None:
+            test_id, step = self._in_flight
+            return self._enter_hold(test_id, step, STATUS_FAULT, message, record=True)
+        self._enter_hold('', -1, STATUS_FAULT, message, record=False)
+        return None
 
     def check_watchdog(self, now: float | None = None) -> Feedback | None:
         """Hold if no command arrived for longer than ``watchdog_timeout`` while armed.
@@ -619,7 +645,7 @@ class ActuatorBridge:
                 message = f'{message}; driver hold() failed: {_describe(exc)}'
             self._hold_status = STATUS_FAULT
             self._hold_reason = message
-            self._timed_out = False
+            self._hold_cause = ''
             return None
 
     def reset(self, clear_emergency: bool = False) -> bool:
@@ -648,7 +674,7 @@ class ActuatorBridge:
             self._state = STATE_READY
             self._hold_status = None
             self._hold_reason = ''
-            self._timed_out = False
+            self._hold_cause = ''
             self._in_flight = None
             self._commanded = None
             self._saturation_note = ''
@@ -888,7 +914,7 @@ class ActuatorBridge:
         self._state = STATE_HOLDING
         self._hold_status = status
         self._hold_reason = message
-        self._timed_out = False
+        self._hold_cause = ''
         self._in_flight = None
         self._commanded = None
         self._saturation_note = ''
