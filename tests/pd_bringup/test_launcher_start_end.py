@@ -172,9 +172,10 @@ def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: 
         supervisor._check_controls()
         assert supervisor._restart is None
         assert lines[-1] == ('run_test: pd_specimen_sim is back, but /pd/pd_actuator_bridge '
-                             'holds: the test holds (a person resets it: ./pd control reset '
-                             '--bridge, then ./pd control resume)')
-        assert not [command for command, _ in operator.sent if command == 'auto_resume']
+                             'holds for a reason of its own: the test holds (a person resets '
+                             'it: ./pd control reset --bridge, then ./pd control resume)')
+        # The restart is on record (the integrator's event), the test not resumed.
+        assert operator.sent == [('auto_reset', ''), ('restarted', None)]
     finally:
         process.kill()
         process.wait()

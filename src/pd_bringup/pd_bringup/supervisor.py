@@ -514,10 +514,7 @@ class Supervisor:
                     return
                 held_by = self._person_holds(topic)
                 if held_by:
-                    self._restart = None
-                    self._log(f'run_test: {bridge.name} is back, but {held_by}: the test '
-                              'holds (a person resets it: ./pd control reset --bridge, then '
-                              './pd control resume)')
+                    self._end_restart_held(restart, f'{bridge.name} is back, but {held_by}')
                     return
                 if now - restart.reset_sent > 2.0:
                     self._send('auto_reset', bridge_site=bridge.site, reason='restart')
@@ -534,6 +531,18 @@ class Supervisor:
             return
         self._send('auto_resume', reason=f'{item.child.name} restarted')
         self._log(f'run_test: {item.child.name} is back; resuming the test')
+
+    def _end_restart_held(self, restart: _Restart, why: str) -> None:
+        """The restarted process is back, but a hold only a person leaves stands.
+
+        The restart is recorded (``restarted``: a run event, the integrator's sessions
+        re-opened), the test left held for a person.
+        """
+        self._restart = None
+        self._send('restarted', reason=f'{restart.running.child.name} (it exited: '
+                   f'{_describe_exit(restart.code)}) restarted with its state')
+        self._log(f'run_test: {why}: the test holds (a person resets it: ./pd control reset '
+                  '--bridge, then ./pd control resume)')
 
     def _holds_unanswered(self) -> bool:
         """Whether a hold the supervisor sent is not acknowledged yet.
@@ -594,10 +603,9 @@ class Supervisor:
                           f'{ack.outcome}')
                 if command == 'auto_reset' and self._restart is not None:
                     # A hold that is not the supervisor's to leave: waiting changes nothing.
-                    self._log(f'run_test: {self._restart.running.child.name} is back, but '
-                              f'{sent.control.target} holds: the test holds (a person resets '
-                              'it: ./pd control reset --bridge, then ./pd control resume)')
-                    self._restart = None
+                    self._end_restart_held(self._restart, (
+                        f'{self._restart.running.child.name} is back, but '
+                        f'{sent.control.target} holds for a reason of its own'))
 
     def _statement_topic(self, item: _Running) -> tuple[str, str] | None:
         """Where a process says it is alive: ``('status'|'offer', topic or namespace)``."""
