@@ -11,9 +11,11 @@ message, in the order the integrator saw it:
   that was committed;
 * at most every ``sync_interval`` seconds (default 1 s) the file is also ``fsync``-ed: a power
   loss loses at most that window. With ``sync_in_background`` (the integrator node's journal)
-  that ``fsync`` runs in a thread of its own, so a slow disk does not hold up the step that
-  asks for it (a real-time test's loop); a failed one stops the run at the next step, as a
-  failed write does. An interval of 0 (an ``fsync`` per committed step, before its next
+  that ``fsync`` runs in a thread of its own, so the step that asks for it does not wait for
+  the disk (a real-time test's loop); the window grows by the time one ``fsync`` takes, and
+  should one last a whole interval (a stuck disk) the step that asks for the next waits for
+  it, as it would for an ``fsync`` of its own. A failed one stops the run at the next step, as
+  a failed write does. An interval of 0 (an ``fsync`` per committed step, before its next
   command), an emergency stop's or a hold's record (:meth:`Journal.persist`) and the last
   ``fsync`` at close always run in the caller.
 
@@ -162,8 +164,11 @@ class BackgroundSync:
     """``fsync`` of one open file in a thread of its own: the caller asks and goes on.
 
     Requests that arrive while one runs are served by one more ``fsync`` after it (it covers
-    every write made before it started). The first error is kept in :attr:`error` and ends the
-    thread; the owner raises it (:meth:`Journal.flush`).
+    every write made before it started). :attr:`busy` tells whether one asked is not done yet
+    and :meth:`wait` waits for it (the journal does, rather than ask again while one has been
+    running for a whole interval: a stuck disk then holds the test up, as an ``fsync`` in the
+    step would, instead of leaving its records unsynced). The first error is kept in
+    :attr:`error` and ends the thread; the owner raises it (:meth:`Journal.flush`).
 
     Args:
         fd: the file descriptor; it must stay open until :meth:`stop` returns.
@@ -171,34 +176,58 @@ class BackgroundSync:
 
     def __init__(self, fd: int) -> None:
         self._fd = fd
-        self._wanted = threading.Event()
+        self._changed = threading.Condition()
+        self._asked = 0  # requests made
+        self._done = 0  # requests a finished fsync covered
         self._stopping = False
         self.error: OSError | None = None
         self.synced = 0  # fsync calls done
         self._thread = threading.Thread(target=self._run, name='journal-fsync', daemon=True)
         self._thread.start()
 
+    @property
+    def busy(self) -> bool:
+        """Whether an ``fsync`` asked for has not ended yet."""
+        with self._changed:
+            return self._done < self._asked and self.error is None
+
     def request(self) -> None:
         """Ask for an ``fsync`` (returns at once)."""
-        self._wanted.set()
+        with self._changed:
+            self._asked += 1
+            self._changed.notify_all()
+
+    def wait(self) -> None:
+        """Wait until every ``fsync`` asked for has ended (or failed, or the thread stopped)."""
+        with self._changed:
+            while self._done < self._asked and self.error is None and not self._stopping:
+                self._changed.wait()
 
     def _run(self) -> None:
         while True:
-            self._wanted.wait()
-            self._wanted.clear()
-            if self._stopping:
-                return
+            with self._changed:
+                while self._done == self._asked and not self._stopping:
+                    self._changed.wait()
+                if self._stopping:
+                    return
+                covers = self._asked
             try:
                 os.fsync(self._fd)
             except OSError as err:
-                self.error = err
+                with self._changed:
+                    self.error = err
+                    self._changed.notify_all()
                 return
-            self.synced += 1
+            with self._changed:
+                self._done = covers
+                self.synced += 1
+                self._changed.notify_all()
 
     def stop(self) -> None:
         """End the thread once the ``fsync`` under way (if any) returns."""
-        self._stopping = True
-        self._wanted.set()
+        with self._changed:
+            self._stopping = True
+            self._changed.notify_all()
         self._thread.join()
 
 
@@ -378,10 +407,14 @@ class Journal:
                 return
             now = self._clock()
             if now - self._synced >= self.sync_interval:
-                if syncer is not None:
-                    syncer.request()
-                else:
+                if syncer is None:
                     os.fsync(file.fileno())
+                else:
+                    if syncer.busy:  # the last one has run a whole interval: wait for it
+                        syncer.wait()
+                    if syncer.error is not None:
+                        raise syncer.error
+                    syncer.request()
                 self._synced = now
         except OSError as err:
             raise self._write_failed(err) from None
