@@ -40,9 +40,10 @@ BRIDGE_CONTROL = '/pd/bridge/control'
 
 @pytest.fixture(scope='module')
 def long_test(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The default test cut to 25 s (2,500 steps): long enough to stop it several times."""
+    """The default test cut to 60 s (6,000 steps): long enough to stop it several times, with
+    seconds to spare after step 300 on a fast machine (it steps at about 2,000 a second)."""
     directory = tmp_path_factory.mktemp('holds')
-    return write_test_file(directory / 'holds.yaml', test__duration=25.0,
+    return write_test_file(directory / 'holds.yaml', test__duration=60.0,
                            test__id='graph-holds')
 
 

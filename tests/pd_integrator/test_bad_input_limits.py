@@ -604,12 +604,14 @@ def test_a_control_timeout_that_is_no_time_is_one_line(tmp_path: Path, timeout: 
      r"parameter sync_interval: must be a number of seconds, 0 or more \(.*\); got 'abc'$"),
     ('sync_interval:=.inf', r"parameter sync_interval: .*; got inf$"),
     ('sync_interval:=true', r"parameter sync_interval: .*; got True$"),
+    ('sync_interval:=1' + '0' * 400, r"parameter sync_interval: .*; got 1000000000+\.\.\.$"),
     ('progress_interval:=0',
      r"parameter progress_interval: must be a number of seconds, more than 0 \(.*\); got 0$"),
     ('confirm_resume:=true',
-     r"DEFAULT:.*parameter 'confirm_resume' is not a test parameter \(one of test_id, .*\)$"),
+     (r"--param confirm_resume: not a parameter \./pd run takes \(the test's: test_id, .*; "
+      r"the integrator's: sync_interval, progress_interval\)$")),
 ], ids=['empty', 'blank', 'no-name', 'space-in-name', 'sync-negative', 'sync-text', 'sync-inf',
-        'sync-boolean', 'progress-zero', 'not-a-test-parameter'])
+        'sync-boolean', 'sync-huge', 'progress-zero', 'not-a-test-parameter'])
 @pytest.mark.parametrize('program', ['run_test', 'offline'])
 def test_an_override_ros_cannot_parse_is_refused_before_anything(
         tmp_path: Path, program: str, param: str, message: str) -> None:
@@ -617,7 +619,8 @@ def test_an_override_ros_cannot_parse_is_refused_before_anything(
     folder left): run_test refuses the override first, and nothing is made; so does
     ./pd offline, which takes the test's parameters as run_test does (and no other)."""
     if program == 'offline' and param.partition(':=')[0] in ('sync_interval',
-                                                              'progress_interval'):
+                                                              'progress_interval',
+                                                              'confirm_resume'):
         message = (rf"DEFAULT:.*parameter '{param.partition(':=')[0]}' is not a test "
                    r"parameter \(one of test_id, .*\)$")
     message = message.replace('DEFAULT:', re.escape(f'{DEFAULT_TEST.name}: '))

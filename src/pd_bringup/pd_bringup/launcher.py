@@ -60,6 +60,7 @@ from pd_core.run.record.journal import JOURNAL_FILE
 from pd_core.run.resume import load_resumable
 from pd_core.run.runner import BAG_DIRECTORY, default_run_directory
 from pd_core.run.test_file import (
+    PARAMETER_PATHS,
     RUN_PARAMETERS,
     default_test_file,
     parse_overrides,
@@ -219,6 +220,12 @@ def plan_new_run(args: argparse.Namespace) -> tuple[LaunchPlan, TestDefinition, 
     # The integrator's own parameters (not the test's): checked here, passed on as seconds.
     run_values = {name: run_parameter(name, overrides.pop(name))
                   for name in list(overrides) if name in RUN_PARAMETERS}
+    for name in overrides:
+        if name not in PARAMETER_PATHS:
+            msg = (f'--param {name}: not a parameter ./pd run takes (the test\'s: '
+                   f'{", ".join(PARAMETER_PATHS)}; the integrator\'s: '
+                   f'{", ".join(RUN_PARAMETERS)})')
+            raise LaunchError(msg)
     # Read once, fail early, before any process:
     definition, document = read_definition(test_file, overrides)
     if not definition.needs_probe:

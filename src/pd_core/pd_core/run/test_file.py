@@ -240,11 +240,12 @@ def run_parameter(name: str, value: Any) -> float:
     bound = f'{least:g} or more' if inclusive else f'more than {least:g}'
     try:
         seconds = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # (an integer of 400 digits)
         seconds = math.nan
     if (isinstance(value, bool) or not math.isfinite(seconds)
             or not (seconds >= least if inclusive else seconds > least)):
-        msg = f'parameter {name}: must be a number of seconds, {bound} ({what}); got {value!r}'
+        shown = repr(value) if len(repr(value)) <= 40 else f'{repr(value)[:37]}...'
+        msg = f'parameter {name}: must be a number of seconds, {bound} ({what}); got {shown}'
         raise ConfigError(msg)
     return seconds
 
