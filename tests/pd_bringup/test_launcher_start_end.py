@@ -4,10 +4,12 @@ writes its figures."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -100,33 +102,39 @@ class _Operator:
         return self.states.get(topic)
 
 
-def _simulator_behind_a_bridge(tmp_path: Path) -> tuple[Child, Child, LaunchPlan]:
-    """A plan of one simulator behind one bridge (commands that are never run)."""
+@contextlib.contextmanager
+def _restarting(tmp_path: Path, log: Callable[[str], None] = lambda line: None
+                ) -> Iterator[tuple[Supervisor, _Operator, _Restart]]:
+    """A supervisor restarting a simulator (a live stand-in process) behind one bridge, its
+    view of the graph set by hand (the simulator offers itself again), and the restart."""
     simulator = Child('pd_specimen_sim', 'simulator', '', '/pd/specimen', ['true'])
     bridge = Child('pd_actuator_bridge', 'bridge', '', '', ['true'])
     plan = LaunchPlan(test_id='t', n_steps=1, out=tmp_path, site_mode='bridge', physical=False,
                       key_file=None, environment={}, children=[simulator, bridge],
                       integrator=['true'])
-    return simulator, bridge, plan
+    operator = _Operator()
+    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
+                            log=log)
+    process = subprocess.Popen(_python('import time; time.sleep(30)'))
+    try:
+        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
+                           'old-epoch', -9, [bridge])
+        operator.offers['/pd/specimen'] = SimpleNamespace(
+            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
+            authenticated=True)
+        supervisor._restart = restart
+        yield supervisor, operator, restart
+    finally:
+        process.kill()
+        process.wait()
 
 
 def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -> None:
     """A hold a bridge has not acknowledged (refused once: bound to a test its status had not
     named yet) is sent again until it is; resuming before that would let it land afterwards
     and hold the test with no one to leave the hold."""
-    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
-    operator = _Operator()
-    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
-                            log=lambda line: None)
-    process = subprocess.Popen(_python('import time; time.sleep(30)'))
-    try:
-        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
-                           'old-epoch', -9, [bridge])
+    with _restarting(tmp_path) as (supervisor, operator, restart):
         operator.pending.append(_sent('auto_hold'))  # the bridge's, unanswered
-        operator.offers['/pd/specimen'] = SimpleNamespace(
-            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
-            authenticated=True)
-        supervisor._restart = restart
         supervisor._advance_restart(restart)
         assert operator.sent == [] and supervisor._restart is restart  # it waits
         operator.pending.clear()  # acknowledged: the bridge holds
@@ -139,29 +147,15 @@ def test_a_restart_never_resumes_before_its_holds_are_answered(tmp_path: Path) -
         assert [command for command, _ in operator.sent] == ['auto_reset', 'restarted',
                                                               'auto_resume']
         assert supervisor._restart is None
-    finally:
-        process.kill()
-        process.wait()
 
 
 def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: Path) -> None:
     """The bridge refuses the supervisor's auto_reset (it holds for a reason of its own, a
     person's to clear): run_test says so at once and leaves the test held, instead of sending
     it again for 30 s and then calling the restarted process lost."""
-    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
-    operator = _Operator()
     lines: list[str] = []
-    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
-                            log=lines.append)
-    process = subprocess.Popen(_python('import time; time.sleep(30)'))
-    try:
-        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
-                           'old-epoch', -9, [bridge])
-        operator.offers['/pd/specimen'] = SimpleNamespace(
-            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
-            authenticated=True)
+    with _restarting(tmp_path, lines.append) as (supervisor, operator, restart):
         operator.states['/bridge/status'] = 3  # holding
-        supervisor._restart = restart
         supervisor._advance_restart(restart)
         assert operator.sent == [('auto_reset', '')]
         refused = SimpleNamespace(control=SimpleNamespace(
@@ -176,9 +170,6 @@ def test_a_refused_automatic_reset_ends_the_restart_with_who_must_act(tmp_path: 
                              'it: ./pd control reset --bridge, then ./pd control resume)')
         # The restart is on record (the integrator's event), the test not resumed.
         assert operator.sent == [('auto_reset', ''), ('restarted', None)]
-    finally:
-        process.kill()
-        process.wait()
 
 
 def test_a_bridges_hold_that_went_unanswered_is_sent_again_before_its_reset(
@@ -186,22 +177,11 @@ def test_a_bridges_hold_that_went_unanswered_is_sent_again_before_its_reset(
     """The supervisor's hold of a bridge was given up (unanswered after its sends): the bridge
     may hold for its own driver timeout, which it leaves to the supervisor only once it has
     the supervisor's hold. So the hold is sent again, and answered, before the reset."""
-    simulator, bridge, plan = _simulator_behind_a_bridge(tmp_path)
-    operator = _Operator()
-    supervisor = Supervisor(plan, 'restart', {}, operator, lambda seconds: None,  # type: ignore[arg-type]
-                            log=lambda line: None)
-    process = subprocess.Popen(_python('import time; time.sleep(30)'))
-    try:
-        restart = _Restart(_Running(simulator, process, time.monotonic()), time.monotonic(),
-                           'old-epoch', -9, [bridge])
-        supervisor._restart = restart
+    with _restarting(tmp_path) as (supervisor, operator, restart):
         lost = SimpleNamespace(topic='/pd/bridge/control', attempts=5, control=SimpleNamespace(
             command='auto_hold', target='/pd/pd_actuator_bridge'))
         operator.check = lambda: [(lost, None)]  # given up
         supervisor._check_controls()
-        operator.offers['/pd/specimen'] = SimpleNamespace(
-            at=time.monotonic() + 1, epoch='new-epoch', challenge='c', active_session='s',
-            authenticated=True)
         operator.states['/bridge/status'] = 3  # holding (its own driver timeout)
         supervisor._advance_restart(restart)
         assert operator.sent == [('auto_hold', '')]  # the hold again, not the reset
@@ -210,6 +190,3 @@ def test_a_bridges_hold_that_went_unanswered_is_sent_again_before_its_reset(
         operator.pending.clear()  # answered
         supervisor._advance_restart(restart)
         assert operator.sent == [('auto_hold', ''), ('auto_reset', '')]
-    finally:
-        process.kill()
-        process.wait()
