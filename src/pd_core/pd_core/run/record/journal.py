@@ -13,11 +13,11 @@ message, in the order the integrator saw it:
   loss loses at most that window. With ``sync_in_background`` (the integrator node's journal)
   that ``fsync`` runs in a thread of its own, so the step that asks for it does not wait for
   the disk (a real-time test's loop); the window grows by the time one ``fsync`` takes, and
-  should one last a whole interval (a stuck disk) the step that asks for the next waits for
-  it, as it would for an ``fsync`` of its own. A failed one stops the run at the next step, as
-  a failed write does. An interval of 0 (an ``fsync`` per committed step, before its next
-  command), an emergency stop's or a hold's record (:meth:`Journal.persist`) and the last
-  ``fsync`` at close always run in the caller.
+  should one last a whole interval and at least :data:`STUCK_SYNC_S` (a stuck disk) the step
+  that asks for the next waits for it, as it would for an ``fsync`` of its own. A failed one
+  stops the run at the next step, as a failed write does. An interval of 0 (an ``fsync`` per
+  committed step, before its next command), an emergency stop's or a hold's record
+  (:meth:`Journal.persist`) and the last ``fsync`` at close always run in the caller.
 
 A record holds a message as it travels: a step command or feedback is its CDR bytes, signature
 included (the feedback as it arrived), a status its CDR bytes; the definition and the events
@@ -101,6 +101,9 @@ JOURNAL_FILE = 'journal.pdj'
 LEGACY_JOURNAL_FILE = 'journal.jsonl'
 _UNSIGNED = Signature()
 _MAX_TOPIC_BYTES = 0xFFFF
+#: Seconds (at least) a background fsync may run before the step that asks for the next one
+#: waits for it: a stuck disk, not a busy one (its thread may wait for the interpreter too).
+STUCK_SYNC_S = 1.0
 _KIND_NAMES = {RecordKind.DEFINITION: 'def', RecordKind.COMMAND: 'cmd',
                RecordKind.FEEDBACK: 'fb', RecordKind.STATUS: 'st', RecordKind.RAW: 'raw',
                RecordKind.EVENT: 'ev'}
@@ -166,9 +169,10 @@ class BackgroundSync:
     Requests that arrive while one runs are served by one more ``fsync`` after it (it covers
     every write made before it started). :attr:`busy` tells whether one asked is not done yet
     and :meth:`wait` waits for it (the journal does, rather than ask again while one has been
-    running for a whole interval: a stuck disk then holds the test up, as an ``fsync`` in the
-    step would, instead of leaving its records unsynced). The first error is kept in
-    :attr:`error` and ends the thread; the owner raises it (:meth:`Journal.flush`).
+    running for a whole interval and :data:`STUCK_SYNC_S`: a stuck disk then holds the test
+    up, as an ``fsync`` in the step would, instead of leaving its records unsynced). The
+    first error is kept in :attr:`error` and ends the thread; the owner raises it
+    (:meth:`Journal.flush`).
 
     Args:
         fd: the file descriptor; it must stay open until :meth:`stop` returns.
@@ -410,8 +414,9 @@ class Journal:
                 if syncer is None:
                     os.fsync(file.fileno())
                 else:
-                    if syncer.busy:  # the last one has run a whole interval: wait for it
-                        syncer.wait()
+                    if syncer.busy and now - self._synced >= max(self.sync_interval,
+                                                                 STUCK_SYNC_S):
+                        syncer.wait()  # the last one has run that long: a stuck disk
                     if syncer.error is not None:
                         raise syncer.error
                     syncer.request()
