@@ -185,7 +185,6 @@ class BackgroundSync:
         self._done = 0  # requests a finished fsync covered
         self._stopping = False
         self.error: OSError | None = None
-        self.synced = 0  # fsync calls done
         self._thread = threading.Thread(target=self._run, name='journal-fsync', daemon=True)
         self._thread.start()
 
@@ -224,7 +223,6 @@ class BackgroundSync:
                 return
             with self._changed:
                 self._done = covers
-                self.synced += 1
                 self._changed.notify_all()
 
     def stop(self) -> None:
