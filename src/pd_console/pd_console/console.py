@@ -847,19 +847,11 @@ def main(args: list[str] | None = None) -> int:
             check_settings(port=port, update_rate=update_rate,
                            max_points=model.max_points if options.max_points is None
                            else options.max_points, foxglove_port=options.foxglove)
-        except ConsoleSettingError as err:
-            print(f'console: error: {err}', file=sys.stderr)
-            return 2
-        if options.max_points is not None:
-            model.max_points = options.max_points
-        try:
+            if options.max_points is not None:
+                model.max_points = options.max_points
             model.default_limits = default_bridge_limits(options.bridge_params or '')
-        except ConsoleSettingError as err:
-            print(f'console: error: {err}', file=sys.stderr)
-            return 2
-        try:
             run_dir = load_run_folder(options.run, model)
-        except (BagError, OSError) as err:
+        except (ConsoleSettingError, BagError, OSError) as err:
             print(f'console: error: {err}', file=sys.stderr)
             return 2
         stop = StopFlag()
