@@ -144,6 +144,14 @@ def test_a_killed_process_is_restarted_with_its_state_and_the_test_is_unchanged(
         assert float(ready[0]) == 0.0 and abs(float(ready[1])) > 1e-4
 
 
+def counted_as_a_persons_resume(out: Path, log: str) -> None:
+    """A person's resume, not a restart run_test made: said so by run_test, counted so."""
+    result = summary(out)
+    assert (result['restarts'], result['resumes']) == (0, 1)
+    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
+                                                  f'1 resume(s); outputs in {out}')
+
+
 def test_hold_on_child_exit_then_resume_from_the_run_folder(
         crash_test: Path, reference: bytes, processes: Processes, observer: Any,
         tmp_path: Path) -> None:
@@ -170,11 +178,7 @@ def test_hold_on_child_exit_then_resume_from_the_run_folder(
     log = processes.log('resume')
     assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
-    # A person's resume, not a restart run_test made: said so, and counted so.
-    result = summary(out)
-    assert (result['restarts'], result['resumes']) == (0, 1)
-    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
-                                                  f'1 resume(s); outputs in {out}')
+    counted_as_a_persons_resume(out, log)
     assert summary(out)['state'] == 'finished'
 
 
@@ -199,11 +203,7 @@ def test_killed_launcher_leaves_no_orphan_and_the_run_resumes(
     log = processes.log('resume')
     assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
-    # A person's resume, not a restart run_test made: said so, and counted so.
-    result = summary(out)
-    assert (result['restarts'], result['resumes']) == (0, 1)
-    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
-                                                  f'1 resume(s); outputs in {out}')
+    counted_as_a_persons_resume(out, log)
 
 
 def test_a_fresh_specimen_in_mid_test_is_refused(
@@ -347,11 +347,7 @@ def test_killed_integrator_without_restart_then_resume_by_hand(
     log = processes.log('resume')
     assert code == 0, log[-3000:]
     assert (out / 'response.csv').read_bytes() == reference
-    # A person's resume, not a restart run_test made: said so, and counted so.
-    result = summary(out)
-    assert (result['restarts'], result['resumes']) == (0, 1)
-    assert log.rstrip().splitlines()[-1].endswith(f'steps in {result["wall_time"]:.2f} s, '
-                                                  f'1 resume(s); outputs in {out}')
+    counted_as_a_persons_resume(out, log)
     result = summary(out)
     assert result['state'] == 'finished' and result['steps'] == STEPS
     assert [event['what'] for event in result['run_events']].count('resumed') == 1
