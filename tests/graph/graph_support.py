@@ -111,6 +111,19 @@ def remove_stale_segments(before: set[str]) -> None:
             pass
 
 
+def drain(observer: Any, received: list[Any], *, quiet: float = 0.5,
+          timeout: float = 60.0) -> None:
+    """Spin the observer until ``received`` has not grown for ``quiet`` seconds: the samples a
+    run sent before it exited, still queued for an observer that had too little CPU to keep
+    up with it (a fixed number of spins dropped the tail on a loaded machine)."""
+    deadline = time.monotonic() + timeout
+    count, last_growth = len(received), time.monotonic()
+    while time.monotonic() - last_growth < quiet and time.monotonic() < deadline:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+        if len(received) != count:
+            count, last_growth = len(received), time.monotonic()
+
+
 def status_topic_of(topic: str) -> str:
     """The status topic where the receiver of control ``topic`` acknowledges."""
     if topic.endswith('/bridge/control'):

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from graph_support import REPO, Processes, executable
+from graph_support import REPO, Processes, drain, executable
 
 from pd_core.run.record.outputs import read_response_csv
 from pd_core.run.runner import run_offline
@@ -68,8 +68,7 @@ def test_errors_and_tracking_monitor_through_the_graph(processes: Processes, obs
         executor.spin_once(timeout_sec=0.05)
         limit -= 0.05
     assert launcher.poll() == 0, processes.log('integrator')[-3000:]
-    for _ in range(20):  # the last samples may still be on their way
-        executor.spin_once(timeout_sec=0.05)
+    drain(observer, received)  # the last samples may still be on their way
 
     # The graph injects the same, deterministic errors as the ROS-free run.
     for name in ('response.csv', 'tracking.csv'):

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from graph_support import REPO, Processes, worker_index
+from graph_support import REPO, Processes, drain, worker_index
 from test_graph import RUN_TIMEOUT, run_launcher, wait_exit
 
 from pd_common.rths import (
@@ -124,8 +124,7 @@ def test_benchmark_in_wall_clock_time_through_the_bridge(
         observer.executor_for_test.spin_once(timeout_sec=0.05)
     code = wait_exit(launcher, 1.0, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
-    for _ in range(20):  # the last samples may still be on their way
-        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    drain(observer, received)  # the last samples may still be on their way
     tracking = read_response_csv(out / 'tracking.csv')
     assert len(received) >= 100, len(received)  # (the observer may miss the first steps)
     assert list(received[-1].data) == pytest.approx(
