@@ -6,6 +6,8 @@ Subpackages, one concern each:
 * :mod:`pd_common.specimen`: backbones, hysteresis models, specimens, the step server;
 * :mod:`pd_common.experimental`: experimental-error models and tracking monitors;
 * :mod:`pd_common.config`: the YAML loader;
+* :mod:`pd_common.durable`: when a file written step by step is ``fsync``-ed (the run's
+  journal, a simulator's state file), in the step or in a thread of its own;
 * :mod:`pd_common.ros`: the only part that imports rclpy: QoS profiles, message conversion
   and stamps, used by every node.
 

@@ -13,7 +13,8 @@ message, in the order the integrator saw it:
   loss loses at most that window. With ``sync_in_background`` (the integrator node's journal)
   that ``fsync`` runs in a thread of its own, so the step that asks for it does not wait for
   the disk (a real-time test's loop); the window grows by the time one ``fsync`` takes, and
-  should one last a whole interval and at least :data:`STUCK_SYNC_S` (a stuck disk) the step
+  should one last a whole interval and at least :data:`pd_common.durable.STUCK_SYNC_S` (a
+  stuck disk) the step
   that asks for the next waits for it, as it would for an ``fsync`` of its own. A failed one
   stops the run at the next step, as a failed write does. An interval of 0 (an ``fsync`` per
   committed step, before its next command), an emergency stop's or a hold's record
@@ -48,13 +49,13 @@ import gc
 import json
 import os
 import shutil
-import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from pd_common.durable import IntervalSync
 from pd_common.protocol import (
     CdrDecodeError,
     CdrEncodeError,
@@ -101,9 +102,6 @@ JOURNAL_FILE = 'journal.pdj'
 LEGACY_JOURNAL_FILE = 'journal.jsonl'
 _UNSIGNED = Signature()
 _MAX_TOPIC_BYTES = 0xFFFF
-#: Seconds (at least) a background fsync may run before the step that asks for the next one
-#: waits for it: a stuck disk, not a busy one (its thread may wait for the interpreter too).
-STUCK_SYNC_S = 1.0
 _KIND_NAMES = {RecordKind.DEFINITION: 'def', RecordKind.COMMAND: 'cmd',
                RecordKind.FEEDBACK: 'fb', RecordKind.STATUS: 'st', RecordKind.RAW: 'raw',
                RecordKind.EVENT: 'ev'}
@@ -163,76 +161,6 @@ def _signed(signature: Signature | None) -> Signature:
     return signature if signature is not None and signature.signed else _UNSIGNED
 
 
-class BackgroundSync:
-    """``fsync`` of one open file in a thread of its own: the caller asks and goes on.
-
-    Requests that arrive while one runs are served by one more ``fsync`` after it (it covers
-    every write made before it started). :attr:`busy` tells whether one asked is not done yet
-    and :meth:`wait` waits for it (the journal does, rather than ask again while one has been
-    running for a whole interval and :data:`STUCK_SYNC_S`: a stuck disk then holds the test
-    up, as an ``fsync`` in the step would, instead of leaving its records unsynced). The
-    first error is kept in :attr:`error` and ends the thread; the owner raises it
-    (:meth:`Journal.flush`).
-
-    Args:
-        fd: the file descriptor; it must stay open until :meth:`stop` returns.
-    """
-
-    def __init__(self, fd: int) -> None:
-        self._fd = fd
-        self._changed = threading.Condition()
-        self._asked = 0  # requests made
-        self._done = 0  # requests a finished fsync covered
-        self._stopping = False
-        self.error: OSError | None = None
-        self._thread = threading.Thread(target=self._run, name='journal-fsync', daemon=True)
-        self._thread.start()
-
-    @property
-    def busy(self) -> bool:
-        """Whether an ``fsync`` asked for has not ended yet."""
-        with self._changed:
-            return self._done < self._asked and self.error is None
-
-    def request(self) -> None:
-        """Ask for an ``fsync`` (returns at once)."""
-        with self._changed:
-            self._asked += 1
-            self._changed.notify_all()
-
-    def wait(self) -> None:
-        """Wait until every ``fsync`` asked for has ended (or failed, or the thread stopped)."""
-        with self._changed:
-            while self._done < self._asked and self.error is None and not self._stopping:
-                self._changed.wait()
-
-    def _run(self) -> None:
-        while True:
-            with self._changed:
-                while self._done == self._asked and not self._stopping:
-                    self._changed.wait()
-                if self._stopping:
-                    return
-                covers = self._asked
-            try:
-                os.fsync(self._fd)
-            except OSError as err:
-                with self._changed:
-                    self.error = err
-                    self._changed.notify_all()
-                return
-            with self._changed:
-                self._done = covers
-                self._changed.notify_all()
-
-    def stop(self) -> None:
-        """End the thread once the ``fsync`` under way (if any) returns."""
-        with self._changed:
-            self._stopping = True
-            self._changed.notify_all()
-        self._thread.join()
-
-
 class Journal:
     """Appends a run's records to ``journal.pdj``; durable per step (see the module).
 
@@ -243,7 +171,7 @@ class Journal:
             end is cut off first.
         clock: monotonic clock for the sync interval.
         sync_in_background: the interval's ``fsync`` in a thread of its own
-            (:class:`BackgroundSync`), not in the step that asks for it.
+            (:class:`pd_common.durable.BackgroundSync`), not in the step that asks for it.
     """
 
     def __init__(self, path: str | Path, *, sync_interval: float = 1.0, append: bool = False,
@@ -254,11 +182,10 @@ class Journal:
         self._append = append
         self._clock = clock
         self._sync_in_background = sync_in_background
-        self._syncer: BackgroundSync | None = None
+        self._sync: IntervalSync | None = None
         self._file: IO[bytes] | None = None
         self._pending: list[bytes] = []
         self._topics: dict[str, bytes] = {}
-        self._synced = 0.0
         self.records = 0
         self.events: list[dict[str, Any]] = []
 
@@ -284,9 +211,9 @@ class Journal:
         except OSError as err:
             msg = f'{self.path}: cannot write the journal ({err.strerror})'
             raise BagError(msg) from None
-        self._synced = self._clock()
-        if self._sync_in_background and self.sync_interval > 0.0:
-            self._syncer = BackgroundSync(self._file.fileno())
+        self._sync = IntervalSync(self._file.fileno(), self.sync_interval,
+                                  background=self._sync_in_background, clock=self._clock,
+                                  name='journal-fsync')
         return self
 
     def _reopen(self) -> IO[bytes]:
@@ -395,30 +322,16 @@ class Journal:
         Raises:
             RecordWriteError: the records cannot be written (the file is closed then).
         """
-        file = self._file
-        if file is None or not self._pending:
+        file, policy = self._file, self._sync
+        if file is None or policy is None or not self._pending:
             return
-        syncer = self._syncer
         try:
-            if syncer is not None and syncer.error is not None:
-                raise syncer.error  # the last interval's fsync failed: nothing more is written
+            policy.check()  # the last interval's fsync failed: nothing more is written
             file.write(b''.join(self._pending))
             self._pending.clear()
             file.flush()
-            if not sync:
-                return
-            now = self._clock()
-            if now - self._synced >= self.sync_interval:
-                if syncer is None:
-                    os.fsync(file.fileno())
-                else:
-                    if syncer.busy and now - self._synced >= max(self.sync_interval,
-                                                                 STUCK_SYNC_S):
-                        syncer.wait()  # the last one has run that long: a stuck disk
-                    if syncer.error is not None:
-                        raise syncer.error
-                    syncer.request()
-                self._synced = now
+            if sync:
+                policy.written()
         except OSError as err:
             raise self._write_failed(err) from None
 
@@ -431,12 +344,11 @@ class Journal:
             RecordWriteError: the records cannot be written (the file is closed then).
         """
         self.flush(sync=False)
-        if self._file is not None:
+        if self._sync is not None and self._file is not None:
             try:
-                os.fsync(self._file.fileno())
+                self._sync.sync_now()
             except OSError as err:
                 raise self._write_failed(err) from None
-            self._synced = self._clock()
 
     def close(self) -> None:
         """Write and sync what is pending.
@@ -452,22 +364,13 @@ class Journal:
         self.flush()
         if self._file is None:
             return
-        syncer = self._stop_syncer()
         try:
-            if syncer is not None and syncer.error is not None:
-                raise syncer.error
-            os.fsync(self._file.fileno())
+            if self._sync is not None:
+                self._sync.close()  # (a background fsync's failure raised first)
             self._file.close()
         except OSError as err:
             raise self._write_failed(err) from None
         self._file = None
-
-    def _stop_syncer(self) -> BackgroundSync | None:
-        """End the background ``fsync`` (before the file closes); the one that ran."""
-        syncer, self._syncer = self._syncer, None
-        if syncer is not None:
-            syncer.stop()
-        return syncer
 
     def _write_failed(self, err: OSError) -> RecordWriteError:
         """Close the file after a failed write and return the error to raise.
@@ -476,7 +379,8 @@ class Journal:
         the error to raise.
         """
         self._pending.clear()
-        self._stop_syncer()
+        if self._sync is not None:
+            self._sync.stop()
         file, self._file = self._file, None
         if file is not None:
             try:
