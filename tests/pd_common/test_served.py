@@ -7,8 +7,11 @@ commands: a restored server must answer the moves that follow bit for bit like i
 from __future__ import annotations
 
 import copy
+import errno
 import json
 import math
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +19,7 @@ import numpy as np
 import pytest
 import yaml
 
+from pd_common import durable
 from pd_common.errors import SpecimenError
 from pd_common.protocol import Feedback, FeedbackStatus, StepKey
 from pd_common.specimen import (
@@ -379,6 +383,75 @@ def test_record_reports_an_unwritable_file(tmp_path: Path) -> None:
         ServedRecord(blocker / 'specimen.jsonl', 'f')
     assert str(error.value).startswith(f'{blocker / "specimen.jsonl"}: cannot write the '
                                        'specimen state file (')
+
+
+def _threads_named(name: str) -> list[threading.Thread]:
+    return [thread for thread in threading.enumerate() if thread.name == name]
+
+
+def test_a_slow_fsync_in_the_background_holds_up_no_move(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The simulator's record (``sync_in_background``): the move whose interval is over asks
+    for an fsync and is answered while the disk syncs; every line is on the OS at once all
+    the same, and close waits for the fsync under way, then syncs in the caller."""
+    release, started = threading.Event(), threading.Event()
+    synced: list[str] = []
+
+    def slow_fsync(fd: int) -> None:
+        if threading.current_thread().name == 'state-fsync':
+            started.set()
+            assert release.wait(30.0)  # a disk that never answers, until released
+        synced.append(threading.current_thread().name)
+
+    monkeypatch.setattr(durable.os, 'fsync', slow_fsync)
+    path = write_test_file(tmp_path, SPECIMEN)
+    server, fingerprint = loaded(path)
+    state = tmp_path / 'specimen.jsonl'
+    record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
+    time.sleep(0.002)
+    serve(server, range(1), record)  # asks for the fsync, which hangs
+    assert started.wait(30.0)
+    serve(server, range(1, 20), record)  # (well within STUCK_SYNC_S of it)
+    assert len(lines_of(state)) == 1 + 20 + 1 and synced == []
+    closing = threading.Thread(target=record.close)
+    closing.start()
+    closing.join(0.2)
+    assert closing.is_alive() and synced == []  # close waits for the fsync under way
+    release.set()
+    closing.join(30.0)
+    assert synced == ['state-fsync', closing.name]  # (the other requests: not after a stop)
+    assert not _threads_named('state-fsync')
+
+
+def test_a_failed_background_fsync_is_raised_before_the_next_move_is_written(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An fsync that fails (EIO) in the background: the next move's ``add`` raises it before
+    writing its line (the simulator then answers nothing: a restarted one serves that move
+    anew from the file)."""
+    failed = threading.Event()
+
+    def failing_fsync(fd: int) -> None:
+        if threading.current_thread().name == 'state-fsync':
+            failed.set()
+            raise OSError(errno.EIO, 'Input/output error')
+
+    monkeypatch.setattr(durable.os, 'fsync', failing_fsync)
+    path = write_test_file(tmp_path, SPECIMEN)
+    server, fingerprint = loaded(path)
+    state = tmp_path / 'specimen.jsonl'
+    record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
+    time.sleep(0.002)
+    serve(server, range(1), record)
+    assert failed.wait(30.0)
+    for thread in _threads_named('state-fsync'):
+        thread.join(30.0)
+    written = lines_of(state)
+    with pytest.raises(OSError, match='Input/output error'):
+        record.add(TEST_ID, 1, 0, (target(1),))
+    assert lines_of(state) == written
+    with pytest.raises(OSError, match='Input/output error'):
+        record.close()  # the failure again; the file is closed all the same
+    record.close()
 
 
 # -- mixed control (a column site: setup, force ramp) ------------------------------------------

@@ -125,7 +125,8 @@ class SpecimenSimNode(Node):
             return StateOrigin.FRESH, None, None
         fingerprint = specimen_fingerprint(section, dof_names, self.server.geometry)
         restored = restore_served(state_file, self.server, fingerprint)
-        record = ServedRecord(state_file, fingerprint)
+        # (its once-a-second fsync in a thread of its own: no move waits for the disk)
+        record = ServedRecord(state_file, fingerprint, sync_in_background=True)
         if restored is None:
             return StateOrigin.FRESH, None, record
         test_id, key = restored

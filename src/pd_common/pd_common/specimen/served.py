@@ -21,12 +21,11 @@ from __future__ import annotations
 import errno
 import hashlib
 import json
-import os
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
+from ..durable import IntervalSync
 from ..errors import SpecimenError
 from ..jsonl import end_last_line
 from ..protocol.messages import StepKey
@@ -53,17 +52,23 @@ def specimen_fingerprint(section: Any, dof_names: list[str], geometry: Any = Non
 class ServedRecord:
     """Appends the commands a server served as new moves (one JSON line each).
 
+    Each line is handed to the operating system before :meth:`add` returns; the ``fsync``
+    comes at most every ``sync_interval`` seconds (:class:`pd_common.durable.IntervalSync`):
+    with ``sync_in_background`` (the simulator node's record) in a thread of its own, so the
+    move that falls due does not wait for the disk before it is answered. A failed background
+    ``fsync`` is raised by the next :meth:`add`, before its line is written.
+
     Args:
         path: the state file (appended to; created with its header if missing or empty).
         fingerprint: the specimen's :func:`specimen_fingerprint`.
         sync_interval: most seconds between two ``fsync`` calls (0: every line).
+        sync_in_background: the interval's ``fsync`` in a thread of its own.
     """
 
-    def __init__(self, path: str | Path, fingerprint: str, *, sync_interval: float = 1.0
-                 ) -> None:
+    def __init__(self, path: str | Path, fingerprint: str, *, sync_interval: float = 1.0,
+                 sync_in_background: bool = False) -> None:
         self.path = Path(path)
         self.sync_interval = sync_interval
-        self._synced = time.monotonic()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             end_last_line(self.path)
@@ -72,20 +77,20 @@ class ServedRecord:
         except OSError as err:
             msg = f'{self.path}: cannot write the specimen state file ({err.strerror})'
             raise SpecimenError(msg) from None
+        self._sync = IntervalSync(self._file.fileno(), sync_interval,
+                                  background=sync_in_background, name='state-fsync')
         if self._file.tell() == 0:
             self._write({'k': _KIND, 'specimen': fingerprint})
 
     def _write(self, value: Any) -> None:
+        self._sync.check()  # (a failed background fsync: nothing more is written)
         data = memoryview((_ENCODE(value) + '\n').encode('utf-8'))
         while data:  # (a short write, as a full disk may make: the rest, or its error)
             written = self._file.write(data)
             if not written:
                 raise OSError(errno.EIO, 'nothing written', str(self.path))
             data = data[written:]
-        now = time.monotonic()
-        if now - self._synced >= self.sync_interval:
-            os.fsync(self._file.fileno())
-            self._synced = now
+        self._sync.written()
 
     def add(self, test_id: str, step: int, iteration: int, target: Sequence[float],
             control_mode: Sequence[int] = (), target_force: Sequence[float] = ()) -> None:
@@ -99,8 +104,10 @@ class ServedRecord:
     def close(self) -> None:
         """Sync and close the file."""
         if not self._file.closed:
-            os.fsync(self._file.fileno())
-            self._file.close()
+            try:
+                self._sync.close()
+            finally:
+                self._file.close()
 
 
 def restore_served(path: str | Path, server: SpecimenServer, fingerprint: str
