@@ -29,7 +29,10 @@ benches' keys are kept):
    the longest flush a step waits for when an ``fsync`` falls due (``sync_interval`` 10 ms),
    the ``fsync`` in the step against in a thread of its own, as the integrator node does
    [``durability_longest_flush_us_fsync_in_step``,
-   ``durability_longest_flush_us_fsync_in_background``],
+   ``durability_longest_flush_us_fsync_in_background``], and the same for a simulator's
+   state file, the longest ``ServedRecord.add`` of a move
+   [``durability_longest_state_add_us_fsync_in_step``,
+   ``durability_longest_state_add_us_fsync_in_background``],
    the differences [``durability_journal_cost_us_per_step``: journal − none,
    ``durability_fsync_cost_us_per_step``: fsync every step − journal], the ``os.fsync`` calls
    counted in the best run of each variant [``durability_journal_fsyncs``,
@@ -106,6 +109,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import re
 import resource
@@ -402,6 +406,7 @@ def bench_core(table: Table, work: Path, overrides: dict[str, Any]) -> Figures:
               f'{us["bag_recorder"] - us["none"]:+.1f} us/step over none; '
               f'{fsyncs["bag_recorder"]} fsync(s); all: {spread["bag_recorder"]} us')
     figures.update(_longest_flushes(table, definition, work))
+    figures.update(_longest_state_adds(table, definition, work))
     table.add(section, 'journal -> bag conversion (end of run)', f'{conversion * 1e3:.0f} ms',
               f'{conversion / steps * 1e6:.1f} us/step; best of {CONVERSIONS}')
     table.add(section, 'journal size', f'{journal_bytes / steps:.0f} B/step',
@@ -451,6 +456,41 @@ def _longest_flushes(table: Table, definition: Any, work: Path) -> Figures:
               f'{REPEATS}')
     return {'durability_longest_flush_us_fsync_in_step': in_step,
             'durability_longest_flush_us_fsync_in_background': off_step}
+
+
+def _longest_state_adds(table: Table, definition: Any, work: Path, moves: int = 4000
+                        ) -> Figures:
+    """The longest a simulator's move waits for its state file (``ServedRecord.add``, before
+    the move is answered) when an fsync falls due: in the caller against in its own thread
+    (the simulator node's), ``sync_interval`` 10 ms, the default test's specimen serving
+    ``moves`` moves between the adds; best of REPEATS, interleaved."""
+    from pd_common.specimen import ServedRecord
+    from pd_core.run.runner import site_servers
+
+    longest: dict[bool, list[float]] = {False: [], True: []}
+    for index in range(REPEATS):
+        for background in (False, True):
+            path = work / f'state-{index}-{int(background)}.jsonl'
+            server = site_servers(definition)['']
+            record = ServedRecord(path, 'bench', sync_interval=0.01,
+                                  sync_in_background=background)
+            worst = 0.0
+            for step in range(moves):
+                target = (0.01 * math.sin(step / 50.0),)
+                server.handle(definition.test_id, step, target)
+                start = time.perf_counter()
+                record.add(definition.test_id, step, 0, target)
+                worst = max(worst, time.perf_counter() - start)
+            record.close()
+            longest[background].append(worst)
+            _remove(path)
+    in_step, off_step = min(longest[False]) * 1e6, min(longest[True]) * 1e6
+    table.add('1 core', 'longest state-file add, fsync in the move', f'{in_step:.0f} us',
+              f'a simulator\'s record, sync_interval 10 ms, {moves:,} moves; best of {REPEATS}')
+    table.add('1 core', 'longest state-file add, fsync in its thread', f'{off_step:.0f} us',
+              f'what the simulator node does; best of {REPEATS}')
+    return {'durability_longest_state_add_us_fsync_in_step': in_step,
+            'durability_longest_state_add_us_fsync_in_background': off_step}
 
 
 # -- 2. the offline soak ----------------------------------------------------------------------
