@@ -84,6 +84,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--seconds', type=int, default=8, help='seconds sampled (whole)')
     parser.add_argument('--top', type=int, default=15, help='frames listed per node')
     parser.add_argument('--domain-id', type=int, default=77)
+    parser.add_argument('--no-authentication', action='store_true',
+                        help="run_test's --no-authentication (what signing costs, by difference)")
     args = parser.parse_args(argv)
     if args.steps < 1000 or not 1 <= args.seconds <= 120:
         parser.error('--steps: at least 1000; --seconds: 1 to 120')
@@ -106,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         work = Path(name)
         run = subprocess.Popen(
             [sys.executable, str(launcher), '--site', args.site, '--out', str(work / 'run'),
-             '--no-figures', '-p', 'dt:=0.001', '-p', f'duration:={args.steps / 1000.0}'],
+             '--no-figures', '-p', 'dt:=0.001', '-p', f'duration:={args.steps / 1000.0}',
+             *(['--no-authentication'] if args.no_authentication else [])],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             start_new_session=True)
         try:
@@ -130,8 +133,9 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             stop_process(run)
             remove_stale_segments(before, args.domain_id)
-        print(f'run_test --site {args.site}: {args.steps:,} steps of 1 ms; {args.seconds:g} s '
-              f'sampled at {RATE_HZ} Hz\n')
+        plain = ', --no-authentication' if args.no_authentication else ''
+        print(f'run_test --site {args.site}{plain}: {args.steps:,} steps of 1 ms; '
+              f'{args.seconds:g} s sampled at {RATE_HZ} Hz\n')
         for node in pids:
             path = work / f'{node}.txt'
             if not path.is_file():
