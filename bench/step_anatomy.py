@@ -171,7 +171,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument('--pings', type=int, default=3000, help='ping-pong round trips')
     parser.add_argument('--domain-id', type=int, default=78)
     parser.add_argument('--no-save', action='store_true', help='do not touch results.json')
+    parser.add_argument('--no-authentication', action='store_true',
+                        help="run_test's --no-authentication (what signing costs, by "
+                             'difference; implies --no-save)')
     args = parser.parse_args(argv)
+    args.no_save = args.no_save or args.no_authentication
     if args.runs < 1 or args.pings < 100:
         parser.error('--runs: at least 1; --pings: at least 100')
     return args
@@ -184,7 +188,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.site == 'rths':
         return rths_main(args)
     print(machine_header(args.domain_id))
-    print(f'test: {DEFAULT_TEST.relative_to(REPO)} through run_test --site {args.site}\n')
+    extra = ['--no-authentication'] if args.no_authentication else []
+    print(f'test: {DEFAULT_TEST.relative_to(REPO)} through run_test --site {args.site} '
+          f'{" ".join(extra)}\n')
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix='pd-anatomy-') as name:
         work = Path(name)
@@ -194,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
             probe.mkdir()
             _probe_environment(probe)
             out = work / f'run-{index}'
-            row = graph_run(args.site, [], args.domain_id, out, timeout=300.0)
+            row = graph_run(args.site, extra, args.domain_id, out, timeout=300.0)
             if row.rate is None:
                 print(f'run {index + 1}: {row.note}')
                 continue
