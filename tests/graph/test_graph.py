@@ -15,6 +15,7 @@ import json
 import signal
 import subprocess
 import time
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ import yaml
 from graph_support import (
     REPO,
     Processes,
+    drain,
     executable,
     send_control,
     shm_segments,
@@ -124,15 +126,33 @@ def offline_run(short_test: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 
 @pytest.mark.parametrize('site', ['bridge', 'direct'])
 def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run: Path,
-                                        processes: Processes, tmp_path: Path) -> None:
+                                        processes: Processes, observer: Any,
+                                        tmp_path: Path) -> None:
+    from pd_common.protocol import decode_command
+    from pd_common.ros import STEP_QOS
+    from pd_msgs.msg import StepCommand
+
+    # The bridge's moves to the specimen, each step once.
+    moves: list[bytes] = []
+    if site == 'bridge':
+        observer.create_subscription(StepCommand, '/pd/specimen/step_command', moves.append,
+                                     STEP_QOS, raw=True)
     out = tmp_path / 'graph'
     segments = shm_segments()
     # (direct: the integrator's own parameters as the docs give them, integers included)
     extra = ['-p', 'sync_interval:=0', '-p', 'progress_interval:=1'] if site == 'direct' else []
     launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', site,
                                                     '--out', str(out), '--no-figures', *extra])
-    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    deadline = time.monotonic() + RUN_TIMEOUT
+    while launcher.poll() is None and time.monotonic() < deadline:
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    code = wait_exit(launcher, 1.0, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
+    if site == 'bridge':
+        drain(observer, moves)
+        keys = Counter(decode_command(data).record.key for data in moves)
+        assert len(keys) >= 20, len(keys)  # (the observer may miss the first steps)
+        assert max(keys.values()) == 1, keys.most_common(3)  # no move sent twice
     # Every node process took its Fast DDS shared memory with it.
     assert not stale_segments(segments), sorted(stale_segments(segments))
     graph_csv = (out / 'response.csv').read_bytes()

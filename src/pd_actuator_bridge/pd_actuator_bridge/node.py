@@ -663,14 +663,17 @@ class ActuatorBridgeNode(LifecycleNode):
         run = self._runs.tag(command.test_id, key, signature.session)
         self._target = (run, key, command.target_displacement)
         was_holding = bridge.state == 'holding'
+        resent = bridge.in_flight == (run, key)  # (its move went out already)
         driver = self.driver
         if driver is not None:
             driver.set_test_id(run)  # a forwarding driver keys its moves like the command
         reply = bridge.handle_command(
             run, key, command.target_displacement, control_mode=command.control_mode,
             target_force=command.target_force)
-        if reply is None and driver is not None and bridge.in_flight == (run, key):
-            driver.repeat()  # a re-sent command: ask the controller again, no new motion
+        if resent and reply is None and driver is not None and bridge.in_flight == (run, key):
+            # A re-sent command: ask the controller again, no new motion (a new command's
+            # move was sent by handle_command: not twice).
+            driver.repeat()
         if reply is not None:
             self._publish_reply(reply)
             if reply.status is not FeedbackStatus.OK and not was_holding:
