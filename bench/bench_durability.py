@@ -448,14 +448,22 @@ def _longest_flushes(table: Table, definition: Any, work: Path) -> Figures:
             longest[background].append(made[0].longest)
             counts[background].append(count)
             _remove(path)
+    in_thread = (f'what the integrator node does: {counts[True][0]} fsyncs (one at close); '
+                 f'best of {REPEATS}')
+    return _in_step_against_in_thread(
+        table, 'longest journal flush, fsync in the step', longest,
+        (f'sync_interval 10 ms: {counts[False][0]} fsyncs (one at close); best of {REPEATS}',
+         in_thread), 'durability_longest_flush_us')
+
+
+def _in_step_against_in_thread(table: Table, label: str, longest: dict[bool, list[float]],
+                               notes: tuple[str, str], figure: str) -> Figures:
+    """The two rows (``label``, then the same in its thread) and figures of the best times."""
     in_step, off_step = min(longest[False]) * 1e6, min(longest[True]) * 1e6
-    table.add('1 core', 'longest journal flush, fsync in the step', f'{in_step:.0f} us',
-              f'sync_interval 10 ms: {counts[False][0]} fsyncs (one at close); best of {REPEATS}')
-    table.add('1 core', 'longest journal flush, fsync in its thread', f'{off_step:.0f} us',
-              f'what the integrator node does: {counts[True][0]} fsyncs (one at close); best of '
-              f'{REPEATS}')
-    return {'durability_longest_flush_us_fsync_in_step': in_step,
-            'durability_longest_flush_us_fsync_in_background': off_step}
+    table.add('1 core', label, f'{in_step:.0f} us', notes[0])
+    table.add('1 core', label.rsplit(', ', 1)[0] + ', fsync in its thread', f'{off_step:.0f} us',
+              notes[1])
+    return {f'{figure}_fsync_in_step': in_step, f'{figure}_fsync_in_background': off_step}
 
 
 def _longest_state_adds(table: Table, definition: Any, work: Path, moves: int = 4000
@@ -484,13 +492,10 @@ def _longest_state_adds(table: Table, definition: Any, work: Path, moves: int = 
             record.close()
             longest[background].append(worst)
             _remove(path)
-    in_step, off_step = min(longest[False]) * 1e6, min(longest[True]) * 1e6
-    table.add('1 core', 'longest state-file add, fsync in the move', f'{in_step:.0f} us',
-              f'a simulator\'s record, sync_interval 10 ms, {moves:,} moves; best of {REPEATS}')
-    table.add('1 core', 'longest state-file add, fsync in its thread', f'{off_step:.0f} us',
-              f'what the simulator node does; best of {REPEATS}')
-    return {'durability_longest_state_add_us_fsync_in_step': in_step,
-            'durability_longest_state_add_us_fsync_in_background': off_step}
+    return _in_step_against_in_thread(
+        table, 'longest state-file add, fsync in the move', longest,
+        (f'a simulator\'s record, sync_interval 10 ms, {moves:,} moves; best of {REPEATS}',
+         f'what the simulator node does; best of {REPEATS}'), 'durability_longest_state_add_us')
 
 
 # -- 2. the offline soak ----------------------------------------------------------------------

@@ -389,6 +389,19 @@ def _threads_named(name: str) -> list[threading.Thread]:
     return [thread for thread in threading.enumerate() if thread.name == name]
 
 
+def _first_move_synced_in_background(tmp_path: Path
+                                     ) -> tuple[ServedRecord, SpecimenServer, Path]:
+    """A simulator's record syncing in the background (interval 1 ms) whose first move has
+    just asked for an fsync; the server that made it and the state file."""
+    path = write_test_file(tmp_path, SPECIMEN)
+    server, fingerprint = loaded(path)
+    state = tmp_path / 'specimen.jsonl'
+    record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
+    time.sleep(0.002)
+    serve(server, range(1), record)
+    return record, server, state
+
+
 def test_a_slow_fsync_in_the_background_holds_up_no_move(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The simulator's record (``sync_in_background``): the move whose interval is over asks
@@ -404,12 +417,7 @@ def test_a_slow_fsync_in_the_background_holds_up_no_move(
         synced.append(threading.current_thread().name)
 
     monkeypatch.setattr(durable.os, 'fsync', slow_fsync)
-    path = write_test_file(tmp_path, SPECIMEN)
-    server, fingerprint = loaded(path)
-    state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
-    time.sleep(0.002)
-    serve(server, range(1), record)  # asks for the fsync, which hangs
+    record, server, state = _first_move_synced_in_background(tmp_path)  # (it hangs)
     assert started.wait(30.0)
     serve(server, range(1, 20), record)  # (well within STUCK_SYNC_S of it)
     assert len(lines_of(state)) == 1 + 20 + 1 and synced == []
@@ -436,12 +444,7 @@ def test_a_failed_background_fsync_is_raised_before_the_next_move_is_written(
             raise OSError(errno.EIO, 'Input/output error')
 
     monkeypatch.setattr(durable.os, 'fsync', failing_fsync)
-    path = write_test_file(tmp_path, SPECIMEN)
-    server, fingerprint = loaded(path)
-    state = tmp_path / 'specimen.jsonl'
-    record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
-    time.sleep(0.002)
-    serve(server, range(1), record)
+    record, _, state = _first_move_synced_in_background(tmp_path)
     assert failed.wait(30.0)
     for thread in _threads_named('state-fsync'):
         thread.join(30.0)
