@@ -161,6 +161,9 @@ SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
 #: Seconds between two log lines about emergency stops received while one is latched.
 ESTOP_LOG_INTERVAL_S = 10.0
+#: Most seconds between two :meth:`ActuatorBridgeNode.check_driver` (its driver timeout,
+#: watchdog and session checks), not after every message: ~20 µs each, twice a step.
+CHECK_INTERVAL_S = 0.01
 
 
 def default_record_file(node_name: str) -> Path:
@@ -906,7 +909,7 @@ def main(args: list[str] | None = None) -> int:
     def body(node: ActuatorBridgeNode, executor: Executor) -> None:
         if node.get_parameter('autostart').value:
             _autostart(node, executor)
-        spin_until_shutdown(executor, 0.05, node.check_driver)
+        spin_until_shutdown(executor, 0.05, node.check_driver, every=CHECK_INTERVAL_S)
 
     def cleanup(node: ActuatorBridgeNode) -> None:
         node._hold_driver()

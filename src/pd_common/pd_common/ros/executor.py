@@ -15,6 +15,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable
+from time import monotonic
 from typing import TYPE_CHECKING, NoReturn, ParamSpec, TypeVar
 
 import rclpy
@@ -47,23 +48,32 @@ def events_executor(node: Node) -> Executor:
 
 
 def spin_until_shutdown(executor: Executor, timeout_sec: float,
-                        between: Callable[[], None] | None = None) -> None:
+                        between: Callable[[], None] | None = None, *,
+                        every: float = 0.0) -> None:
     """Spin ``executor`` until the context shuts down (SIGINT/SIGTERM).
 
-    Calling ``between`` after every ``spin_once``.
+    Calling ``between`` after a ``spin_once``, at most every ``every`` seconds (0: after every
+    one). A node's periodic checks (timeouts of seconds) need not run after each message: at a
+    thousand messages a second they would take their time from the steps.
 
     A callback (or ``between``) that was running when a signal shut the context down fails
     to publish or to count a publisher's matches ("publisher's context is invalid"): that is
     the shutdown, not an error, and ends the loop quietly; the same failure while the context
     is still up is raised. ``between`` is not called once the context is down.
     """
-    while rclpy.ok():
+    context = executor.context
+    due = 0.0
+    while context.ok():
         try:
             executor.spin_once(timeout_sec=timeout_sec)
-            if between is not None and rclpy.ok():
+            if between is None:
+                continue
+            now = monotonic()
+            if now >= due and context.ok():
+                due = now + every
                 between()
         except Exception:
-            if rclpy.ok():
+            if context.ok():
                 raise
             return
 
