@@ -25,6 +25,7 @@ from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
 from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
+from pd_common.durable import STUCK_SYNC_S
 from pd_common.protocol import (
     Command,
     Feedback,
@@ -358,6 +359,40 @@ def test_a_slow_fsync_in_the_background_holds_up_no_step_within_its_interval(
     assert synced[-1] == threading.current_thread().name
     assert synced[:-1] == ['journal-fsync'] * (len(synced) - 1) and len(synced) in (2, 3)
     assert not [thread for thread in threading.enumerate() if thread.name == 'journal-fsync']
+
+
+def test_a_stuck_fsync_is_waited_for_with_a_short_interval_too(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An interval shorter than STUCK_SYNC_S (10 ms) asks for an fsync at every step: steps go
+    on while the first hangs, until it has been under way for STUCK_SYNC_S; then the step
+    waits for it (a stuck disk does not leave a second of records unsynced unnoticed)."""
+    release, started = threading.Event(), threading.Event()
+
+    def slow_fsync(fd: int) -> None:
+        if threading.current_thread().name == 'journal-fsync':
+            started.set()
+            assert release.wait(30.0)
+
+    monkeypatch.setattr(journal_module.os, 'fsync', slow_fsync)
+    now = [0.0]
+    journal = Journal(tmp_path / JOURNAL_FILE, sync_interval=0.01, clock=lambda: now[0],
+                      sync_in_background=True).open()
+    for step in range(1, 100):  # 10 ms .. 990 ms: each step asks, none waits
+        now[0] = 0.01 * step
+        journal.write_event('step', step)
+        journal.flush()
+        if step == 1:
+            assert started.wait(30.0)
+    now[0] = 0.01 + STUCK_SYNC_S  # the first has hung for STUCK_SYNC_S: this step waits
+    journal.write_event('step', 100)
+    waiting = threading.Thread(target=journal.flush)
+    waiting.start()
+    waiting.join(0.5)
+    assert waiting.is_alive()
+    release.set()
+    waiting.join(30.0)
+    assert not waiting.is_alive()
+    journal.close()
 
 
 def test_a_failed_background_fsync_stops_the_run_at_the_next_step(

@@ -1,16 +1,16 @@
 """When a file written step by step is ``fsync``-ed: the run's journal, a simulator's state file.
 
 Each write hands its records to the operating system at once (a killed process loses nothing
-written); the ``fsync`` that puts them on the disk (a power loss) comes at most every
-``interval`` seconds, or after every write with an interval of 0. With ``background`` the
-interval's ``fsync`` runs in a thread of its own (:class:`BackgroundSync`): the step that falls
-due asks for it and goes on, so a slow disk does not hold up the loop. One that has run a whole
-interval and at least :data:`STUCK_SYNC_S` (a stuck disk) is waited for by the step that asks for
-the next: no record stays unsynced unnoticed for longer than the interval and one ``fsync``. A
-failed one (EIO: what reached the disk is unknown) is raised by the next :meth:`IntervalSync.check`
-or :meth:`IntervalSync.written`, so the owner writes nothing after it. An interval of 0, an
-``fsync`` asked for now (:meth:`IntervalSync.sync_now`) and the one at close always run in the
-caller.
+written); the ``fsync`` that puts them on the disk (a power loss) comes at most every ``interval``
+seconds, or after every write with an interval of 0. With ``background`` the interval's ``fsync``
+runs in a thread of its own (:class:`BackgroundSync`): the step that falls due asks for it and goes
+on, so a slow disk does not hold up the loop. One that has been under way for a whole interval and
+at least :data:`STUCK_SYNC_S` (a stuck disk) is waited for by the step that asks for the next,
+however short the interval: no record stays unsynced unnoticed for longer than that and one
+``fsync``. A failed one (EIO: what reached the disk is unknown) is raised by the next
+:meth:`IntervalSync.check` or :meth:`IntervalSync.written`, so the owner writes nothing after it.
+An interval of 0, an ``fsync`` asked for now (:meth:`IntervalSync.sync_now`) and the one at close
+always run in the caller.
 """
 
 from __future__ import annotations
@@ -114,6 +114,7 @@ class IntervalSync:
         self._synced = clock()
         self._syncer = BackgroundSync(fd, name) if background and interval > 0.0 else None
         self._error: OSError | None = None
+        self._outstanding_since = 0.0  # when the background fsync under way was asked for
 
     def check(self) -> None:
         """Raise the failure of a background ``fsync``, if one failed (before writing more).
@@ -138,9 +139,13 @@ class IntervalSync:
         if syncer is None:
             os.fsync(self._fd)
         else:
-            if syncer.busy and now - self._synced >= max(self.interval, STUCK_SYNC_S):
-                syncer.wait()  # the last one has run that long: a stuck disk
+            busy = syncer.busy
+            if busy and now - self._outstanding_since >= max(self.interval, STUCK_SYNC_S):
+                syncer.wait()  # the one under way has run that long: a stuck disk
+                busy = False
             self.check()
+            if not busy:  # (else the request waits behind the one under way, still owed)
+                self._outstanding_since = now
             syncer.request()
         self._synced = now
 
