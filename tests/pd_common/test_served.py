@@ -12,6 +12,7 @@ import json
 import math
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -389,14 +390,18 @@ def _threads_named(name: str) -> list[threading.Thread]:
     return [thread for thread in threading.enumerate() if thread.name == name]
 
 
-def _first_move_synced_in_background(tmp_path: Path
-                                     ) -> tuple[ServedRecord, SpecimenServer, Path]:
+def _first_move_synced_in_background(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fsync: Callable[[int], None]
+        ) -> tuple[ServedRecord, SpecimenServer, Path]:
     """A simulator's record syncing in the background (interval 1 ms) whose first move has
-    just asked for an fsync; the server that made it and the state file."""
+    just asked for an fsync, ``fsync`` from then on; the server that made the move and the
+    state file (its header written before, so that the first fsync asked is the move's)."""
     path = write_test_file(tmp_path, SPECIMEN)
     server, fingerprint = loaded(path)
     state = tmp_path / 'specimen.jsonl'
+    ServedRecord(state, fingerprint).close()
     record = ServedRecord(state, fingerprint, sync_interval=0.001, sync_in_background=True)
+    monkeypatch.setattr(durable.os, 'fsync', fsync)
     time.sleep(0.002)
     serve(server, range(1), record)
     return record, server, state
@@ -416,8 +421,8 @@ def test_a_slow_fsync_in_the_background_holds_up_no_move(
             assert release.wait(30.0)  # a disk that never answers, until released
         synced.append(threading.current_thread().name)
 
-    monkeypatch.setattr(durable.os, 'fsync', slow_fsync)
-    record, server, state = _first_move_synced_in_background(tmp_path)  # (it hangs)
+    record, server, state = _first_move_synced_in_background(tmp_path, monkeypatch,
+                                                             slow_fsync)  # (it hangs)
     assert started.wait(30.0)
     serve(server, range(1, 20), record)  # (well within STUCK_SYNC_S of it)
     assert len(lines_of(state)) == 1 + 20 + 1 and synced == []
@@ -443,8 +448,7 @@ def test_a_failed_background_fsync_is_raised_before_the_next_move_is_written(
             failed.set()
             raise OSError(errno.EIO, 'Input/output error')
 
-    monkeypatch.setattr(durable.os, 'fsync', failing_fsync)
-    record, _, state = _first_move_synced_in_background(tmp_path)
+    record, _, state = _first_move_synced_in_background(tmp_path, monkeypatch, failing_fsync)
     assert failed.wait(30.0)
     for thread in _threads_named('state-fsync'):
         thread.join(30.0)
@@ -455,6 +459,22 @@ def test_a_failed_background_fsync_is_raised_before_the_next_move_is_written(
     with pytest.raises(OSError, match='Input/output error'):
         record.close()  # the failure again; the file is closed all the same
     record.close()
+
+
+def test_a_header_that_cannot_be_synced_is_one_line(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A new state file whose header's fsync fails (an fsync per line): the simulator does not
+    start, with one line naming the file, and leaves no thread behind."""
+    def failing_fsync(fd: int) -> None:
+        raise OSError(errno.EIO, 'Input/output error')
+
+    monkeypatch.setattr(durable.os, 'fsync', failing_fsync)
+    state = tmp_path / 'specimen.jsonl'
+    with pytest.raises(SpecimenError) as error:
+        ServedRecord(state, 'f', sync_interval=0.0, sync_in_background=True)
+    assert str(error.value) == (f'{state}: cannot write the specimen state file '
+                                '(Input/output error)')
+    assert not _threads_named('state-fsync')
 
 
 # -- mixed control (a column site: setup, force ramp) ------------------------------------------

@@ -137,9 +137,19 @@ class SpecimenSimNode(Node):
         return StateOrigin.RESTORED, restored, record
 
     def close(self) -> None:
-        """Close the state file."""
+        """Close the state file.
+
+        A failed ``fsync`` (now, or one in the background that failed after the last move) is
+        one error line: the process still tears down its node and participant.
+        """
         if self.record is not None:
-            self.record.close()
+            try:
+                self.record.close()
+            except OSError as err:
+                self.get_logger().error(
+                    f'{self.record.path}: cannot sync the specimen state file '
+                    f'({err.strerror or err}): the moves after its last good fsync may not '
+                    'survive a power loss')
 
     def _on_command(self, data: bytes) -> None:
         decoded = signed_from_bytes(decode_command, data)

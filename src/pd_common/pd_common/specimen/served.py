@@ -80,7 +80,13 @@ class ServedRecord:
         self._sync = IntervalSync(self._file.fileno(), sync_interval,
                                   background=sync_in_background, name='state-fsync')
         if self._file.tell() == 0:
-            self._write({'k': _KIND, 'specimen': fingerprint})
+            try:
+                self._write({'k': _KIND, 'specimen': fingerprint})
+            except OSError as err:
+                self._sync.stop()
+                self._file.close()
+                msg = f'{self.path}: cannot write the specimen state file ({err.strerror})'
+                raise SpecimenError(msg) from None
 
     def _write(self, value: Any) -> None:
         self._sync.check()  # (a failed background fsync: nothing more is written)
