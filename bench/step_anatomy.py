@@ -178,6 +178,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args.no_save = args.no_save or args.no_authentication
     if args.runs < 1 or args.pings < 100:
         parser.error('--runs: at least 1; --pings: at least 100')
+    if args.no_authentication and args.site == 'rths':
+        parser.error('--no-authentication: for --site direct or bridge (the real-time run is '
+                     "bench_rths.py's, signed)")
     return args
 
 

@@ -161,8 +161,9 @@ SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
 #: Seconds between two log lines about emergency stops received while one is latched.
 ESTOP_LOG_INTERVAL_S = 10.0
-#: Most seconds between two :meth:`ActuatorBridgeNode.check_driver` (its driver timeout,
-#: watchdog and session checks), not after every message: ~20 µs each, twice a step.
+#: Least seconds between two :meth:`ActuatorBridgeNode.check_driver` (its driver timeout,
+#: watchdog and session checks) while messages flow, not one after every message (~20 µs
+#: each, twice a step); when they stop, the next comes after one spin timeout (50 ms).
 CHECK_INTERVAL_S = 0.01
 
 

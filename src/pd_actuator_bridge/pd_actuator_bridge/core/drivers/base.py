@@ -134,8 +134,8 @@ class ActuatorDriver(abc.ABC):
     def poll(self) -> None:
         """Keep the driver's connection alive.
 
-        Called by the node's loop while the bridge is configured (about every 50 ms). The default
-        does nothing.
+        Called by the node's loop while the bridge is configured (every 10 to 60 ms). The
+        default does nothing.
         """
 
     def set_test_id(self, test_id: str) -> None:
