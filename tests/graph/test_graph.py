@@ -260,6 +260,62 @@ def test_bridge_limit_holds_and_never_reaches_the_specimen(
     assert max(measured) <= limit
 
 
+def test_a_command_re_sent_while_its_move_is_in_flight_asks_the_specimen_again(
+        processes: Processes, observer: Any, tmp_path: Path) -> None:
+    """The specimen stalls (SIGSTOP) past step 50: the integrator's command times out and is
+    re-sent; the bridge, whose move is in flight, asks the specimen again (``driver.repeat``)
+    instead of moving anew or ignoring it. Resumed (SIGCONT), the specimen answers the move
+    and each repeat (from its last answer, without moving): the test finishes, equal to the
+    ROS-free run."""
+    from pd_common.protocol import decode_command
+    from pd_common.ros import STEP_QOS
+    from pd_msgs.msg import StepCommand
+
+    test_file = write_test_file(tmp_path / 'stall.yaml', test__id='graph-stall',
+                                test__duration=30.0, protocol__feedback_timeout=0.3,
+                                protocol__max_retries=20)
+    moves: list[bytes] = []
+    subscription = observer.create_subscription(
+        StepCommand, '/pd/specimen/step_command', moves.append, STEP_QOS, raw=True)
+
+    def keys() -> Counter[Any]:
+        return Counter(decode_command(data).record.key for data in moves)
+
+    specimen = processes.start('specimen', [
+        executable('pd_specimen_sim'), '--ros-args', '-r', '__ns:=/pd/specimen',
+        '-p', f'test_file:={test_file}'])
+    processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args', '--params-file',
+                               str(write_bridge_params(tmp_path / 'bridge.yaml'))])
+    # The observer must hear the bridge's moves from the first (the test takes seconds).
+    spin_until(observer, lambda: subscription.get_publisher_count() > 0, RUN_TIMEOUT,
+               lambda: 'the bridge\'s move publisher; its log:\n' + processes.log('bridge'))
+    out = tmp_path / 'run'
+    integrator = processes.start('integrator', [
+        executable('pd_integrator'), '--ros-args', '-p', f'test_file:={test_file}',
+        '-p', f'output_dir:={out}', '-p', 'figures:=false'])
+    spin_until(observer, lambda: any(key.step >= 50 for key in keys()), RUN_TIMEOUT,
+               lambda: 'the bridge to move the specimen past step 50; its log:\n'
+                       + processes.log('bridge')[-2000:] + '\nthe integrator\'s:\n'
+                       + processes.log('integrator')[-2000:])
+    Processes.signal(specimen, signal.SIGSTOP)
+    try:
+        spin_until(observer, lambda: max(keys().values()) >= 2, 30.0,
+                   'the bridge to ask the stalled specimen again')
+    finally:
+        Processes.signal(specimen, signal.SIGCONT)
+    code = wait_exit(integrator, RUN_TIMEOUT, lambda: processes.log('integrator'))
+    assert code == 0, processes.log('integrator')[-3000:]
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'finished' and summary['retries'] >= 1
+    repeated = [key for key, count in keys().items() if count > 1]
+    sent = Counter(item.key for _, item in read_bag(out / 'bag').events
+                   if isinstance(item, Command))
+    assert repeated and all(sent[key] > 1 for key in repeated), (repeated, sent.most_common(3))
+    offline = tmp_path / 'offline'
+    run_offline(load_test_file(test_file), offline, figures=False)
+    assert (out / 'response.csv').read_bytes() == (offline / 'response.csv').read_bytes()
+
+
 def test_specimen_killed_mid_test_leads_to_holding(
         rig_key: Any, processes: Processes, observer: Any, tmp_path: Path) -> None:
 
