@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pd_common import durable
 from pd_common.errors import SpecimenError
@@ -384,6 +386,23 @@ def test_record_reports_an_unwritable_file(tmp_path: Path) -> None:
         ServedRecord(blocker / 'specimen.jsonl', 'f')
     assert str(error.value).startswith(f'{blocker / "specimen.jsonl"}: cannot write the '
                                        'specimen state file (')
+
+
+@settings(max_examples=300, deadline=None)
+@given(test_id=st.text(max_size=40), step=st.integers(0, 2**62), iteration=st.integers(0, 2**31),
+       target=st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=6))
+def test_a_plain_move_is_the_line_json_makes(tmp_path_factory: pytest.TempPathFactory,
+                                             test_id: str, step: int, iteration: int,
+                                             target: list[float]) -> None:
+    """The fast line of a plain move is byte for byte JSON's (any id, ±0, subnormals, the
+    extremes; a non-finite target is JSON's NaN/Infinity: written by the general path)."""
+    state = tmp_path_factory.mktemp('line') / 'specimen.jsonl'
+    record = ServedRecord(state, 'f')
+    record.add(test_id, step, iteration, target)
+    record.close()
+    line = state.read_bytes().split(b'\n')[1]
+    expected = json.dumps([test_id, step, iteration, target], separators=(',', ':'))
+    assert line == expected.encode('utf-8')
 
 
 def _threads_named(name: str) -> list[threading.Thread]:

@@ -19,8 +19,10 @@ command replays exactly; plain lines are as before).
 from __future__ import annotations
 
 import errno
+import functools
 import hashlib
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
@@ -36,6 +38,8 @@ __all__ = ['ServedRecord', 'restore_served', 'specimen_fingerprint']
 _KIND = 'pd-specimen-state'
 #: One encoder for every line (``json.dumps`` with options builds a new one per call).
 _ENCODE = json.JSONEncoder(separators=(',', ':')).encode
+#: A test id as JSON text (a run has one, or a few: each encoded once).
+_json_text = functools.lru_cache(maxsize=16)(_ENCODE)
 
 
 def specimen_fingerprint(section: Any, dof_names: list[str], geometry: Any = None) -> str:
@@ -89,8 +93,11 @@ class ServedRecord:
                 raise SpecimenError(msg) from None
 
     def _write(self, value: Any) -> None:
+        self._write_line(_ENCODE(value) + '\n')
+
+    def _write_line(self, line: str) -> None:
         self._sync.check()  # (a failed background fsync: nothing more is written)
-        data = memoryview((_ENCODE(value) + '\n').encode('utf-8'))
+        data = memoryview(line.encode('utf-8'))
         while data:  # (a short write, as a full disk may make: the rest, or its error)
             written = self._file.write(data)
             if not written:
@@ -101,7 +108,14 @@ class ServedRecord:
     def add(self, test_id: str, step: int, iteration: int, target: Sequence[float],
             control_mode: Sequence[int] = (), target_force: Sequence[float] = ()) -> None:
         """Record one served command (handed to the operating system at once)."""
-        line: list[Any] = [test_id, step, iteration, [float(x) for x in target]]
+        targets = [float(x) for x in target]
+        if not (control_mode or target_force) and all(map(math.isfinite, targets)):
+            # A plain move (every one of a displacement-controlled test, once per step before
+            # its answer): the line JSON would make, without the encoder's generic walk.
+            self._write_line(f'[{_json_text(test_id)},{int(step)},{int(iteration)},'
+                             f'[{",".join(map(float.__repr__, targets))}]]\n')
+            return
+        line: list[Any] = [test_id, step, iteration, targets]
         if control_mode or target_force:
             line += [[int(mode) for mode in control_mode],
                      [float(force) for force in target_force]]
