@@ -72,7 +72,6 @@ class ServedRecord:
     def __init__(self, path: str | Path, fingerprint: str, *, sync_interval: float = 1.0,
                  sync_in_background: bool = False) -> None:
         self.path = Path(path)
-        self.sync_interval = sync_interval
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             end_last_line(self.path)
