@@ -143,9 +143,8 @@ def test_graph_run_matches_ros_free_run(site: str, short_test: Path, offline_run
     extra = ['-p', 'sync_interval:=0', '-p', 'progress_interval:=1'] if site == 'direct' else []
     launcher = run_launcher(processes, 'run_test', [str(short_test), '--site', site,
                                                     '--out', str(out), '--no-figures', *extra])
-    deadline = time.monotonic() + RUN_TIMEOUT
-    while launcher.poll() is None and time.monotonic() < deadline:
-        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    spin_until(observer, lambda: launcher.poll() is not None, RUN_TIMEOUT,
+               lambda: 'run_test to end; its log:\n' + processes.log('run_test')[-3000:])
     code = wait_exit(launcher, 1.0, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-3000:]
     if site == 'bridge':
