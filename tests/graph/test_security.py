@@ -39,6 +39,7 @@ from pd_common.protocol import (
 )
 from pd_common.ros import command_message, control_message, feedback_message
 from pd_core.run.record.bag import read_bag
+from pd_core.run.record.signatures import ForeignKeyError, check_signatures
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
 
@@ -310,6 +311,12 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     sent = {item.target_displacement for item in read_bag(out / 'bag').commands}
     assert moves and set(moves) <= sent
     assert not {(0.015 + float(last.target_displacement[0]),)} & set(moves)
+    # Every command and feedback in the bag carries the owner's MAC over its recorded bytes
+    # (the rogue's were refused, never recorded): `./pd replay --key` verifies them all.
+    check = check_signatures(read_bag(out / 'bag'), rig_key)
+    assert check.failed == check.unsigned == 0 and check.verified > 2 * 150
+    with pytest.raises(ForeignKeyError):
+        check_signatures(read_bag(out / 'bag'), rogue.key)
 
 
 def test_a_readable_key_file_is_refused_in_one_line(processes: Processes,

@@ -5,8 +5,8 @@ unfinished one) is read from its journal, up to its last committed step. Reads t
 ``rosbags``, re-runs the recorded commands and feedback through the same
 step protocol and integrator (checking every recomputed command against the recorded one) and
 writes ``response.csv``, ``summary.json`` and the figures. With ``--key FILE`` it also checks
-every recorded authentication code (exit 1 if any fails); without it the bag is analysed all
-the same.
+every recorded authentication code (exit 1 if any fails; a key that signed none of them is
+refused, exit 2, nothing written); without it the bag is analysed all the same.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from pd_common.auth import AuthError, load_key
 from pd_common.config import existing_path
 from pd_core.errors import PdIntegratorError
 from pd_core.run.record.journal import JOURNAL_FILE, LEGACY_JOURNAL_FILE
+from pd_core.run.record.signatures import ForeignKeyError
 from pd_core.run.runner import BAG_DIRECTORY, rebuild_outputs
 
 #: What only a run's own folder holds: an output folder with one of them is a run's (its
@@ -63,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         key = load_key(args.key) if args.key else None
         result = rebuild_outputs(bag, out, figures=not args.no_figures, key=key)
+    except ForeignKeyError as err:  # a wrong key file: refused before anything is written
+        print(f'replay: error: --key {args.key}: {err}; nothing written', file=sys.stderr)
+        return 2
     except (PdIntegratorError, AuthError, ValueError) as err:
         print(f'replay: error: {err}', file=sys.stderr)
         return 2

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from pd_common.auth import Key, command_payload, feedback_payload, verify_mac
+from pd_common.auth import AuthError, Key, command_payload, feedback_payload, verify_mac
 from pd_common.protocol import (
     CdrEncodeError,
     Command,
@@ -28,7 +28,15 @@ from pd_common.protocol import (
 if TYPE_CHECKING:
     from .bag import RecordedRun
 
-__all__ = ['SignatureCheck', 'check_signatures']
+__all__ = ['ForeignKeyError', 'SignatureCheck', 'check_signatures']
+
+
+class ForeignKeyError(AuthError):
+    """The key given to check a run's signatures signed none of its messages.
+
+    Another key's check would count every signed message as failed: a wrong key file, not an
+    altered record, so it is refused before anything is written.
+    """
 
 
 @dataclass(frozen=True)
@@ -70,9 +78,21 @@ def _streams(run: RecordedRun) -> Iterable[tuple[Command | Feedback, Signature, 
 
 
 def check_signatures(run: RecordedRun, key: Key) -> SignatureCheck:
-    """Check the MAC of every recorded command and feedback with ``key``."""
+    """Check the MAC of every recorded command and feedback with ``key``.
+
+    Raises:
+        ForeignKeyError: the run's messages are signed, none with ``key`` (its id is in none
+            of their signatures).
+    """
+    streams = list(_streams(run))
+    recorded = {signature.key_id for _, signature, _ in streams if signature.signed}
+    if recorded and key.key_id not in recorded:
+        ids = ', '.join(sorted(recorded))
+        msg = (f'key {key.key_id} signed none of the recorded messages (they carry key '
+               f'{ids}): the wrong key file')
+        raise ForeignKeyError(msg)
     verified = failed = unsigned = 0
-    for item, signature, stamp_ns in _streams(run):
+    for item, signature, stamp_ns in streams:
         if not signature.signed:
             unsigned += 1
             continue
