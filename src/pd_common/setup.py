@@ -18,6 +18,8 @@ setup(
         ('share/' + PACKAGE + '/schema', ['schema/test_file.schema.json',
                                           'schema/bridge_parameters.schema.json',
                                           'schema/driver_config.schema.json']),
+        # The Fast DDS profile every process applies (pd_common.dds).
+        ('share/' + PACKAGE + '/config', ['config/fastdds_discovery.xml']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

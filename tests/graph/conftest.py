@@ -77,6 +77,9 @@ def observer(domain_id: int) -> Iterator[Any]:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
+    from pd_common.dds import use_discovery_profile
+
+    use_discovery_profile()  # (as every node does: it finds them, and they it, at once)
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain_id)
     node = Node('pd_test_observer', context=context)

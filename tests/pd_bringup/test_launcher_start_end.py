@@ -1,4 +1,4 @@
-"""run_test's start and end: the shipped Fast DDS discovery profile, and the specimen side
+"""run_test's start and end: the specimen side
 stopped (and the summary printed) once the integrator has written its summary, while it still
 writes its figures."""
 
@@ -14,17 +14,8 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from pd_bringup.plan import DDS_PROFILE_VARIABLES, Child, LaunchPlan, discovery_profile
+from pd_bringup.plan import Child, LaunchPlan
 from pd_bringup.supervisor import Supervisor, _Restart, _Running
-
-
-def test_the_discovery_profile_is_shipped_and_never_overrides_the_users() -> None:
-    env = discovery_profile({'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp'})
-    profile = Path(env['FASTDDS_DEFAULT_PROFILES_FILE'])
-    assert profile.is_file() and '<initialAnnouncements>' in profile.read_text()
-    for name in DDS_PROFILE_VARIABLES:  # the user's own profile file wins
-        assert discovery_profile({name: '/etc/my_profile.xml'}) == {}
-    assert discovery_profile({'RMW_IMPLEMENTATION': 'rmw_cyclonedds_cpp'}) == {}
 
 
 def _python(code: str) -> list[str]:

@@ -12,11 +12,20 @@ from pathlib import Path
 
 import pytest
 
-from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
+from pd_common.auth import (
+    WIRE_COMMAND,
+    WIRE_FEEDBACK,
+    Signer,
+    generate_key,
+    load_key,
+    new_key,
+    sign_wire_reply,
+)
 from pd_common.protocol import Command, Feedback, encode_command, encode_feedback
 from pd_core.run.record.journal import JOURNAL_FILE, Journal, read_journal
 from pd_core.run.record.signatures import ForeignKeyError, check_signatures
 from pd_core.run.test_file import load_test_file
+from pd_integrator import replay
 from support.paths import DEFAULT_TEST
 
 STEPS = 4
@@ -70,9 +79,6 @@ def test_a_key_that_signed_none_of_the_messages_is_refused(tmp_path: Path) -> No
 
 def test_replay_refuses_the_wrong_key_file_in_one_line_and_writes_nothing(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from pd_common.auth import generate_key, load_key
-    from pd_integrator import replay
-
     run = tmp_path / 'run'
     run.mkdir()
     right, wrong = tmp_path / 'right.key', tmp_path / 'wrong.key'

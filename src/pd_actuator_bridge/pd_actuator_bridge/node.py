@@ -97,6 +97,7 @@ from pd_common.auth import (
     describe_refusals,
     merge_refusals,
 )
+from pd_common.dds import use_discovery_profile
 from pd_common.experimental import TrackingMonitor
 from pd_common.experimental.limits import LIMIT_PARAMETERS, limits_from_parameters
 from pd_common.jsonl import EventFile
@@ -905,6 +906,7 @@ def _autostart(node: ActuatorBridgeNode, executor: Executor) -> None:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_actuator_bridge main``."""
+    use_discovery_profile()
     rclpy.init(args=args)
 
     def body(node: ActuatorBridgeNode, executor: Executor) -> None:

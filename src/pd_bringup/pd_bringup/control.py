@@ -32,6 +32,7 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, describe_refusals, load_key
+from pd_common.dds import use_discovery_profile
 from pd_common.protocol import (
     BRIDGE_CONTROLS,
     GLOBAL_EMERGENCY_STOP,
@@ -49,7 +50,6 @@ from pd_common.ros import (
     settle_listeners,
 )
 
-from .plan import discovery_profile
 from .rig import default_rig_key
 
 #: Seconds after the stop during which late-discovered listeners are still looked for.
@@ -107,9 +107,9 @@ def main(argv: list[str] | None = None) -> int:
             key = load_key(_key_path(args)) if _key_path(args).exists() else None
         except AuthError:
             key = None
-    # (the shipped Fast DDS profile: announcements every 100 ms at first, so the lab's nodes
-    # are found in a fraction of a second, not at the next 3 s announcement)
-    os.environ.update(discovery_profile(dict(os.environ)))
+    # (the shipped Fast DDS profile: the lab's nodes announce themselves every 250 ms and this
+    # process every 100 ms at first, so they are found in a fraction of a second)
+    use_discovery_profile()
     rclpy.init()
     try:
         node = Node('pd_control', namespace='pd')

@@ -27,9 +27,9 @@ resumed); ``--resume RUN_DIR`` continues a stopped run from its record. Once the
 has written its ``summary.json`` the other nodes are stopped and the summary is printed while
 it still writes its figures; ``run_test`` exits when the integrator has. DDS discovery stays on
 this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set; every process gets the
-shipped Fast DDS profile ``share/pd_bringup/config/fastdds_discovery.xml`` (announcements every
-100 ms for the first 5 s: processes started together meet at once, not at the next 3 s
-announcement) unless ``FASTDDS_DEFAULT_PROFILES_FILE`` selects one already.
+shipped Fast DDS profile (:mod:`pd_common.dds`: announcements every 100 ms for the first 5 s,
+so processes started together meet at once, then every 250 ms, so a tool started later finds
+them in a fraction of a second) unless ``FASTDDS_DEFAULT_PROFILES_FILE`` selects one already.
 """
 
 from __future__ import annotations
@@ -48,6 +48,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from pd_common.auth import KEY_FILE_ENV, AuthError, Key, load_key
 from pd_common.config import TestFile
+from pd_common.dds import DDS_PROFILE_VARIABLES, discovery_profile
 from pd_common.resources import ResourceError, find_executable
 from pd_common.ros import events_executor, exit_process
 from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
@@ -70,13 +71,11 @@ from pd_core.run.test_file import (
 
 from .operator import Operator
 from .plan import (
-    DDS_PROFILE_VARIABLES,
     LAUNCH_FILE,
     LaunchError,
     LaunchPlan,
     attach_fault_reports,
     attach_realtime_reports,
-    discovery_profile,
     insert_fault_proxies,
     parse_cpus,
     site_commands,

@@ -26,7 +26,7 @@ from pd_common.config import (
     read_text,
 )
 from pd_common.config.schema_test_file import OpenSeesSite, SiteSettings
-from pd_common.resources import ResourceError, find_executable, share_file
+from pd_common.resources import find_executable
 from pd_core.errors import PdIntegratorError
 from pd_core.run.definition import TestDefinition
 from pd_core.run.record.continuations import RESTART_NOTE
@@ -34,11 +34,11 @@ from pd_core.run.record.continuations import RESTART_NOTE
 from .faults import FaultPlanError, attach_reports, proxy_command
 from .reports import add_to_summary, read_reports
 
-__all__ = ['BEHIND', 'CPU_KINDS', 'DDS_PROFILE_VARIABLES', 'LAUNCH_FILE', 'RESTART_NOTE',
+__all__ = ['BEHIND', 'CPU_KINDS', 'LAUNCH_FILE', 'RESTART_NOTE',
            'SIMULATED_DRIVERS',
            'Child', 'LaunchError', 'LaunchPlan', 'attach_fault_reports',
            'attach_realtime_reports', 'bridge_driver', 'bridge_record_file',
-           'discovery_profile', 'fault_report_name', 'insert_fault_proxies', 'opensees_command',
+           'fault_report_name', 'insert_fault_proxies', 'opensees_command',
            'parse_cpus', 'realtime_report_name', 'site_commands', 'with_key']
 
 
@@ -52,10 +52,6 @@ SIMULATED_DRIVERS = ('sim_servo', 'emulator', 'opensees_adapter', 'transfer_syst
 IN_BRIDGE_DRIVERS = ('transfer_system',)
 #: Where a step receiver's step-protocol topics go behind a fault proxy: ``<namespace>/behind``.
 BEHIND = 'behind'
-#: The environment variables that select a Fast DDS XML profile file (3.x name first).
-DDS_PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES_FILE')
-#: The shipped Fast DDS profile of a test's processes (fast discovery at start-up).
-DISCOVERY_PROFILE = 'fastdds_discovery.xml'
 #: A step receiver's step-protocol topics (relative to its namespace).
 _RECEIVER_TOPICS = ('step_command', 'step_feedback', 'session/offer', 'session/start')
 
@@ -334,24 +330,6 @@ def parse_cpus(items: list[str], available: set[int] | None = None) -> dict[str,
             raise LaunchError(msg)
         placed[kind] = sorted(cpus)
     return placed
-
-
-def discovery_profile(env: dict[str, str]) -> dict[str, str]:
-    """The environment that gives the test's processes the shipped Fast DDS profile.
-
-    ``config/fastdds_discovery.xml``: announcements every 100 ms for the first 5 s, so processes
-    started together meet at once: ``{}`` when the environment selects a profile file already, the
-    rmw is not Fast DDS, or the profile is not installed.
-    """
-    if any(env.get(name) for name in DDS_PROFILE_VARIABLES):
-        return {}
-    if not env.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp').startswith('rmw_fastrtps'):
-        return {}
-    try:
-        path = share_file('pd_bringup', 'config', DISCOVERY_PROFILE)
-    except ResourceError:
-        return {}
-    return {DDS_PROFILE_VARIABLES[0]: str(path)}
 
 
 def bridge_driver(params: Path | None, extra: dict[str, Any]) -> str:

@@ -41,6 +41,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from pd_common.auth import AuthError, Refusal
+from pd_common.dds import use_discovery_profile
 from pd_common.protocol import (
     FeedbackStatus,
     RunTags,
@@ -189,6 +190,7 @@ class SpecimenSimNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_specimen_sim main``."""
+    use_discovery_profile()
     rclpy.init(args=args)
     return run_node('pd_specimen_sim', SpecimenSimNode, (SpecimenError, AuthError),
                     lambda node, executor: spin_until_shutdown(executor, 0.1),

@@ -23,6 +23,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
+from pd_common.dds import use_discovery_profile
 from pd_common.signals import StopFlag, stop_on_signals
 
 if TYPE_CHECKING:
@@ -108,8 +109,10 @@ def init_with_stop_flag(args: list[str] | None = None) -> StopFlag:
     SIGINT and SIGTERM only set the returned flag, so a node that must end cleanly (write its
     record, publish its final status) does so from its own loop instead of being interrupted in the
     middle of a write. The flag takes no lock (:mod:`pd_common.signals`): a second signal
-    during the first one's handling cannot deadlock the process.
+    during the first one's handling cannot deadlock the process. The process gets the shipped
+    Fast DDS profile first (:func:`pd_common.dds.use_discovery_profile`).
     """
+    use_discovery_profile()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = StopFlag()
     stop_on_signals(stop)
