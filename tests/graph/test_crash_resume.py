@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import resource
 import signal
 import subprocess
 import time
@@ -142,6 +143,33 @@ def test_a_killed_process_is_restarted_with_its_state_and_the_test_is_unchanged(
                  if 'ready: actuator at [' in line]
         assert len(ready) == 2, ready
         assert float(ready[0]) == 0.0 and abs(float(ready[1])) > 1e-4
+
+
+def test_a_simulator_whose_disk_fills_ends_in_one_line_and_is_restarted_with_its_state(
+        crash_test: Path, reference: bytes, processes: Processes, tmp_path: Path) -> None:
+    """The simulator's state file cannot grow any more (a full disk: its process may write
+    no file past a few more lines, RLIMIT_FSIZE): the move it cannot record is not answered,
+    the simulator ends with one line naming its state file, and run_test restarts it from the
+    file; the test ends as the uninterrupted one."""
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(crash_test), '--out', str(out),
+                                                    '--no-figures'])
+    wait_for_step(out, kill_step('full disk'), launcher, processes)
+    victim = child_of(launcher, 'simulator')
+    [state] = out.glob('specimen*.state.jsonl')
+    limit = state.stat().st_size + 600  # (a few lines more: write(2) fails with EFBIG then)
+    resource.prlimit(victim, resource.RLIMIT_FSIZE, (limit, limit))
+    code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
+    log = processes.log('run_test')
+    assert code == 0, log[-3000:]
+    errors = [line for line in log.splitlines() if 'pd_specimen_sim: error:' in line]
+    assert len(errors) == 1, log[-3000:]
+    assert f'{state}: cannot write the specimen state file (File too large)' in errors[0]
+    assert 'Traceback' not in log
+    assert 'restored the specimen from' in log
+    assert (out / 'response.csv').read_bytes() == reference
+    result = summary(out)
+    assert (result['state'], result['steps'], result['restarts']) == ('finished', STEPS, 1)
 
 
 def counted_as_a_persons_resume(out: Path, log: str) -> None:

@@ -23,7 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pd_common import durable
-from pd_common.errors import SpecimenError
+from pd_common.errors import SpecimenError, StateFileError
 from pd_common.protocol import Feedback, FeedbackStatus, StepKey
 from pd_common.specimen import (
     ServedRecord,
@@ -472,12 +472,61 @@ def test_a_failed_background_fsync_is_raised_before_the_next_move_is_written(
     for thread in _threads_named('state-fsync'):
         thread.join(30.0)
     written = lines_of(state)
-    with pytest.raises(OSError, match='Input/output error'):
+    with pytest.raises(StateFileError) as error:
         record.add(TEST_ID, 1, 0, (target(1),))
+    assert str(error.value) == (f'{state}: cannot write the specimen state file (Input/output '
+                                'error): step 1 (iteration 0) is not safely on record, so it '
+                                'is not answered')
     assert lines_of(state) == written
     with pytest.raises(OSError, match='Input/output error'):
         record.close()  # the failure again; the file is closed all the same
     record.close()
+
+
+class _FullDisk:
+    """A state file's file object on a disk that fills after ``room`` more bytes: writes
+    are cut short there (as write(2) does), then fail with ENOSPC."""
+
+    def __init__(self, file: Any, room: int) -> None:
+        self.file, self.room = file, room
+
+    def write(self, data: memoryview) -> int:
+        if not self.room:
+            raise OSError(errno.ENOSPC, 'No space left on device')
+        written = self.file.write(data[:self.room])
+        self.room -= written
+        return int(written)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.file, name)
+
+
+def test_a_move_a_full_disk_cannot_take_is_one_line_and_the_file_restores_before_it(
+        tmp_path: Path) -> None:
+    """The disk fills in the middle of a move's line: ``add`` raises a StateFileError of one
+    line naming the file and the step (the simulator answers nothing and ends), and a new
+    specimen restored from the file stands where the last whole move left it."""
+    path = write_test_file(tmp_path, SPECIMEN)
+    server, fingerprint = loaded(path)
+    state = tmp_path / 'specimen.jsonl'
+    record = ServedRecord(state, fingerprint)
+    serve(server, range(1, 6), record)
+    record._file = _FullDisk(record._file, 10)  # (the next line is cut after 10 bytes)
+    server.handle(TEST_ID, 6, (target(6),))
+    with pytest.raises(StateFileError) as error:
+        record.add(TEST_ID, 6, 0, (target(6),))
+    assert str(error.value) == (f'{state}: cannot write the specimen state file (No space left '
+                                'on device): step 6 (iteration 0) is not safely on record, so '
+                                'it is not answered')
+    record.close()
+    assert len(state.read_bytes().rsplit(b'\n', 1)[-1]) == 10  # the torn line
+    fresh, _ = loaded(path)
+    assert restore_served(state, fresh, fingerprint) == (TEST_ID, StepKey(5, 0))
+    reference, _ = loaded(path)
+    for step in range(1, 6):
+        reference.handle(TEST_ID, step, (target(step),))
+    assert list(fresh.position) == list(reference.position)
+    assert list(fresh.force) == list(reference.force)
 
 
 def test_a_header_that_cannot_be_synced_is_one_line(tmp_path: Path,

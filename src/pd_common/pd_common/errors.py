@@ -22,6 +22,14 @@ class SpecimenConfigError(SpecimenError):
     """The ``specimen:`` section of a test configuration is invalid."""
 
 
+class StateFileError(SpecimenError):
+    """A simulator's state file could not take a served move (a full disk, a failed ``fsync``).
+
+    The move is not on record, so it must not be answered: the simulator ends with this one
+    line, and its restart replays the file up to the last move that is.
+    """
+
+
 class SetupError(ValueError):
     """An experimental setup (basic DOFs ↔ actuator strokes) or its configuration is invalid."""
 

@@ -38,6 +38,7 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import Executor
 from rclpy.node import Node
 
 from pd_common.auth import AuthError, Refusal
@@ -67,6 +68,7 @@ from pd_common.ros import (
 from pd_common.specimen import (
     ServedRecord,
     SpecimenError,
+    StateFileError,
     load_site_server,
     restore_served,
     specimen_fingerprint,
@@ -188,12 +190,26 @@ class SpecimenSimNode(Node):
             self.get_logger().error(f'step {answer.step}: {answer.message}')
 
 
+def serve(node: SpecimenSimNode, executor: Executor) -> int:
+    """Answer commands until shut down; 1 if the state file failed (one line on stderr).
+
+    A move the state file could not take is not answered: the process ends, and its restart
+    (``run_test``'s supervisor) replays the file up to the last move on record.
+    """
+    try:
+        spin_until_shutdown(executor, 0.1)
+    except StateFileError as err:
+        print(f'pd_specimen_sim: error: {err}; stopping (a restart resumes from the file)',
+              file=sys.stderr, flush=True)
+        return 1
+    return 0
+
+
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run pd_specimen_sim main``."""
     use_discovery_profile()
     rclpy.init(args=args)
-    return run_node('pd_specimen_sim', SpecimenSimNode, (SpecimenError, AuthError),
-                    lambda node, executor: spin_until_shutdown(executor, 0.1),
+    return run_node('pd_specimen_sim', SpecimenSimNode, (SpecimenError, AuthError), serve,
                     cleanup=SpecimenSimNode.close, teardown_timeout=TEARDOWN_TIMEOUT)
 
 

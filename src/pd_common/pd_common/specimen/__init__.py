@@ -9,7 +9,13 @@ same hysteresis models.
 
 from __future__ import annotations
 
-from ..errors import BackboneError, HysteresisError, SpecimenConfigError, SpecimenError
+from ..errors import (
+    BackboneError,
+    HysteresisError,
+    SpecimenConfigError,
+    SpecimenError,
+    StateFileError,
+)
 from .backbone import (
     BEYOND_MODES,
     Backbone,
@@ -71,6 +77,7 @@ __all__ = [
     'Specimen',
     'SpecimenConfigError',
     'SpecimenError',
+    'StateFileError',
     'SpecimenServer',
     'bilinear_backbone',
     'hysteresis_from_config',

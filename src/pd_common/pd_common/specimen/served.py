@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from ..durable import IntervalSync
-from ..errors import SpecimenError
+from ..errors import SpecimenError, StateFileError
 from ..jsonl import end_last_line
 from ..protocol.messages import StepKey
 from .server import SpecimenServer
@@ -106,19 +106,30 @@ class ServedRecord:
 
     def add(self, test_id: str, step: int, iteration: int, target: Sequence[float],
             control_mode: Sequence[int] = (), target_force: Sequence[float] = ()) -> None:
-        """Record one served command (handed to the operating system at once)."""
+        """Record one served command (handed to the operating system at once).
+
+        Raises:
+            StateFileError: the line could not be written, or an earlier background ``fsync``
+                failed (one line naming the file): the move is not on record.
+        """
         targets = [float(x) for x in target]
-        if not (control_mode or target_force) and all(map(math.isfinite, targets)):
-            # A plain move (every one of a displacement-controlled test, once per step before
-            # its answer): the line JSON would make, without the encoder's generic walk.
-            self._write_line(f'[{_json_text(test_id)},{int(step)},{int(iteration)},'
-                             f'[{",".join(map(float.__repr__, targets))}]]\n')
-            return
-        line: list[Any] = [test_id, step, iteration, targets]
-        if control_mode or target_force:
-            line += [[int(mode) for mode in control_mode],
-                     [float(force) for force in target_force]]
-        self._write(line)
+        try:
+            if not (control_mode or target_force) and all(map(math.isfinite, targets)):
+                # A plain move (every one of a displacement-controlled test, once per step
+                # before its answer): the line JSON would make, without the encoder's walk.
+                self._write_line(f'[{_json_text(test_id)},{int(step)},{int(iteration)},'
+                                 f'[{",".join(map(float.__repr__, targets))}]]\n')
+                return
+            line: list[Any] = [test_id, step, iteration, targets]
+            if control_mode or target_force:
+                line += [[int(mode) for mode in control_mode],
+                         [float(force) for force in target_force]]
+            self._write(line)
+        except OSError as err:
+            msg = (f'{self.path}: cannot write the specimen state file '
+                   f'({err.strerror or err}): step {int(step)} (iteration {int(iteration)}) '
+                   'is not safely on record, so it is not answered')
+            raise StateFileError(msg) from None
 
     def close(self) -> None:
         """Sync and close the file."""
