@@ -71,15 +71,17 @@ def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
 
 
 @pytest.fixture
-def observer(domain_id: int) -> Iterator[Any]:
+def observer(domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
     """An rclpy node in this test's domain (own context), shut down after the test."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
-    from pd_common.dds import use_discovery_profile
+    from pd_common.dds import discovery_profile
 
-    use_discovery_profile()  # (as every node does: it finds them, and they it, at once)
+    # as every node does (they find it, and it them, at once); for this test alone
+    for name, value in discovery_profile(os.environ).items():
+        monkeypatch.setenv(name, value)
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain_id)
     node = Node('pd_test_observer', context=context)

@@ -158,6 +158,9 @@ def test_a_simulator_whose_disk_fills_ends_in_one_line_and_is_restarted_with_its
     victim = child_of(launcher, 'simulator')
     [state] = out.glob('specimen*.state.jsonl')
     limit = state.stat().st_size + 600  # (a few lines more: write(2) fails with EFBIG then)
+    # (the limit binds every file the simulator writes: its log, run_test's, must stay below
+    # it for the error line to be written)
+    assert (tmp_path / 'run_test.log').stat().st_size < limit - 2000
     resource.prlimit(victim, resource.RLIMIT_FSIZE, (limit, limit))
     code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
     log = processes.log('run_test')
@@ -165,7 +168,8 @@ def test_a_simulator_whose_disk_fills_ends_in_one_line_and_is_restarted_with_its
     errors = [line for line in log.splitlines() if 'pd_specimen_sim: error:' in line]
     assert len(errors) == 1, log[-3000:]
     assert f'{state}: cannot write the specimen state file (File too large)' in errors[0]
-    assert 'Traceback' not in log
+    assert 'Traceback' not in log  # nor the executor's report of an escaped exception
+    assert 'Exception in' not in log and 'Error occurred at' not in log
     assert 'restored the specimen from' in log
     assert (out / 'response.csv').read_bytes() == reference
     result = summary(out)

@@ -101,6 +101,8 @@ class SpecimenSimNode(Node):
         self.key = declare_key(self)
         self.epoch = new_epoch()
         origin, restored, self.record = self._restore(section, list(dof_names))
+        #: A move the state file could not take (see :meth:`_on_command`).
+        self.state_error: StateFileError | None = None
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'command')
         self.receiver = SessionReceiver(self, self.key, len(dof_names), self.epoch,
                                         origin, on_refused=self._refusal_log)
@@ -155,6 +157,20 @@ class SpecimenSimNode(Node):
                     'survive a power loss')
 
     def _on_command(self, data: bytes) -> None:
+        """A step command: served, on record, answered.
+
+        A move the state file cannot take is kept in :attr:`state_error` for :func:`serve`
+        (one line and the end of the process) instead of escaping into the executor (a FATAL
+        log with the frames); from then on no command is served.
+        """
+        if self.state_error is not None:
+            return
+        try:
+            self._serve_command(data)
+        except StateFileError as err:
+            self.state_error = err
+
+    def _serve_command(self, data: bytes) -> None:
         decoded = signed_from_bytes(decode_command, data)
         if decoded is None:  # malformed: counted and reported, nothing moves, no answer
             self.receiver.gate.refused[Refusal.MALFORMED.value] += 1
@@ -196,8 +212,12 @@ def serve(node: SpecimenSimNode, executor: Executor) -> int:
     A move the state file could not take is not answered: the process ends, and its restart
     (``run_test``'s supervisor) replays the file up to the last move on record.
     """
+    def check() -> None:
+        if node.state_error is not None:
+            raise node.state_error
+
     try:
-        spin_until_shutdown(executor, 0.1)
+        spin_until_shutdown(executor, 0.1, check)
     except StateFileError as err:
         print(f'pd_specimen_sim: error: {err}; stopping (a restart resumes from the file)',
               file=sys.stderr, flush=True)

@@ -32,10 +32,11 @@ __all__ = ['ForeignKeyError', 'SignatureCheck', 'check_signatures']
 
 
 class ForeignKeyError(AuthError):
-    """The key given to check a run's signatures signed none of its messages.
+    """No recorded message names the key given to check a run's signatures.
 
-    Another key's check would count every signed message as failed: a wrong key file, not an
-    altered record, so it is refused before anything is written.
+    Its check would count every signed message as failed: most likely the wrong key file
+    (or a record whose messages were all re-signed with another key), so it is refused
+    before anything is written, rather than reported as that many altered messages.
     """
 
 
@@ -81,15 +82,15 @@ def check_signatures(run: RecordedRun, key: Key) -> SignatureCheck:
     """Check the MAC of every recorded command and feedback with ``key``.
 
     Raises:
-        ForeignKeyError: the run's messages are signed, none with ``key`` (its id is in none
-            of their signatures).
+        ForeignKeyError: the run's messages are signed, and none names ``key`` (its id is in
+            none of their signatures).
     """
     streams = list(_streams(run))
     recorded = {signature.key_id for _, signature, _ in streams if signature.signed}
     if recorded and key.key_id not in recorded:
         ids = ', '.join(sorted(recorded))
-        msg = (f'key {key.key_id} signed none of the recorded messages (they carry key '
-               f'{ids}): the wrong key file')
+        msg = (f'none of the recorded messages names key {key.key_id} (they name {ids}): the '
+               'wrong key file, or messages re-signed with another key')
         raise ForeignKeyError(msg)
     verified = failed = unsigned = 0
     for item, signature, stamp_ns in streams:
