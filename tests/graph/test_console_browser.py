@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 from graph_support import DOMAINS, REPO, Processes, executable, worker_index
-from test_graph import latched_qos, run_launcher, spin_until, write_test_file
+from test_graph import call_service, latched_qos, run_launcher, spin_until, write_test_file
 
 pytestmark = pytest.mark.graph
 
@@ -107,6 +107,16 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     url = console_said(r'serving (http://127\.0\.0\.1:\d+/)')
     token = console_said(r'login token \(one use\): (\S+)')
     assert console.poll() is None
+    # With a key the console is sealed like every node: nobody re-points it (its port, its
+    # key) through set_parameters.
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    setting = SetParameters.Request(parameters=[Parameter(name='key_file', value=ParameterValue(
+        type=ParameterType.PARAMETER_STRING, string_value=str(tmp_path / 'rogue.key')))])
+    results = call_service(observer, SetParameters, '/pd/pd_console/set_parameters',
+                           setting).results
+    assert results and not results[0].successful and 'sealed' in results[0].reason, results
 
     def spin() -> None:
         observer.executor_for_test.spin_once(timeout_sec=0.05)

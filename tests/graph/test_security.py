@@ -259,6 +259,20 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     in_force = call_service(observer, GetParameters, f'{node}/get_parameters',
                             GetParameters.Request(names=['max_displacement', 'driver'])).values
     assert in_force[0].double_value == 0.25 and in_force[1].string_value == 'sim_servo'
+    # Nor the integrator's or the simulator's: a rogue's hold_on_resume:=false would let a
+    # restarted integrator of a held (physical) test move without a person's resume.
+    simulator = '/pd/specimen/pd_specimen_sim'
+    for target, name, value in (('/pd/pd_integrator', 'hold_on_resume', False),
+                                ('/pd/pd_integrator', 'confirm_resume', True),
+                                (simulator, 'state_file', str(tmp_path / 'rogue.state'))):
+        setting = SetParameters.Request()
+        kind = (ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
+                if isinstance(value, bool) else
+                ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value))
+        setting.parameters.append(Parameter(name=name, value=kind))
+        results = call_service(observer, SetParameters, f'{target}/set_parameters',
+                               setting).results
+        assert results and not results[0].successful and 'sealed' in results[0].reason, results
 
     repeat_until(observer, attack,
                  lambda: all(reason in bridge_statuses[-1].refused_by_reason
@@ -305,7 +319,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
     assert refused['feedback[default]']['unsigned'] >= 10
     assert refused['malformed']['malformed'] >= 1  # (the malformed feedback)
-    assert {'unsigned', 'wrong_key'} <= set(refused['test_control'])
+    assert {'unsigned', 'wrong_key', 'sealed'} <= set(refused['test_control'])
     # Every move that reached the specimen (that the observer heard) was a target the
     # owner's integrator sent (its bag); none of the rogue's.
     sent = {item.target_displacement for item in read_bag(out / 'bag').commands}

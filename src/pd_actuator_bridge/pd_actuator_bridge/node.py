@@ -83,10 +83,9 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import Executor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
-from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from std_srvs.srv import Trigger
 
@@ -137,6 +136,7 @@ from pd_common.ros import (
     now_stamp,
     quiet_at_shutdown,
     run_node,
+    seal_parameters,
     settle_collector,
     spin_until_shutdown,
 )
@@ -272,7 +272,8 @@ class ActuatorBridgeNode(LifecycleNode):
         self.create_service(Trigger, 'bridge/reset_emergency_stop', self._on_reset_emergency)
         self.create_timer(HEARTBEAT_S, quiet_at_shutdown(self, self._heartbeat))
         if self.key is not None:  # sealed: the parameters given at start are the ones in force
-            self.add_on_set_parameters_callback(self._sealed_parameters)
+            seal_parameters(self, 'the bridge', 'restart it with a new parameter file',
+                            self._control_gate.refused)
         if self.holds.emergency is not None:
             self.get_logger().error(f'EMERGENCY STOP latched before a restart, still in force '
                                     f'({self.holds.emergency}); only a signed '
@@ -300,16 +301,6 @@ class ActuatorBridgeNode(LifecycleNode):
         if self.holds.emergency is not None:
             return f'EMERGENCY STOP: {self.holds.emergency}'
         return self.holds.operator or ''
-
-    def _sealed_parameters(self, parameters: list[Parameter[Any]]) -> SetParametersResult:
-        """With a key, no parameter changes after start (a rogue must not move a limit)."""
-        names = ', '.join(parameter.name for parameter in parameters)
-        self.get_logger().warning(f'refused set_parameters ({names}): the bridge is sealed '
-                                  '(a key is in use); restart it with a new parameter file')
-        self._control_gate.refused['sealed'] += 1
-        return SetParametersResult(successful=False, reason=(
-            'sealed: the bridge\'s parameters are fixed at start while a key is in use; '
-            'restart the bridge with a new parameter file'))
 
     def _transition(self, name: str) -> bool:
         """Whether a lifecycle transition may run now (else it is refused and logged)."""

@@ -70,6 +70,7 @@ from pd_common.ros import (
     events_executor,
     init_with_stop_flag,
     repeat_emergency_stop,
+    seal_parameters,
 )
 from pd_common.signals import StopFlag
 from pd_core.errors import BagError
@@ -230,6 +231,8 @@ class ConsoleNode(Node):
         self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
         self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
         self._watch_site('')
+        if self.key is not None:  # (its host, port and key as given at start)
+            seal_parameters(self, 'the console', 'restart it', self.controls.gate.refused)
 
     # -- subscriptions (the executor's thread) ---------------------------------------------
     def _watch_site(self, site: str) -> None:

@@ -81,6 +81,7 @@ from pd_common.ros import (
     now_stamp,
     read_status,
     run_node,
+    seal_parameters,
     settle_collector,
 )
 from pd_common.rths import CpuLatencyRequest, wall_clock_cpu_latency
@@ -214,6 +215,10 @@ class IntegratorNode(Node):
             if value is not None:
                 overrides[name] = list(value) if isinstance(value, (list, tuple)) else value
         resume_from = str(self.get_parameter('resume_from').value)
+        # (the resume policy as given at start: read here, not when the sites answer)
+        self._resume_note = str(self.get_parameter('resume_note').value)
+        self._hold_on_resume = bool(self.get_parameter('hold_on_resume').value)
+        self._confirm_resume = bool(self.get_parameter('confirm_resume').value)
         self.record: RecordedRun | None = None
         if resume_from:
             try:
@@ -336,6 +341,9 @@ class IntegratorNode(Node):
         element = self.session.served_element
         if element is not None:  # waiting for OpenSees blocks the executor: beat meanwhile
             element.idle = heartbeat
+        if self.key is not None:  # (a rogue's hold_on_resume:=false would move a held rig)
+            seal_parameters(self, 'the integrator', 'restart it (./pd run --resume)',
+                            self._control_gate.refused)
         self.publish_status()
 
     # -- helpers ------------------------------------------------------------------------------
@@ -573,7 +581,7 @@ class IntegratorNode(Node):
         check = check_sites(sites, self.dispatcher.epochs,
                             last_measured(self.record, structured) if self.record else {},
                             self.owed, session.definition.protocol.tracking_tolerance)
-        note = str(self.get_parameter('resume_note').value)
+        note = self._resume_note
         self.bag.write_event('resumed', time.time_ns(), committed_step=session.committed_step,
                              recorded_state=session.state.name.lower(), gap_s=self._gap,
                              sites=check.report, refused=check.refused, confirm=check.confirm,
@@ -582,8 +590,8 @@ class IntegratorNode(Node):
             self.get_logger().info(f'resume: {line}')
         decision = decide_resume(session.state, check,
                                  person_hold=self.steering.holds.blocks_automatic,
-                                 hold_on_resume=bool(self.get_parameter('hold_on_resume').value),
-                                 confirm_resume=bool(self.get_parameter('confirm_resume').value),
+                                 hold_on_resume=self._hold_on_resume,
+                                 confirm_resume=self._confirm_resume,
                                  note=note, gap_s=self._gap)
         session.state = decision.state
         if decision.action is ResumeAction.REFUSE:

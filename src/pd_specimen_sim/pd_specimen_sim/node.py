@@ -63,6 +63,7 @@ from pd_common.ros import (
     new_epoch,
     quiet_at_shutdown,
     run_node,
+    seal_parameters,
     spin_until_shutdown,
 )
 from pd_common.specimen import (
@@ -115,6 +116,8 @@ class SpecimenSimNode(Node):
         self.create_subscription(StepCommand, 'step_command',
                                  quiet_at_shutdown(self, self._on_command), STEP_QOS, raw=True)
         self._runs = RunTags()
+        if self.key is not None:
+            seal_parameters(self, 'the simulator', 'restart it', self.receiver.gate.refused)
         self.get_logger().info(f'simulated specimen ready: {len(dof_names)} DOF '
                                f'({", ".join(dof_names)}) on '
                                f'{self.resolve_topic_name("step_command")}')

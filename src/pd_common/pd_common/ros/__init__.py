@@ -31,6 +31,7 @@ from .messages import (
     stamp_from_ns,
     status_message,
 )
+from .parameters import SEALED, seal_parameters
 from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
 from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender, new_epoch
 from .statements import HEARTBEAT_S, Announcer, read_offer, read_status
@@ -44,6 +45,7 @@ __all__ = [
     'MONITOR_QOS',
     'OFFER_REFRESH_S',
     'RESEND_S',
+    'SEALED',
     'STEP_QOS',
     'TEARDOWN_TIMEOUT',
     'Announcer',
@@ -70,6 +72,7 @@ __all__ = [
     'read_status',
     'repeat_emergency_stop',
     'run_node',
+    'seal_parameters',
     'settle_collector',
     'settle_listeners',
     'signed_control',
