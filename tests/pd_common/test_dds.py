@@ -11,7 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from pd_common.dds import DDS_PROFILE_VARIABLES, discovery_profile, use_discovery_profile
+from pd_common.dds import (
+    DDS_PROFILE_VARIABLES,
+    WORKING_DIRECTORY_PROFILE,
+    discovery_profile,
+    use_discovery_profile,
+)
 
 NS = {'dds': 'http://www.eprosima.com'}
 
@@ -39,6 +44,17 @@ def test_the_profile_is_installed_with_the_documented_periods() -> None:
     assert seconds(initial.find('dds:period', NS)) == pytest.approx(0.1)
     # announcements far inside the lease (Fast DDS's 20 s default: nothing sets another)
     assert discovery.find('dds:leaseDuration', NS) is None
+
+
+def test_a_profile_in_the_working_directory_wins(tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    env = {'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp'}
+    assert discovery_profile(env, tmp_path)  # (none there yet)
+    (tmp_path / WORKING_DIRECTORY_PROFILE).write_text('<dds/>')
+    assert discovery_profile(env, tmp_path) == {}
+    monkeypatch.chdir(tmp_path)
+    use_discovery_profile(env)
+    assert env == {'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp'}
 
 
 def test_the_users_profile_or_another_rmw_wins() -> None:

@@ -14,32 +14,39 @@ the rmw's):
 
 Every node applies it before ``rclpy.init`` (:func:`use_discovery_profile`), and ``run_test``
 hands it to every process it starts; a profile file the user selected
-(``FASTDDS_DEFAULT_PROFILES_FILE``) always wins.
+(``FASTDDS_DEFAULT_PROFILES_FILE``, or a ``DEFAULT_FASTDDS_PROFILES.xml`` in the working
+directory, which Fast DDS loads by itself) always wins.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping, MutableMapping
+from pathlib import Path
 
 from .resources import ResourceError, share_file
 
-__all__ = ['DDS_PROFILE_VARIABLES', 'DISCOVERY_PROFILE', 'discovery_profile',
-           'use_discovery_profile']
+__all__ = ['DDS_PROFILE_VARIABLES', 'DISCOVERY_PROFILE', 'WORKING_DIRECTORY_PROFILE',
+           'discovery_profile', 'use_discovery_profile']
 
 #: The environment variables by which Fast DDS loads a profile file (the user's choice wins).
 DDS_PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES_FILE')
 #: The shipped profile, in ``share/pd_common/config``.
 DISCOVERY_PROFILE = 'fastdds_discovery.xml'
+#: The profile file Fast DDS also loads from the working directory (the user's too).
+WORKING_DIRECTORY_PROFILE = 'DEFAULT_FASTDDS_PROFILES.xml'
 
 
-def discovery_profile(env: Mapping[str, str]) -> dict[str, str]:
+def discovery_profile(env: Mapping[str, str], cwd: Path | None = None) -> dict[str, str]:
     """The variables that give a process with environment ``env`` the shipped profile.
 
-    ``{}`` when ``env`` selects a profile file already, the rmw is not Fast DDS, or the profile
-    is not installed.
+    ``{}`` when ``env`` selects a profile file already, the working directory (``cwd``,
+    default the process's) holds Fast DDS's ``DEFAULT_FASTDDS_PROFILES.xml``, the rmw is not
+    Fast DDS, or the profile is not installed.
     """
     if any(env.get(name) for name in DDS_PROFILE_VARIABLES):
+        return {}
+    if ((cwd or Path.cwd()) / WORKING_DIRECTORY_PROFILE).exists():
         return {}
     if not env.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp').startswith('rmw_fastrtps'):
         return {}
