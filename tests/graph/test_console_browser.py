@@ -107,16 +107,6 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     url = console_said(r'serving (http://127\.0\.0\.1:\d+/)')
     token = console_said(r'login token \(one use\): (\S+)')
     assert console.poll() is None
-    # With a key the console is sealed like every node: nobody re-points it (its port, its
-    # key) through set_parameters.
-    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
-
-    setting = SetParameters.Request(parameters=[Parameter(name='key_file', value=ParameterValue(
-        type=ParameterType.PARAMETER_STRING, string_value=str(tmp_path / 'rogue.key')))])
-    results = call_service(observer, SetParameters, '/pd/pd_console/set_parameters',
-                           setting).results
-    assert results and not results[0].successful and 'sealed' in results[0].reason, results
 
     def spin() -> None:
         observer.executor_for_test.spin_once(timeout_sec=0.05)
@@ -182,6 +172,16 @@ def test_the_console_shows_and_steers_a_running_test_in_a_browser(
     browser.find_element(By.ID, 'estop').click()
     spin_until(observer, lambda: state() == TestStatus.STATE_HOLDING, 15.0,
                'HOLDING after the emergency stop')
+    # (held, it waits:) with a key the console is sealed like every node: nobody re-points
+    # it (its port, its key) through set_parameters.
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    setting = SetParameters.Request(parameters=[Parameter(name='key_file', value=ParameterValue(
+        type=ParameterType.PARAMETER_STRING, string_value=str(tmp_path / 'rogue.key')))])
+    results = call_service(observer, SetParameters, '/pd/pd_console/set_parameters',
+                           setting).results
+    assert results and not results[0].successful and 'sealed' in results[0].reason, results
 
     # -- a cancelled confirmation sends nothing; then abort ends the test ------------------
     browser.find_element(By.ID, 'btn-abort').click()

@@ -55,6 +55,8 @@ def test_a_profile_in_the_working_directory_wins(tmp_path: Path,
     monkeypatch.chdir(tmp_path)
     use_discovery_profile(env)
     assert env == {'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp'}
+    # (one Fast DDS is told to skip is no profile of the user's)
+    assert discovery_profile({**env, 'SKIP_DEFAULT_XML_FILE': '1'}, tmp_path)
 
 
 def test_the_users_profile_or_another_rmw_wins() -> None:

@@ -35,6 +35,7 @@ import json
 import os
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,7 @@ from pd_common.ros import (
     TEARDOWN_TIMEOUT,
     init_with_stop_flag,
     run_node,
+    seal_parameters,
 )
 from pd_common.signals import StopFlag
 from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback
@@ -172,6 +174,8 @@ class FaultProxyNode(Node):
                                  START_QOS, raw=True)
         self.state = 'running'
         self.starts = 1
+        # (its faults as given at start: nobody on the domain changes them while it runs)
+        seal_parameters(self, 'the fault proxy', 'restart it', Counter())
         self._reported_at = 0.0
         self._restore()
         self.get_logger().info(f'fault proxy {self.front or "/"} -> {self.back}: {self.plan}'

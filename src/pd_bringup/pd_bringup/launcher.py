@@ -29,7 +29,8 @@ it still writes its figures; ``run_test`` exits when the integrator has. DDS dis
 this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is already set; every process gets the
 shipped Fast DDS profile (:mod:`pd_common.dds`: announcements every 100 ms for the first 5 s,
 so processes started together meet at once, then every 250 ms, so a tool started later finds
-them in a fraction of a second) unless ``FASTDDS_DEFAULT_PROFILES_FILE`` selects one already.
+them in a fraction of a second) unless the user selected one already
+(``FASTDDS_DEFAULT_PROFILES_FILE``, a ``DEFAULT_FASTDDS_PROFILES.xml`` in the working directory).
 """
 
 from __future__ import annotations

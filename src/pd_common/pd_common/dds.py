@@ -41,12 +41,14 @@ def discovery_profile(env: Mapping[str, str], cwd: Path | None = None) -> dict[s
     """The variables that give a process with environment ``env`` the shipped profile.
 
     ``{}`` when ``env`` selects a profile file already, the working directory (``cwd``,
-    default the process's) holds Fast DDS's ``DEFAULT_FASTDDS_PROFILES.xml``, the rmw is not
-    Fast DDS, or the profile is not installed.
+    default the process's) holds Fast DDS's ``DEFAULT_FASTDDS_PROFILES.xml`` (which Fast DDS
+    loads unless ``SKIP_DEFAULT_XML_FILE=1``), the rmw is not Fast DDS, or the profile is not
+    installed.
     """
     if any(env.get(name) for name in DDS_PROFILE_VARIABLES):
         return {}
-    if ((cwd or Path.cwd()) / WORKING_DIRECTORY_PROFILE).exists():
+    if (env.get('SKIP_DEFAULT_XML_FILE') != '1'
+            and ((cwd or Path.cwd()) / WORKING_DIRECTORY_PROFILE).is_file()):
         return {}
     if not env.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp').startswith('rmw_fastrtps'):
         return {}

@@ -4,12 +4,15 @@ Anyone on the ROS domain can call a node's ``set_parameters`` service, and DDS c
 did (no DDS-Security here). A node that authenticates its commands must not let that service
 change what it does: the bridge's limits and driver, the integrator's resume policy
 (``hold_on_resume``: a restarted integrator of a physical test waits for a person's signed
-resume), the simulator's specimen. So every change after start is refused, counted and
-logged; to change a parameter, the owner restarts the node.
+resume), the simulator's specimen. So every change after start is refused and counted (the
+bridge's and the integrator's counts are in their statuses and the run's summary), and logged
+without flooding the log; to change a parameter, the owner restarts the node.
 """
 
 from __future__ import annotations
 
+import math
+import time
 from collections import Counter
 from typing import Any
 
@@ -17,17 +20,23 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-__all__ = ['SEALED', 'seal_parameters']
+__all__ = ['LOG_EVERY_S', 'SEALED', 'seal_parameters']
 
 #: The refusal's reason, as counted and reported.
 SEALED = 'sealed'
 
 
+#: Seconds between two log lines about refused calls after the first (a rogue's flood of
+#: calls is counted, not logged one by one).
+LOG_EVERY_S = 10.0
+
+
 def seal_parameters(node: Node, who: str, instead: str, refused: Counter[str]) -> None:
     """Refuse every later ``set_parameters`` on ``node``.
 
-    Each refused call is counted in ``refused[SEALED]`` and logged in one line. Call it once
-    the node has declared its parameters: rclpy runs the callback on later declarations too.
+    Each refused call is counted in ``refused[SEALED]``; the first is logged in one line, later
+    ones at most every :data:`LOG_EVERY_S` seconds with the count so far. Call it once the node
+    has declared its parameters: rclpy runs the callback on later declarations too.
 
     Args:
         node: the node to seal.
@@ -36,11 +45,17 @@ def seal_parameters(node: Node, who: str, instead: str, refused: Counter[str]) -
             parameter file'``).
         refused: the node's refusal counts (by reason).
     """
+    logged_at = [-math.inf]
+
     def sealed(parameters: list[Parameter[Any]]) -> SetParametersResult:
-        names = ', '.join(parameter.name for parameter in parameters)
-        node.get_logger().warning(f'refused set_parameters ({names}): {who} is sealed (a key '
-                                  f'is in use); {instead}')
         refused[SEALED] += 1
+        now = time.monotonic()
+        if now - logged_at[0] >= LOG_EVERY_S:
+            logged_at[0] = now
+            names = ', '.join(parameter.name for parameter in parameters)
+            node.get_logger().warning(
+                f'refused set_parameters ({names}): {who} is sealed (a key is in use); '
+                f'{instead} ({refused[SEALED]} refused so far)')
         return SetParametersResult(successful=False, reason=(
             f'{SEALED}: the parameters of {who} are fixed at start while a key is in use; '
             f'{instead}'))
