@@ -175,7 +175,8 @@ class FaultProxyNode(Node):
         self.state = 'running'
         self.starts = 1
         # (its faults as given at start: nobody on the domain changes them while it runs)
-        seal_parameters(self, 'the fault proxy', 'restart it', Counter())
+        seal_parameters(self, 'the fault proxy', 'restart it', Counter(),
+                        because='its fault plan is fixed')
         self._reported_at = 0.0
         self._restore()
         self.get_logger().info(f'fault proxy {self.front or "/"} -> {self.back}: {self.plan}'

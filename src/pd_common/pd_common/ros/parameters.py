@@ -24,14 +24,13 @@ __all__ = ['LOG_EVERY_S', 'SEALED', 'seal_parameters']
 
 #: The refusal's reason, as counted and reported.
 SEALED = 'sealed'
-
-
 #: Seconds between two log lines about refused calls after the first (a rogue's flood of
 #: calls is counted, not logged one by one).
 LOG_EVERY_S = 10.0
 
 
-def seal_parameters(node: Node, who: str, instead: str, refused: Counter[str]) -> None:
+def seal_parameters(node: Node, who: str, instead: str, refused: Counter[str], *,
+                    because: str = 'a key is in use') -> None:
     """Refuse every later ``set_parameters`` on ``node``.
 
     Each refused call is counted in ``refused[SEALED]``; the first is logged in one line, later
@@ -44,20 +43,21 @@ def seal_parameters(node: Node, who: str, instead: str, refused: Counter[str]) -
         instead: what its owner does to change a parameter (e.g. ``'restart it with a new
             parameter file'``).
         refused: the node's refusal counts (by reason).
+        because: why it is sealed, for the log line and the reason.
     """
-    logged_at = [-math.inf]
+    logged_at = -math.inf
 
     def sealed(parameters: list[Parameter[Any]]) -> SetParametersResult:
+        nonlocal logged_at
         refused[SEALED] += 1
         now = time.monotonic()
-        if now - logged_at[0] >= LOG_EVERY_S:
-            logged_at[0] = now
+        if now - logged_at >= LOG_EVERY_S:
+            logged_at = now
             names = ', '.join(parameter.name for parameter in parameters)
             node.get_logger().warning(
-                f'refused set_parameters ({names}): {who} is sealed (a key is in use); '
+                f'refused set_parameters ({names}): {who} is sealed ({because}); '
                 f'{instead} ({refused[SEALED]} refused so far)')
         return SetParametersResult(successful=False, reason=(
-            f'{SEALED}: the parameters of {who} are fixed at start while a key is in use; '
-            f'{instead}'))
+            f'{SEALED}: the parameters of {who} are fixed at start ({because}); {instead}'))
 
     node.add_on_set_parameters_callback(sealed)
