@@ -24,6 +24,7 @@ from pd_common.auth import (
     ReplyGate,
     Signer,
     StatusGate,
+    WatchGate,
     WirePayload,
     canonical,
     command_payload,
@@ -333,6 +334,49 @@ def test_replies_must_be_for_the_senders_session_with_increasing_sequence() -> N
     forged = covered_with(nxt, dataclasses.replace(FEEDBACK, restoring_force=(0.0, 0.0)))
     assert gate.admit(feedback_payload(forged), nxt.signature) is Refusal.FORGED
     assert admit_reply(nxt) is None
+
+
+def test_an_observer_shows_only_the_hops_messages_in_the_receivers_session() -> None:
+    """The console's gate: a forged, unsigned, foreign or replayed step message is not shown.
+
+    Commands and their replies are admitted in the session the receiver's genuine offer names,
+    each kind's sequence increasing; a new session (a restarted integrator) starts afresh.
+    """
+    key = new_key()
+    integrator, rogue = Signer(key), Signer(key)
+    gate = WatchGate(key)
+
+    def watch(sent: Decoded[Any]) -> Refusal | None:
+        payload = (command_payload if isinstance(sent.record, Command) else feedback_payload)
+        return gate.admit(payload(sent.covered), sent.signature)
+
+    command = sent_command(integrator)
+    assert watch(command) is Refusal.NO_SESSION           # no offer heard yet
+    gate.follow(integrator.session)
+    reply = sent_reply(key, command.signature)
+    assert watch(command) is None and watch(reply) is None  # a command, then its reply
+    assert watch(command) is Refusal.REPLAYED and watch(reply) is Refusal.REPLAYED
+    assert watch(sent_command(rogue)) is Refusal.FOREIGN_SESSION
+    assert watch(sent_command(Signer(new_key()))) is Refusal.WRONG_KEY
+    assert gate.admit(command_payload(command.covered), Signature()) is Refusal.UNSIGNED
+    nxt = sent_command(integrator)
+    assert gate.admit(command_payload(covered_with(nxt, dataclasses.replace(COMMAND, step=9))),
+                      nxt.signature) is Refusal.FORGED
+    forged = sent_reply(key, nxt.signature)
+    assert gate.admit(feedback_payload(covered_with(forged, dataclasses.replace(
+        FEEDBACK, restoring_force=(0.0, 0.0)))), forged.signature) is Refusal.FORGED
+    assert watch(nxt) is None and watch(sent_reply(key, nxt.signature)) is None
+    # The receiver obeys a new session: the old one's messages are foreign, the new one's shown.
+    restarted = Signer(key)
+    gate.follow(restarted.session)
+    assert watch(sent_command(integrator)) is Refusal.FOREIGN_SESSION
+    assert watch(sent_command(restarted)) is None
+    gate.follow('')                                        # none obeyed: nothing shown
+    assert watch(sent_command(restarted)) is Refusal.NO_SESSION
+    assert gate.refused == {'no_session': 2, 'replayed': 2, 'foreign_session': 2,
+                            'wrong_key': 1, 'unsigned': 1, 'forged': 2}
+    open_gate = WatchGate(None)                            # authentication off: all shown
+    assert open_gate.admit(command_payload(command.covered), Signature()) is None
 
 
 def test_without_a_key_every_gate_admits_everything() -> None:

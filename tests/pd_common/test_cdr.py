@@ -134,7 +134,7 @@ STATUSES = st.builds(Status, test_id=NAME, state=st.sampled_from(State), step=UI
                      ignored_messages=UINT32, message=LONG_TEXT, refused_messages=UINT32,
                      refused_by_reason=LONG_TEXT, node=NAME, session=NAME,
                      emergency_stop=st.booleans(), operator_hold=st.booleans(),
-                     acknowledged=LONG_TEXT)
+                     acknowledged=LONG_TEXT, definition_digest=NAME)
 OFFERS = st.builds(Offer, stamp_ns=STAMP, node=NAME, challenge=NAME, active_session=NAME,
                    authenticated=st.booleans(), epoch=NAME, state_origin=UINT8,
                    restored=st.tuples(NAME, UINT64, UINT32), position=FLOATS, force=FLOATS,

@@ -263,7 +263,7 @@ def test_no_record_reaches_the_file_before_a_flush(tmp_path: Path) -> None:
     journal = Journal(path).open()
     try:
         journal.write_definition('{}', 1)
-        assert path.read_bytes() == b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 2, 0)
+        assert path.read_bytes() == b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 3, 0)
         journal.flush()
         assert kinds(path) == ['def']
         journal.write_event('x', 2)
@@ -716,8 +716,10 @@ def test_a_damaged_record_before_the_end_is_an_error_naming_it(tmp_path: Path, h
     (b'{"k":"journal","version":1}\n',
      'not a journal of this version (a JSON-lines journal of an earlier version)'),
     (b'PK\x03\x04' + bytes(40), 'not a journal of this version (no journal header)'),
-    (b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 3, 0),
-     'journal format version 3; this version reads 2'),
+    (b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 4, 0),
+     'journal format version 4; this version reads 3'),
+    (b'\x89PDJ\r\n\x1a\n' + struct.pack('<II', 2, 0),  # (statuses without their digest)
+     'journal format version 2; this version reads 3'),
 ])
 def test_a_file_that_is_no_journal_of_this_version_is_one_line(tmp_path: Path, content: bytes,
                                                                reason: str) -> None:

@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 from pd_common.protocol import FeedbackStatus, decode_command, decode_feedback, decode_status
 
 MAGIC = b'\x89PDJ\r\n\x1a\n'
-HEADER = MAGIC + struct.pack('<II', 2, 0)
+HEADER = MAGIC + struct.pack('<II', 3, 0)
 KIND_NAMES = {1: 'def', 2: 'cmd', 3: 'fb', 4: 'st', 5: 'raw', 6: 'ev'}
 _DECODE = {'cmd': decode_command, 'fb': decode_feedback, 'st': decode_status}
 

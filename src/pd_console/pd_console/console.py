@@ -45,14 +45,27 @@ import rclpy
 from aiohttp import WSMsgType, web
 from aiohttp.typedefs import Handler
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import String
 
-from pd_common.auth import AuthError, Key, load_key, operator_key_path
+from pd_common.auth import (
+    AuthError,
+    Key,
+    Refusal,
+    StatusGate,
+    WatchGate,
+    WirePayload,
+    command_payload,
+    feedback_payload,
+    load_key,
+    operator_key_path,
+)
 from pd_common.config import SchemaError, default_bridge_parameter_file, read_bridge_parameter_file
 from pd_common.protocol import (
     GLOBAL_EMERGENCY_STOP,
+    Signature,
     Status,
     decode_command,
     decode_feedback,
@@ -67,14 +80,16 @@ from pd_common.ros import (
     RESEND_S,
     STEP_QOS,
     ControlSender,
+    RefusalLog,
     events_executor,
     init_with_stop_flag,
+    read_offer,
     repeat_emergency_stop,
     seal_parameters,
 )
 from pd_common.signals import StopFlag
 from pd_core.errors import BagError
-from pd_msgs.msg import StepCommand, StepFeedback
+from pd_msgs.msg import SessionOffer, StepCommand, StepFeedback
 
 from .core import (
     BRIDGE_LIMITS,
@@ -83,6 +98,7 @@ from .core import (
     ConsoleAccess,
     ConsoleModel,
     ControlRequest,
+    DefinitionWitness,
     gauges_message,
     gauges_topic,
     load_run_folder,
@@ -91,6 +107,10 @@ from .core import (
     response_topic,
 )
 from .core.access import WILDCARD_HOSTS, served_address
+
+#: Why a genuine step message may go unshown for a moment (a session the receiver's offer has
+#: not named yet, or one it has left): not worth a line.
+SESSION_CHANGES = frozenset({Refusal.NO_SESSION, Refusal.FOREIGN_SESSION})
 
 #: Seconds the console waits for a control's receiver and its acknowledgement.
 CONTROL_WAIT_S = 3.0
@@ -183,8 +203,9 @@ class ConsoleNode(Node):
     """
 
     def __init__(self, model: ConsoleModel, lock: threading.Lock,
-                 overrides: dict[str, Any] | None = None) -> None:
-        super().__init__('pd_console', namespace='/pd')
+                 overrides: dict[str, Any] | None = None, *,
+                 context: Context | None = None) -> None:
+        super().__init__('pd_console', namespace='/pd', context=context)
         overrides = overrides or {}
 
         def declare(name: str, default: Any, description: str) -> Any:
@@ -228,6 +249,12 @@ class ConsoleNode(Node):
         self.controls = ControlSender(self, self.key, 'console')
         self._sites: set[str] = set()
         self._estop = self.create_publisher(String, GLOBAL_EMERGENCY_STOP, CONTROL_DEPTH)
+        # The definition only as the integrator's signed status names it, the step messages
+        # only as their two ends signed them in the receiver's session (with a key).
+        self.witness = DefinitionWitness(authenticated=self.key is not None)
+        self._offer_gate = StatusGate(self.key)
+        self._watch_gates: dict[str, WatchGate] = {}
+        self._refusal_log = RefusalLog(LOG.warning, self.key, 'step message (not shown)')
         self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
         self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
         self._watch_site('')
@@ -239,18 +266,40 @@ class ConsoleNode(Node):
         if site in self._sites:
             return
         self._sites.add(site)
+        gate = self._watch_gates[site] = WatchGate(self.key)
+        offer_topic = site_topic_name(site, 'session/offer')
 
+        def on_offer(message: Any) -> None:
+            offer, _ = read_offer(self._offer_gate, offer_topic, message)
+            if offer is not None:
+                gate.follow(offer.active_session)
+
+        def admitted(payload: WirePayload, signature: Signature, topic: str) -> bool:
+            reason = gate.admit(payload, signature)
+            if reason is not None and reason not in SESSION_CHANGES:
+                self._refusal_log(reason, signature, topic)
+            return reason is None
+
+        command_topic = site_topic_name(site, 'step_command')
+        feedback_topic = site_topic_name(site, 'step_feedback')
+
+        # (a malformed, forged or replayed one is the receiver's to refuse, never shown)
         def on_command(data: bytes) -> None:
             signed = signed_from_bytes(decode_command, data)
-            if signed is not None:  # (a malformed one is the receivers' to refuse)
+            if signed is not None and admitted(command_payload(signed.covered),
+                                               signed.signature, command_topic):
                 with self.lock:
                     self.model.on_command(site, signed.record)
 
         def on_feedback(data: bytes) -> None:
             signed = signed_from_bytes(decode_feedback, data)
-            if signed is not None:
+            if signed is not None and admitted(feedback_payload(signed.covered),
+                                               signed.signature, feedback_topic):
                 with self.lock:
                     self.model.on_feedback(site, signed.record)
+
+        self.create_subscription(SessionOffer, site_topic(site, 'session/offer'), on_offer,
+                                 LATCHED_QOS)
 
         def on_bridge(status: Status) -> None:
             with self.lock:
@@ -266,13 +315,26 @@ class ConsoleNode(Node):
     def _on_status(self, status: Status) -> None:
         with self.lock:
             self.model.on_status(status)
+        self._show_definition(self.witness.named(status.definition_digest))
 
     def _on_definition(self, message: Any) -> None:
+        self._show_definition(self.witness.heard(str(message.data)))
+
+    def _show_definition(self, text: str | None) -> None:
+        if text is None:
+            return
         with self.lock:
-            self.model.on_definition(str(message.data))
+            self.model.on_definition(text)
             sites = list(self.model.sites)
         for site in sites:
             self._watch_site(site)
+
+    def refused(self) -> dict[str, dict[str, int]]:
+        """What the console would not show, by source and reason (offers, step messages)."""
+        counts = {f'step[{site or "default"}]': dict(gate.refused)
+                  for site, gate in self._watch_gates.items()}
+        counts['session_offer'] = dict(self._offer_gate.refused)
+        return {source: count for source, count in counts.items() if count}
 
     # -- controls (the web server's thread) ------------------------------------------------
     def sites(self) -> tuple[str, ...]:

@@ -60,6 +60,7 @@ from pd_common.protocol import (
     clip_reason,
     control_from_message,
     decode_feedback,
+    definition_digest,
     signature_from_message,
     signed_from_bytes,
     signed_from_message,
@@ -316,6 +317,8 @@ class IntegratorNode(Node):
                                  self._guard(self._on_emergency_stop), CONTROL_DEPTH)
 
         text = definition.to_json()
+        #: What every status names: a reader believes the definition published with this digest.
+        self._definition_digest = definition_digest(text)
         if self.record is None:
             (self.directory / DEFINITION_JSON).write_text(text, encoding='utf-8')
             self.bag.write_definition(text, time.time_ns())
@@ -398,7 +401,8 @@ class IntegratorNode(Node):
                                    refused_by_reason=describe_refusals(refused),
                                    emergency_stop=holds.emergency is not None,
                                    operator_hold=holds.operator is not None,
-                                   acknowledged=self._acknowledged.text)
+                                   acknowledged=self._acknowledged.text,
+                                   definition_digest=self._definition_digest)
 
     def publish_status(self) -> None:
         """Publish (signed) and record the session's status."""

@@ -18,6 +18,7 @@ from .gates import (
     ControlGate,
     ReplyGate,
     StatusGate,
+    WatchGate,
     describe_refusals,
     merge_refusals,
 )
@@ -68,6 +69,7 @@ __all__ = [
     'ReplyGate',
     'Signer',
     'StatusGate',
+    'WatchGate',
     'WirePayload',
     'canonical',
     'command_payload',

@@ -15,6 +15,11 @@
   process, publication time across processes), so a recorded status or offer cannot be
   replayed as the node's word.
 
+* :class:`WatchGate` — an observer of a hop's step messages (the console): it obeys
+  nothing, but shows only what the two ends signed in the session the receiver's genuine
+  offer names as active, each kind's sequence increasing, so a forged or replayed command or
+  feedback never reaches a person's screen as the test's.
+
 Each gate counts what it refused, by :class:`~.signing.Refusal`. A gate without a key admits
 everything (authentication off: a test on an isolated machine that asked for it).
 """
@@ -32,7 +37,7 @@ from .payloads import control_payload
 from .signing import Refusal, WirePayload, new_session, verify_mac
 
 __all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate', 'StatusGate',
-           'describe_refusals', 'merge_refusals']
+           'WatchGate', 'describe_refusals', 'merge_refusals']
 
 #: Largest difference between a control's stamp and the receiver's clock, s.
 DEFAULT_CONTROL_WINDOW = 30.0
@@ -227,6 +232,44 @@ class StatusGate(_Gate):
                     signature.session != session and stamp_ns < stamp):
                 return self._refuse(Refusal.REPLAYED, signature)
         self._last[source] = (signature.session, signature.sequence, stamp_ns)
+        return None
+
+
+class WatchGate(_Gate):
+    """Admits a hop's step messages for an observer that obeys none of them (see the module).
+
+    :meth:`follow` is given the ``active_session`` of each genuine session offer of the hop's
+    receiver (read through a :class:`StatusGate`); a command or a feedback is admitted when its
+    MAC is good, it is signed in that session (a feedback is signed in its command's session)
+    and its sequence is higher than the last of its kind admitted there.
+    """
+
+    def __init__(self, key: Key | None) -> None:
+        super().__init__(key)
+        self.session: str | None = None
+        self._last: dict[str, int] = {}  # wire kind -> last sequence admitted in the session
+
+    def follow(self, active_session: str) -> None:
+        """The receiver now obeys ``active_session`` ('' = none): the hop's messages follow it."""
+        session = active_session or None
+        if session != self.session:
+            self.session = session
+            self._last.clear()
+
+    def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
+        """``None`` if the message may be shown as the hop's; else why not (counted)."""
+        if self.key is None:
+            return None
+        reason = self._check_mac(payload, signature)
+        if reason is not None:
+            return reason
+        if self.session is None:
+            return self._refuse(Refusal.NO_SESSION, signature)
+        if signature.session != self.session:
+            return self._refuse(Refusal.FOREIGN_SESSION, signature)
+        if signature.sequence <= self._last.get(payload.kind, 0):
+            return self._refuse(Refusal.REPLAYED, signature)
+        self._last[payload.kind] = signature.sequence
         return None
 
 

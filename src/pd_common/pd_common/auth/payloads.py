@@ -51,7 +51,7 @@ def status_payload(status: Status, stamp_ns: int) -> bytes:
         int(status.total_steps), float(status.omega_dt), int(status.retries),
         int(status.ignored_messages), status.message, int(status.refused_messages),
         status.refused_by_reason, status.node, status.session, bool(status.emergency_stop),
-        bool(status.operator_hold), status.acknowledged))
+        bool(status.operator_hold), status.acknowledged, status.definition_digest))
 
 
 def offer_payload(offer: Offer) -> bytes:

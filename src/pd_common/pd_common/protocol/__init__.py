@@ -67,6 +67,7 @@ from .messages import (
     StepKey,
     TestState,
     control_problem,
+    definition_digest,
     dof_label,
 )
 from .signature import MAC_BYTES, Signature
@@ -130,6 +131,7 @@ __all__ = [
     'decode_session_start',
     'decode_signature',
     'decode_status',
+    'definition_digest',
     'dof_label',
     'encode_command',
     'encode_control',

@@ -248,6 +248,7 @@ def encode_status(status: Status, stamp_ns: int, signature: Signature = _UNSIGNE
         buffer.append(1 if status.emergency_stop else 0)
         buffer.append(1 if status.operator_hold else 0)
         _put_string(buffer, status.acknowledged)
+        _put_string(buffer, status.definition_digest)
         _put_signature(buffer, signature)
         return buffer
     return _encoding('TestStatus', build)
@@ -533,6 +534,7 @@ def _parse_status(data: bytes) -> Decoded[Status]:
     emergency_stop = _get_bool(data, pos, 'emergency_stop')
     operator_hold = _get_bool(data, pos + 1, 'operator_hold')
     acknowledged, pos = _get_string(data, pos + 2, 'acknowledged', MAX_TEXT)
+    digest, pos = _get_string(data, pos, 'definition_digest', MAX_NAME)
     signature, signed_end = _get_signature(data, pos)
     step, total_steps, omega_dt, retries, ignored = counts
     status = Status(test_id=test_id, state=state, step=int(step),
@@ -543,7 +545,7 @@ def _parse_status(data: bytes) -> Decoded[Status]:
                     message=message, refused_messages=int(refused),
                     refused_by_reason=refused_by_reason, node=node, session=session,
                     emergency_stop=emergency_stop, operator_hold=operator_hold,
-                    acknowledged=acknowledged)
+                    acknowledged=acknowledged, definition_digest=digest)
     return Decoded(status, stamp_ns, signature, data[:signed_end])
 
 

@@ -97,11 +97,13 @@ def status_from_message(message: Any) -> Status:
                   session=text['session'],
                   emergency_stop=bool(getattr(message, 'emergency_stop', False)),
                   operator_hold=bool(getattr(message, 'operator_hold', False)),
-                  acknowledged=text['acknowledged'])
+                  acknowledged=text['acknowledged'],
+                  definition_digest=text['definition_digest'])
 
 
 _STATUS_TEXT = (('test_id', MAX_NAME), ('message', MAX_TEXT), ('refused_by_reason', MAX_TEXT),
-                ('node', MAX_NAME), ('session', MAX_NAME), ('acknowledged', MAX_TEXT))
+                ('node', MAX_NAME), ('session', MAX_NAME), ('acknowledged', MAX_TEXT),
+                ('definition_digest', MAX_NAME))
 
 
 def stamp_ns_of(message: Any) -> int:

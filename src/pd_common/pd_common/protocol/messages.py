@@ -8,6 +8,7 @@ writes the same bag.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,7 +20,7 @@ from ..types import FloatArray
 
 __all__ = ['Command', 'Control', 'ControlMode', 'Feedback', 'FeedbackStatus', 'Offer',
            'SessionStart', 'StateOrigin', 'Status', 'StepKey', 'TestState', 'control_problem',
-           'dof_label']
+           'definition_digest', 'dof_label']
 
 
 class FeedbackStatus(IntEnum):
@@ -208,6 +209,9 @@ class Status:
         operator_hold: a person paused or held it (only a person's signed resume clears it).
         acknowledged: the last control the node took, ``"<session>:<sequence> <command>:
             <outcome>"``: how its sender knows it arrived and what it did.
+        definition_digest: the SHA-256 (hex) of the test definition the integrator publishes
+            (:func:`~pd_common.protocol.definition_digest`; '' for a bridge): a reader believes
+            a definition on ``test_definition`` only when a genuine status names its digest.
     """
 
     test_id: str
@@ -225,6 +229,12 @@ class Status:
     emergency_stop: bool = False
     operator_hold: bool = False
     acknowledged: str = ''
+    definition_digest: str = ''
+
+
+def definition_digest(text: str) -> str:
+    """The SHA-256 (hex) of a test definition's JSON text, as a status names it."""
+    return hashlib.sha256(text.encode('utf-8')).hexdigest()
 
 
 @dataclass(frozen=True)

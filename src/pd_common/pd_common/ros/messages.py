@@ -126,6 +126,7 @@ def status_message(status: Status, stamp: Time | None = None, signer: Signer | N
     message.emergency_stop = bool(status.emergency_stop)
     message.operator_hold = bool(status.operator_hold)
     message.acknowledged = status.acknowledged
+    message.definition_digest = status.definition_digest
     if signer is not None:
         stamp_ns = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
         fill_signature(message.signature, signer.sign(status_payload(status, stamp_ns)))

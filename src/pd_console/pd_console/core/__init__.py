@@ -33,11 +33,13 @@ from .model import (
 )
 from .run_folder import FIGURE_SUFFIXES, load_run_folder, run_directory
 from .series import DecimatedRows, rounded
+from .witness import DEFINITIONS_KEPT, DefinitionWitness
 
 __all__ = [
     'BRIDGE_CONTROLS',
     'BRIDGE_LIMITS',
     'DEFAULT_MAX_POINTS',
+    'DEFINITIONS_KEPT',
     'FIGURE_SUFFIXES',
     'RESPONSE_FIELDS',
     'SESSION_COOKIE',
@@ -47,6 +49,7 @@ __all__ = [
     'ConsoleModel',
     'ControlRequest',
     'DecimatedRows',
+    'DefinitionWitness',
     'Gauge',
     'SiteView',
     'foxglove_layout',

@@ -55,7 +55,9 @@ __all__ = ['HEADER', 'MAGIC', 'MAX_RECORD_BYTES', 'VERSION', 'Block', 'Frame', '
            'frame', 'iter_blocks', 'iter_frames', 'records_end']
 
 MAGIC = b'\x89PDJ\r\n\x1a\n'
-VERSION = 2
+#: 3: a status's CDR carries ``definition_digest`` (a version-2 journal's statuses have not, so
+#: this version refuses it in one line rather than misread them).
+VERSION = 3
 _HEADER = struct.Struct('<8sII')
 HEADER = _HEADER.pack(MAGIC, VERSION, 0)
 _PREFIX = struct.Struct('<II')     # body length, CRC-32 of the body
