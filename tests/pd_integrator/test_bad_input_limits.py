@@ -61,16 +61,26 @@ def command(program: str) -> list[str]:
     return [sys.executable, '-m', MODULES[program]]
 
 
-def run(program: str, *args: str, cwd: Path, limit_file_size: int | None = None) -> Result:
-    """Run ``program`` in ``cwd``; it must end within ``PROMPT`` seconds (a hang fails)."""
+def run(program: str, *args: str, cwd: Path, limit_file_size: int | None = None,
+        full_disk: Path | None = None) -> Result:
+    """Run ``program`` in ``cwd``; it must end within ``PROMPT`` seconds (a hang fails).
+
+    ``full_disk``: a folder on which the program sees a 4 KiB tmpfs (``unshare``: a mount
+    namespace, and a user namespace when not root, of the program alone).
+    """
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+    wrap: list[str] = []
+    if full_disk is not None:
+        wrap = ['unshare', '--mount', '--propagation', 'private',
+                *([] if os.geteuid() == 0 else ['--map-root-user']), 'sh', '-c',
+                f'mount -t tmpfs -o size=4k pd-full-disk {full_disk} && exec "$@"', 'sh']
 
     def limits() -> None:  # a full disk, for files past the size: writes fail with EFBIG
         if limit_file_size is not None:
             resource.setrlimit(resource.RLIMIT_FSIZE, (limit_file_size, limit_file_size))
 
     start = time.monotonic()
-    completed = subprocess.run([*command(program), *args], cwd=cwd, env=env, text=True,
+    completed = subprocess.run([*wrap, *command(program), *args], cwd=cwd, env=env, text=True,
                                capture_output=True, stdin=subprocess.DEVNULL,
                                timeout=PROMPT + 20.0, preexec_fn=limits, check=False)
     seconds = time.monotonic() - start
@@ -356,10 +366,12 @@ def test_run_test_into_a_folder_that_cannot_be_made_says_so_before_anything(
 
 
 def test_offline_on_a_full_disk_is_one_line(tmp_path: Path) -> None:
-    out = tmp_path / 'out'
-    out.mkdir()
-    (out / 'test_definition.json').symlink_to('/dev/full')  # writes fail: ENOSPC
-    result = run('offline', '--out', str(out), '--quiet', cwd=tmp_path)
+    # A real full file system: a 4 KiB tmpfs in a mount namespace of the run's own (the run
+    # folder is made, its first file, the test definition, does not fit: ENOSPC).
+    disk = tmp_path / 'disk'
+    disk.mkdir()
+    out = disk / 'out'
+    result = run('offline', '--out', str(out), '--quiet', cwd=tmp_path, full_disk=disk)
     refused(result, 'offline', rf'{out}: cannot write \(No space left on device\)$', code=1)
 
 

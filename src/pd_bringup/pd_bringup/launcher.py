@@ -55,12 +55,12 @@ from pd_common.ros import events_executor, exit_process
 from pd_common.signals import StopFlag, restore_handlers, stop_on_signals
 from pd_common.specimen import SpecimenError, SpecimenServer, load_site_server
 from pd_common.units import format_quantity
-from pd_core.errors import PdIntegratorError
+from pd_core.errors import ConfigError, PdIntegratorError
 from pd_core.run.definition import TestDefinition
 from pd_core.run.loop.session import TestSession
 from pd_core.run.record.journal import JOURNAL_FILE
 from pd_core.run.resume import load_resumable
-from pd_core.run.runner import BAG_DIRECTORY, default_run_directory
+from pd_core.run.runner import BAG_DIRECTORY, check_new_run_folder, default_run_directory
 from pd_core.run.test_file import (
     PARAMETER_PATHS,
     RUN_PARAMETERS,
@@ -172,19 +172,23 @@ def resolve_key(args: argparse.Namespace, rig: RigSettings, test_id: str) -> Pat
 
 
 def check_run_folder(out: Path) -> None:
-    """Refuse a folder that holds a run already (before any process starts).
+    """Refuse a folder that holds a run already, or anything else (before any process starts).
 
     Raises:
-        LaunchError: it holds a journal, a bag, a launch plan or a specimen state file.
+        LaunchError: it holds a journal, a bag, a launch plan or a specimen state file (the
+            resume hint), or other files, or it is a file.
     """
-    if not out.is_dir():
-        return
     held = [name for name in (JOURNAL_FILE, BAG_DIRECTORY, LAUNCH_FILE) if (out / name).exists()]
-    held += sorted(path.name for path in out.glob('specimen*.state.jsonl'))
+    held += sorted(path.name for path in out.glob('specimen*.state.jsonl')) if out.is_dir() else []
     if held:
         msg = (f'--out {out}: already holds a run ({", ".join(held)}); choose a new folder, '
                f'or continue it: ./pd run --resume {out}')
         raise LaunchError(msg)
+    try:
+        check_new_run_folder(out)
+    except ConfigError as err:
+        msg = f'--out {err}'
+        raise LaunchError(msg) from None
 
 
 def check_specimens(plan: LaunchPlan, test_file: Path | TestFile

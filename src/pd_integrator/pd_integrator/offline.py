@@ -14,7 +14,7 @@ from pathlib import Path
 from pd_core.errors import PdIntegratorError
 from pd_core.run.bridge_limits import limits_report, site_limits
 from pd_core.run.record.journal import JOURNAL_FILE, RecordWriteError
-from pd_core.run.runner import default_run_directory, run_offline
+from pd_core.run.runner import check_new_run_folder, default_run_directory, run_offline
 from pd_core.run.test_file import default_test_file, load_test_file, parse_overrides
 
 
@@ -64,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         if report := definition.modal_report():
             print(report)
         out = Path(args.out) if args.out else default_run_directory('runs', definition.test_id)
+        check_new_run_folder(out)
         limits = site_limits(definition, args.bridge)
         if args.past_limits:
             print("offline: warning: --past-limits: the bridges' limits are checked, not "

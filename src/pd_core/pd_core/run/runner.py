@@ -105,6 +105,33 @@ def default_run_directory(root: str | Path, test_id: str) -> Path:
     return Path(root) / f'{test_id}-{stamp}'
 
 
+def check_new_run_folder(directory: str | Path) -> None:
+    """Refuse an output folder that exists and is not an empty folder (before anything runs).
+
+    A run writes its outputs (``summary.json``, ``response.csv``, figures, ...) into its
+    folder; in a folder holding other files they would be mixed in, or replace files of the
+    same names.
+
+    Raises:
+        ConfigError: it holds a run (the resume hint), or it is a file, or a folder with
+            something in it.
+    """
+    directory = Path(directory)
+    if not directory.exists():
+        return
+    _refuse_a_run(directory)
+    if not directory.is_dir():
+        msg = f'{directory}: not a folder; a run goes to a new or empty folder'
+        raise ConfigError(msg)
+    entries = sorted(entry.name for entry in directory.iterdir())
+    if entries:
+        shown = ', '.join(entries[:3]) + (', ...' if len(entries) > 3 else '')
+        count = f'{len(entries)} entr{"y" if len(entries) == 1 else "ies"}'
+        msg = (f'{directory}: not empty ({count}: {shown}); a run goes to a '
+               'new or empty folder (default: runs/<test_id>-<UTC time>)')
+        raise ConfigError(msg)
+
+
 def prepare_run_directory(directory: str | Path) -> Path:
     """Create the run folder; refuse one that already holds a bag (nothing is overwritten).
 
@@ -112,13 +139,17 @@ def prepare_run_directory(directory: str | Path) -> Path:
         ConfigError: the folder already holds a run.
     """
     directory = Path(directory)
+    _refuse_a_run(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    return directory
+
+
+def _refuse_a_run(directory: Path) -> None:
     for held in (BAG_DIRECTORY, JOURNAL_FILE):
         if (directory / held).exists():
             msg = (f'{directory}: already holds a run ({held}); choose a new output folder '
                    '(or resume it: ./pd run --resume)')
             raise ConfigError(msg)
-    directory.mkdir(parents=True, exist_ok=True)
-    return directory
 
 
 def finish_outputs(session: TestSession, directory: Path, *, wall_time: float,
