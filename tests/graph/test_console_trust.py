@@ -50,7 +50,7 @@ def test_the_console_shows_only_what_the_tests_nodes_signed(
     from pd_common.ros import LATCHED_QOS, STEP_QOS
     from pd_common.ros.messages import offer_message, status_message
     from pd_console.console import ConsoleNode
-    from pd_console.core import ConsoleModel
+    from pd_console.core import DEFINITIONS_KEPT, ConsoleModel
     from pd_msgs.msg import SessionOffer, StepCommand, StepFeedback, TestStatus
 
     key = load_key(key_file)
@@ -61,36 +61,48 @@ def test_the_console_shows_only_what_the_tests_nodes_signed(
     observer.executor_for_test.add_node(console)
     try:
         definition = observer.create_publisher(String, '/pd/test_definition', LATCHED_QOS)
+        rogue_definition = observer.create_publisher(String, '/pd/test_definition',
+                                                     LATCHED_QOS)
         status = observer.create_publisher(TestStatus, '/pd/test_status', LATCHED_QOS)
         offer = observer.create_publisher(SessionOffer, '/pd/session/offer', LATCHED_QOS)
         commands = observer.create_publisher(StepCommand, '/pd/step_command', STEP_QOS)
         feedback = observer.create_publisher(StepFeedback, '/pd/step_feedback', STEP_QOS)
         spin_until(observer, lambda: all(p.get_subscription_count() > 0 for p in (
-            definition, status, offer, commands, feedback)), 20.0, 'the console to listen')
+            definition, rogue_definition, status, offer, commands, feedback)), 20.0,
+            'the console to listen')
 
         def settle(seconds: float = 0.4) -> None:
             end = time.monotonic() + seconds
             while time.monotonic() < end:
                 observer.executor_for_test.spin_once(timeout_sec=0.02)
 
-        # -- the definition: a forgery first, shown never -----------------------------------
-        definition.publish(String(data=FORGED))
-        settle()
-        assert not model.definition
+        # -- the definition: the genuine one, then a flood of forgeries before any status ----
+        definition.publish(String(data=GENUINE))          # (latched: once, as the integrator)
+        settle(0.2)
+        flood = [json.dumps({'sites': {f'rogue{n}': {}}}) for n in range(DEFINITIONS_KEPT + 2)]
+        for text in (FORGED, *flood, FORGED):  # more than it keeps: the genuine one goes
+            rogue_definition.publish(String(data=text))
+            settle(0.1)  # (each taken: the topic keeps one sample)
+        assert not model.definition, 'a definition no signed status names'
         integrator = Signer(key)
-        status.publish(status_message(Status(
-            test_id='trust', state=TestState.RUNNING, step=1, total_steps=10, omega_dt=0.1,
-            node='/pd/pd_integrator', session=integrator.session,
-            definition_digest=definition_digest(GENUINE)), signer=Signer(key)))
-        settle()
-        assert not model.definition, 'a definition the signed status does not name'
-        definition.publish(String(data=GENUINE))
-        spin_until(observer, lambda: model.definition == json.loads(GENUINE), 10.0,
-                   'the genuine definition to show')
-        definition.publish(String(data=FORGED))
+        announcer = Signer(key)
+
+        def genuine_status() -> None:  # (the integrator's heartbeat)
+            status.publish(status_message(Status(
+                test_id='trust', state=TestState.RUNNING, step=1, total_steps=10,
+                omega_dt=0.1, node='/pd/pd_integrator', session=announcer.session,
+                definition_digest=definition_digest(GENUINE)), signer=announcer))
+
+        deadline = time.monotonic() + 15.0
+        while model.definition != json.loads(GENUINE):  # read again, the genuine one shows
+            assert time.monotonic() < deadline, 'the genuine definition never showed'
+            genuine_status()
+            settle(0.5)
+        rogue_definition.publish(String(data=FORGED))
         settle()
         assert model.definition == json.loads(GENUINE)
         assert model.sites[''].limits['max_stroke'] == 0.05
+        assert not any(site.startswith('rogue') for site in model.sites)
 
         # -- the step messages: only the hop's, in the receiver's session --------------------
         view = model.site('')
@@ -121,8 +133,9 @@ def test_the_console_shows_only_what_the_tests_nodes_signed(
         spin_until(observer, lambda: console._watch_gates[''].session == integrator.session,
                    10.0, 'the console to follow the offered session')
         genuine, signature = command(integrator, 2)
+        answer = reply(signature, 2, 1500.0)
         commands.publish(genuine)
-        feedback.publish(reply(signature, 2, 1500.0))
+        feedback.publish(answer)
         spin_until(observer, lambda: view.commands == 1 and view.feedback_ok == 1, 10.0,
                    'the genuine command and its feedback to show')
         commands.publish(genuine)                                        # replayed
@@ -131,7 +144,7 @@ def test_the_console_shows_only_what_the_tests_nodes_signed(
         commands.publish(bytes(forged))
         commands.publish(command(integrator, 4, sign_key=rogue_key)[0])  # another key
         commands.publish(command(Signer(key), 5)[0])                     # another session
-        feedback.publish(reply(signature, 2, -9e9))                      # a replayed answer
+        feedback.publish(answer)                                         # a replayed answer
         settle()
         assert (view.commands, view.resends, view.feedback_ok) == (1, 0, 1)
         refused = console.refused()['step[default]']

@@ -187,6 +187,42 @@ def test_a_crash_never_clears_a_pause_or_an_emergency_stop(
     assert cleared['by'] == 'operator test (graph test)' and cleared['emergency']
 
 
+def test_an_emergency_stop_of_a_paused_test_is_no_replay(
+        long_test: Path, rig_key: Any, processes: Processes, observer: Any,
+        tmp_path: Path) -> None:
+    """Paused, nothing is in flight: the bridge that latches an emergency stop answers its last
+    command again, as a fault (signed for the same request). The integrator takes it as the
+    bridge's word, not as a replay: no "refused ... replayed" alarm, none in the summary's
+    authentication record (it was, before: every such stop read as an attack)."""
+    from std_msgs.msg import String
+
+    watch = Watch(observer)
+    out = tmp_path / 'run'
+    launcher = run_launcher(processes, 'run_test', [str(long_test), '--out', str(out),
+                                                    '--no-figures'])
+    wait_for_step(out, 300, launcher, processes)
+    send_control(observer, rig_key, 'pause', reason='nothing in flight')
+    watch.until(lambda: watch.test[-1].operator_hold, 'the pause')
+    time.sleep(0.5)  # (the step in flight when the pause came is answered and committed)
+    watch.still(out, 0.5)
+    stops = observer.create_publisher(String, '/pd/emergency_stop', 10)
+    deadline = time.monotonic() + 20.0
+    while not (watch.bridge and watch.bridge[-1].emergency_stop
+               and watch.test[-1].emergency_stop):
+        assert time.monotonic() < deadline, 'the emergency stop did not latch'
+        stops.publish(String(data='a person in the cell'))
+        observer.executor_for_test.spin_once(timeout_sec=0.2)
+    watch.still(out, 1.0)  # (the bridge's fault answer has arrived by now)
+    assert 'replayed' not in watch.test[-1].refused_by_reason, watch.test[-1].refused_by_reason
+    send_control(observer, rig_key, 'abort')
+    assert wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test')) != 0
+    summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
+    assert summary['state'] == 'aborted'
+    refused = summary['authentication']['refused_messages']
+    assert 'feedback[default]' not in refused, refused
+    assert 'refused message on /pd/step_feedback' not in processes.log('run_test')
+
+
 def test_a_physical_rig_keeps_its_bridge_up_through_every_crash(
         long_test: Path, long_reference: bytes, rig_key: Any, processes: Processes,
         observer: Any, tmp_path: Path) -> None:

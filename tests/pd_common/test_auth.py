@@ -334,6 +334,17 @@ def test_replies_must_be_for_the_senders_session_with_increasing_sequence() -> N
     forged = covered_with(nxt, dataclasses.replace(FEEDBACK, restoring_force=(0.0, 0.0)))
     assert gate.admit(feedback_payload(forged), nxt.signature) is Refusal.FORGED
     assert admit_reply(nxt) is None
+    # A bridge that holds answers its last command again, as a fault: another message for the
+    # same request, new (an emergency stop is no replay); either answer again is a replay, and
+    # so is the earlier request's.
+    fault = sent_reply(key, nxt.signature, dataclasses.replace(
+        FEEDBACK, status=FeedbackStatus.FAULT, message='emergency stop'))
+    assert fault.signature.sequence == nxt.signature.sequence
+    assert admit_reply(fault) is None
+    assert admit_reply(fault) is Refusal.REPLAYED
+    assert admit_reply(nxt) is Refusal.REPLAYED
+    assert admit_reply(sent_reply(key, first.signature, fault.record)) is Refusal.REPLAYED
+    assert gate.refused == {'replayed': 4, 'foreign_session': 1, 'forged': 1}
 
 
 def test_an_observer_shows_only_the_hops_messages_in_the_receivers_session() -> None:
@@ -365,7 +376,20 @@ def test_an_observer_shows_only_the_hops_messages_in_the_receivers_session() -> 
     forged = sent_reply(key, nxt.signature)
     assert gate.admit(feedback_payload(covered_with(forged, dataclasses.replace(
         FEEDBACK, restoring_force=(0.0, 0.0)))), forged.signature) is Refusal.FORGED
-    assert watch(nxt) is None and watch(sent_reply(key, nxt.signature)) is None
+    ok = sent_reply(key, nxt.signature)
+    assert watch(nxt) is None and watch(ok) is None
+    # A bridge's hold answers the last command again, as a fault (the same sequence, another
+    # message): shown once; either answer again is a replay.
+    fault = sent_reply(key, nxt.signature, dataclasses.replace(
+        FEEDBACK, status=FeedbackStatus.FAULT, message='emergency stop'))
+    assert watch(fault) is None
+    assert watch(fault) is Refusal.REPLAYED and watch(ok) is Refusal.REPLAYED
+    # The receiver restarts: its offer names none, then the same session again (reopened);
+    # what was shown before is still a replay.
+    gate.follow('')
+    assert watch(sent_command(integrator)) is Refusal.NO_SESSION
+    gate.follow(integrator.session)
+    assert watch(nxt) is Refusal.REPLAYED and watch(reply) is Refusal.REPLAYED
     # The receiver obeys a new session: the old one's messages are foreign, the new one's shown.
     restarted = Signer(key)
     gate.follow(restarted.session)
@@ -373,7 +397,7 @@ def test_an_observer_shows_only_the_hops_messages_in_the_receivers_session() -> 
     assert watch(sent_command(restarted)) is None
     gate.follow('')                                        # none obeyed: nothing shown
     assert watch(sent_command(restarted)) is Refusal.NO_SESSION
-    assert gate.refused == {'no_session': 2, 'replayed': 2, 'foreign_session': 2,
+    assert gate.refused == {'no_session': 3, 'replayed': 6, 'foreign_session': 2,
                             'wrong_key': 1, 'unsigned': 1, 'forged': 2}
     open_gate = WatchGate(None)                            # authentication off: all shown
     assert open_gate.admit(command_payload(command.covered), Signature()) is None

@@ -22,7 +22,9 @@ def test_a_definition_no_genuine_status_names_is_never_shown() -> None:
     witness = DefinitionWitness(authenticated=True)
     assert witness.heard(FORGED) is None                   # a rogue's, before any status
     assert witness.named(definition_digest(GENUINE)) is None  # the status first ...
+    assert witness.missing
     assert witness.heard(GENUINE) == GENUINE               # ... then its definition: shown
+    assert not witness.missing
     assert witness.heard(FORGED) is None                   # a later forgery: not shown
     assert witness.named(definition_digest(GENUINE)) is None  # (shown once)
     assert witness.heard(GENUINE) is None
@@ -31,10 +33,12 @@ def test_a_definition_no_genuine_status_names_is_never_shown() -> None:
 
 def test_the_definition_first_then_the_status_that_names_it() -> None:
     witness = DefinitionWitness(authenticated=True)
+    assert not witness.missing                             # nothing named yet
     assert witness.heard(GENUINE) is None
     assert witness.heard(FORGED) is None
     assert witness.named('') is None                        # a bridge's status names none
     assert witness.named(definition_digest(GENUINE)) == GENUINE
+    assert not witness.missing
     # A new test (another integrator): its status names its own definition.
     assert witness.named(definition_digest(FORGED)) == FORGED
 
@@ -45,6 +49,7 @@ def test_a_flood_of_unnamed_definitions_keeps_only_the_last_few() -> None:
     for n in range(100):
         witness.heard(json.dumps({'n': n}))
     assert witness.named(definition_digest(GENUINE)) is None  # pushed out by the flood
+    assert witness.missing                                    # (the node reads it again)
     last = json.dumps({'n': 99})
     assert witness.named(definition_digest(last)) == last
     assert witness.named(definition_digest(json.dumps({'n': 99 - DEFINITIONS_KEPT}))) is None

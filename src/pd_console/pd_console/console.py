@@ -77,6 +77,7 @@ from pd_common.resources import ResourceError, share_file
 from pd_common.ros import (
     CONTROL_DEPTH,
     LATCHED_QOS,
+    LATCHED_READER_QOS,
     RESEND_S,
     STEP_QOS,
     ControlSender,
@@ -111,6 +112,10 @@ from .core.access import WILDCARD_HOSTS, served_address
 #: Why a genuine step message may go unshown for a moment (a session the receiver's offer has
 #: not named yet, or one it has left): not worth a line.
 SESSION_CHANGES = frozenset({Refusal.NO_SESSION, Refusal.FOREIGN_SESSION})
+
+#: Seconds between two readings of the latched test definition while the one the integrator's
+#: signed status names is missing (see :class:`pd_console.core.DefinitionWitness`).
+DEFINITION_REREAD_S = 2.0
 
 #: Seconds the console waits for a control's receiver and its acknowledgement.
 CONTROL_WAIT_S = 3.0
@@ -255,8 +260,11 @@ class ConsoleNode(Node):
         self._offer_gate = StatusGate(self.key)
         self._watch_gates: dict[str, WatchGate] = {}
         self._refusal_log = RefusalLog(LOG.warning, self.key, 'step message (not shown)')
+        self._offer_log = RefusalLog(LOG.warning, self.key, 'session offer (not followed)')
         self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
-        self.create_subscription(String, 'test_definition', self._on_definition, LATCHED_QOS)
+        self._definition_sub = self.create_subscription(String, 'test_definition',
+                                                        self._on_definition, LATCHED_READER_QOS)
+        self._definition_read_at = time.monotonic()
         self._watch_site('')
         if self.key is not None:  # (its host, port and key as given at start)
             seal_parameters(self, 'the console', 'restart it', self.controls.gate.refused)
@@ -270,9 +278,13 @@ class ConsoleNode(Node):
         offer_topic = site_topic_name(site, 'session/offer')
 
         def on_offer(message: Any) -> None:
-            offer, _ = read_offer(self._offer_gate, offer_topic, message)
+            offer, reason = read_offer(self._offer_gate, offer_topic, message)
             if offer is not None:
                 gate.follow(offer.active_session)
+            elif reason is not None:
+                # (its key id only: what the line names for another key)
+                self._offer_log(reason, Signature(key_id=str(message.signature.key_id)),
+                                offer_topic)
 
         def admitted(payload: WirePayload, signature: Signature, topic: str) -> bool:
             reason = gate.admit(payload, signature)
@@ -316,6 +328,14 @@ class ConsoleNode(Node):
         with self.lock:
             self.model.on_status(status)
         self._show_definition(self.witness.named(status.definition_digest))
+        if (self.witness.missing
+                and time.monotonic() - self._definition_read_at > DEFINITION_REREAD_S):
+            # The definition the integrator's status names is not held (others pushed it out,
+            # or it is late): subscribe again, to be handed its latched sample once more.
+            self.destroy_subscription(self._definition_sub)
+            self._definition_sub = self.create_subscription(
+                String, 'test_definition', self._on_definition, LATCHED_READER_QOS)
+            self._definition_read_at = time.monotonic()
 
     def _on_definition(self, message: Any) -> None:
         self._show_definition(self.witness.heard(str(message.data)))

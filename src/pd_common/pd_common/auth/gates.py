@@ -27,14 +27,14 @@ everything (authentication off: a test on an isolated machine that asked for it)
 from __future__ import annotations
 
 import time
-from collections import Counter
+from collections import Counter, OrderedDict
 from collections.abc import Callable, Iterable, Mapping
 
 from ..protocol.messages import Control
 from ..protocol.signature import Signature
 from .keys import Key
 from .payloads import control_payload
-from .signing import Refusal, WirePayload, new_session, verify_mac
+from .signing import WIRE_FEEDBACK, Refusal, WirePayload, new_session, verify_mac
 
 __all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate', 'StatusGate',
            'WatchGate', 'describe_refusals', 'merge_refusals']
@@ -123,13 +123,44 @@ class CommandGate(_Gate):
         return None
 
 
+class _Latest:
+    """The last sequence admitted from one signer, and the MACs admitted at it.
+
+    A higher sequence is new. The same sequence again is new only where a second message may
+    share it — a reply (a bridge that holds answers the command it last answered again, as a
+    fault: another message, signed for the same request) — and only as another message: the
+    same bytes again are a replay.
+    """
+
+    __slots__ = ('macs', 'sequence')
+
+    def __init__(self) -> None:
+        self.sequence = 0
+        self.macs: set[bytes] = set()
+
+    def take(self, signature: Signature, *, repeatable: bool) -> bool:
+        """Whether ``signature`` is new (it is then remembered)."""
+        if signature.sequence > self.sequence:
+            self.sequence = signature.sequence
+            self.macs = {signature.mac}
+            return True
+        if repeatable and signature.sequence == self.sequence and signature.mac not in self.macs:
+            self.macs.add(signature.mac)
+            return True
+        return False
+
+
 class ReplyGate(_Gate):
-    """Admits replies signed for the sender's own session, sequence increasing."""
+    """Admits replies signed for the sender's own session, sequence increasing.
+
+    A reply whose sequence is that of the last one admitted is new when it is another message
+    (:class:`_Latest`): a bridge's hold answers its last command again, as a fault.
+    """
 
     def __init__(self, key: Key | None, session: str) -> None:
         super().__init__(key)
         self.session = session
-        self.last_sequence = 0
+        self._latest = _Latest()
 
     def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the reply is genuine and new; else why not (counted)."""
@@ -140,9 +171,8 @@ class ReplyGate(_Gate):
             return reason
         if signature.session != self.session:
             return self._refuse(Refusal.FOREIGN_SESSION, signature)
-        if signature.sequence <= self.last_sequence:
+        if not self._latest.take(signature, repeatable=True):
             return self._refuse(Refusal.REPLAYED, signature)
-        self.last_sequence = signature.sequence
         return None
 
 
@@ -241,20 +271,28 @@ class WatchGate(_Gate):
     :meth:`follow` is given the ``active_session`` of each genuine session offer of the hop's
     receiver (read through a :class:`StatusGate`); a command or a feedback is admitted when its
     MAC is good, it is signed in that session (a feedback is signed in its command's session)
-    and its sequence is higher than the last of its kind admitted there.
+    and its sequence is higher than the last of its kind admitted in that session — remembered
+    across the receiver's restarts (its offer goes from the session to none and back), so a
+    recording cannot be shown again then. A feedback may share its sequence with the one before
+    when it is another message, as :class:`ReplyGate` admits it.
     """
+
+    #: Sessions whose last sequences are remembered (the latest ones followed).
+    SESSIONS_KEPT = 8
 
     def __init__(self, key: Key | None) -> None:
         super().__init__(key)
         self.session: str | None = None
-        self._last: dict[str, int] = {}  # wire kind -> last sequence admitted in the session
+        self._last: OrderedDict[str, dict[str, _Latest]] = OrderedDict()  # session -> kind
 
     def follow(self, active_session: str) -> None:
         """The receiver now obeys ``active_session`` ('' = none): the hop's messages follow it."""
-        session = active_session or None
-        if session != self.session:
-            self.session = session
-            self._last.clear()
+        self.session = active_session or None
+        if self.session is not None:
+            self._last.setdefault(self.session, {})
+            self._last.move_to_end(self.session)
+            while len(self._last) > self.SESSIONS_KEPT:
+                self._last.popitem(last=False)
 
     def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the message may be shown as the hop's; else why not (counted)."""
@@ -267,9 +305,9 @@ class WatchGate(_Gate):
             return self._refuse(Refusal.NO_SESSION, signature)
         if signature.session != self.session:
             return self._refuse(Refusal.FOREIGN_SESSION, signature)
-        if signature.sequence <= self._last.get(payload.kind, 0):
+        latest = self._last.setdefault(self.session, {}).setdefault(payload.kind, _Latest())
+        if not latest.take(signature, repeatable=payload.kind == WIRE_FEEDBACK):
             return self._refuse(Refusal.REPLAYED, signature)
-        self._last[payload.kind] = signature.sequence
         return None
 
 

@@ -32,7 +32,7 @@ from .messages import (
     status_message,
 )
 from .parameters import SEALED, seal_parameters
-from .qos import CONTROL_DEPTH, LATCHED_QOS, MONITOR_QOS, STEP_QOS
+from .qos import CONTROL_DEPTH, LATCHED_QOS, LATCHED_READER_QOS, MONITOR_QOS, STEP_QOS
 from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender, new_epoch
 from .statements import HEARTBEAT_S, Announcer, read_offer, read_status
 
@@ -42,6 +42,7 @@ __all__ = [
     'EMERGENCY_STOP_REPEATS',
     'HEARTBEAT_S',
     'LATCHED_QOS',
+    'LATCHED_READER_QOS',
     'MONITOR_QOS',
     'OFFER_REFRESH_S',
     'RESEND_S',

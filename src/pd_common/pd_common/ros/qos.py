@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ['CONTROL_DEPTH', 'LATCHED_QOS', 'MONITOR_QOS', 'STEP_DEPTH', 'STEP_QOS']
+__all__ = ['CONTROL_DEPTH', 'LATCHED_QOS', 'LATCHED_READER_QOS', 'MONITOR_QOS', 'STEP_DEPTH',
+           'STEP_QOS']
 
 #: Commands and feedback: reliable and in order. Keep-last with a depth far above the
 #: stop-and-wait protocol's few messages in flight, not keep-all: a reader that was killed stays
@@ -18,6 +19,12 @@ STEP_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=STEP_DEPTH,
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: A reader of a latched topic published once (the test definition), on which others may
+#: publish too: each writer's latched sample is kept until taken, not only the last to arrive,
+#: so a rogue's sample arriving with the genuine one cannot drop it (LATCHED_QOS's writers).
+LATCHED_READER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=16,
+                                reliability=ReliabilityPolicy.RELIABLE,
+                                durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: Live monitors: reliable, the last 100 samples for a slow subscriber.
 MONITOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                          reliability=ReliabilityPolicy.RELIABLE,

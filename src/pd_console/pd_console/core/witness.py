@@ -17,7 +17,8 @@ from pd_common.protocol import definition_digest
 __all__ = ['DEFINITIONS_KEPT', 'DefinitionWitness']
 
 #: Definitions heard but not (yet) named by a genuine status that are kept: a flood of forged
-#: ones costs this many strings, never more.
+#: ones costs this many strings, never more (and may push the genuine one out before its
+#: status arrives: :attr:`DefinitionWitness.missing` then tells the node to read it again).
 DEFINITIONS_KEPT = 4
 
 
@@ -56,6 +57,16 @@ class DefinitionWitness:
         self._named = digest
         text = self._heard.get(digest)
         return None if text is None else self._believe(digest, text)
+
+    @property
+    def missing(self) -> bool:
+        """Whether a genuine status named a definition that is neither shown nor held.
+
+        (Not heard yet, or pushed out by others: the integrator's latched definition is worth
+        reading again.)
+        """
+        return (self._named is not None and self._named != self.believed
+                and self._named not in self._heard)
 
     def _believe(self, digest: str, text: str) -> str | None:
         if digest == self.believed:
