@@ -303,3 +303,44 @@ def test_the_lab_wide_emergency_stop_holds_every_site(
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'aborted'
     assert summary['steps'] < 12000
+
+
+def test_a_message_copied_from_one_site_to_another_is_refused(
+        site_test: tuple[Path, Path], processes: Processes, observer: Any,
+        tmp_path: Path) -> None:
+    """A rogue copies every signed command and feedback of lab1 onto lab3's topics as they
+    travel. Each site's hop is signed in a session of its own, so every copy is of a foreign
+    session at lab3 — its simulator moves to none of lab1's targets and the integrator takes
+    none of lab1's answers as lab3's (with one session for both hops a copy whose sequence
+    happened to be next passed as lab3's) — and the test ends as the ROS-free run."""
+    from pd_common.ros import STEP_QOS
+    from pd_msgs.msg import StepCommand, StepFeedback
+
+    test_file, offline = site_test
+    out = tmp_path / 'graph'
+    launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'direct',
+                                                    '--out', str(out), '--no-figures',
+                                                    '-p', f'duration:={DURATION}'])
+    copied = {'command': 0, 'feedback': 0}
+    for kind, message_type in (('command', StepCommand), ('feedback', StepFeedback)):
+        publisher = observer.create_publisher(message_type, f'/pd/lab3/step_{kind}', STEP_QOS)
+
+        def copy(data: bytes, publisher: Any = publisher, kind: str = kind) -> None:
+            publisher.publish(data)
+            copied[kind] += 1
+
+        observer.create_subscription(message_type, f'/pd/lab1/step_{kind}', copy, STEP_QOS,
+                                     raw=True)
+    deadline = time.monotonic() + RUN_TIMEOUT
+    while launcher.poll() is None:
+        assert time.monotonic() < deadline, processes.log('run_test')[-3000:]
+        observer.executor_for_test.spin_once(timeout_sec=0.05)
+    assert launcher.returncode == 0, processes.log('run_test')[-3000:]
+    assert copied['command'] >= 250 and copied['feedback'] >= 250, copied
+    assert (out / 'response.csv').read_bytes() == (offline / 'response.csv').read_bytes()
+    refused = json.loads((out / 'summary.json').read_text(encoding='utf-8'))[
+        'authentication']['refused_messages']
+    assert refused['feedback[lab3]'].get('foreign_session', 0) >= 250, refused
+    assert 'feedback[lab1]' not in refused, refused
+    assert 'refused command on /pd/lab3/step_command: foreign_session' in processes.log(
+        'run_test')

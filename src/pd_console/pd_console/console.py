@@ -113,9 +113,11 @@ from .core.access import WILDCARD_HOSTS, served_address
 #: not named yet, or one it has left): not worth a line.
 SESSION_CHANGES = frozenset({Refusal.NO_SESSION, Refusal.FOREIGN_SESSION})
 
-#: Seconds between two readings of the latched test definition while the one the integrator's
-#: signed status names is missing (see :class:`pd_console.core.DefinitionWitness`).
+#: Seconds before the latched test definition is read again while the one the integrator's
+#: signed status names is missing (see :class:`pd_console.core.DefinitionWitness`); doubled
+#: after each reading up to :data:`DEFINITION_REREAD_MAX_S`, reset once it is shown.
 DEFINITION_REREAD_S = 2.0
+DEFINITION_REREAD_MAX_S = 30.0
 
 #: Seconds the console waits for a control's receiver and its acknowledgement.
 CONTROL_WAIT_S = 3.0
@@ -265,6 +267,8 @@ class ConsoleNode(Node):
         self._definition_sub = self.create_subscription(String, 'test_definition',
                                                         self._on_definition, LATCHED_READER_QOS)
         self._definition_read_at = time.monotonic()
+        self._definition_reread_s = DEFINITION_REREAD_S
+        self.create_timer(1.0, self._reread_definition)
         self._watch_site('')
         if self.key is not None:  # (its host, port and key as given at start)
             seal_parameters(self, 'the console', 'restart it', self.controls.gate.refused)
@@ -328,14 +332,27 @@ class ConsoleNode(Node):
         with self.lock:
             self.model.on_status(status)
         self._show_definition(self.witness.named(status.definition_digest))
-        if (self.witness.missing
-                and time.monotonic() - self._definition_read_at > DEFINITION_REREAD_S):
-            # The definition the integrator's status names is not held (others pushed it out,
-            # or it is late): subscribe again, to be handed its latched sample once more.
-            self.destroy_subscription(self._definition_sub)
-            self._definition_sub = self.create_subscription(
-                String, 'test_definition', self._on_definition, LATCHED_READER_QOS)
-            self._definition_read_at = time.monotonic()
+
+    def _reread_definition(self) -> None:
+        """Read the latched definition again if the one a signed status names is missing.
+
+        (Others pushed it out, or it is late.) A new subscription is handed every writer's
+        latched sample anew; it is made before the old one goes, only while a writer is
+        matched, and less often each time (see :data:`DEFINITION_REREAD_S`).
+        """
+        if not self.witness.missing:
+            self._definition_reread_s = DEFINITION_REREAD_S
+            return
+        now = time.monotonic()
+        if (now - self._definition_read_at < self._definition_reread_s
+                or self._definition_sub.get_publisher_count() == 0):
+            return
+        old = self._definition_sub
+        self._definition_sub = self.create_subscription(
+            String, 'test_definition', self._on_definition, LATCHED_READER_QOS)
+        self.destroy_subscription(old)
+        self._definition_read_at = now
+        self._definition_reread_s = min(2 * self._definition_reread_s, DEFINITION_REREAD_MAX_S)
 
     def _on_definition(self, message: Any) -> None:
         self._show_definition(self.witness.heard(str(message.data)))

@@ -251,7 +251,6 @@ class IntegratorNode(Node):
         self.figures = bool(self.get_parameter('figures').value)
         self.meter = ProgressMeter(definition.n_steps, progress_interval)
 
-        self.signer = Signer(self.key) if self.key is not None else None
         #: The run's record could not be written (a full disk): the test ends with one line.
         self.record_error: RecordWriteError | None = None
         self.announcer = Announcer(self, self.key)
@@ -284,9 +283,11 @@ class IntegratorNode(Node):
             for event in self.record.run_events:
                 if event.get('what') == 'control' and event.get('session'):
                     self._control_gate.remember(str(event['session']), int(event['sequence']))
-        self.senders = {site: SessionSender(self, f'{site}/' if site else '', self.signer,
-                                            self.key, on_refused=self._on_refused_offer)
-                        for site in self.dispatcher.sites}
+        # One signer, so one session and one sequence, per site: a command or a reply signed for
+        # one site is of a foreign session at another (a copy between sites is refused).
+        self.senders = {site: SessionSender(
+            self, f'{site}/' if site else '', Signer(self.key) if self.key is not None else None,
+            self.key, on_refused=self._on_refused_offer) for site in self.dispatcher.sites}
         # pd_msgs has no type information: the message type parameter is Any.
         self._command_pubs: dict[str, Publisher[Any]] = {}
         self._feedback_subs: dict[str, Subscription[Any]] = {}

@@ -71,6 +71,18 @@ class _Gate:
         reason = verify_mac(self.key, payload, signature)
         return self._refuse(reason, signature) if reason is not None else None
 
+    def _check_session(self, payload: WirePayload, signature: Signature, session: str | None
+                       ) -> Refusal | None:
+        """Why a step message is refused before its sequence: MAC, no session, another one."""
+        reason = self._check_mac(payload, signature)
+        if reason is not None:
+            return reason
+        if session is None:
+            return self._refuse(Refusal.NO_SESSION, signature)
+        if signature.session != session:
+            return self._refuse(Refusal.FOREIGN_SESSION, signature)
+        return None
+
 
 class CommandGate(_Gate):
     """Admits step commands only in the session a signed start opened (receiver side)."""
@@ -110,13 +122,9 @@ class CommandGate(_Gate):
         """``None`` if the command may be obeyed; else why not (counted)."""
         if self.key is None:
             return None
-        reason = self._check_mac(payload, signature)
+        reason = self._check_session(payload, signature, self.session)
         if reason is not None:
             return reason
-        if self.session is None:
-            return self._refuse(Refusal.NO_SESSION, signature)
-        if signature.session != self.session:
-            return self._refuse(Refusal.FOREIGN_SESSION, signature)
         if signature.sequence <= self.last_sequence:
             return self._refuse(Refusal.REPLAYED, signature)
         self.last_sequence = signature.sequence
@@ -132,20 +140,23 @@ class _Latest:
     same bytes again are a replay.
     """
 
-    __slots__ = ('macs', 'sequence')
+    __slots__ = ('mac', 'others', 'sequence')
 
     def __init__(self) -> None:
         self.sequence = 0
-        self.macs: set[bytes] = set()
+        self.mac = b''                    # the first MAC admitted at it
+        self.others: set[bytes] = set()   # any later ones (rare: kept off the common path)
 
     def take(self, signature: Signature, *, repeatable: bool) -> bool:
         """Whether ``signature`` is new (it is then remembered)."""
         if signature.sequence > self.sequence:
-            self.sequence = signature.sequence
-            self.macs = {signature.mac}
+            self.sequence, self.mac = signature.sequence, signature.mac
+            if self.others:
+                self.others = set()
             return True
-        if repeatable and signature.sequence == self.sequence and signature.mac not in self.macs:
-            self.macs.add(signature.mac)
+        if (repeatable and signature.sequence == self.sequence > 0
+                and signature.mac != self.mac and signature.mac not in self.others):
+            self.others.add(signature.mac)
             return True
         return False
 
@@ -166,11 +177,9 @@ class ReplyGate(_Gate):
         """``None`` if the reply is genuine and new; else why not (counted)."""
         if self.key is None:
             return None
-        reason = self._check_mac(payload, signature)
+        reason = self._check_session(payload, signature, self.session)
         if reason is not None:
             return reason
-        if signature.session != self.session:
-            return self._refuse(Refusal.FOREIGN_SESSION, signature)
         if not self._latest.take(signature, repeatable=True):
             return self._refuse(Refusal.REPLAYED, signature)
         return None
@@ -298,14 +307,10 @@ class WatchGate(_Gate):
         """``None`` if the message may be shown as the hop's; else why not (counted)."""
         if self.key is None:
             return None
-        reason = self._check_mac(payload, signature)
+        reason = self._check_session(payload, signature, self.session)
         if reason is not None:
             return reason
-        if self.session is None:
-            return self._refuse(Refusal.NO_SESSION, signature)
-        if signature.session != self.session:
-            return self._refuse(Refusal.FOREIGN_SESSION, signature)
-        latest = self._last.setdefault(self.session, {}).setdefault(payload.kind, _Latest())
+        latest = self._last.setdefault(signature.session, {}).setdefault(payload.kind, _Latest())
         if not latest.take(signature, repeatable=payload.kind == WIRE_FEEDBACK):
             return self._refuse(Refusal.REPLAYED, signature)
         return None
