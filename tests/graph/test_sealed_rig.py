@@ -95,14 +95,25 @@ def test_a_control_for_one_bridge_never_clears_another_and_stops_are_confirmed(
     assert seen['lab1'][-1].emergency_stop
 
     # -- a listener that calls itself a bridge but never holds: named, exit 1 ----------------
+    # (and a rogue copies lab1's genuine, signed "holding" status onto the impostor's status
+    # topic as it comes: a status is believed only on its own node's topic, so the copy
+    # confirms nothing)
+    from pd_msgs.msg import TestStatus
+
     impostor = Node('pd_actuator_bridge', namespace='/pd/lab9', context=observer.context)
     from std_msgs.msg import String
     impostor.create_subscription(String, '/pd/emergency_stop', lambda _: None, 10)
+    copies = impostor.create_publisher(TestStatus, '/pd/lab9/bridge/status', latched_qos())
     observer.executor_for_test.add_node(impostor)
+    copied: list[Any] = []
     control = processes.start('estop3', [executable('pd_bringup', 'control'), 'estop',
                                          '--timeout', '4'])
     while control.poll() is None:
+        if seen['lab1'][-1].emergency_stop and (not copied or copied[-1] is not seen['lab1'][-1]):
+            copied.append(seen['lab1'][-1])
+            copies.publish(copied[-1])
         observer.executor_for_test.spin_once(timeout_sec=0.1)
+    assert copied
     said = processes.log('estop3')
     assert control.returncode == 1, said
     assert 'not confirmed by /pd/lab9/pd_actuator_bridge' in said

@@ -39,6 +39,7 @@ from pd_common.protocol import (
 )
 from pd_common.ros import command_message, control_message, feedback_message
 from pd_core.run.record.bag import read_bag
+from pd_core.run.record.journal import read_journal
 from pd_core.run.record.signatures import ForeignKeyError, check_signatures
 from pd_core.run.runner import run_offline
 from pd_core.run.test_file import load_test_file
@@ -92,8 +93,15 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
 
     from pd_common.protocol import Offer, Status, TestState
     from pd_common.ros import offer_message, status_message
+    from pd_msgs.msg import (
+        ActuatorTrajectory,
+        SessionOffer,
+        SessionStart,
+        StepCommand,
+        StepFeedback,
+        TestStatus,
+    )
     from pd_msgs.msg import Control as ControlMessage
-    from pd_msgs.msg import SessionOffer, SessionStart, StepCommand, StepFeedback, TestStatus
 
     test_file = write_test_file(tmp_path / 'secure.yaml', test__id='graph-secure',
                                 test__duration=40.0)
@@ -124,6 +132,9 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
               for topic in ('/pd/session/offer', '/pd/specimen/session/offer')}
     forged_statuses = {topic: observer.create_publisher(TestStatus, topic, latched_qos())
                        for topic in ('/pd/test_status', '/pd/bridge/status')}
+    # (unsigned, recorded by the integrator: bytes that are no trajectory would make the run
+    # unreadable, so they are counted as malformed and never recorded)
+    trajectories = observer.create_publisher(ActuatorTrajectory, '/pd/bridge/trajectory', 100)
 
     processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args', '-r',
                                  '__ns:=/pd/specimen', '-p', f'test_file:={test_file}'])
@@ -205,6 +216,10 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
         feedback.publish(feedback_message(Feedback(test_id='x' * 1000, step=last.step + 1,
                                                    measured_displacement=(0.0,),
                                                    restoring_force=(0.0,))))
+        trajectories.publish(b'\x00\x01\x00\x00' + bytes(range(7)))
+        ragged = ActuatorTrajectory(test_id=last.test_id, step=last.step, n_dof=1,
+                                    time=[0.0, 0.001], command=[0.0])  # 1 value, 2 samples
+        trajectories.publish(ragged)
         for command in ('abort', 'pause', 'resume'):
             for signer in (None, rogue):
                 control = Control(command=command, stamp=time.time())
@@ -318,7 +333,9 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert side['node'] == '/pd/pd_actuator_bridge'
     assert {'unsigned', 'wrong_key', 'replayed'} <= set(refused['feedback[default]'])
     assert refused['feedback[default]']['unsigned'] >= 10
-    assert refused['malformed']['malformed'] >= 1  # (the malformed feedback)
+    assert refused['malformed']['malformed'] >= 3  # (the feedback, the two trajectories)
+    run = read_journal(out / 'journal.pdj')  # readable: no trajectory of the rogue's in it
+    assert run.trajectories == [] and run.notes == []
     assert {'unsigned', 'wrong_key', 'sealed'} <= set(refused['test_control'])
     # Every move that reached the specimen (that the observer heard) was a target the
     # owner's integrator sent (its bag); none of the rogue's.

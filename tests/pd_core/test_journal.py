@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
 
 from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, new_key, sign_wire_reply
@@ -44,7 +45,13 @@ from pd_core.errors import BagError
 from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.session import TestSession as Session  # not a test class
 from pd_core.run.record import journal as journal_module
-from pd_core.run.record.bag import TOPIC_COMMAND, TOPIC_FEEDBACK, TOPIC_STATUS, read_bag
+from pd_core.run.record.bag import (
+    TOPIC_COMMAND,
+    TOPIC_FEEDBACK,
+    TOPIC_STATUS,
+    read_bag,
+    typestore,
+)
 from pd_core.run.record.journal import (
     JOURNAL_FILE,
     Journal,
@@ -52,6 +59,7 @@ from pd_core.run.record.journal import (
     journal_to_bag,
     read_journal,
     read_journal_records,
+    read_trajectory,
 )
 from pd_core.run.runner import (
     load_run,
@@ -63,6 +71,7 @@ from pd_core.run.runner import (
     site_servers,
 )
 from pd_core.run.test_file import load_test_file
+from pd_msgs.msg import ActuatorTrajectory
 from support import journals
 from support.paths import DEFAULT_TEST
 
@@ -996,3 +1005,35 @@ def test_the_dispatcher_journals_each_command_as_the_bytes_it_went_out_as(
     assert len(kept) == 6
     assert [payload for _, payload in kept] == went
     assert all(t_ns > 7 for t_ns, _ in kept)
+
+
+def _trajectory_bytes(samples: int, n_dof: int, values: int | None = None) -> bytes:
+    """An ``ActuatorTrajectory``'s CDR bytes, serialised by rclpy (not by the reader)."""
+    count = samples * n_dof if values is None else values
+    message = ActuatorTrajectory(test_id='t', step=3, iteration=0, rate=1000.0, n_dof=n_dof,
+                                 time=[i / 1000 for i in range(samples)],
+                                 command=[0.001] * count, measured_displacement=[0.002] * count,
+                                 measured_force=[5.0] * count)
+    return bytes(serialize_message(message))
+
+
+def test_a_trajectory_is_read_only_as_one(tmp_path: Path) -> None:
+    """The recorder's check: bytes that are no trajectory (garbage, arrays that do not fit
+    the samples) are refused in one line; a journal holding one anyway (written before the
+    check) is still read, that record left out with a note."""
+    store = typestore()
+    good = _trajectory_bytes(4, 2)
+    message = read_trajectory(good, store)
+    assert (message.n_dof, len(message.time), list(message.measured_force)) == (2, 4, [5.0] * 8)
+    with pytest.raises(ValueError, match=r'^not an actuator trajectory \('):
+        read_trajectory(b'\x00\x01\x00\x00' + bytes(range(7)), store)
+    with pytest.raises(ValueError, match=r'command: 3 values for 4 samples of 2 DOFs'):
+        read_trajectory(_trajectory_bytes(4, 2, values=3), store)
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_definition('{"test": {"id": "t"}}', 1)
+        journal.write_raw('/pd/bridge/trajectory', 2, good)
+        journal.write_raw('/pd/bridge/trajectory', 3, b'\x00\x01\xffraw')
+    run = read_journal(path)
+    assert [t_ns for t_ns, _ in run.trajectories] == [2]
+    assert len(run.notes) == 1 and 'left out a /pd/bridge/trajectory record' in run.notes[0]

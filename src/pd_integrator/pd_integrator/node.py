@@ -92,10 +92,16 @@ from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
 from pd_core.run.loop.session import TestSession
 from pd_core.run.loop.steering import Steering
-from pd_core.run.record.bag import RecordedRun
+from pd_core.run.record.bag import RecordedRun, typestore
 from pd_core.run.record.continuations import count_continuations
 from pd_core.run.record.figure_worker import FigureWorker
-from pd_core.run.record.journal import JOURNAL_FILE, Journal, RecordWriteError, journal_to_bag
+from pd_core.run.record.journal import (
+    JOURNAL_FILE,
+    Journal,
+    RecordWriteError,
+    journal_to_bag,
+    read_trajectory,
+)
 from pd_core.run.resume import (
     ResumeAction,
     SiteState,
@@ -259,6 +265,7 @@ class IntegratorNode(Node):
         self._status_gate = StatusGate(self.key)  # the bridges' statuses
         self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
         self._malformed = 0
+        self._trajectory_store: Any = None  # the reader's decoder of trajectories (made once)
         self._acknowledged = Acknowledgements()
         self._estop_logged = (0.0, 0)  # (when, repeats) of the last line about repeats
         self._last_status_message: Any = None
@@ -649,6 +656,16 @@ class IntegratorNode(Node):
         self.bag.write_status(status, time.time_ns(), topic=topic)
 
     def _on_trajectory(self, data: bytes, topic: str) -> None:
+        # (unsigned: anyone may publish here; what the run's reader could not read back is not
+        # recorded, or one message would make the run unreadable: counted as malformed)
+        if self._trajectory_store is None:
+            self._trajectory_store = typestore()
+        try:
+            read_trajectory(data, self._trajectory_store)
+        except ValueError:
+            self._malformed += 1
+            self._refusal_log(Refusal.MALFORMED, Signature(), topic)
+            return
         self.bag.write_raw(topic, time.time_ns(), data)
 
     def _on_emergency_stop(self, message: String) -> None:

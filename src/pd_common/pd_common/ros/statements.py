@@ -35,7 +35,7 @@ from ..protocol.convert import (
 from ..protocol.messages import Offer, Status
 from .messages import status_message
 
-__all__ = ['HEARTBEAT_S', 'Announcer', 'read_offer', 'read_status']
+__all__ = ['HEARTBEAT_S', 'STATUS_TOPICS', 'Announcer', 'at_home', 'read_offer', 'read_status']
 
 Item = TypeVar('Item')
 
@@ -70,10 +70,29 @@ class Announcer:
 
 def read_status(gate: StatusGate, source: str, message: Any
                 ) -> tuple[Status | None, Refusal | None]:
-    """The status in ``message`` published on ``source``, if it is genuine and new."""
+    """The status in ``message`` published on ``source``, if it is genuine, new and at home.
+
+    At home: with a key, the node the status names (signed) publishes ``source`` itself
+    (:func:`at_home`), so a genuine status of one node copied onto another's status topic —
+    one bridge's "holding" onto another's, confirming a stop it never heard — is refused
+    (``misdirected``).
+    """
+    if gate.enabled and not at_home(source, str(getattr(message, 'node', ''))):
+        gate.refused[Refusal.MISDIRECTED.value] += 1
+        return None, Refusal.MISDIRECTED
     return _read(gate, source, message, status_from_message,
                  lambda status: status_payload(status, stamp_ns_of(message)),
                  stamp_ns_of(message))
+
+
+#: The status topics, relative to their node's namespace.
+STATUS_TOPICS = ('test_status', 'bridge/status')
+
+
+def at_home(source: str, node: str) -> bool:
+    """Whether ``source`` is a status topic of the node named ``node`` (fully qualified)."""
+    namespace = node.rpartition('/')[0]
+    return any(source == f'{namespace}/{name}' for name in STATUS_TOPICS)
 
 
 def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | None, Refusal | None]:

@@ -94,7 +94,7 @@ from .journal_format import (
 
 __all__ = ['JOURNAL_FILE', 'LEGACY_JOURNAL_FILE', 'Journal', 'JournalRecord',
            'RecordWriteError', 'RunRecorder', 'iter_journal_records', 'journal_to_bag',
-           'read_journal', 'read_journal_records']
+           'read_journal', 'read_journal_records', 'read_trajectory']
 
 #: The journal's file name in a run folder.
 JOURNAL_FILE = 'journal.pdj'
@@ -505,7 +505,11 @@ def read_journal(path: str | Path) -> RecordedRun:
         elif record.kind == 'st':
             index.status(record.topic, record.t_ns, record.item)
         elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
-            index.trajectory(record.t_ns, _trajectory(store, record, path))
+            try:  # (informative: one that is no trajectory is left out, the run still read)
+                index.trajectory(record.t_ns, read_trajectory(record.item, store))
+            except ValueError as err:
+                notes.append(f'left out a {record.topic} record (log time {record.t_ns} ns): '
+                             f'{err}')
         elif record.kind == 'ev':
             index.event(record.t_ns, dict(record.item))
     run = index.result(str(path))
@@ -513,17 +517,29 @@ def read_journal(path: str | Path) -> RecordedRun:
     return run
 
 
-def _trajectory(store: Any, record: JournalRecord, path: str | Path) -> Any:
-    """An actuator trajectory's message from its serialised record.
+def read_trajectory(data: bytes, store: Any) -> Any:
+    """The ``ActuatorTrajectory`` message of CDR bytes (``store``: :func:`~.bag.typestore`).
+
+    What a run's reader decodes a trajectory record with: its recorder checks each with this
+    before it is recorded (the topic is not signed: bytes that are no trajectory never enter
+    the record, where they would make the run unreadable).
 
     Raises:
-        BagError: the bytes are not such a message.
+        ValueError: the bytes are not such a message, or its arrays do not fit its samples.
     """
     try:
-        return store.deserialize_cdr(record.item, MSG_TRAJECTORY)
+        message = store.deserialize_cdr(data, MSG_TRAJECTORY)
     except Exception as err:
-        msg = f'{path}: a {record.topic} record is not an actuator trajectory ({err})'
-        raise BagError(msg) from err
+        reason = ' '.join(str(err).split()) or type(err).__name__
+        msg = f'not an actuator trajectory ({reason})'
+        raise ValueError(msg) from err
+    samples, n_dof = len(message.time), int(message.n_dof)
+    for name in ('command', 'measured_displacement', 'measured_force'):
+        if len(getattr(message, name)) != samples * n_dof:
+            msg = (f'not an actuator trajectory ({name}: {len(getattr(message, name))} values '
+                   f'for {samples} samples of {n_dof} DOFs)')
+            raise ValueError(msg)
+    return message
 
 
 def journal_to_bag(journal: str | Path, bag: str | Path) -> int:

@@ -1,0 +1,52 @@
+"""A node's status is believed only on its own status topic (pd_common.ros.statements).
+
+A genuine, signed status copied onto another node's status topic — one bridge's "holding"
+onto another's, confirming an emergency stop that bridge never heard — is refused
+(``misdirected``), before the gate remembers anything of it.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from pd_common.auth import Refusal, Signer, StatusGate, new_key
+from pd_common.protocol import Status
+from pd_common.protocol import TestState as State  # (not a test class)
+from pd_common.ros.messages import status_message
+from pd_common.ros.statements import at_home, read_status
+
+
+def holding(node: str, signer: Signer | None) -> object:
+    return status_message(Status(test_id='t', state=State.HOLDING, step=3, total_steps=9,
+                                 omega_dt=0.1, node=node, session='s' * 32,
+                                 emergency_stop=True), signer=signer)
+
+
+@pytest.mark.parametrize(('source', 'node', 'home'), [
+    ('/pd/test_status', '/pd/pd_integrator', True),
+    ('/pd/bridge/status', '/pd/pd_actuator_bridge', True),
+    ('/pd/lab1/bridge/status', '/pd/lab1/pd_actuator_bridge', True),
+    ('/pd/lab3/bridge/status', '/pd/lab1/pd_actuator_bridge', False),   # another site's
+    ('/pd/bridge/status', '/pd/lab1/pd_actuator_bridge', False),
+    ('/pd/lab1/bridge/status', '/pd/pd_actuator_bridge', False),
+    ('/pd/lab1/specimen/bridge/status', '/pd/lab1/pd_actuator_bridge', False),
+    ('/pd/test_status', '', False),                                      # names no node
+    ('/pd/session/offer', '/pd/pd_simulator', False),                    # not a status topic
+])
+def test_a_status_is_at_home_only_on_its_nodes_status_topic(source: str, node: str,
+                                                            home: bool) -> None:
+    assert at_home(source, node) is home
+
+
+def test_a_genuine_status_copied_onto_another_nodes_topic_is_refused() -> None:
+    key = new_key()
+    gate = StatusGate(key)
+    lab1 = holding('/pd/lab1/pd_actuator_bridge', Signer(key))
+    status, reason = read_status(gate, '/pd/lab3/bridge/status', lab1)
+    assert (status, reason) == (None, Refusal.MISDIRECTED)
+    assert gate.refused == {'misdirected': 1}
+    status, reason = read_status(gate, '/pd/lab1/bridge/status', lab1)  # at home: taken
+    assert reason is None and status is not None and status.emergency_stop
+    # Without a key nothing is authenticated, and nothing is checked.
+    assert read_status(StatusGate(None), '/pd/lab3/bridge/status',
+                       holding('/pd/lab1/pd_actuator_bridge', None))[1] is None
