@@ -50,3 +50,15 @@ def test_a_genuine_status_copied_onto_another_nodes_topic_is_refused() -> None:
     # Without a key nothing is authenticated, and nothing is checked.
     assert read_status(StatusGate(None), '/pd/lab3/bridge/status',
                        holding('/pd/lab1/pd_actuator_bridge', None))[1] is None
+
+
+def test_a_malformed_status_on_another_nodes_topic_is_malformed_not_a_crash() -> None:
+    """Bounds first: a status whose signature is beyond its bounds is refused as malformed
+    wherever it arrives (its reader never handles its signature: that raised in the
+    integrator, killing it, when the topic check came first)."""
+    gate = StatusGate(new_key())
+    message = holding('/pd/lab1/pd_actuator_bridge', None)
+    message.signature.key_id = 'k' * 500  # type: ignore[attr-defined]
+    for source in ('/pd/lab3/bridge/status', '/pd/lab1/bridge/status'):
+        assert read_status(gate, source, message) == (None, Refusal.MALFORMED)
+    assert gate.refused == {'malformed': 2}

@@ -50,6 +50,7 @@ from pd_core.run.record.bag import (
     TOPIC_FEEDBACK,
     TOPIC_STATUS,
     read_bag,
+    read_trajectory,
     typestore,
 )
 from pd_core.run.record.journal import (
@@ -59,7 +60,6 @@ from pd_core.run.record.journal import (
     journal_to_bag,
     read_journal,
     read_journal_records,
-    read_trajectory,
 )
 from pd_core.run.runner import (
     load_run,
@@ -1037,3 +1037,8 @@ def test_a_trajectory_is_read_only_as_one(tmp_path: Path) -> None:
     run = read_journal(path)
     assert [t_ns for t_ns, _ in run.trajectories] == [2]
     assert len(run.notes) == 1 and 'left out a /pd/bridge/trajectory record' in run.notes[0]
+    # Its bag (a copy of the records' bytes) reads the same way: the run is not lost to it.
+    journal_to_bag(path, tmp_path / 'bag')
+    bag = read_bag(tmp_path / 'bag')
+    assert [t_ns for t_ns, _ in bag.trajectories] == [2]
+    assert len(bag.notes) == 1 and 'left out a /pd/bridge/trajectory message' in bag.notes[0]

@@ -92,7 +92,7 @@ from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
 from pd_core.run.loop.session import TestSession
 from pd_core.run.loop.steering import Steering
-from pd_core.run.record.bag import RecordedRun, typestore
+from pd_core.run.record.bag import RecordedRun, read_trajectory, typestore
 from pd_core.run.record.continuations import count_continuations
 from pd_core.run.record.figure_worker import FigureWorker
 from pd_core.run.record.journal import (
@@ -100,7 +100,6 @@ from pd_core.run.record.journal import (
     Journal,
     RecordWriteError,
     journal_to_bag,
-    read_trajectory,
 )
 from pd_core.run.resume import (
     ResumeAction,
@@ -265,7 +264,6 @@ class IntegratorNode(Node):
         self._status_gate = StatusGate(self.key)  # the bridges' statuses
         self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
         self._malformed = 0
-        self._trajectory_store: Any = None  # the reader's decoder of trajectories (made once)
         self._acknowledged = Acknowledgements()
         self._estop_logged = (0.0, 0)  # (when, repeats) of the last line about repeats
         self._last_status_message: Any = None
@@ -306,8 +304,10 @@ class IntegratorNode(Node):
                 StepFeedback, site_topic(site, 'step_feedback'),
                 self._guard(lambda data, site=site: self._on_feedback(site, data)),
                 STEP_QOS, raw=True)
-            status_topic = site_topic_name(site, 'bridge/status')
+            # (as resolved here: a status is believed only on its bridge's own topic)
+            status_topic = self.resolve_topic_name(site_topic(site, 'bridge/status'))
             trajectory_topic = site_topic_name(site, 'bridge/trajectory')
+            typestore()  # (the trajectories' decoder, made now: not in the first step, 80 ms)
             self.create_subscription(
                 TestStatus, site_topic(site, 'bridge/status'),
                 self._guard(lambda message, topic=status_topic: self._on_bridge_status(
@@ -334,6 +334,8 @@ class IntegratorNode(Node):
             self.owed = self._restore(self.record)
             last_t = max((t for _, t, _, _ in self.record.ordered), default=time.time_ns())
             self._gap = max(0.0, (time.time_ns() - last_t) / 1e9)
+            for note in self.record.notes:  # (what reading the record left out)
+                self.get_logger().warning(f'resuming {self.directory}: {note}')
             self.get_logger().warning(
                 f'resuming {self.directory}: restored up to step {self.session.committed_step} '
                 f'({self.session.state.name.lower()}: {self.session.message}); '
@@ -658,10 +660,8 @@ class IntegratorNode(Node):
     def _on_trajectory(self, data: bytes, topic: str) -> None:
         # (unsigned: anyone may publish here; what the run's reader could not read back is not
         # recorded, or one message would make the run unreadable: counted as malformed)
-        if self._trajectory_store is None:
-            self._trajectory_store = typestore()
         try:
-            read_trajectory(data, self._trajectory_store)
+            read_trajectory(data, typestore())
         except ValueError:
             self._malformed += 1
             self._refusal_log(Refusal.MALFORMED, Signature(), topic)

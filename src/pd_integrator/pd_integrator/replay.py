@@ -77,6 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     print(f'replayed {result.summary["steps"]} steps ({result.summary["state"]}); outputs in '
           f'{result.directory}')
+    for note in result.summary.get('record_notes', []):  # (what reading the record left out)
+        print(f'replay: note: {note}')
     check = result.summary.get('signature_check')
     if check is not None:
         print(f'replay: signatures (key {check["key_id"]}): {check["verified"]} verified, '

@@ -77,12 +77,13 @@ def read_status(gate: StatusGate, source: str, message: Any
     one bridge's "holding" onto another's, confirming a stop it never heard — is refused
     (``misdirected``).
     """
-    if gate.enabled and not at_home(source, str(getattr(message, 'node', ''))):
-        gate.refused[Refusal.MISDIRECTED.value] += 1
-        return None, Refusal.MISDIRECTED
+    def home(status: Status) -> Refusal | None:
+        return (None if not gate.enabled or at_home(source, status.node)
+                else Refusal.MISDIRECTED)
+
     return _read(gate, source, message, status_from_message,
                  lambda status: status_payload(status, stamp_ns_of(message)),
-                 stamp_ns_of(message))
+                 stamp_ns_of(message), home)
 
 
 #: The status topics, relative to their node's namespace.
@@ -102,12 +103,22 @@ def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | Non
 
 
 def _read(gate: StatusGate, source: str, message: Any, convert: Callable[[Any], Item],
-          payload: Callable[[Item], bytes], stamp_ns: int) -> tuple[Item | None, Refusal | None]:
-    """A statement if it is well-formed, genuine and new; else ``None`` and why (counted)."""
+          payload: Callable[[Item], bytes], stamp_ns: int,
+          where: Callable[[Item], Refusal | None] | None = None
+          ) -> tuple[Item | None, Refusal | None]:
+    """A statement if it is well-formed, where it belongs, genuine and new; else ``None`` and why.
+
+    (Counted on ``gate``.) ``where``: why the well-formed statement does not belong on
+    ``source`` (checked before the gate remembers anything of it).
+    """
     signed = signed_from_message(convert, message)
     if signed is None:
         gate.refused[Refusal.MALFORMED.value] += 1
         return None, Refusal.MALFORMED
     item, signature = signed
+    reason = where(item) if where is not None else None
+    if reason is not None:
+        gate.refused[reason.value] += 1
+        return None, reason
     reason = gate.admit(source, payload(item), signature, stamp_ns)
     return (None, reason) if reason is not None else (item, None)

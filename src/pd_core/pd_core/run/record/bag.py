@@ -405,6 +405,31 @@ def site_of(topic: str) -> str:
     return '' if head in ('step_command', 'step_feedback') else head
 
 
+def read_trajectory(data: bytes, store: Any) -> Any:
+    """The ``ActuatorTrajectory`` message of CDR bytes (``store``: :func:`~.bag.typestore`).
+
+    What a run's reader decodes a trajectory record with: its recorder checks each with this
+    before it is recorded (the topic is not signed: bytes that are no trajectory never enter
+    the record, where they would make the run unreadable).
+
+    Raises:
+        ValueError: the bytes are not such a message, or its arrays do not fit its samples.
+    """
+    try:
+        message = store.deserialize_cdr(data, MSG_TRAJECTORY)
+    except Exception as err:
+        reason = ' '.join(str(err).split()) or type(err).__name__
+        msg = f'not an actuator trajectory ({reason})'
+        raise ValueError(msg) from err
+    samples, n_dof = len(message.time), int(message.n_dof)
+    for name in ('command', 'measured_displacement', 'measured_force'):
+        if len(getattr(message, name)) != samples * n_dof:
+            msg = (f'not an actuator trajectory ({name}: {len(getattr(message, name))} values '
+                   f'for {samples} samples of {n_dof} DOFs)')
+            raise ValueError(msg)
+    return message
+
+
 def read_bag(path: str | Path) -> RecordedRun:
     """Read a run's bag (any rosbag2 reader-compatible bag with the topics above).
 
@@ -413,10 +438,19 @@ def read_bag(path: str | Path) -> RecordedRun:
     """
     path = Path(path)
     index = RunIndex()
+    notes: list[str] = []
+    store = typestore()
     try:
-        with AnyReader([path], default_typestore=typestore()) as reader:
+        with AnyReader([path], default_typestore=store) as reader:
             connections = [c for c in reader.connections if _message_type(c.topic) is not None]
             for connection, t_ns, raw in reader.messages(connections=connections):
+                if connection.msgtype == MSG_TRAJECTORY:
+                    try:  # (informative: one that is no trajectory is left out, noted)
+                        index.trajectory(t_ns, read_trajectory(raw, store))
+                    except ValueError as err:
+                        notes.append(f'left out a {connection.topic} message (log time '
+                                     f'{t_ns} ns): {err}')
+                    continue
                 message = reader.deserialize(raw, connection.msgtype)
                 topic = connection.topic
                 msgtype = connection.msgtype
@@ -433,8 +467,6 @@ def read_bag(path: str | Path) -> RecordedRun:
                         message.signature)  # type: ignore[attr-defined]  # rosbags: ``object``
                     index.message(topic, t_ns, item, signature,
                                   stamp_ns_of(message))
-                elif msgtype == MSG_TRAJECTORY:
-                    index.trajectory(t_ns, message)
                 else:
                     index.status(topic, t_ns, status_from_message(message))
     except BagError:
@@ -443,4 +475,6 @@ def read_bag(path: str | Path) -> RecordedRun:
         reason = ' '.join(str(err).split())  # (one line: a YAML error's own spans several)
         msg = f'{path}: cannot read the bag ({reason})'
         raise BagError(msg) from err
-    return index.result(str(path))
+    run = index.result(str(path))
+    run.notes = notes
+    return run

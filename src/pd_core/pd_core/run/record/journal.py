@@ -73,13 +73,13 @@ from pd_common.protocol import (
 
 from ...errors import BagError
 from .bag import (
-    MSG_TRAJECTORY,
     TOPIC_COMMAND,
     TOPIC_FEEDBACK,
     TOPIC_STATUS,
     BagRecorder,
     RecordedRun,
     RunIndex,
+    read_trajectory,
     typestore,
 )
 from .journal_format import (
@@ -94,7 +94,7 @@ from .journal_format import (
 
 __all__ = ['JOURNAL_FILE', 'LEGACY_JOURNAL_FILE', 'Journal', 'JournalRecord',
            'RecordWriteError', 'RunRecorder', 'iter_journal_records', 'journal_to_bag',
-           'read_journal', 'read_journal_records', 'read_trajectory']
+           'read_journal', 'read_journal_records']
 
 #: The journal's file name in a run folder.
 JOURNAL_FILE = 'journal.pdj'
@@ -515,31 +515,6 @@ def read_journal(path: str | Path) -> RecordedRun:
     run = index.result(str(path))
     run.notes = notes
     return run
-
-
-def read_trajectory(data: bytes, store: Any) -> Any:
-    """The ``ActuatorTrajectory`` message of CDR bytes (``store``: :func:`~.bag.typestore`).
-
-    What a run's reader decodes a trajectory record with: its recorder checks each with this
-    before it is recorded (the topic is not signed: bytes that are no trajectory never enter
-    the record, where they would make the run unreadable).
-
-    Raises:
-        ValueError: the bytes are not such a message, or its arrays do not fit its samples.
-    """
-    try:
-        message = store.deserialize_cdr(data, MSG_TRAJECTORY)
-    except Exception as err:
-        reason = ' '.join(str(err).split()) or type(err).__name__
-        msg = f'not an actuator trajectory ({reason})'
-        raise ValueError(msg) from err
-    samples, n_dof = len(message.time), int(message.n_dof)
-    for name in ('command', 'measured_displacement', 'measured_force'):
-        if len(getattr(message, name)) != samples * n_dof:
-            msg = (f'not an actuator trajectory ({name}: {len(getattr(message, name))} values '
-                   f'for {samples} samples of {n_dof} DOFs)')
-            raise ValueError(msg)
-    return message
 
 
 def journal_to_bag(journal: str | Path, bag: str | Path) -> int:
