@@ -1034,11 +1034,16 @@ def test_a_trajectory_is_read_only_as_one(tmp_path: Path) -> None:
         journal.write_definition('{"test": {"id": "t"}}', 1)
         journal.write_raw('/pd/bridge/trajectory', 2, good)
         journal.write_raw('/pd/bridge/trajectory', 3, b'\x00\x01\xffraw')
+        journal.write_raw('/pd/bridge/trajectory', 4, _trajectory_bytes(4, 2, values=3))
     run = read_journal(path)
     assert [t_ns for t_ns, _ in run.trajectories] == [2]
-    assert len(run.notes) == 1 and 'left out a /pd/bridge/trajectory record' in run.notes[0]
+    # (one note however many: the first described)
+    assert run.notes == [run.notes[0]] and run.notes[0].startswith(
+        'left out 2 trajectory records (first: /pd/bridge/trajectory at log time 3 ns: not an '
+        'actuator trajectory (')
     # Its bag (a copy of the records' bytes) reads the same way: the run is not lost to it.
     journal_to_bag(path, tmp_path / 'bag')
     bag = read_bag(tmp_path / 'bag')
     assert [t_ns for t_ns, _ in bag.trajectories] == [2]
-    assert len(bag.notes) == 1 and 'left out a /pd/bridge/trajectory message' in bag.notes[0]
+    assert bag.notes == [bag.notes[0]] and bag.notes[0].startswith(
+        'left out 2 trajectory messages (first: /pd/bridge/trajectory at log time 3 ns')

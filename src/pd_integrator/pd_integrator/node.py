@@ -304,14 +304,15 @@ class IntegratorNode(Node):
                 StepFeedback, site_topic(site, 'step_feedback'),
                 self._guard(lambda data, site=site: self._on_feedback(site, data)),
                 STEP_QOS, raw=True)
-            # (as resolved here: a status is believed only on its bridge's own topic)
-            status_topic = self.resolve_topic_name(site_topic(site, 'bridge/status'))
+            status_topic = site_topic_name(site, 'bridge/status')  # (as recorded)
+            # (as resolved here: where the bridge's node must publish a status it signed)
+            status_source = self.resolve_topic_name(site_topic(site, 'bridge/status'))
             trajectory_topic = site_topic_name(site, 'bridge/trajectory')
             typestore()  # (the trajectories' decoder, made now: not in the first step, 80 ms)
             self.create_subscription(
                 TestStatus, site_topic(site, 'bridge/status'),
-                self._guard(lambda message, topic=status_topic: self._on_bridge_status(
-                    message, topic)), LATCHED_QOS)
+                self._guard(lambda message, topic=status_topic, source=status_source:
+                            self._on_bridge_status(message, topic, source)), LATCHED_QOS)
             self.create_subscription(
                 ActuatorTrajectory, site_topic(site, 'bridge/trajectory'),
                 self._guard(lambda data, topic=trajectory_topic: self._on_trajectory(
@@ -644,8 +645,12 @@ class IntegratorNode(Node):
             self.get_logger().info(line)
             self.publish_status()
 
-    def _on_bridge_status(self, message: TestStatus, topic: str) -> None:
-        status, reason = read_status(self._status_gate, topic, message)
+    def _on_bridge_status(self, message: TestStatus, topic: str, source: str) -> None:
+        """A bridge's status on ``source`` (as resolved: where its node must publish it).
+
+        Recorded under ``topic``.
+        """
+        status, reason = read_status(self._status_gate, source, message)
         if status is None:  # not the bridge's word: never recorded as its own
             if reason is not None:
                 self._refusal_log(reason, signature_from_message(message.signature)

@@ -417,17 +417,41 @@ def read_trajectory(data: bytes, store: Any) -> Any:
     """
     try:
         message = store.deserialize_cdr(data, MSG_TRAJECTORY)
+        samples, n_dof = len(message.time), int(message.n_dof)
+        lengths = {name: len(getattr(message, name))
+                   for name in ('command', 'measured_displacement', 'measured_force')}
     except Exception as err:
         reason = ' '.join(str(err).split()) or type(err).__name__
         msg = f'not an actuator trajectory ({reason})'
         raise ValueError(msg) from err
-    samples, n_dof = len(message.time), int(message.n_dof)
-    for name in ('command', 'measured_displacement', 'measured_force'):
-        if len(getattr(message, name)) != samples * n_dof:
-            msg = (f'not an actuator trajectory ({name}: {len(getattr(message, name))} values '
-                   f'for {samples} samples of {n_dof} DOFs)')
+    for name, length in lengths.items():
+        if length != samples * n_dof:
+            msg = (f'not an actuator trajectory ({name}: {length} values for {samples} '
+                   f'samples of {n_dof} DOFs)')
             raise ValueError(msg)
     return message
+
+
+class LeftOut:
+    """Trajectories a reader left out, said in one note (however many there are)."""
+
+    def __init__(self, what: str) -> None:
+        self.what = what  # 'record' (a journal's) or 'message' (a bag's)
+        self.count = 0
+        self.first = ''
+
+    def add(self, topic: str, t_ns: int, err: Exception) -> None:
+        """One more left out (the first is described)."""
+        self.count += 1
+        if self.count == 1:
+            self.first = f'{topic} at log time {t_ns} ns: {err}'
+
+    def notes(self) -> list[str]:
+        """The note (none if nothing was left out)."""
+        if not self.count:
+            return []
+        plural = '' if self.count == 1 else 's'
+        return [f'left out {self.count} trajectory {self.what}{plural} (first: {self.first})']
 
 
 def read_bag(path: str | Path) -> RecordedRun:
@@ -438,18 +462,17 @@ def read_bag(path: str | Path) -> RecordedRun:
     """
     path = Path(path)
     index = RunIndex()
-    notes: list[str] = []
-    store = typestore()
+    left_out = LeftOut('message')
     try:
-        with AnyReader([path], default_typestore=store) as reader:
+        with AnyReader([path], default_typestore=typestore()) as reader:
             connections = [c for c in reader.connections if _message_type(c.topic) is not None]
             for connection, t_ns, raw in reader.messages(connections=connections):
                 if connection.msgtype == MSG_TRAJECTORY:
-                    try:  # (informative: one that is no trajectory is left out, noted)
-                        index.trajectory(t_ns, read_trajectory(raw, store))
+                    try:  # (informative: one that is no trajectory is left out, noted;
+                        # decoded with the bag's own message definitions, as the rest)
+                        index.trajectory(t_ns, read_trajectory(raw, reader.typestore))
                     except ValueError as err:
-                        notes.append(f'left out a {connection.topic} message (log time '
-                                     f'{t_ns} ns): {err}')
+                        left_out.add(connection.topic, t_ns, err)
                     continue
                 message = reader.deserialize(raw, connection.msgtype)
                 topic = connection.topic
@@ -476,5 +499,5 @@ def read_bag(path: str | Path) -> RecordedRun:
         msg = f'{path}: cannot read the bag ({reason})'
         raise BagError(msg) from err
     run = index.result(str(path))
-    run.notes = notes
+    run.notes = left_out.notes()
     return run

@@ -77,6 +77,7 @@ from .bag import (
     TOPIC_FEEDBACK,
     TOPIC_STATUS,
     BagRecorder,
+    LeftOut,
     RecordedRun,
     RunIndex,
     read_trajectory,
@@ -494,6 +495,7 @@ def read_journal(path: str | Path) -> RecordedRun:
         BagError: unreadable, or no test definition in it.
     """
     notes: list[str] = []
+    left_out = LeftOut('record')
     index = RunIndex()
     store = typestore()
     for record in iter_journal_records(path, notes):
@@ -508,12 +510,11 @@ def read_journal(path: str | Path) -> RecordedRun:
             try:  # (informative: one that is no trajectory is left out, the run still read)
                 index.trajectory(record.t_ns, read_trajectory(record.item, store))
             except ValueError as err:
-                notes.append(f'left out a {record.topic} record (log time {record.t_ns} ns): '
-                             f'{err}')
+                left_out.add(record.topic, record.t_ns, err)
         elif record.kind == 'ev':
             index.event(record.t_ns, dict(record.item))
     run = index.result(str(path))
-    run.notes = notes
+    run.notes = notes + left_out.notes()
     return run
 
 
