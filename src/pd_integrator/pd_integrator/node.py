@@ -296,6 +296,7 @@ class IntegratorNode(Node):
         # pd_msgs has no type information: the message type parameter is Any.
         self._command_pubs: dict[str, Publisher[Any]] = {}
         self._feedback_subs: dict[str, Subscription[Any]] = {}
+        typestore()  # (the bridges' trajectories' decoder, made now: not in the first step, 80 ms)
         for site in self.dispatcher.sites:
             self._command_pubs[site] = self.create_publisher(
                 StepCommand, site_topic(site, 'step_command'), STEP_QOS)
@@ -308,7 +309,6 @@ class IntegratorNode(Node):
             # (as resolved here: where the bridge's node must publish a status it signed)
             status_source = self.resolve_topic_name(site_topic(site, 'bridge/status'))
             trajectory_topic = site_topic_name(site, 'bridge/trajectory')
-            typestore()  # (the trajectories' decoder, made now: not in the first step, 80 ms)
             self.create_subscription(
                 TestStatus, site_topic(site, 'bridge/status'),
                 self._guard(lambda message, topic=status_topic, source=status_source:

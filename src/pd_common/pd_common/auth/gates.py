@@ -43,6 +43,36 @@ __all__ = ['DEFAULT_CONTROL_WINDOW', 'CommandGate', 'ControlGate', 'ReplyGate', 
 DEFAULT_CONTROL_WINDOW = 30.0
 
 
+class _Latest:
+    """The last sequence admitted from one signer, and the MACs admitted at it.
+
+    A higher sequence is new. The same sequence again is new only where a second message may
+    share it — a reply (a bridge that holds answers the command it last answered again, as a
+    fault: another message, signed for the same request) — and only as another message: the
+    same bytes again are a replay.
+    """
+
+    __slots__ = ('mac', 'others', 'sequence')
+
+    def __init__(self, sequence: int = 0) -> None:
+        self.sequence = sequence          # (a session start's: its commands follow it)
+        self.mac = b''                    # the first MAC admitted at it
+        self.others: set[bytes] = set()   # any later ones (rare: kept off the common path)
+
+    def take(self, signature: Signature, *, repeatable: bool) -> bool:
+        """Whether ``signature`` is new (it is then remembered)."""
+        if signature.sequence > self.sequence:
+            self.sequence, self.mac = signature.sequence, signature.mac
+            if self.others:
+                self.others = set()
+            return True
+        if (repeatable and signature.sequence == self.sequence > 0
+                and signature.mac != self.mac and signature.mac not in self.others):
+            self.others.add(signature.mac)
+            return True
+        return False
+
+
 class _Gate:
     """Counting refusals; the key (``None``: authentication off)."""
 
@@ -71,16 +101,25 @@ class _Gate:
         reason = verify_mac(self.key, payload, signature)
         return self._refuse(reason, signature) if reason is not None else None
 
-    def _check_session(self, payload: WirePayload, signature: Signature, session: str | None
-                       ) -> Refusal | None:
-        """Why a step message is refused before its sequence: MAC, no session, another one."""
+    def _admit_step(self, payload: WirePayload, signature: Signature, session: str | None,
+                    latest: _Latest | None, *, repeatable: bool) -> Refusal | None:
+        """A step message's admission: ``None``, or why not (counted).
+
+        Its MAC, then ``session`` (``None``: none open), then its sequence against ``latest``
+        (the last admitted in that session; ``repeatable``: see :class:`_Latest`). Without a
+        key, everything.
+        """
+        if self.key is None:
+            return None
         reason = self._check_mac(payload, signature)
         if reason is not None:
             return reason
-        if session is None:
+        if session is None or latest is None:
             return self._refuse(Refusal.NO_SESSION, signature)
         if signature.session != session:
             return self._refuse(Refusal.FOREIGN_SESSION, signature)
+        if not latest.take(signature, repeatable=repeatable):
+            return self._refuse(Refusal.REPLAYED, signature)
         return None
 
 
@@ -91,7 +130,7 @@ class CommandGate(_Gate):
         super().__init__(key)
         self.challenge = new_session()
         self.session: str | None = None
-        self.last_sequence = 0
+        self._latest = _Latest()
 
     def start(self, payload: bytes, challenge: str, signature: Signature) -> Refusal | None:
         """A session start quoting ``challenge``: open its session, or say why not.
@@ -100,7 +139,7 @@ class CommandGate(_Gate):
         """
         if self.key is None:
             self.session = signature.session
-            self.last_sequence = signature.sequence
+            self._latest = _Latest(signature.sequence)
             return None
         reason = self._check_mac(payload, signature)
         if reason is not None:
@@ -108,57 +147,20 @@ class CommandGate(_Gate):
         if challenge != self.challenge:  # a start for an earlier offer: a replay
             return self._refuse(Refusal.REPLAYED, signature)
         self.session = signature.session
-        self.last_sequence = signature.sequence
+        self._latest = _Latest(signature.sequence)
         self.challenge = new_session()
         return None
 
     def close(self) -> None:
         """End the session (deactivation, restart): a new signed start is needed."""
         self.session = None
-        self.last_sequence = 0
+        self._latest = _Latest()
         self.challenge = new_session()
 
     def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the command may be obeyed; else why not (counted)."""
-        if self.key is None:
-            return None
-        reason = self._check_session(payload, signature, self.session)
-        if reason is not None:
-            return reason
-        if signature.sequence <= self.last_sequence:
-            return self._refuse(Refusal.REPLAYED, signature)
-        self.last_sequence = signature.sequence
-        return None
-
-
-class _Latest:
-    """The last sequence admitted from one signer, and the MACs admitted at it.
-
-    A higher sequence is new. The same sequence again is new only where a second message may
-    share it — a reply (a bridge that holds answers the command it last answered again, as a
-    fault: another message, signed for the same request) — and only as another message: the
-    same bytes again are a replay.
-    """
-
-    __slots__ = ('mac', 'others', 'sequence')
-
-    def __init__(self) -> None:
-        self.sequence = 0
-        self.mac = b''                    # the first MAC admitted at it
-        self.others: set[bytes] = set()   # any later ones (rare: kept off the common path)
-
-    def take(self, signature: Signature, *, repeatable: bool) -> bool:
-        """Whether ``signature`` is new (it is then remembered)."""
-        if signature.sequence > self.sequence:
-            self.sequence, self.mac = signature.sequence, signature.mac
-            if self.others:
-                self.others = set()
-            return True
-        if (repeatable and signature.sequence == self.sequence > 0
-                and signature.mac != self.mac and signature.mac not in self.others):
-            self.others.add(signature.mac)
-            return True
-        return False
+        return self._admit_step(payload, signature, self.session, self._latest,
+                                repeatable=False)
 
 
 class ReplyGate(_Gate):
@@ -175,14 +177,8 @@ class ReplyGate(_Gate):
 
     def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the reply is genuine and new; else why not (counted)."""
-        if self.key is None:
-            return None
-        reason = self._check_session(payload, signature, self.session)
-        if reason is not None:
-            return reason
-        if not self._latest.take(signature, repeatable=True):
-            return self._refuse(Refusal.REPLAYED, signature)
-        return None
+        return self._admit_step(payload, signature, self.session, self._latest,
+                                repeatable=True)
 
 
 class ControlGate(_Gate):
@@ -305,15 +301,11 @@ class WatchGate(_Gate):
 
     def admit(self, payload: WirePayload, signature: Signature) -> Refusal | None:
         """``None`` if the message may be shown as the hop's; else why not (counted)."""
-        if self.key is None:
-            return None
-        reason = self._check_session(payload, signature, self.session)
-        if reason is not None:
-            return reason
-        latest = self._last.setdefault(signature.session, {}).setdefault(payload.kind, _Latest())
-        if not latest.take(signature, repeatable=payload.kind == WIRE_FEEDBACK):
-            return self._refuse(Refusal.REPLAYED, signature)
-        return None
+        # (:meth:`follow` keeps the session followed: never the one dropped)
+        latest = (self._last[self.session].setdefault(payload.kind, _Latest())
+                  if self.session is not None else None)
+        return self._admit_step(payload, signature, self.session, latest,
+                                repeatable=payload.kind == WIRE_FEEDBACK)
 
 
 def merge_refusals(counts: Iterable[Mapping[str, int]]) -> Counter[str]:
