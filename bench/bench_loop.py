@@ -437,6 +437,7 @@ def bench_graph(table: Table, site: str, param_args: list[str], domain_id: int, 
 
 # -- 3. raw ping-pong -----------------------------------------------------------------------
 ECHO_SCRIPT = r'''
+import os
 import sys
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -445,6 +446,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from pd_msgs.msg import StepCommand, StepFeedback
 
 kind, domain_id = sys.argv[1], int(sys.argv[2])
+work = None
+if kind == 'raw' and os.environ.get('PD_ECHO_WORK'):  # bench_wakeup: work before each answer
+    from _echo_work import echo_work
+    work = echo_work(os.environ['PD_ECHO_WORK'])
 qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.VOLATILE)
 rclpy.init(domain_id=domain_id)
@@ -473,6 +478,8 @@ if kind == 'raw':  # the same messages as CDR bytes: the step and target copied,
         (target,) = double.unpack_from(data, target_at)
         double.pack_into(raw_reply, measured_at, target)
         double.pack_into(raw_reply, force_at, 312559.0 * target)
+        if work is not None:
+            work()
         publisher.publish(bytes(raw_reply))
 
 
@@ -539,8 +546,12 @@ class PingResult:
     lost: int
 
 
-def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
-    """Ping ``count`` times the echo subprocess; the pinger runs in this process."""
+def _ping(kind: str, domain_id: int, count: int, test_id: str, work: str | None = None
+          ) -> PingResult:
+    """Ping ``count`` times the echo subprocess; the pinger runs in this process.
+
+    ``work`` (raw only): what the echo does before each answer (:func:`_echo_work.echo_work`).
+    """
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.experimental import EventsExecutor
@@ -552,6 +563,12 @@ def _ping(kind: str, domain_id: int, count: int, test_id: str) -> PingResult:
                      durability=DurabilityPolicy.VOLATILE)
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id))
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    env.pop('PD_ECHO_WORK', None)
+    if work is not None:
+        env['PD_ECHO_WORK'] = work
+        env['PYTHONPATH'] = os.pathsep.join(
+            part for part in (str(Path(__file__).resolve().parent), env.get('PYTHONPATH'))
+            if part)
     before = shm_snapshot()
     layout = RawLayout.of(test_id)
     extra = layout.echo_arguments() if kind == 'raw' else []
