@@ -2,7 +2,7 @@
 
 Run inside the sourced workspace (``. scripts/env.sh``)::
 
-    python bench/bench_wakeup.py [--quick] [--rounds 3] [--pings 3000] [--domain-id 63]
+    python bench/bench_wakeup.py [--quick] [--rounds 5] [--pings 3000] [--domain-id 63]
                                  [--no-save]
 
 or ``./pd bench``. A measurement, not a test: it asserts nothing. The floor of ``bench_loop``
@@ -48,7 +48,7 @@ RAW_GOAL = 1.3  # graph_direct_over_raw_floor
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--rounds', type=int, default=3, help='rounds of every configuration')
+    parser.add_argument('--rounds', type=int, default=5, help='rounds of every configuration')
     parser.add_argument('--pings', type=int, default=3000, help='round trips per ping-pong')
     parser.add_argument('--domain-id', type=int, default=63)
     parser.add_argument('--quick', action='store_true', help='2 rounds of 1000 round trips')
