@@ -8,7 +8,8 @@
   (``bench/_wire_loop.py``): a command signed by the integrator's :class:`~pd_common.auth.Signer`
   (signed beforehand, in batches: not part of the work) is decoded, admitted by a
   :class:`~pd_common.auth.CommandGate`, served by the default test's simulated specimen, and
-  answered with a reply encoded and signed as the simulator signs it.
+  answered with a reply encoded and signed as the simulator signs it. The node does a little
+  more (the run's tag, the state file's line, its reply's fields): this is a lower bound.
 """
 
 from __future__ import annotations
@@ -16,6 +17,26 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+
+from pd_common.auth import (
+    WIRE_COMMAND,
+    WIRE_FEEDBACK,
+    CommandGate,
+    Signer,
+    command_payload,
+    new_key,
+    session_start_payload,
+    sign_wire_reply,
+)
+from pd_common.protocol import (
+    Command,
+    SessionStart,
+    decode_command,
+    encode_command,
+    encode_feedback,
+)
+from pd_common.specimen import SpecimenServer, specimen_from_config
+from pd_core.run.test_file import load_test_file
 
 BATCH = 10_000  # commands signed ahead; a new batch (a new session and specimen) when used up
 DEFAULT_TEST = (Path(__file__).resolve().parents[1] / 'src' / 'pd_integrator' / 'config'
@@ -38,8 +59,6 @@ class SimulatorStep:
     """One simulator step's work per call, on commands signed ahead in batches."""
 
     def __init__(self, test_file: Path = DEFAULT_TEST) -> None:
-        from pd_core.run.test_file import load_test_file
-
         self.definition = load_test_file(test_file, {})
         self._commands: list[bytes] = []
         self._next = 0
@@ -47,16 +66,6 @@ class SimulatorStep:
 
     def _batch(self) -> None:
         """A new session, gate and specimen, and BATCH commands signed in that session."""
-        from pd_common.auth import (
-            WIRE_COMMAND,
-            CommandGate,
-            Signer,
-            new_key,
-            session_start_payload,
-        )
-        from pd_common.protocol import Command, SessionStart, encode_command
-        from pd_common.specimen import SpecimenServer, specimen_from_config
-
         definition = self.definition
         self.key = key = new_key()
         signer = Signer(key)
@@ -80,9 +89,6 @@ class SimulatorStep:
 
     def __call__(self) -> bytes:
         """Serve the next command; the reply's bytes."""
-        from pd_common.auth import WIRE_FEEDBACK, command_payload, sign_wire_reply
-        from pd_common.protocol import decode_command, encode_feedback
-
         if self._next == len(self._commands):
             self._batch()
         data = self._commands[self._next]
