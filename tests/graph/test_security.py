@@ -376,7 +376,7 @@ def test_a_readable_key_file_is_refused_in_one_line(processes: Processes,
 
 def test_a_node_with_the_wrong_key_refuses_every_message_and_says_so_once(
         processes: Processes, observer: Any, tmp_path: Path) -> None:
-    from pd_common.auth import generate_key
+    from pd_common.auth import generate_key, load_key
 
     other = tmp_path / 'other.key'
     generate_key(other)
@@ -396,5 +396,7 @@ def test_a_node_with_the_wrong_key_refuses_every_message_and_says_so_once(
     refusals = [line for line in processes.log('integrator').splitlines()
                 if 'refusing every' in line]
     assert len(refusals) == 1 and 'wrong key file' in refusals[0]
+    # ... naming the key that signed the offers (the specimen's), and its own
+    assert f'signed with key {load_key(other).key_id}: this node has key' in refusals[0]
     summary = json.loads((tmp_path / 'run' / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'aborted' and summary['steps'] == 0

@@ -214,8 +214,8 @@ class SessionSender:
             ``'specimen/'``): its offer is ``<prefix>session/offer``.
         signer: the sender's signer (one session per sender and run), or ``None`` (no key).
         key: the key (``None``: authentication off).
-        on_refused: called with each refused offer's reason, an empty signature and the
-            offer topic.
+        on_refused: called with each refused offer's reason, its signature (empty for a
+            malformed one) and the offer topic.
     """
 
     def __init__(self, node: Node, prefix: str, signer: Signer | None,
@@ -319,7 +319,10 @@ class SessionSender:
         offer, reason = read_offer(self.offer_gate, self._offer_topic, message)
         if offer is None:  # not the receiver's word: believed in nothing
             if reason is not None and self._on_refused_offer is not None:
-                self._on_refused_offer(reason, Signature(), self._offer_topic)
+                # (a well-formed offer's signature says which key signed it: the log names it)
+                signature = (Signature() if reason is Refusal.MALFORMED
+                             else signature_from_message(message.signature))
+                self._on_refused_offer(reason, signature, self._offer_topic)
             return
         self.offer = offer
         self._offer_doubted = False
