@@ -511,15 +511,21 @@ def test_bridge_lifecycle_and_latched_emergency_stop(
 
 def test_emulator_driver_records_the_actuator_trajectory(
         processes: Processes, tmp_path: Path) -> None:
+    """With a key: the bridge signs each trajectory and the integrator records it."""
+    from pd_common.auth import generate_key
+
+    key = tmp_path / 'rig.key'
+    generate_key(key)
     test_file = write_test_file(tmp_path / 'emulator.yaml', test__duration=0.2,
                                 test__id='graph-emulator')
     params = write_bridge_params(tmp_path / 'bridge.yaml', driver='emulator',
                                  test_file=str(test_file))
     out = tmp_path / 'run'
     launcher = run_launcher(processes, 'run_test', [str(test_file), '--site', 'none',
-                                                    '--out', str(out), '--no-figures'])
+                                                    '--out', str(out), '--no-figures',
+                                                    '--key', str(key)])
     processes.start('bridge', [executable('pd_actuator_bridge'), '--ros-args',
-                               '--params-file', str(params)])
+                               '--params-file', str(params), '-p', f'key_file:={key}'])
     code = wait_exit(launcher, RUN_TIMEOUT, lambda: processes.log('run_test'))
     assert code == 0, processes.log('run_test')[-2000:] + processes.log('bridge')[-2000:]
     run = read_bag(out / 'bag')
@@ -528,8 +534,10 @@ def test_emulator_driver_records_the_actuator_trajectory(
     samples = len(trajectory.time)
     assert trajectory.rate >= 1000.0
     assert len(trajectory.command) == samples * trajectory.n_dof
+    assert trajectory.node == '/pd/pd_actuator_bridge' and len(trajectory.signature.mac) == 32
     summary = json.loads((out / 'summary.json').read_text(encoding='utf-8'))
     assert summary['state'] == 'finished'
+    assert 'bridge_trajectory' not in summary['authentication']['refused_messages']
     # The emulated actuator settles close to the target, not exactly on it.
     error = summary['dofs']['top']['max_measurement_error']
     assert 0.0 < error < 1e-4

@@ -37,7 +37,13 @@ from pd_common.protocol import (
     encode_command,
     encode_feedback,
 )
-from pd_common.ros import command_message, control_message, feedback_message
+from pd_common.ros import (
+    command_message,
+    control_message,
+    feedback_message,
+    now_stamp,
+    sign_trajectory,
+)
 from pd_core.run.record.bag import read_bag
 from pd_core.run.record.journal import read_journal
 from pd_core.run.record.signatures import ForeignKeyError, check_signatures
@@ -132,8 +138,8 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
               for topic in ('/pd/session/offer', '/pd/specimen/session/offer')}
     forged_statuses = {topic: observer.create_publisher(TestStatus, topic, latched_qos())
                        for topic in ('/pd/test_status', '/pd/bridge/status')}
-    # (unsigned, recorded by the integrator: bytes that are no trajectory would make the run
-    # unreadable, so they are counted as malformed and never recorded)
+    # (recorded by the integrator only as its bridge signed them; bytes that are no trajectory
+    # would make the run unreadable: counted as malformed and never recorded)
     trajectories = observer.create_publisher(ActuatorTrajectory, '/pd/bridge/trajectory', 100)
 
     processes.start('specimen', [executable('pd_specimen_sim'), '--ros-args', '-r',
@@ -220,6 +226,15 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
         ragged = ActuatorTrajectory(test_id=last.test_id, step=last.step, n_dof=1,
                                     time=[0.0, 0.001], command=[0.0])  # 1 value, 2 samples
         trajectories.publish(ragged)
+        # well-formed, as the bridge's node: unsigned, and signed with the rogue's key
+        for signer in (None, rogue):
+            forged_trajectory = ActuatorTrajectory(
+                test_id=last.test_id, step=last.step, n_dof=1, rate=1000.0,
+                time=[0.0, 0.001], command=[0.2, 0.2], measured_displacement=[0.2, 0.2],
+                measured_force=[1e6, 1e6])
+            forged_trajectory.header.stamp = now_stamp()
+            sign_trajectory(forged_trajectory, signer, '/pd/pd_actuator_bridge')
+            trajectories.publish(forged_trajectory)
         for command in ('abort', 'pause', 'resume'):
             for signer in (None, rogue):
                 control = Control(command=command, stamp=time.time())
@@ -336,6 +351,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
     assert refused['malformed']['malformed'] >= 3  # (the feedback, the two trajectories)
     run = read_journal(out / 'journal.pdj')  # readable: no trajectory of the rogue's in it
     assert run.trajectories == [] and run.notes == []
+    assert {'unsigned', 'wrong_key'} <= set(refused['bridge_trajectory'])
     assert {'unsigned', 'wrong_key', 'sealed'} <= set(refused['test_control'])
     # Every move that reached the specimen (that the observer heard) was a target the
     # owner's integrator sent (its bag); none of the rogue's.

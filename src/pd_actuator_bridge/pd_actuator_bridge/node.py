@@ -93,6 +93,7 @@ from pd_common.auth import (
     AuthError,
     ControlGate,
     Refusal,
+    Signer,
     describe_refusals,
     merge_refusals,
 )
@@ -138,6 +139,7 @@ from pd_common.ros import (
     run_node,
     seal_parameters,
     settle_collector,
+    sign_trajectory,
     spin_until_shutdown,
 )
 from pd_msgs.msg import ActuatorTrajectory, StepCommand, StepFeedback, TestStatus
@@ -216,6 +218,7 @@ class ActuatorBridgeNode(LifecycleNode):
         self.key = declare_key(self)
         self.epoch = new_epoch()
         self.announcer = Announcer(self, self.key)
+        self._trajectory_signer = Signer(self.key) if self.key is not None else None
         self._refusal_log = RefusalLog(self.get_logger().warning, self.key, 'message')
         self._control_gate = ControlGate(self.key, self.announcer.identity,
                                          self.announcer.session)
@@ -633,6 +636,8 @@ class ActuatorBridgeNode(LifecycleNode):
         message.command = execution.command.reshape(-1).tolist()
         message.measured_displacement = execution.measured_displacement.reshape(-1).tolist()
         message.measured_force = execution.measured_force.reshape(-1).tolist()
+        # (signed by a signer of its own: statuses are signed from other callbacks)
+        sign_trajectory(message, self._trajectory_signer, self.announcer.identity)
         self._trajectory_pub.publish(message)
 
     # -- callbacks ----------------------------------------------------------------------------

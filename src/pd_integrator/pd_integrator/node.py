@@ -73,9 +73,11 @@ from pd_common.ros import (
     LATCHED_QOS,
     STEP_QOS,
     TEARDOWN_TIMEOUT,
+    TRAJECTORY_TOPIC,
     Announcer,
     RefusalLog,
     SessionSender,
+    admit_trajectory,
     declare_key,
     exit_process,
     init_with_stop_flag,
@@ -262,6 +264,7 @@ class IntegratorNode(Node):
         self._control_gate = ControlGate(self.key, self.announcer.identity,
                                          self.announcer.session)
         self._status_gate = StatusGate(self.key)  # the bridges' statuses
+        self._trajectory_gate = StatusGate(self.key)  # the bridges' actuator trajectories
         self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
         self._malformed = 0
         self._acknowledged = Acknowledgements()
@@ -308,15 +311,16 @@ class IntegratorNode(Node):
             status_topic = site_topic_name(site, 'bridge/status')  # (as recorded)
             # (as resolved here: where the bridge's node must publish a status it signed)
             status_source = self.resolve_topic_name(site_topic(site, 'bridge/status'))
-            trajectory_topic = site_topic_name(site, 'bridge/trajectory')
+            trajectory_topic = site_topic_name(site, TRAJECTORY_TOPIC)  # (as recorded)
+            trajectory_source = self.resolve_topic_name(site_topic(site, TRAJECTORY_TOPIC))
             self.create_subscription(
                 TestStatus, site_topic(site, 'bridge/status'),
                 self._guard(lambda message, topic=status_topic, source=status_source:
                             self._on_bridge_status(message, topic, source)), LATCHED_QOS)
             self.create_subscription(
-                ActuatorTrajectory, site_topic(site, 'bridge/trajectory'),
-                self._guard(lambda data, topic=trajectory_topic: self._on_trajectory(
-                    data, topic)), STEP_QOS, raw=True)
+                ActuatorTrajectory, site_topic(site, TRAJECTORY_TOPIC),
+                self._guard(lambda data, topic=trajectory_topic, source=trajectory_source:
+                            self._on_trajectory(data, topic, source)), STEP_QOS, raw=True)
         self._status_pub = self.create_publisher(TestStatus, 'test_status', LATCHED_QOS)
         self._definition_pub = self.create_publisher(String, 'test_definition', LATCHED_QOS)
         self.create_subscription(ControlMessage, 'test_control', self._guard(self._on_control),
@@ -394,6 +398,7 @@ class IntegratorNode(Node):
         counts.update({f'session_offer[{site or "default"}]': dict(sender.offer_gate.refused)
                        for site, sender in self.senders.items()})
         counts['bridge_status'] = dict(self._status_gate.refused)
+        counts['bridge_trajectory'] = dict(self._trajectory_gate.refused)
         counts['test_control'] = dict(self._control_gate.refused)
         if self._malformed:
             counts['malformed'] = {Refusal.MALFORMED.value: self._malformed}
@@ -662,14 +667,23 @@ class IntegratorNode(Node):
         self._bridge_statuses[topic] = status
         self.bag.write_status(status, time.time_ns(), topic=topic)
 
-    def _on_trajectory(self, data: bytes, topic: str) -> None:
-        # (unsigned: anyone may publish here; what the run's reader could not read back is not
-        # recorded, or one message would make the run unreadable: counted as malformed)
+    def _on_trajectory(self, data: bytes, topic: str, source: str) -> None:
+        """A bridge's actuator trajectory on ``source`` (as resolved), recorded under ``topic``.
+
+        What the run's reader could not read back is not recorded (one message would make the
+        run unreadable: counted as malformed); with a key, nor is one its topic's bridge did
+        not sign (forged, replayed, or another bridge's copied here).
+        """
         try:
-            read_trajectory(data, typestore())
+            trajectory = read_trajectory(data, typestore())
         except ValueError:
             self._malformed += 1
             self._refusal_log(Refusal.MALFORMED, Signature(), topic)
+            return
+        reason = admit_trajectory(self._trajectory_gate, source, trajectory)
+        if reason is not None:
+            self._refusal_log(reason, signature_from_message(trajectory.signature)
+                              if reason is not Refusal.MALFORMED else Signature(), topic)
             return
         self.bag.write_raw(topic, time.time_ns(), data)
 

@@ -39,6 +39,7 @@ from .payloads import (
     offer_payload,
     session_start_payload,
     status_payload,
+    trajectory_payload,
 )
 from .signing import (
     WIRE_COMMAND,
@@ -88,6 +89,7 @@ __all__ = [
     'session_start_payload',
     'sign_wire_reply',
     'status_payload',
+    'trajectory_payload',
     'verify_mac',
     'wire_mac',
 ]

@@ -34,7 +34,15 @@ from .messages import (
 from .parameters import SEALED, seal_parameters
 from .qos import CONTROL_DEPTH, LATCHED_QOS, LATCHED_READER_QOS, MONITOR_QOS, STEP_QOS
 from .session import OFFER_REFRESH_S, RefusalLog, SessionReceiver, SessionSender, new_epoch
-from .statements import HEARTBEAT_S, Announcer, read_offer, read_status
+from .statements import (
+    HEARTBEAT_S,
+    TRAJECTORY_TOPIC,
+    Announcer,
+    admit_trajectory,
+    read_offer,
+    read_status,
+    sign_trajectory,
+)
 
 __all__ = [
     'CONTROL_DEPTH',
@@ -49,12 +57,14 @@ __all__ = [
     'SEALED',
     'STEP_QOS',
     'TEARDOWN_TIMEOUT',
+    'TRAJECTORY_TOPIC',
     'Announcer',
     'ControlSender',
     'RefusalLog',
     'Sent',
     'SessionReceiver',
     'SessionSender',
+    'admit_trajectory',
     'command_message',
     'control_message',
     'declare_key',
@@ -76,6 +86,7 @@ __all__ = [
     'seal_parameters',
     'settle_collector',
     'settle_listeners',
+    'sign_trajectory',
     'signed_control',
     'spin_until_shutdown',
     'stamp_from_ns',

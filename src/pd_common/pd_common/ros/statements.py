@@ -1,4 +1,4 @@
-"""What nodes say of themselves, signed: their statuses and session offers (pd_msgs wiring).
+"""What nodes say of themselves, signed: statuses, session offers, trajectories (pd_msgs wiring).
 
 Every node of a test has one :class:`Announcer`: a signer of its own whose session nonce is the
 node's *instance session* (random per process start). It signs the node's statuses (and a
@@ -8,7 +8,9 @@ for another node, or for a process that has since restarted, is refused.
 A reader (the integrator of its bridges' statuses and offers, the launcher, the console,
 ``./pd control``) takes a status or an offer only through a :class:`~pd_common.auth.StatusGate`:
 :func:`read_status` and :func:`read_offer` convert the message, check its bounds and its
-signature, and return the record, or ``None`` with the reason counted on the gate.
+signature, and return the record, or ``None`` with the reason counted on the gate; the recorder
+of a run takes a bridge's actuator trajectory (signed by :func:`sign_trajectory`) only through
+:func:`admit_trajectory`.
 """
 
 from __future__ import annotations
@@ -24,18 +26,21 @@ from pd_msgs.msg import TestStatus
 
 from ..auth.gates import StatusGate
 from ..auth.keys import Key
-from ..auth.payloads import offer_payload, status_payload
+from ..auth.payloads import TRAJECTORY_ARRAYS, offer_payload, status_payload, trajectory_payload
 from ..auth.signing import Refusal, Signer, new_session
+from ..protocol.bounds import MAX_NAME, MalformedMessageError, check_text
 from ..protocol.convert import (
     offer_from_message,
+    signature_from_message,
     signed_from_message,
     stamp_ns_of,
     status_from_message,
 )
 from ..protocol.messages import Offer, Status
-from .messages import status_message
+from .messages import fill_signature, status_message
 
-__all__ = ['HEARTBEAT_S', 'STATUS_TOPICS', 'Announcer', 'at_home', 'read_offer', 'read_status']
+__all__ = ['HEARTBEAT_S', 'STATUS_TOPICS', 'TRAJECTORY_TOPIC', 'Announcer', 'admit_trajectory',
+           'at_home', 'read_offer', 'read_status', 'sign_trajectory']
 
 Item = TypeVar('Item')
 
@@ -94,6 +99,50 @@ def at_home(source: str, node: str) -> bool:
     """Whether ``source`` is a status topic of the node named ``node`` (fully qualified)."""
     namespace = node.rpartition('/')[0]
     return any(source == f'{namespace}/{name}' for name in STATUS_TOPICS)
+
+
+#: A bridge's actuator trajectories, relative to its node's namespace.
+TRAJECTORY_TOPIC = 'bridge/trajectory'
+
+
+def _trajectory_payload(message: Any) -> bytes:
+    return trajectory_payload(message.node, message.test_id, message.step, message.iteration,
+                              message.rate, message.n_dof, stamp_ns_of(message),
+                              [getattr(message, name) for name in TRAJECTORY_ARRAYS])
+
+
+def sign_trajectory(message: Any, signer: Signer | None, node: str) -> None:
+    """Name ``node`` in an ``ActuatorTrajectory`` message and sign it (unsigned without a key).
+
+    Its header stamp and every other field must be filled in first.
+    """
+    message.node = node
+    if signer is not None:
+        fill_signature(message.signature, signer.sign(_trajectory_payload(message)))
+
+
+def admit_trajectory(gate: StatusGate, source: str, message: Any) -> Refusal | None:
+    """``None`` if the trajectory ``message`` published on ``source`` may be recorded; else why.
+
+    ``message``: decoded, its arrays checked (:func:`pd_core.run.record.bag.read_trajectory`);
+    a refusal is counted on ``gate``. With a key: its signature is good, it is new on
+    ``source`` (a recording of an earlier one is ``replayed``), and the node it names publishes
+    ``source`` itself (one bridge's genuine trajectory copied onto another's topic is
+    ``misdirected``). Without a key: every one.
+    """
+    if not gate.enabled:
+        return None
+    try:
+        check_text('node', message.node, MAX_NAME)
+        check_text('test_id', message.test_id, MAX_NAME)
+        signature = signature_from_message(message.signature)
+    except (MalformedMessageError, AttributeError, TypeError):
+        gate.refused[Refusal.MALFORMED.value] += 1
+        return Refusal.MALFORMED
+    if source != f'{message.node.rpartition("/")[0]}/{TRAJECTORY_TOPIC}':
+        gate.refused[Refusal.MISDIRECTED.value] += 1
+        return Refusal.MISDIRECTED
+    return gate.admit(source, _trajectory_payload(message), signature, stamp_ns_of(message))
 
 
 def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | None, Refusal | None]:

@@ -1,0 +1,177 @@
+"""A bridge's actuator trajectory enters a run's record only as its bridge signed it.
+
+The bridge signs each trajectory (``pd_common.ros.sign_trajectory``); the integrator decodes
+the bytes that arrived with the run's own reader (``read_trajectory``) and admits them through
+``admit_trajectory``: good MAC over every field and the four arrays, new on its topic, and the
+node it names publishes that topic. Here the message goes the whole way as bytes: rclpy
+serialises it, the reader decodes it, the gate judges it.
+"""
+
+from __future__ import annotations
+
+import array
+import math
+import struct
+from typing import Any
+
+import numpy as np
+import pytest
+from rclpy.serialization import serialize_message
+
+from pd_common.auth import Key, Refusal, Signer, StatusGate, new_key, trajectory_payload
+from pd_common.ros import admit_trajectory, fill_signature, sign_trajectory
+from pd_core.run.record.bag import read_trajectory, typestore
+from pd_msgs.msg import ActuatorTrajectory
+
+BRIDGE = '/pd/lab1/pd_actuator_bridge'
+SOURCE = '/pd/lab1/bridge/trajectory'
+ARRAYS = ('time', 'command', 'measured_displacement', 'measured_force')
+
+
+def trajectory(step: int = 3, sec: int = 100) -> ActuatorTrajectory:
+    message = ActuatorTrajectory(test_id='t', step=step, iteration=1, rate=1000.0, n_dof=2,
+                                 time=[0.0, 0.001, 0.002],
+                                 command=[0.001, -0.0, 0.002, 1e-300, 0.003, -2.5],
+                                 measured_displacement=[0.0011, 0.0, 0.0021, math.nan, 0.0031,
+                                                        -2.4],
+                                 measured_force=[5.0, -6.0, 7.0, 8.0, 1e308, -1e-308])
+    message.header.stamp.sec = sec
+    message.header.stamp.nanosec = 7
+    return message
+
+
+def arrived(message: ActuatorTrajectory) -> Any:
+    """The message as the integrator reads it: its bytes, decoded by the run's reader."""
+    return read_trajectory(bytes(serialize_message(message)), typestore())
+
+
+def signed(key: Key, **kwargs: int) -> ActuatorTrajectory:
+    message = trajectory(**kwargs)
+    sign_trajectory(message, Signer(key), BRIDGE)
+    return message
+
+
+def test_a_signed_trajectory_is_admitted_once_on_its_bridges_topic() -> None:
+    key = new_key()
+    gate = StatusGate(key)
+    signer = Signer(key)
+    first, second = trajectory(step=3), trajectory(step=4, sec=101)
+    for message in (first, second):
+        sign_trajectory(message, signer, BRIDGE)
+    assert first.node == BRIDGE and len(first.signature.mac) == 32
+    assert admit_trajectory(gate, SOURCE, arrived(first)) is None
+    assert admit_trajectory(gate, SOURCE, arrived(second)) is None
+    assert admit_trajectory(gate, SOURCE, arrived(first)) is Refusal.REPLAYED  # a recording
+    assert gate.refused == {'replayed': 1}
+
+
+def test_a_trajectory_copied_onto_another_bridges_topic_is_misdirected() -> None:
+    key = new_key()
+    gate = StatusGate(key)
+    message = arrived(signed(key))
+    assert admit_trajectory(gate, '/pd/lab3/bridge/trajectory', message) is Refusal.MISDIRECTED
+    assert admit_trajectory(gate, '/pd/bridge/trajectory', message) is Refusal.MISDIRECTED
+    assert gate.refused == {'misdirected': 2}
+    assert admit_trajectory(gate, SOURCE, message) is None  # (the gate remembered nothing)
+
+
+def test_unsigned_and_other_keys_trajectories_are_refused_with_a_key_only() -> None:
+    key = new_key()
+    unsigned = trajectory()
+    unsigned.node = BRIDGE
+    assert admit_trajectory(StatusGate(key), SOURCE, arrived(unsigned)) is Refusal.UNSIGNED
+    assert admit_trajectory(StatusGate(key), SOURCE,
+                            arrived(signed(new_key()))) is Refusal.WRONG_KEY
+    # Without a key nothing is authenticated: every well-formed trajectory is recorded.
+    assert admit_trajectory(StatusGate(None), '/anywhere', arrived(trajectory())) is None
+
+
+@pytest.mark.parametrize('field', ['test_id', 'step', 'iteration', 'rate', 'n_dof', 'node',
+                                   'stamp', *ARRAYS])
+def test_a_change_to_any_field_after_signing_is_forged(field: str) -> None:
+    key = new_key()
+    message = signed(key)
+    if field == 'stamp':
+        message.header.stamp.nanosec += 1
+    elif field in ARRAYS:
+        values = list(getattr(message, field))
+        values[-1] = math.nextafter(values[-1], math.inf)  # one ulp
+        setattr(message, field, values)
+    elif field == 'test_id':
+        message.test_id = 'u'
+    elif field == 'node':
+        message.node = BRIDGE + 'x'
+        # (at home still: the same namespace, another node name)
+    else:
+        setattr(message, field, type(getattr(message, field))(getattr(message, field) + 1))
+    gate = StatusGate(key)
+    decoded = arrived(message) if field != 'n_dof' else None
+    if decoded is None:  # 3 samples of 3 DOFs would not fit its arrays: not a trajectory
+        with pytest.raises(ValueError, match='not an actuator trajectory'):
+            arrived(message)
+        message.n_dof = 1
+        message.time = [0.0, 0.001, 0.002, 0.003, 0.004, 0.005]
+        decoded = arrived(message)
+    assert admit_trajectory(gate, SOURCE, decoded) is Refusal.FORGED
+
+
+def test_every_byte_of_a_signed_trajectory_counts() -> None:
+    """Flip each byte of the message's bytes: each is refused, unreadable or taken as itself."""
+    key = new_key()
+    message = signed(key)
+    data = bytes(serialize_message(message))
+    store = typestore()
+    assert admit_trajectory(StatusGate(key), SOURCE, read_trajectory(data, store)) is None
+    for index in range(len(data)):
+        flipped = bytearray(data)
+        flipped[index] ^= 0x01
+        try:
+            decoded = read_trajectory(bytes(flipped), store)
+        except ValueError:
+            continue  # not a trajectory: never recorded (counted as malformed)
+        reason = admit_trajectory(StatusGate(key), SOURCE, decoded)
+        if reason is None:  # only CDR padding may change without changing the message
+            assert bytes(serialize_message(_rebuilt(decoded))) == data, index
+        else:
+            assert reason in {Refusal.FORGED, Refusal.WRONG_KEY, Refusal.MISDIRECTED,
+                              Refusal.MALFORMED, Refusal.UNSIGNED}, (index, reason)
+
+
+def _rebuilt(decoded: Any) -> ActuatorTrajectory:
+    """An rclpy message of a decoded one (its fields, its signature)."""
+    message = ActuatorTrajectory(test_id=decoded.test_id, step=int(decoded.step),
+                                 iteration=int(decoded.iteration), rate=float(decoded.rate),
+                                 n_dof=int(decoded.n_dof), node=decoded.node,
+                                 **{name: list(getattr(decoded, name)) for name in ARRAYS})
+    message.header.stamp.sec = int(decoded.header.stamp.sec)
+    message.header.stamp.nanosec = int(decoded.header.stamp.nanosec)
+    signature = decoded.signature
+    message.signature.key_id = signature.key_id
+    message.signature.session = signature.session
+    message.signature.sequence = int(signature.sequence)
+    message.signature.mac = bytes(signature.mac)
+    return message
+
+
+def test_the_payload_hashes_the_arrays_values_whatever_holds_them() -> None:
+    """A list, an array.array and a numpy array of the same values sign alike; -0.0 and 0.0,
+    or two NaNs of different bits, do not."""
+    values = [0.5, -0.0, math.nan, 1e-310]
+    payload = [trajectory_payload('/n', 't', 1, 0, 1e3, 1, 5, [holder] * 4)
+               for holder in (values, array.array('d', values), np.array(values))]
+    assert payload[0] == payload[1] == payload[2]
+    zero = trajectory_payload('/n', 't', 1, 0, 1e3, 1, 5, [[0.5, 0.0, math.nan, 1e-310]] * 4)
+    assert zero != payload[0]
+    (other_nan,) = struct.unpack('<d', struct.pack('<Q', 0x7FF8000000000001))
+    assert trajectory_payload('/n', 't', 1, 0, 1e3, 1, 5,
+                              [[0.5, -0.0, other_nan, 1e-310]] * 4) != payload[0]
+
+
+def test_a_trajectory_with_a_signature_beyond_its_bounds_is_malformed() -> None:
+    key = new_key()
+    message = signed(key)
+    fill_signature(message.signature, Signer(key).sign(b'x'))
+    message.signature.key_id = 'k' * 1000
+    gate = StatusGate(key)
+    assert admit_trajectory(gate, SOURCE, arrived(message)) is Refusal.MALFORMED
+    assert gate.refused == {'malformed': 1}
