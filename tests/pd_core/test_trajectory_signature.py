@@ -12,15 +12,18 @@ from __future__ import annotations
 import array
 import math
 import struct
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from pd_common.auth import Key, Refusal, Signer, StatusGate, new_key, trajectory_payload
 from pd_common.ros import admit_trajectory, fill_signature, sign_trajectory
-from pd_core.run.record.bag import read_trajectory, typestore
+from pd_core.run.record.bag import msg_directory, read_trajectory, typestore
+from pd_core.run.record.journal import JOURNAL_FILE, Journal, read_journal
 from pd_msgs.msg import ActuatorTrajectory
 
 BRIDGE = '/pd/lab1/pd_actuator_bridge'
@@ -175,3 +178,32 @@ def test_a_trajectory_with_a_signature_beyond_its_bounds_is_malformed() -> None:
     gate = StatusGate(key)
     assert admit_trajectory(gate, SOURCE, arrived(message)) is Refusal.MALFORMED
     assert gate.refused == {'malformed': 1}
+
+
+def test_a_journals_trajectory_from_before_signatures_is_left_out_with_a_note(
+        tmp_path: Path) -> None:
+    """A run recorded by the version before (its trajectories without node and signature),
+    recovered or resumed now: the step record reads whole, those records are left out, noted."""
+    old_text = (msg_directory() / 'ActuatorTrajectory.msg').read_text(encoding='utf-8')
+    old_text = '\n'.join(line for line in old_text.splitlines()
+                         if not line.startswith(('string node', 'Signature signature')))
+    old = get_typestore(Stores.ROS2_KILTED)
+    old.register(get_types_from_msg(old_text, 'pd_msgs/msg/ActuatorTrajectory'))
+    cls = old.types['pd_msgs/msg/ActuatorTrajectory']
+    header = old.types['std_msgs/msg/Header'](
+        stamp=old.types['builtin_interfaces/msg/Time'](sec=1, nanosec=2), frame_id='')
+    values = np.array([0.001, 0.002])
+    old_bytes = bytes(old.serialize_cdr(cls(header=header, test_id='t', step=3, iteration=0,
+                                           rate=1000.0, n_dof=1, time=values, command=values,
+                                           measured_displacement=values,
+                                           measured_force=values),
+                                       'pd_msgs/msg/ActuatorTrajectory'))
+    path = tmp_path / JOURNAL_FILE
+    with Journal(path) as journal:
+        journal.write_definition('{"test": {"id": "t"}}', 1)
+        journal.write_raw('/pd/bridge/trajectory', 2, old_bytes)
+        journal.write_raw('/pd/bridge/trajectory', 3, bytes(serialize_message(trajectory())))
+    run = read_journal(path)
+    assert [t_ns for t_ns, _ in run.trajectories] == [3]
+    assert len(run.notes) == 1 and run.notes[0].startswith(
+        'left out 1 trajectory record (first: /pd/bridge/trajectory at log time 2 ns')
