@@ -28,7 +28,7 @@ from test_graph import (
     write_test_file,
 )
 
-from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Signer, control_payload, new_key
+from pd_common.auth import WIRE_COMMAND, WIRE_FEEDBACK, Key, Signer, control_payload, new_key
 from pd_common.protocol import (
     Command,
     Control,
@@ -113,6 +113,9 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                                 test__duration=40.0)
     reference = run_offline(load_test_file(test_file), tmp_path / 'offline', figures=False)
     rogue = Signer(new_key())  # a key of its own: well-formed signatures, the wrong key
+    # a key id that is no key id (not ASCII: hmac.compare_digest raised on it, and one such
+    # message stopped the node that read it)
+    alien = Signer(Key(key_id='é' * 16, secret=os.urandom(32)))
     moves: list[tuple[float, ...]] = []
     statuses: list[Any] = []
     bridge_statuses: list[Any] = []
@@ -209,6 +212,10 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
             commands.publish(message)
         commands.publish(command_message(hijack))
         commands.publish(signed_bytes(rogue, hijack))
+        commands.publish(signed_bytes(alien, hijack))
+        feedback.publish(signed_bytes(alien, Feedback(
+            test_id=last.test_id, step=last.step + 1, measured_displacement=(0.0,),
+            restoring_force=(0.0,))))
         for step in range(last.step + 1, last.step + 11):  # forged forces for the next steps
             forged = Feedback(test_id=last.test_id, step=step, measured_displacement=(0.0,),
                               restoring_force=(0.0,))
@@ -227,7 +234,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
                                     time=[0.0, 0.001], command=[0.0])  # 1 value, 2 samples
         trajectories.publish(ragged)
         # well-formed, as the bridge's node: unsigned, and signed with the rogue's key
-        for signer in (None, rogue):
+        for signer in (None, rogue, alien):
             forged_trajectory = ActuatorTrajectory(
                 test_id=last.test_id, step=last.step, n_dof=1, rate=1000.0,
                 time=[0.0, 0.001], command=[0.2, 0.2], measured_displacement=[0.2, 0.2],
@@ -260,6 +267,8 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
             pause()  # (a latched reader keeps one: each must be taken before the next)
             publisher.publish(offer_message(offer, rogue))
             pause()
+            publisher.publish(offer_message(offer, alien))
+            pause()
         for publisher in forged_statuses.values():
             status = Status(test_id='graph-secure', state=TestState.HOLDING, step=0,
                             total_steps=0, omega_dt=0.0, message='rogue status',
@@ -267,6 +276,8 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
             publisher.publish(status_message(status))
             pause()
             publisher.publish(status_message(status, signer=rogue))
+            pause()
+            publisher.publish(status_message(status, signer=alien))
             pause()
 
     # Nobody without the key reconfigures the active bridge: its parameters are sealed and its

@@ -411,6 +411,25 @@ def test_without_a_key_every_gate_admits_everything() -> None:
     assert StatusGate(None).admit('/pd/test_status', b'', Signature(), 0) is None
 
 
+@pytest.mark.parametrize('key_id', ['é' * 16, '\u0000\u00ff', 'ключ', '\udcff'])
+def test_a_key_id_that_is_no_key_id_is_another_key_at_every_gate(key_id: str) -> None:
+    """Not ASCII: ``hmac.compare_digest`` raises on such a str; every gate refuses it as the
+    wrong key (a rogue's one message with such a key id stopped the node reading it)."""
+    key = new_key()
+    signature = Signature(key_id=key_id, session='s' * 32, sequence=2, mac=b'\x00' * 32)
+    payload = command_payload(encode_command(COMMAND, 5))
+    assert verify_mac(key, payload, signature) is Refusal.WRONG_KEY
+    assert verify_mac(key, b'canonical', signature) is Refusal.WRONG_KEY
+    gate = CommandGate(key)
+    assert gate.admit(payload, signature) is Refusal.WRONG_KEY
+    assert ReplyGate(key, 's' * 32).admit(payload, signature) is Refusal.WRONG_KEY
+    assert ControlGate(key).admit(Control(command='abort'), signature, 'any') is Refusal.WRONG_KEY
+    assert StatusGate(key).admit('/pd/test_status', b'', signature, 0) is Refusal.WRONG_KEY
+    watch = WatchGate(key)
+    watch.follow('s' * 32)
+    assert watch.admit(payload, signature) is Refusal.WRONG_KEY
+
+
 # -- controls ------------------------------------------------------------------------------------
 NODE = '/pd/lab1/pd_actuator_bridge'
 INSTANCE = 'a1' * 16

@@ -190,7 +190,9 @@ def verify_mac(key: Key, payload: bytes | WirePayload, signature: Signature) -> 
     """
     if not signature.signed:
         return Refusal.UNSIGNED
-    if not hmac.compare_digest(signature.key_id, key.key_id):
+    # (a key id is hex: any other text is another key's, and compare_digest raises on a str
+    # that is not ASCII: one rogue message would have stopped the node reading it)
+    if not signature.key_id.isascii() or not hmac.compare_digest(signature.key_id, key.key_id):
         return Refusal.WRONG_KEY
     if isinstance(payload, WirePayload):
         expected = wire_mac(key, payload)
