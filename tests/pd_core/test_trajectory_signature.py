@@ -21,7 +21,12 @@ from rclpy.serialization import serialize_message
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from pd_common.auth import Key, Refusal, Signer, StatusGate, new_key, trajectory_payload
-from pd_common.ros import admit_trajectory, fill_signature, sign_trajectory
+from pd_common.ros import (
+    admit_trajectory,
+    fill_signature,
+    remember_trajectory,
+    sign_trajectory,
+)
 from pd_core.run.record.bag import msg_directory, read_trajectory, typestore
 from pd_core.run.record.journal import JOURNAL_FILE, Journal, read_journal
 from pd_msgs.msg import ActuatorTrajectory
@@ -29,6 +34,11 @@ from pd_msgs.msg import ActuatorTrajectory
 BRIDGE = '/pd/lab1/pd_actuator_bridge'
 SOURCE = '/pd/lab1/bridge/trajectory'
 ARRAYS = ('time', 'command', 'measured_displacement', 'measured_force')
+
+
+def admit(gate: StatusGate, source: str, message: Any, test_id: str = 't',
+          not_before_ns: int = 0) -> Refusal | None:
+    return admit_trajectory(gate, source, message, test_id, not_before_ns)
 
 
 def trajectory(step: int = 3, sec: int = 100) -> ActuatorTrajectory:
@@ -62,9 +72,9 @@ def test_a_signed_trajectory_is_admitted_once_on_its_bridges_topic() -> None:
     for message in (first, second):
         sign_trajectory(message, signer, BRIDGE)
     assert first.node == BRIDGE and len(first.signature.mac) == 32
-    assert admit_trajectory(gate, SOURCE, arrived(first)) is None
-    assert admit_trajectory(gate, SOURCE, arrived(second)) is None
-    assert admit_trajectory(gate, SOURCE, arrived(first)) is Refusal.REPLAYED  # a recording
+    assert admit(gate, SOURCE, arrived(first)) is None
+    assert admit(gate, SOURCE, arrived(second)) is None
+    assert admit(gate, SOURCE, arrived(first)) is Refusal.REPLAYED  # a recording
     assert gate.refused == {'replayed': 1}
 
 
@@ -72,21 +82,21 @@ def test_a_trajectory_copied_onto_another_bridges_topic_is_misdirected() -> None
     key = new_key()
     gate = StatusGate(key)
     message = arrived(signed(key))
-    assert admit_trajectory(gate, '/pd/lab3/bridge/trajectory', message) is Refusal.MISDIRECTED
-    assert admit_trajectory(gate, '/pd/bridge/trajectory', message) is Refusal.MISDIRECTED
+    assert admit(gate, '/pd/lab3/bridge/trajectory', message) is Refusal.MISDIRECTED
+    assert admit(gate, '/pd/bridge/trajectory', message) is Refusal.MISDIRECTED
     assert gate.refused == {'misdirected': 2}
-    assert admit_trajectory(gate, SOURCE, message) is None  # (the gate remembered nothing)
+    assert admit(gate, SOURCE, message) is None  # (the gate remembered nothing)
 
 
 def test_unsigned_and_other_keys_trajectories_are_refused_with_a_key_only() -> None:
     key = new_key()
     unsigned = trajectory()
     unsigned.node = BRIDGE
-    assert admit_trajectory(StatusGate(key), SOURCE, arrived(unsigned)) is Refusal.UNSIGNED
-    assert admit_trajectory(StatusGate(key), SOURCE,
+    assert admit(StatusGate(key), SOURCE, arrived(unsigned)) is Refusal.UNSIGNED
+    assert admit(StatusGate(key), SOURCE,
                             arrived(signed(new_key()))) is Refusal.WRONG_KEY
     # Without a key nothing is authenticated: every well-formed trajectory is recorded.
-    assert admit_trajectory(StatusGate(None), '/anywhere', arrived(trajectory())) is None
+    assert admit(StatusGate(None), '/anywhere', arrived(trajectory())) is None
 
 
 @pytest.mark.parametrize('field', ['test_id', 'step', 'iteration', 'rate', 'n_dof', 'node',
@@ -94,6 +104,16 @@ def test_unsigned_and_other_keys_trajectories_are_refused_with_a_key_only() -> N
 def test_a_change_to_any_field_after_signing_is_forged(field: str) -> None:
     key = new_key()
     message = signed(key)
+    if field == 'n_dof':
+        # (another DOF count no longer fits the arrays, so the reader refuses it first: that
+        # the count is signed is seen in the payload, all else the same)
+        with pytest.raises(ValueError, match='not an actuator trajectory'):
+            message.n_dof += 1
+            arrived(message)
+        arrays = [[0.5, 0.25]] * 4
+        assert (trajectory_payload(BRIDGE, 't', 3, 1, 1e3, 1, 5, arrays)
+                != trajectory_payload(BRIDGE, 't', 3, 1, 1e3, 2, 5, arrays))
+        return
     if field == 'stamp':
         message.header.stamp.nanosec += 1
     elif field in ARRAYS:
@@ -107,15 +127,8 @@ def test_a_change_to_any_field_after_signing_is_forged(field: str) -> None:
         # (at home still: the same namespace, another node name)
     else:
         setattr(message, field, type(getattr(message, field))(getattr(message, field) + 1))
-    gate = StatusGate(key)
-    decoded = arrived(message) if field != 'n_dof' else None
-    if decoded is None:  # 3 samples of 3 DOFs would not fit its arrays: not a trajectory
-        with pytest.raises(ValueError, match='not an actuator trajectory'):
-            arrived(message)
-        message.n_dof = 1
-        message.time = [0.0, 0.001, 0.002, 0.003, 0.004, 0.005]
-        decoded = arrived(message)
-    assert admit_trajectory(gate, SOURCE, decoded) is Refusal.FORGED
+    test_id = message.test_id  # (of this test: the MAC is what refuses it)
+    assert admit(StatusGate(key), SOURCE, arrived(message), test_id=test_id) is Refusal.FORGED
 
 
 def test_every_byte_of_a_signed_trajectory_counts() -> None:
@@ -124,7 +137,7 @@ def test_every_byte_of_a_signed_trajectory_counts() -> None:
     message = signed(key)
     data = bytes(serialize_message(message))
     store = typestore()
-    assert admit_trajectory(StatusGate(key), SOURCE, read_trajectory(data, store)) is None
+    assert admit(StatusGate(key), SOURCE, read_trajectory(data, store)) is None
     for index in range(len(data)):
         flipped = bytearray(data)
         flipped[index] ^= 0x01
@@ -132,12 +145,13 @@ def test_every_byte_of_a_signed_trajectory_counts() -> None:
             decoded = read_trajectory(bytes(flipped), store)
         except ValueError:
             continue  # not a trajectory: never recorded (counted as malformed)
-        reason = admit_trajectory(StatusGate(key), SOURCE, decoded)
+        reason = admit(StatusGate(key), SOURCE, decoded)
         if reason is None:  # only CDR padding may change without changing the message
             assert bytes(serialize_message(_rebuilt(decoded))) == data, index
         else:
             assert reason in {Refusal.FORGED, Refusal.WRONG_KEY, Refusal.MISDIRECTED,
-                              Refusal.MALFORMED, Refusal.UNSIGNED}, (index, reason)
+                              Refusal.FOREIGN_TEST, Refusal.MALFORMED, Refusal.UNSIGNED}, (
+                index, reason)
 
 
 def _rebuilt(decoded: Any) -> ActuatorTrajectory:
@@ -176,7 +190,7 @@ def test_a_trajectory_with_a_signature_beyond_its_bounds_is_malformed() -> None:
     fill_signature(message.signature, Signer(key).sign(b'x'))
     message.signature.key_id = 'k' * 1000
     gate = StatusGate(key)
-    assert admit_trajectory(gate, SOURCE, arrived(message)) is Refusal.MALFORMED
+    assert admit(gate, SOURCE, arrived(message)) is Refusal.MALFORMED
     assert gate.refused == {'malformed': 1}
 
 
@@ -207,3 +221,37 @@ def test_a_journals_trajectory_from_before_signatures_is_left_out_with_a_note(
     assert [t_ns for t_ns, _ in run.trajectories] == [3]
     assert len(run.notes) == 1 and run.notes[0].startswith(
         'left out 1 trajectory record (first: /pd/bridge/trajectory at log time 2 ns')
+
+
+def test_a_trajectory_of_another_test_or_from_before_the_start_is_refused() -> None:
+    """A recording of a genuine trajectory of an earlier run: another test's (foreign_test),
+    or the same test's stamped before this recorder started, less 30 s for clocks (stale)."""
+    key = new_key()
+    message = arrived(signed(key, sec=100))
+    gate = StatusGate(key)
+    assert admit(gate, SOURCE, message, test_id='other') is Refusal.FOREIGN_TEST
+    assert admit(gate, SOURCE, message, not_before_ns=100_000_000_008) is Refusal.STALE
+    assert gate.refused == {'foreign_test': 1, 'stale': 1}
+    assert admit(gate, SOURCE, message, not_before_ns=100_000_000_007) is None  # its stamp
+
+
+def test_a_resumed_recorder_never_takes_what_its_record_holds_again() -> None:
+    key = new_key()
+    signer = Signer(key)
+    recorded = []
+    for step in (3, 4, 5):
+        message = trajectory(step=step, sec=100 + step)
+        sign_trajectory(message, signer, BRIDGE)
+        recorded.append(arrived(message))
+    gate = StatusGate(key)  # the resumed integrator's
+    for message in recorded[:2]:  # what its journal held
+        remember_trajectory(gate, message)
+    assert admit(gate, SOURCE, recorded[0]) is Refusal.REPLAYED
+    assert admit(gate, SOURCE, recorded[1]) is Refusal.REPLAYED
+    assert admit(gate, SOURCE, recorded[2]) is None  # the next one
+    # A record's trajectory from before signatures (no node, no signature) is nothing to
+    # remember, and no error.
+    old = StatusGate(key)
+    unsigned = trajectory()
+    remember_trajectory(old, arrived(unsigned))
+    assert admit(old, SOURCE, recorded[0]) is None

@@ -40,6 +40,7 @@ from rclpy.subscription import Subscription
 from std_msgs.msg import String
 
 from pd_common.auth import (
+    DEFAULT_CONTROL_WINDOW,
     AuthError,
     ControlGate,
     Refusal,
@@ -83,6 +84,7 @@ from pd_common.ros import (
     init_with_stop_flag,
     now_stamp,
     read_status,
+    remember_trajectory,
     run_node,
     seal_parameters,
     settle_collector,
@@ -265,6 +267,10 @@ class IntegratorNode(Node):
                                          self.announcer.session)
         self._status_gate = StatusGate(self.key)  # the bridges' statuses
         self._trajectory_gate = StatusGate(self.key)  # the bridges' actuator trajectories
+        # (stamped before this start less the clocks' 30 s: a recording, not this run's)
+        self._trajectories_since_ns = time.time_ns() - int(DEFAULT_CONTROL_WINDOW * 1e9)
+        for _, trajectory in self.record.trajectories if self.record is not None else ():
+            remember_trajectory(self._trajectory_gate, trajectory)  # (never taken again)
         self._bridge_statuses: dict[str, Status] = {}  # the last one recorded, per topic
         self._malformed = 0
         self._acknowledged = Acknowledgements()
@@ -680,7 +686,8 @@ class IntegratorNode(Node):
             self._malformed += 1
             self._refusal_log(Refusal.MALFORMED, Signature(), topic)
             return
-        reason = admit_trajectory(self._trajectory_gate, source, trajectory)
+        reason = admit_trajectory(self._trajectory_gate, source, trajectory,
+                                  self.session.definition.test_id, self._trajectories_since_ns)
         if reason is not None:
             self._refusal_log(reason, signature_from_message(trajectory.signature)
                               if reason is not Refusal.MALFORMED else Signature(), topic)

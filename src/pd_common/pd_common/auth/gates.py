@@ -269,6 +269,16 @@ class StatusGate(_Gate):
         self._last[source] = (signature.session, signature.sequence, stamp_ns)
         return None
 
+    def remember(self, source: str, signature: Signature, stamp_ns: int) -> None:
+        """A statement on ``source`` taken before (a resumed reader's record), as if admitted.
+
+        From now on only newer ones are admitted on ``source``.
+        """
+        last = self._last.get(source)
+        if last is None or (signature.session == last[0] and signature.sequence > last[1]) or (
+                signature.session != last[0] and stamp_ns >= last[2]):
+            self._last[source] = (signature.session, signature.sequence, stamp_ns)
+
 
 class WatchGate(_Gate):
     """Admits a hop's step messages for an observer that obeys none of them (see the module).

@@ -41,6 +41,7 @@ from .statements import (
     admit_trajectory,
     read_offer,
     read_status,
+    remember_trajectory,
     sign_trajectory,
 )
 
@@ -81,6 +82,7 @@ __all__ = [
     'quiet_at_shutdown',
     'read_offer',
     'read_status',
+    'remember_trajectory',
     'repeat_emergency_stop',
     'run_node',
     'seal_parameters',

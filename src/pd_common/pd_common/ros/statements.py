@@ -40,7 +40,8 @@ from ..protocol.messages import Offer, Status
 from .messages import fill_signature, status_message
 
 __all__ = ['HEARTBEAT_S', 'STATUS_TOPICS', 'TRAJECTORY_TOPIC', 'Announcer', 'admit_trajectory',
-           'at_home', 'read_offer', 'read_status', 'sign_trajectory']
+           'at_home', 'read_offer', 'read_status', 'remember_trajectory', 'sign_trajectory',
+           'trajectory_source']
 
 Item = TypeVar('Item')
 
@@ -121,14 +122,22 @@ def sign_trajectory(message: Any, signer: Signer | None, node: str) -> None:
         fill_signature(message.signature, signer.sign(_trajectory_payload(message)))
 
 
-def admit_trajectory(gate: StatusGate, source: str, message: Any) -> Refusal | None:
+def trajectory_source(node: str) -> str:
+    """The trajectory topic of the bridge node named ``node`` (fully qualified)."""
+    return f'{node.rpartition("/")[0]}/{TRAJECTORY_TOPIC}'
+
+
+def admit_trajectory(gate: StatusGate, source: str, message: Any, test_id: str,
+                     not_before_ns: int) -> Refusal | None:
     """``None`` if the trajectory ``message`` published on ``source`` may be recorded; else why.
 
     ``message``: decoded, its arrays checked (:func:`pd_core.run.record.bag.read_trajectory`);
-    a refusal is counted on ``gate``. With a key: its signature is good, it is new on
-    ``source`` (a recording of an earlier one is ``replayed``), and the node it names publishes
-    ``source`` itself (one bridge's genuine trajectory copied onto another's topic is
-    ``misdirected``). Without a key: every one.
+    a refusal is counted on ``gate``. With a key: the node it names publishes ``source`` itself
+    (one bridge's genuine trajectory copied onto another's topic is ``misdirected``), it is of
+    the test ``test_id`` (``foreign_test``) and stamped no earlier than ``not_before_ns`` (the
+    recorder's start less the controls' 30 s for clocks: ``stale``), its signature is good, and
+    it is new on ``source`` (a recording of an earlier one is ``replayed``). Without a key:
+    every one.
     """
     if not gate.enabled:
         return None
@@ -136,13 +145,26 @@ def admit_trajectory(gate: StatusGate, source: str, message: Any) -> Refusal | N
         check_text('node', message.node, MAX_NAME)
         check_text('test_id', message.test_id, MAX_NAME)
         signature = signature_from_message(message.signature)
-    except (MalformedMessageError, AttributeError, TypeError):
+        stamp_ns = stamp_ns_of(message)
+    except (MalformedMessageError, AttributeError, TypeError, ValueError):
         gate.refused[Refusal.MALFORMED.value] += 1
         return Refusal.MALFORMED
-    if source != f'{message.node.rpartition("/")[0]}/{TRAJECTORY_TOPIC}':
-        gate.refused[Refusal.MISDIRECTED.value] += 1
-        return Refusal.MISDIRECTED
-    return gate.admit(source, _trajectory_payload(message), signature, stamp_ns_of(message))
+    for reason, wrong in ((Refusal.MISDIRECTED, source != trajectory_source(message.node)),
+                          (Refusal.FOREIGN_TEST, message.test_id != test_id),
+                          (Refusal.STALE, stamp_ns < not_before_ns)):
+        if wrong:
+            gate.refused[reason.value] += 1
+            return reason
+    return gate.admit(source, _trajectory_payload(message), signature, stamp_ns)
+
+
+def remember_trajectory(gate: StatusGate, message: Any) -> None:
+    """A trajectory a run's record holds (decoded): a resumed recorder never takes it again."""
+    try:
+        signature = signature_from_message(message.signature)
+        gate.remember(trajectory_source(message.node), signature, stamp_ns_of(message))
+    except (MalformedMessageError, AttributeError, TypeError, ValueError):
+        return  # (recorded before trajectories were signed: nothing to remember)
 
 
 def read_offer(gate: StatusGate, source: str, message: Any) -> tuple[Offer | None, Refusal | None]:

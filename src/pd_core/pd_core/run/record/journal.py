@@ -107,7 +107,7 @@ _KIND_NAMES = {RecordKind.DEFINITION: 'def', RecordKind.COMMAND: 'cmd',
                RecordKind.FEEDBACK: 'fb', RecordKind.STATUS: 'st', RecordKind.RAW: 'raw',
                RecordKind.EVENT: 'ev'}
 #: The bytes a bag records as they are in the journal.
-_COPIED = frozenset((RecordKind.COMMAND, RecordKind.FEEDBACK, RecordKind.STATUS, RecordKind.RAW))
+_COPIED = frozenset((RecordKind.COMMAND, RecordKind.FEEDBACK, RecordKind.STATUS))
 
 
 class RunRecorder(Protocol):
@@ -565,14 +565,28 @@ def _collector_paused() -> Iterator[None]:
             gc.enable()
 
 
+def _readable(record: Frame, store: Any) -> bool:
+    """Whether a raw record is a message the run's reader reads (a trajectory's, checked)."""
+    if not record.topic.endswith('/bridge/trajectory'):
+        return True
+    try:
+        read_trajectory(record.payload, store)
+    except ValueError:
+        return False
+    return True
+
+
 def _write_bag(journal: str | Path, bag: Path) -> int:
     """:func:`journal_to_bag` into ``bag`` (created); the records written.
 
     A message's bytes are copied as they are (the record's CRC vouches for them), a block of
     the journal at a time; the definition and the events become ``std_msgs/msg/String``
-    messages, in their place among the messages.
+    messages, in their place among the messages. A trajectory the run's reader cannot read
+    (one recorded before trajectories were signed, or no trajectory at all) is left out, as
+    :func:`read_journal` leaves it out: the bag's definition of the type would not fit it.
     """
     count = 0
+    store: Any = None
     with _collector_paused(), BagRecorder(bag) as recorder:
         write_many, channel = recorder.writer.write_many, recorder.channel
 
@@ -590,6 +604,12 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
                                number + index)
                 if kind is RecordKind.DEFINITION:
                     recorder.write_definition(_decoded(record, journal).item, t_ns)
+                elif kind is RecordKind.RAW:
+                    store = typestore() if store is None else store
+                    if _readable(record, store):
+                        copy(data, [records[index]])
+                    else:
+                        count -= 1  # (left out)
                 else:
                     event = dict(_decoded(record, journal).item)
                     recorder.write_event(event.pop('what'), t_ns, **event)
