@@ -243,7 +243,7 @@ def test_a_rogue_on_the_domain_moves_nothing_and_changes_nothing(
             sign_trajectory(forged_trajectory, signer, '/pd/pd_actuator_bridge')
             trajectories.publish(forged_trajectory)
         for command in ('abort', 'pause', 'resume'):
-            for signer in (None, rogue):
+            for signer in (None, rogue, alien):
                 control = Control(command=command, stamp=time.time())
                 signature = (signer.sign(control_payload(control)) if signer is not None
                              else None)
