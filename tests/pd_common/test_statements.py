@@ -10,10 +10,10 @@ from __future__ import annotations
 import pytest
 
 from pd_common.auth import Refusal, Signer, StatusGate, new_key
-from pd_common.protocol import Status
+from pd_common.protocol import Offer, StateOrigin, Status, parse_acknowledgement
 from pd_common.protocol import TestState as State  # (not a test class)
-from pd_common.ros.messages import status_message
-from pd_common.ros.statements import at_home, read_status
+from pd_common.ros.messages import offer_message, status_message
+from pd_common.ros.statements import at_home, read_offer, read_status
 
 
 def holding(node: str, signer: Signer | None) -> object:
@@ -62,3 +62,26 @@ def test_a_malformed_status_on_another_nodes_topic_is_malformed_not_a_crash() ->
     for source in ('/pd/lab3/bridge/status', '/pd/lab1/bridge/status'):
         assert read_status(gate, source, message) == (None, Refusal.MALFORMED)
     assert gate.refused == {'malformed': 2}
+
+
+def test_an_offer_of_no_known_state_origin_is_a_fresh_state() -> None:
+    """A bridge turned an offer's state origin into a ``StateOrigin`` itself: an unknown value
+    (an unsigned offer, without a key) raised in its loop. Every reader now takes it as the
+    feedback's is taken: ``FRESH`` (no history claimed)."""
+    offer = Offer(stamp_ns=5, node='/pd/specimen/pd_specimen_sim', challenge='c' * 32,
+                  active_session='', authenticated=False, epoch='0' * 16, state_origin=0,
+                  restored=('', 0, 0), position=(0.0,), force=(0.0,), configuration='')
+    message = offer_message(offer)
+    message.state_origin = 7
+    received, reason = read_offer(StatusGate(None), '/pd/specimen/session/offer', message)
+    assert reason is None and received is not None
+    assert StateOrigin.of(received.state_origin) is StateOrigin.FRESH
+    assert [StateOrigin.of(value) for value in (0, 1, 2)] == list(StateOrigin)
+
+
+@pytest.mark.parametrize('line', ['s:² abort: ok', 's:٣ abort: ok', 's:1² abort: ok'])
+def test_an_acknowledgement_whose_sequence_is_no_ascii_number_is_none(line: str) -> None:
+    """'²'.isdigit() holds but int('²') raises: such a line in an unsigned status stopped
+    ``./pd control`` (and the launcher, the console) reading the acknowledgements."""
+    assert parse_acknowledgement(line) is None
+    assert parse_acknowledgement('s:12 abort: ok') is not None

@@ -125,6 +125,30 @@ def test_definition_names_the_sites_and_their_limits() -> None:
     assert list(model.sites) == ['lab1', 'lab3']
 
 
+@pytest.mark.parametrize('text', [
+    '{"structure": {"elements": [1]}}', '{"structure": 5}', '{"sites": [1]}',
+    '{"sites": {"": {"bridge": [1]}}}',
+    '{"structure": {"elements": [{"type": "experimental", "site": "a"}]}, "sites": {"a": 3}}'])
+def test_a_definition_of_another_shape_is_not_shown_and_breaks_nothing(text: str) -> None:
+    """Without a key the console takes anyone's definition: one that is JSON but not a test
+    definition's shape raised in the console's ROS thread, which then drew nothing more."""
+    model = ConsoleModel(Clock())
+    model.on_definition(text)
+    assert model.definition == {} and model.sites == {}
+    feed_sine(model, 20)  # the default site still draws
+
+
+def test_a_command_whose_names_do_not_match_its_targets_is_not_drawn() -> None:
+    model = ConsoleModel(Clock())
+    model.on_command('', Command(test_id='t', step=0, test_time=0.0, dof_names=('a', 'b'),
+                                 target_displacement=(0.01,)))
+    model.on_feedback('', Feedback(test_id='t', step=0, measured_displacement=(0.01,),
+                                   restoring_force=(1.0,)))  # (raised: zip of 2 and 1)
+    assert model.sites[''].commands == 0
+    feed_sine(model, 20)
+    assert model.sites[''].commands == 20
+
+
 def test_resends_limits_and_faults_are_counted_and_not_drawn_twice() -> None:
     model = ConsoleModel(Clock())
     command = Command(test_id='t', step=1, test_time=0.01, dof_names=('top',),

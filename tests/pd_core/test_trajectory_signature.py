@@ -38,7 +38,9 @@ ARRAYS = ('time', 'command', 'measured_displacement', 'measured_force')
 
 def admit(gate: StatusGate, source: str, message: Any, test_id: str = 't',
           not_before_ns: int = 0) -> Refusal | None:
-    return admit_trajectory(gate, source, message, test_id, not_before_ns)
+    """As the integrator of test ``test_id`` admits it (its probe's moves are the test's)."""
+    return admit_trajectory(gate, source, message, (test_id, test_id + ':probe'),
+                            not_before_ns)
 
 
 def trajectory(step: int = 3, sec: int = 100) -> ActuatorTrajectory:
@@ -255,3 +257,20 @@ def test_a_resumed_recorder_never_takes_what_its_record_holds_again() -> None:
     unsigned = trajectory()
     remember_trajectory(old, arrived(unsigned))
     assert admit(old, SOURCE, recorded[0]) is None
+
+
+def test_a_probe_moves_trajectory_is_the_tests_and_what_is_not_signed_is_said_so() -> None:
+    """The probe's commands carry the test id and ':probe' (the bridge stamps its trajectories
+    with them): they are the test's. And the signature is judged first: an unsigned recording
+    from before the start is counted unsigned, not stale."""
+    key = new_key()
+    probe = trajectory()
+    probe.test_id = 't:probe'
+    sign_trajectory(probe, Signer(key), BRIDGE)
+    assert admit(StatusGate(key), SOURCE, arrived(probe)) is None
+    unsigned = trajectory(sec=1)
+    unsigned.node = BRIDGE
+    gate = StatusGate(key)
+    assert admit(gate, SOURCE, arrived(unsigned), test_id='other',
+                 not_before_ns=10**18) is Refusal.UNSIGNED
+    assert gate.refused == {'unsigned': 1}

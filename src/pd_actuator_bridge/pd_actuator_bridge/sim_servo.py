@@ -128,7 +128,7 @@ class SimServoDriver(ActuatorDriver):
             self._offered_force = ([float(f) for f in offer.force]
                                    if len(offer.force) == self._n_dof else None)
             self._specimen_epoch = offer.epoch
-            self._specimen_origin = StateOrigin(offer.state_origin)
+            self._specimen_origin = StateOrigin.of(offer.state_origin)  # (unsigned: any)
             self._positioned = True
         return self.connected() and sender.opened
 

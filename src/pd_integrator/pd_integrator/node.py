@@ -94,7 +94,7 @@ from pd_common.signals import StopFlag
 from pd_core.errors import BagError, IntegratorError, PdIntegratorError
 from pd_core.run.loop.dispatch import Sent, StepDispatcher
 from pd_core.run.loop.progress import ProgressMeter
-from pd_core.run.loop.session import TestSession
+from pd_core.run.loop.session import PROBE_SUFFIX, TestSession
 from pd_core.run.loop.steering import Steering
 from pd_core.run.record.bag import RecordedRun, read_trajectory, typestore
 from pd_core.run.record.continuations import count_continuations
@@ -570,7 +570,7 @@ class IntegratorNode(Node):
                 continue
             was = self.session.state
             reason = self.dispatcher.on_offer(site, str(offer.epoch),
-                                              _origin(offer.state_origin))
+                                              StateOrigin.of(offer.state_origin))
             if reason is not None:
                 refused.append(reason)
                 if reason not in self._offers_refused:
@@ -601,7 +601,7 @@ class IntegratorNode(Node):
         session = self.session
         structured = not self.dispatcher.coordinator.passthrough
         sites = {site: SiteState(epoch=str(sender.offer.epoch),
-                                 origin=_origin(sender.offer.state_origin),
+                                 origin=StateOrigin.of(sender.offer.state_origin),
                                  position=tuple(float(x) for x in sender.offer.position))
                  for site, sender in self.senders.items() if sender.offer is not None}
         check = check_sites(sites, self.dispatcher.epochs,
@@ -686,8 +686,9 @@ class IntegratorNode(Node):
             self._malformed += 1
             self._refusal_log(Refusal.MALFORMED, Signature(), topic)
             return
+        test_id = self.session.definition.test_id  # (and its probe's moves: the same test)
         reason = admit_trajectory(self._trajectory_gate, source, trajectory,
-                                  self.session.definition.test_id, self._trajectories_since_ns)
+                                  (test_id, test_id + PROBE_SUFFIX), self._trajectories_since_ns)
         if reason is not None:
             self._refusal_log(reason, signature_from_message(trajectory.signature)
                               if reason is not Refusal.MALFORMED else Signature(), topic)
@@ -806,8 +807,8 @@ class IntegratorNode(Node):
             offer = sender.offer
             if offer is None:
                 continue
-            side: dict[str, Any] = {'node': offer.node,
-                                    'state_origin': _origin(offer.state_origin).name.lower()}
+            origin = StateOrigin.of(offer.state_origin)
+            side: dict[str, Any] = {'node': offer.node, 'state_origin': origin.name.lower()}
             configuration = self._configurations.get(site) or offer.configuration
             if configuration:
                 try:
@@ -826,13 +827,6 @@ class IntegratorNode(Node):
         if bag.exists():
             shutil.rmtree(bag)
         journal_to_bag(self.directory / JOURNAL_FILE, bag)
-
-
-def _origin(value: int) -> StateOrigin:
-    try:
-        return StateOrigin(value)
-    except ValueError:
-        return StateOrigin.FRESH
 
 
 def _describe(node: IntegratorNode) -> None:

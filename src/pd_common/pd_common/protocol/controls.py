@@ -114,6 +114,6 @@ def parse_acknowledgement(text: str) -> Acknowledgement | None:
     head, sep, outcome = text.partition(': ')
     ident, _, command = head.partition(' ')
     session, colon, sequence = ident.rpartition(':')
-    if not (sep and colon and command and sequence.isdigit()):
+    if not (sep and colon and command and sequence.isascii() and sequence.isdigit()):
         return None
     return Acknowledgement(session, int(sequence), command, outcome)

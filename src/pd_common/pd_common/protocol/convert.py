@@ -68,10 +68,7 @@ def feedback_from_message(message: Any) -> Feedback:
         status = FeedbackStatus(message.status)
     except ValueError:
         status = FeedbackStatus.FAULT
-    try:
-        origin = StateOrigin(message.state_origin)
-    except ValueError:
-        origin = StateOrigin.FRESH
+    origin = StateOrigin.of(message.state_origin)
     return Feedback(test_id=message.test_id, step=int(message.step),
                     measured_displacement=tuple(message.measured_displacement.tolist()),
                     restoring_force=tuple(message.restoring_force.tolist()), status=status,

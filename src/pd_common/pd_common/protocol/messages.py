@@ -60,6 +60,14 @@ class StateOrigin(IntEnum):
     RESTORED = 1    # restored from a run's record (its commanded history replayed)
     HARDWARE = 2    # the hardware's own state (read from the controller)
 
+    @classmethod
+    def of(cls, value: int) -> StateOrigin:
+        """The origin ``value`` names; an unknown one is ``FRESH`` (no history is claimed)."""
+        try:
+            return cls(value)
+        except ValueError:
+            return cls.FRESH
+
 
 class StepKey(NamedTuple):
     """``(step, iteration)``: what identifies one command and its answer within a test.

@@ -16,7 +16,7 @@ of a run takes a bridge's actuator trajectory (signed by :func:`sign_trajectory`
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Any, TypeVar
 
 from builtin_interfaces.msg import Time
@@ -27,7 +27,7 @@ from pd_msgs.msg import TestStatus
 from ..auth.gates import StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import TRAJECTORY_ARRAYS, offer_payload, status_payload, trajectory_payload
-from ..auth.signing import Refusal, Signer, new_session
+from ..auth.signing import Refusal, Signer, new_session, verify_mac
 from ..protocol.bounds import MAX_NAME, MalformedMessageError, check_text
 from ..protocol.convert import (
     offer_from_message,
@@ -127,35 +127,42 @@ def trajectory_source(node: str) -> str:
     return f'{node.rpartition("/")[0]}/{TRAJECTORY_TOPIC}'
 
 
-def admit_trajectory(gate: StatusGate, source: str, message: Any, test_id: str,
+def admit_trajectory(gate: StatusGate, source: str, message: Any, test_ids: Collection[str],
                      not_before_ns: int) -> Refusal | None:
     """``None`` if the trajectory ``message`` published on ``source`` may be recorded; else why.
 
     ``message``: decoded, its arrays checked (:func:`pd_core.run.record.bag.read_trajectory`);
-    a refusal is counted on ``gate``. With a key: the node it names publishes ``source`` itself
-    (one bridge's genuine trajectory copied onto another's topic is ``misdirected``), it is of
-    the test ``test_id`` (``foreign_test``) and stamped no earlier than ``not_before_ns`` (the
-    recorder's start less the controls' 30 s for clocks: ``stale``), its signature is good, and
-    it is new on ``source`` (a recording of an earlier one is ``replayed``). Without a key:
-    every one.
+    a refusal is counted on ``gate``. With a key: its signature is good; the node it names
+    publishes ``source`` itself (one bridge's genuine trajectory copied onto another's topic is
+    ``misdirected``); it is of the test (one of ``test_ids``: the test's id, and its probe's)
+    (``foreign_test``) and stamped no earlier than ``not_before_ns`` (the recorder's start less
+    the controls' 30 s for clocks: ``stale``); and it is new on ``source`` (a recording of an
+    earlier one is ``replayed``). Without a key: every one.
     """
     if not gate.enabled:
         return None
+    assert gate.key is not None
     try:
         check_text('node', message.node, MAX_NAME)
         check_text('test_id', message.test_id, MAX_NAME)
         signature = signature_from_message(message.signature)
         stamp_ns = stamp_ns_of(message)
+        payload = _trajectory_payload(message)
     except (MalformedMessageError, AttributeError, TypeError, ValueError):
         gate.refused[Refusal.MALFORMED.value] += 1
         return Refusal.MALFORMED
-    for reason, wrong in ((Refusal.MISDIRECTED, source != trajectory_source(message.node)),
-                          (Refusal.FOREIGN_TEST, message.test_id != test_id),
-                          (Refusal.STALE, stamp_ns < not_before_ns)):
-        if wrong:
-            gate.refused[reason.value] += 1
-            return reason
-    return gate.admit(source, _trajectory_payload(message), signature, stamp_ns)
+    # (the signature first: what is not the bridge's is counted as what it is, not as stale)
+    reason = verify_mac(gate.key, payload, signature)
+    if reason is None and source != trajectory_source(message.node):
+        reason = Refusal.MISDIRECTED
+    elif reason is None and message.test_id not in test_ids:
+        reason = Refusal.FOREIGN_TEST
+    elif reason is None and stamp_ns < not_before_ns:
+        reason = Refusal.STALE
+    if reason is not None:
+        gate.refused[reason.value] += 1
+        return reason
+    return gate.admit(source, payload, signature, stamp_ns)
 
 
 def remember_trajectory(gate: StatusGate, message: Any) -> None:

@@ -104,7 +104,13 @@ class SiteView:
         self._previous_target = None
 
     def on_command(self, command: Command) -> None:
-        """A step command sent to this site (a repeat of one already sent is a re-send)."""
+        """A step command sent to this site (a repeat of one already sent is a re-send).
+
+        One whose DOF names do not match its targets is not drawn (no command of the test's is
+        such: without a key, anyone's may be shown).
+        """
+        if len(command.dof_names) != len(command.target_displacement):
+            return
         key = (command.test_id, command.key)
         if key in self._times:
             self.resends += 1
@@ -263,12 +269,17 @@ class ConsoleModel:
             return
         if not isinstance(definition, dict):
             return
+        try:  # (the integrator's is well-formed; without a key, anyone's may arrive)
+            labels = sites_of_definition(definition)
+            raw_sites = definition.get('sites') or {}
+            bridges = {site: dict((raw_sites.get(site) or {}).get('bridge') or {})
+                       for site in labels}
+        except (AttributeError, TypeError, ValueError):
+            return  # not a test definition's shape: not shown
         self.definition = definition
-        raw_sites = definition.get('sites') or {}
-        for site, label in sites_of_definition(definition).items():
+        for site, label in labels.items():
             limits = dict(self.default_limits)
-            bridge = (raw_sites.get(site) or {}).get('bridge') or {}
-            limits.update({k: float(v) for k, v in bridge.items()
+            limits.update({k: float(v) for k, v in bridges[site].items()
                            if isinstance(v, int | float) and not isinstance(v, bool)})
             existing = self.sites.get(site)
             if existing is None:
