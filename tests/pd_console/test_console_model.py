@@ -127,7 +127,9 @@ def test_definition_names_the_sites_and_their_limits() -> None:
 
 @pytest.mark.parametrize('text', [
     '{"structure": {"elements": [1]}}', '{"structure": 5}', '{"sites": [1]}',
-    '{"sites": {"": {"bridge": [1]}}}',
+    '{"sites": {"": {"bridge": [1]}}}', '{"test": [1]}',
+    '{"sites": {"": {"bridge": {"max_force": 1' + '0' * 400 + '}}}}',  # no float
+    '{"structure": {"elements": [{"type": "experimental", "site": "1 x"}]}}',  # no namespace
     '{"structure": {"elements": [{"type": "experimental", "site": "a"}]}, "sites": {"a": 3}}'])
 def test_a_definition_of_another_shape_is_not_shown_and_breaks_nothing(text: str) -> None:
     """Without a key the console takes anyone's definition: one that is JSON but not a test
@@ -136,6 +138,16 @@ def test_a_definition_of_another_shape_is_not_shown_and_breaks_nothing(text: str
     model.on_definition(text)
     assert model.definition == {} and model.sites == {}
     feed_sine(model, 20)  # the default site still draws
+    json.dumps(model.frame(), allow_nan=False)  # (what the page is sent)
+
+
+def test_a_limit_that_is_no_finite_number_is_not_a_gauges_limit() -> None:
+    model = ConsoleModel(Clock(), default_limits={'max_force': 1.0e5})
+    model.on_definition('{"sites": {"": {"bridge": {"max_force": NaN, '
+                        '"max_displacement": 1e999, "max_increment": 0.02}}}}')
+    assert model.sites[''].limits == {'max_force': 1.0e5, 'max_increment': 0.02}
+    feed_sine(model, 20)
+    json.dumps(model.frame(), allow_nan=False)  # (raised: NaN is no JSON for the page)
 
 
 def test_a_command_whose_names_do_not_match_its_targets_is_not_drawn() -> None:
@@ -144,6 +156,11 @@ def test_a_command_whose_names_do_not_match_its_targets_is_not_drawn() -> None:
                                  target_displacement=(0.01,)))
     model.on_feedback('', Feedback(test_id='t', step=0, measured_displacement=(0.01,),
                                    restoring_force=(1.0,)))  # (raised: zip of 2 and 1)
+    assert model.sites[''].commands == 0
+    model.on_command('', Command(test_id='t', step=1, test_time=0.0, dof_names=('a',),
+                                 target_displacement=(math.nan,)))
+    model.on_feedback('', Feedback(test_id='t', step=1, measured_displacement=(0.01,),
+                                   restoring_force=(1.0,)))  # (raised in the tracking monitor)
     assert model.sites[''].commands == 0
     feed_sine(model, 20)
     assert model.sites[''].commands == 20

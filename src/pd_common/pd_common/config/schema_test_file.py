@@ -27,8 +27,8 @@ from .schema_base import (
 from .schema_bridge import SiteBridgeParameters
 from .schema_specimen import HysteresisModel, SpecimenSection
 
-__all__ = ['BeamColumnElement', 'CollapseSection', 'ControlSpec', 'DampingSection',
-           'ExperimentalElement', 'GroundMotionComponent', 'GroundMotionSection',
+__all__ = ['SITE_NAME_PATTERN', 'BeamColumnElement', 'CollapseSection', 'ControlSpec',
+           'DampingSection', 'ExperimentalElement', 'GroundMotionComponent', 'GroundMotionSection',
            'InlineRecord', 'LinearElement', 'NonlinearSpringElement', 'OpenSeesSite', 'PDelta',
            'ProbeSection', 'ProtocolSection', 'RayleighDamping', 'RigSection', 'SetupSpec',
            'SiteSettings', 'SpringElement', 'StructureSection', 'TestFileModel', 'TestSection',
@@ -38,8 +38,10 @@ __all__ = ['BeamColumnElement', 'CollapseSection', 'ControlSpec', 'DampingSectio
 DofName = Annotated[str, Field(min_length=1)]
 #: A DOF name, or null (the ground; a free basic DOF of an experimental element).
 DofOrGround = DofName | None
+#: What a site name is (it becomes a ROS namespace): the pattern a site name matches.
+SITE_NAME_PATTERN = r'^[A-Za-z][A-Za-z0-9_]{0,63}$'
 #: A site name: it becomes a ROS namespace.
-SiteName = Annotated[str, Field(pattern=r'^[A-Za-z][A-Za-z0-9_]{0,63}$')]
+SiteName = Annotated[str, Field(pattern=SITE_NAME_PATTERN)]
 #: A damping ratio, in [0, 1).
 DampingRatio = Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
 

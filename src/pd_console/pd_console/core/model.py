@@ -12,16 +12,20 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections import OrderedDict, deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from pd_common.config.schema_test_file import SITE_NAME_PATTERN
 from pd_common.experimental import TrackingMonitor
 from pd_common.protocol import Command, Feedback, FeedbackStatus, StepKey, TestState
 from pd_common.protocol import Status as TestStatusData
 
 from .series import DecimatedRows, rounded
+
+_SITE_NAME = re.compile(SITE_NAME_PATTERN)
 
 __all__ = ['BRIDGE_LIMITS', 'DEFAULT_MAX_POINTS', 'ConsoleModel', 'Gauge', 'SiteView',
            'sites_of_definition']
@@ -106,10 +110,11 @@ class SiteView:
     def on_command(self, command: Command) -> None:
         """A step command sent to this site (a repeat of one already sent is a re-send).
 
-        One whose DOF names do not match its targets is not drawn (no command of the test's is
-        such: without a key, anyone's may be shown).
+        One whose DOF names do not match its targets, or whose targets are not finite, is not
+        drawn (no command of the test's is such: without a key, anyone's may be shown).
         """
-        if len(command.dof_names) != len(command.target_displacement):
+        if (len(command.dof_names) != len(command.target_displacement)
+                or not all(map(math.isfinite, command.target_displacement))):
             return
         key = (command.test_id, command.key)
         if key in self._times:
@@ -270,17 +275,22 @@ class ConsoleModel:
         if not isinstance(definition, dict):
             return
         try:  # (the integrator's is well-formed; without a key, anyone's may arrive)
+            if not isinstance(definition.get('test', {}), dict):
+                return
             labels = sites_of_definition(definition)
+            if not all(_SITE_NAME.match(site) for site in labels if site):
+                return  # (a site becomes a namespace of the topics watched)
             raw_sites = definition.get('sites') or {}
-            bridges = {site: dict((raw_sites.get(site) or {}).get('bridge') or {})
-                       for site in labels}
-        except (AttributeError, TypeError, ValueError):
+            bridges = {site: {k: float(v) for k, v in dict(
+                (raw_sites.get(site) or {}).get('bridge') or {}).items()
+                if isinstance(v, int | float) and not isinstance(v, bool)}
+                for site in labels}
+        except (AttributeError, TypeError, ValueError, OverflowError):
             return  # not a test definition's shape: not shown
         self.definition = definition
         for site, label in labels.items():
             limits = dict(self.default_limits)
-            limits.update({k: float(v) for k, v in bridges[site].items()
-                           if isinstance(v, int | float) and not isinstance(v, bool)})
+            limits.update({k: v for k, v in bridges[site].items() if math.isfinite(v)})
             existing = self.sites.get(site)
             if existing is None:
                 self._add_site(SiteView(site, label, limits, self.max_points))
