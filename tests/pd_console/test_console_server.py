@@ -25,6 +25,7 @@ from pd_console.console import (
     FoxgloveFeed,
     default_bridge_limits,
     serve,
+    spin_on,
     web_directory,
 )
 from pd_console.core import (
@@ -421,3 +422,27 @@ def test_a_malformed_request_and_a_failing_handler_cost_one_line(
                         'lines')
     assert not any(r.exc_info for r in caplog.records)
     assert 'Traceback' not in caplog.text + capsys.readouterr().err
+
+
+def test_the_consoles_ros_thread_goes_on_past_a_message_it_cannot_show(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A callback that raises (a message no test's node sends) is said once, and the thread
+    spins on: it used to end, and the page to freeze."""
+    stop = threading.Event()
+    turns: list[int] = []
+
+    class Executor:
+        def spin_once(self, timeout_sec: float) -> None:
+            turns.append(1)
+            if len(turns) in (2, 3):
+                msg = 'no such site'
+                raise KeyError(msg)
+            if len(turns) == 5:
+                stop.set()
+
+    with caplog.at_level(logging.ERROR, logger='pd_console.console'):
+        assert spin_on(Executor(), stop, ok=lambda: True) == 2
+    assert len(turns) == 5
+    lines = [record.getMessage() for record in caplog.records]
+    assert lines == [("a message the console could not show (KeyError: 'no such site'); it "
+                      'goes on')]
