@@ -128,8 +128,8 @@ def test_definition_names_the_sites_and_their_limits() -> None:
 @pytest.mark.parametrize('text', [
     '{"structure": {"elements": [1]}}', '{"structure": 5}', '{"sites": [1]}',
     '{"sites": {"": {"bridge": [1]}}}', '{"test": [1]}',
-    '{"sites": {"": {"bridge": {"max_force": 1' + '0' * 400 + '}}}}',  # no float
     '{"structure": {"elements": [{"type": "experimental", "site": "1 x"}]}}',  # no namespace
+    '{"structure": {"elements": [{"type": "experimental", "site": "a\\n"}]}}',
     '{"structure": {"elements": [{"type": "experimental", "site": "a"}]}, "sites": {"a": 3}}'])
 def test_a_definition_of_another_shape_is_not_shown_and_breaks_nothing(text: str) -> None:
     """Without a key the console takes anyone's definition: one that is JSON but not a test
@@ -144,7 +144,8 @@ def test_a_definition_of_another_shape_is_not_shown_and_breaks_nothing(text: str
 def test_a_limit_that_is_no_finite_number_is_not_a_gauges_limit() -> None:
     model = ConsoleModel(Clock(), default_limits={'max_force': 1.0e5})
     model.on_definition('{"sites": {"": {"bridge": {"max_force": NaN, '
-                        '"max_displacement": 1e999, "max_increment": 0.02}}}}')
+                        '"max_displacement": 1e999, "max_increment": 0.02, '
+                        '"max_velocity": 1' + '0' * 400 + '}}}}')  # (no float)
     assert model.sites[''].limits == {'max_force': 1.0e5, 'max_increment': 0.02}
     feed_sine(model, 20)
     json.dumps(model.frame(), allow_nan=False)  # (raised: NaN is no JSON for the page)

@@ -197,25 +197,50 @@ def check_settings(*, port: int, update_rate: float, max_points: int,
         raise ConsoleSettingError(msg)
 
 
-def spin_on(executor: Any, stop: threading.Event, ok: Callable[[], bool] = rclpy.ok) -> int:
-    """Spin the console's node until ``stop`` or shutdown; the callbacks that raised.
+class Unshown:
+    """What the console could not show: counted, the first said in one line.
 
-    The console only shows: a message one of its callbacks could not take (one no test's node
-    sends; without a key anyone may publish) is said once and the console goes on, where the
-    thread used to end and the page to freeze.
+    The console only shows. A message one of its callbacks cannot take (one no test's node
+    sends: without a key anyone may publish) must not end the thread that takes them, where the
+    page would freeze.
     """
-    failed = 0
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def add(self, err: Exception) -> None:
+        """One more (the first said)."""
+        self.count += 1
+        if self.count == 1:
+            LOG.error('a message the console could not show (%s: %s); it goes on (counted, '
+                      'not said again)', type(err).__name__, err)
+
+    def guarded(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+        """``callback``, with what it raises counted here instead."""
+        def call(argument: Any) -> None:
+            try:
+                callback(argument)
+            except Exception as err:  # noqa: BLE001 - a display goes on (said once, counted)
+                self.add(err)
+
+        return call
+
+
+def spin_on(executor: Any, stop: threading.Event, unshown: Unshown,
+            ok: Callable[[], bool] = rclpy.ok) -> None:
+    """Spin the console's node until ``stop`` or shutdown.
+
+    (Its callbacks are :meth:`Unshown.guarded`; what still escapes the executor is counted on
+    ``unshown`` too, and the thread spins on after a pause.)
+    """
     while ok() and not stop.is_set():
         try:
             executor.spin_once(timeout_sec=0.1)
         except Exception as err:  # noqa: BLE001 - a display goes on (said once, counted)
             if not ok() or stop.is_set():
                 break
-            failed += 1
-            if failed == 1:
-                LOG.error('a message the console could not show (%s: %s); it goes on',
-                          type(err).__name__, err)
-    return failed
+            unshown.add(err)
+            stop.wait(0.1)
 
 
 def _listen_error(err: OSError, host: str, port: int) -> str:
@@ -283,11 +308,14 @@ class ConsoleNode(Node):
         self.witness = DefinitionWitness(authenticated=self.key is not None)
         self._offer_gate = StatusGate(self.key)
         self._watch_gates: dict[str, WatchGate] = {}
+        self.unshown = Unshown()  # (every callback below is guarded by it)
         self._refusal_log = RefusalLog(LOG.warning, self.key, 'step message (not shown)')
         self._offer_log = RefusalLog(LOG.warning, self.key, 'session offer (not followed)')
-        self.controls.watch(site_topic_name('', 'test_status'), self._on_status)
-        self._definition_sub = self.create_subscription(String, 'test_definition',
-                                                        self._on_definition, LATCHED_READER_QOS)
+        self.controls.watch(site_topic_name('', 'test_status'),
+                            self.unshown.guarded(self._on_status))
+        self._definition_sub = self.create_subscription(
+            String, 'test_definition', self.unshown.guarded(self._on_definition),
+            LATCHED_READER_QOS)
         self._definition_read_at = time.monotonic()
         self._definition_reread_s = DEFINITION_REREAD_S
         self.create_timer(1.0, self._reread_definition)
@@ -336,19 +364,20 @@ class ConsoleNode(Node):
                 with self.lock:
                     self.model.on_feedback(site, signed.record)
 
-        self.create_subscription(SessionOffer, site_topic(site, 'session/offer'), on_offer,
-                                 LATCHED_QOS)
+        self.create_subscription(SessionOffer, site_topic(site, 'session/offer'),
+                                 self.unshown.guarded(on_offer), LATCHED_QOS)
 
         def on_bridge(status: Status) -> None:
             with self.lock:
                 self.model.on_bridge_status(site, status)
 
         # The hot topics as CDR bytes, read without message objects (pd_common.protocol.cdr).
-        self.create_subscription(StepCommand, site_topic(site, 'step_command'), on_command,
-                                 STEP_QOS, raw=True)
-        self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'), on_feedback,
-                                 STEP_QOS, raw=True)
-        self.controls.watch(site_topic_name(site, 'bridge/status'), on_bridge)
+        self.create_subscription(StepCommand, site_topic(site, 'step_command'),
+                                 self.unshown.guarded(on_command), STEP_QOS, raw=True)
+        self.create_subscription(StepFeedback, site_topic(site, 'step_feedback'),
+                                 self.unshown.guarded(on_feedback), STEP_QOS, raw=True)
+        self.controls.watch(site_topic_name(site, 'bridge/status'),
+                            self.unshown.guarded(on_bridge))
 
     def _on_status(self, status: Status) -> None:
         with self.lock:
@@ -371,7 +400,8 @@ class ConsoleNode(Node):
             return
         old = self._definition_sub
         self._definition_sub = self.create_subscription(
-            String, 'test_definition', self._on_definition, LATCHED_READER_QOS)
+            String, 'test_definition', self.unshown.guarded(self._on_definition),
+            LATCHED_READER_QOS)
         self.destroy_subscription(old)
         self._definition_read_at = now
         self._definition_reread_s = min(2 * self._definition_reread_s, DEFINITION_REREAD_MAX_S)
@@ -994,8 +1024,8 @@ def main(args: list[str] | None = None) -> int:
         node = ConsoleNode(model, lock, overrides)
         executor = events_executor(node)
 
-        thread = threading.Thread(target=spin_on, args=(executor, stop), name='console-ros',
-                                  daemon=True)
+        thread = threading.Thread(target=spin_on, args=(executor, stop, node.unshown),
+                                  name='console-ros', daemon=True)
         thread.start()
         server = ConsoleServer(model, lock, access, node, node.update_rate, host=node.host,
                                port=node.port)

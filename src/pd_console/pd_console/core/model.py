@@ -27,6 +27,17 @@ from .series import DecimatedRows, rounded
 
 _SITE_NAME = re.compile(SITE_NAME_PATTERN)
 
+
+def _finite(value: Any) -> float | None:
+    """``value`` as a finite float if it is a number that is one (a bool is none)."""
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:  # (an integer of hundreds of digits)
+        return None
+    return number if math.isfinite(number) else None
+
 __all__ = ['BRIDGE_LIMITS', 'DEFAULT_MAX_POINTS', 'ConsoleModel', 'Gauge', 'SiteView',
            'sites_of_definition']
 
@@ -278,19 +289,18 @@ class ConsoleModel:
             if not isinstance(definition.get('test', {}), dict):
                 return
             labels = sites_of_definition(definition)
-            if not all(_SITE_NAME.match(site) for site in labels if site):
+            if not all(_SITE_NAME.fullmatch(site) for site in labels if site):
                 return  # (a site becomes a namespace of the topics watched)
             raw_sites = definition.get('sites') or {}
-            bridges = {site: {k: float(v) for k, v in dict(
-                (raw_sites.get(site) or {}).get('bridge') or {}).items()
-                if isinstance(v, int | float) and not isinstance(v, bool)}
-                for site in labels}
-        except (AttributeError, TypeError, ValueError, OverflowError):
+            bridges = {site: dict((raw_sites.get(site) or {}).get('bridge') or {})
+                       for site in labels}
+        except (AttributeError, TypeError, ValueError):
             return  # not a test definition's shape: not shown
         self.definition = definition
         for site, label in labels.items():
             limits = dict(self.default_limits)
-            limits.update({k: v for k, v in bridges[site].items() if math.isfinite(v)})
+            limits.update({k: limit for k, v in bridges[site].items()
+                           if (limit := _finite(v)) is not None})
             existing = self.sites.get(site)
             if existing is None:
                 self._add_site(SiteView(site, label, limits, self.max_points))
