@@ -249,23 +249,22 @@ class StatusGate(_Gate):
         super().__init__(key)
         self._last: dict[str, tuple[str, int, int]] = {}  # source -> (session, sequence, ns)
 
-    def admit(self, source: str, payload: bytes, signature: Signature, stamp_ns: int
-              ) -> Refusal | None:
+    def admit(self, source: str, payload: bytes, signature: Signature, stamp_ns: int,
+              where: Callable[[], Refusal | None] | None = None) -> Refusal | None:
         """``None`` if the statement published on ``source`` at ``stamp_ns`` is genuine and new.
 
-        Else why not (counted).
+        Else why not (counted). ``where``: why a genuine statement does not belong here,
+        asked once its MAC is good and before anything of it is remembered.
         """
         if self.key is None:
             return None
         reason = self._check_mac(payload, signature)
+        if reason is None and where is not None and (reason := where()) is not None:
+            return self._refuse(reason, signature)
         if reason is not None:
             return reason
-        last = self._last.get(source)
-        if last is not None:
-            session, sequence, stamp = last
-            if (signature.session == session and signature.sequence <= sequence) or (
-                    signature.session != session and stamp_ns < stamp):
-                return self._refuse(Refusal.REPLAYED, signature)
+        if not self._newer(source, signature, stamp_ns):
+            return self._refuse(Refusal.REPLAYED, signature)
         self._last[source] = (signature.session, signature.sequence, stamp_ns)
         return None
 
@@ -274,10 +273,20 @@ class StatusGate(_Gate):
 
         From now on only newer ones are admitted on ``source``.
         """
-        last = self._last.get(source)
-        if last is None or (signature.session == last[0] and signature.sequence > last[1]) or (
-                signature.session != last[0] and stamp_ns >= last[2]):
+        if self._newer(source, signature, stamp_ns):
             self._last[source] = (signature.session, signature.sequence, stamp_ns)
+
+    def _newer(self, source: str, signature: Signature, stamp_ns: int) -> bool:
+        """Whether a statement is newer than the last on ``source``.
+
+        Newer: a higher sequence in its session, or a new session not older than the last one.
+        """
+        last = self._last.get(source)
+        if last is None:
+            return True
+        session, sequence, stamp = last
+        return (signature.sequence > sequence if signature.session == session
+                else stamp_ns >= stamp)
 
 
 class WatchGate(_Gate):

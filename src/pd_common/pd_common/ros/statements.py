@@ -27,7 +27,7 @@ from pd_msgs.msg import TestStatus
 from ..auth.gates import StatusGate
 from ..auth.keys import Key
 from ..auth.payloads import TRAJECTORY_ARRAYS, offer_payload, status_payload, trajectory_payload
-from ..auth.signing import Refusal, Signer, new_session, verify_mac
+from ..auth.signing import Refusal, Signer, new_session
 from ..protocol.bounds import MAX_NAME, MalformedMessageError, check_text
 from ..protocol.convert import (
     offer_from_message,
@@ -96,10 +96,14 @@ def read_status(gate: StatusGate, source: str, message: Any
 STATUS_TOPICS = ('test_status', 'bridge/status')
 
 
+def own_topic(node: str, name: str) -> str:
+    """The topic ``name`` (relative) of the node named ``node`` (fully qualified)."""
+    return f'{node.rpartition("/")[0]}/{name}'
+
+
 def at_home(source: str, node: str) -> bool:
     """Whether ``source`` is a status topic of the node named ``node`` (fully qualified)."""
-    namespace = node.rpartition('/')[0]
-    return any(source == f'{namespace}/{name}' for name in STATUS_TOPICS)
+    return any(source == own_topic(node, name) for name in STATUS_TOPICS)
 
 
 #: A bridge's actuator trajectories, relative to its node's namespace.
@@ -124,7 +128,7 @@ def sign_trajectory(message: Any, signer: Signer | None, node: str) -> None:
 
 def trajectory_source(node: str) -> str:
     """The trajectory topic of the bridge node named ``node`` (fully qualified)."""
-    return f'{node.rpartition("/")[0]}/{TRAJECTORY_TOPIC}'
+    return own_topic(node, TRAJECTORY_TOPIC)
 
 
 def admit_trajectory(gate: StatusGate, source: str, message: Any, test_ids: Collection[str],
@@ -141,7 +145,6 @@ def admit_trajectory(gate: StatusGate, source: str, message: Any, test_ids: Coll
     """
     if not gate.enabled:
         return None
-    assert gate.key is not None
     try:
         check_text('node', message.node, MAX_NAME)
         check_text('test_id', message.test_id, MAX_NAME)
@@ -151,18 +154,15 @@ def admit_trajectory(gate: StatusGate, source: str, message: Any, test_ids: Coll
     except (MalformedMessageError, AttributeError, TypeError, ValueError):
         gate.refused[Refusal.MALFORMED.value] += 1
         return Refusal.MALFORMED
-    # (the signature first: what is not the bridge's is counted as what it is, not as stale)
-    reason = verify_mac(gate.key, payload, signature)
-    if reason is None and source != trajectory_source(message.node):
-        reason = Refusal.MISDIRECTED
-    elif reason is None and message.test_id not in test_ids:
-        reason = Refusal.FOREIGN_TEST
-    elif reason is None and stamp_ns < not_before_ns:
-        reason = Refusal.STALE
-    if reason is not None:
-        gate.refused[reason.value] += 1
-        return reason
-    return gate.admit(source, payload, signature, stamp_ns)
+    def where() -> Refusal | None:  # (asked after the signature: what is not the bridge's
+        # is counted as what it is, not as stale)
+        if source != trajectory_source(message.node):
+            return Refusal.MISDIRECTED
+        if message.test_id not in test_ids:
+            return Refusal.FOREIGN_TEST
+        return Refusal.STALE if stamp_ns < not_before_ns else None
+
+    return gate.admit(source, payload, signature, stamp_ns, where)
 
 
 def remember_trajectory(gate: StatusGate, message: Any) -> None:

@@ -112,6 +112,11 @@ def _message_type(topic: str) -> str | None:
     return None
 
 
+def is_trajectory_topic(topic: str) -> bool:
+    """Whether ``topic`` is a run's actuator trajectory topic (the default site's or a site's)."""
+    return _message_type(topic) == MSG_TRAJECTORY
+
+
 def msg_directory() -> Path:
     """The directory holding the ``pd_msgs`` ``.msg`` files.
 

@@ -80,6 +80,7 @@ from .bag import (
     LeftOut,
     RecordedRun,
     RunIndex,
+    is_trajectory_topic,
     read_trajectory,
     typestore,
 )
@@ -506,7 +507,7 @@ def read_journal(path: str | Path) -> RecordedRun:
                           record.stamp_ns)
         elif record.kind == 'st':
             index.status(record.topic, record.t_ns, record.item)
-        elif record.kind == 'raw' and record.topic.endswith('/bridge/trajectory'):
+        elif record.kind == 'raw' and is_trajectory_topic(record.topic):
             try:  # (informative: one that is no trajectory is left out, the run still read)
                 index.trajectory(record.t_ns, read_trajectory(record.item, store))
             except ValueError as err:
@@ -565,12 +566,12 @@ def _collector_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _readable(record: Frame, store: Any) -> bool:
+def _readable(record: Frame) -> bool:
     """Whether a raw record is a message the run's reader reads (a trajectory's, checked)."""
-    if not record.topic.endswith('/bridge/trajectory'):
+    if not is_trajectory_topic(record.topic):
         return True
     try:
-        read_trajectory(record.payload, store)
+        read_trajectory(record.payload, typestore())
     except ValueError:
         return False
     return True
@@ -586,7 +587,6 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
     :func:`read_journal` leaves it out: the bag's definition of the type would not fit it.
     """
     count = 0
-    store: Any = None
     with _collector_paused(), BagRecorder(bag) as recorder:
         write_many, channel = recorder.writer.write_many, recorder.channel
 
@@ -605,8 +605,7 @@ def _write_bag(journal: str | Path, bag: Path) -> int:
                 if kind is RecordKind.DEFINITION:
                     recorder.write_definition(_decoded(record, journal).item, t_ns)
                 elif kind is RecordKind.RAW:
-                    store = typestore() if store is None else store
-                    if _readable(record, store):
+                    if _readable(record):
                         copy(data, [records[index]])
                     else:
                         count -= 1  # (left out)
