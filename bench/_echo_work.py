@@ -18,19 +18,17 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from _wire_loop import opened_gate
 from pd_common.auth import (
     WIRE_COMMAND,
     WIRE_FEEDBACK,
-    CommandGate,
     Signer,
     command_payload,
     new_key,
-    session_start_payload,
     sign_wire_reply,
 )
 from pd_common.protocol import (
     Command,
-    SessionStart,
     decode_command,
     encode_command,
     encode_feedback,
@@ -69,11 +67,7 @@ class SimulatorStep:
         definition = self.definition
         self.key = key = new_key()
         signer = Signer(key)
-        self.gate = CommandGate(key)
-        start = SessionStart(test_id=definition.test_id, challenge=self.gate.challenge)
-        refused = self.gate.start(session_start_payload(start), self.gate.challenge,
-                                  signer.sign(session_start_payload(start)))
-        assert refused is None, refused
+        self.gate = opened_gate(key, signer, definition.test_id)
         self.server = SpecimenServer(specimen_from_config(
             definition.specimen, base_dir=definition.base_dir, source=definition.source,
             dof_names=definition.dof_names))

@@ -21,6 +21,7 @@ from pd_common.auth import (
     WIRE_COMMAND,
     WIRE_FEEDBACK,
     CommandGate,
+    Key,
     ReplyGate,
     Signer,
     command_payload,
@@ -43,17 +44,23 @@ from pd_core.run.record.journal import Journal
 from pd_core.run.runner import site_servers
 
 
+def opened_gate(key: Key, signer: Signer, test_id: str) -> CommandGate:
+    """A receiver's command gate with its session opened by ``signer``'s signed start."""
+    gate = CommandGate(key)
+    start = SessionStart(test_id=test_id, challenge=gate.challenge)
+    refused = gate.start(session_start_payload(start), gate.challenge,
+                         signer.sign(session_start_payload(start)))
+    assert refused is None, refused
+    return gate
+
+
 def wire_loop(definition: Any, journal: Path) -> tuple[float, int]:
     """One run of the test through both sides' step work: seconds, committed steps."""
     key = new_key()
     servers = site_servers(definition)
     signer = Signer(key)
-    gates = {}
-    for site in servers:  # each receiver's session, opened by the sender's signed start
-        gate = gates[site] = CommandGate(key)
-        start = SessionStart(test_id=definition.test_id, challenge=gate.challenge)
-        assert gate.start(session_start_payload(start), gate.challenge,
-                          signer.sign(session_start_payload(start))) is None
+    # each receiver's session, opened by the sender's signed start
+    gates = {site: opened_gate(key, signer, definition.test_id) for site in servers}
     replies = ReplyGate(key, signer.session)
     session = TestSession(definition)
     queue: deque[tuple[str, bytes]] = deque()
